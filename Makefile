@@ -1,0 +1,209 @@
+# sylva — one non-recursive Makefile. `make` builds everything into build/,
+# `make test` runs every test, `make sanitize` runs them under ASan+UBSan.
+# User CFLAGS are added after the project's flags, never replacing them.
+
+BUILD    ?= build
+CC       ?= cc
+CXX      ?= c++
+PKGS     := assimp OpenImageIO osmesa libcjson libmicrohttpd libcurl libcrypto cmocka libseccomp
+# Foreign headers as -isystem so -Werror applies to our code only.
+PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null | sed 's/-I/-isystem /g')
+PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lmeshoptimizer
+
+ifeq ($(SANITIZE),1)
+SAN_FLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+endif
+OPT      ?= -O2 -g
+WARN     := -Wall -Wextra -Werror
+CPPFLAGS_SV := -Icore/include -Iserver -Iclient -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(SAN_FLAGS)
+SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
+LDLIBS_SV   := $(PKG_LIBS) -lpthread -lm
+
+
+CORE_C   := $(wildcard core/*.c)
+CORE_CXX := $(wildcard core/*.cpp)
+CORE_OBJ := $(CORE_C:%.c=$(BUILD)/%.o) $(CORE_CXX:%.cpp=$(BUILD)/%.o)
+SERVER_LIB_C := $(filter-out server/sylvad.c,$(wildcard server/*.c))
+CLIENT_LIB_C := $(filter-out client/sylva.c,$(wildcard client/*.c))
+SERVER_OBJ := $(SERVER_LIB_C:%.c=$(BUILD)/%.o)
+CLIENT_OBJ := $(CLIENT_LIB_C:%.c=$(BUILD)/%.o)
+
+LIBCORE   := $(BUILD)/libsvcore.a
+LIBSERVER := $(BUILD)/libsvserver.a
+LIBSYLVA  := $(BUILD)/libsylva.a
+
+BINS := $(BUILD)/sylva-bake
+ifneq ($(wildcard server/sylvad.c),)
+BINS += $(BUILD)/sylvad
+endif
+ifneq ($(wildcard client/sylva.c),)
+BINS += $(BUILD)/sylva
+endif
+
+UNIT_SRC  := $(wildcard tests/unit/test_*.c)
+UNIT_BINS := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/%)
+TOOL_SRC  := $(wildcard tests/tools/*.c)
+TOOL_BINS := $(TOOL_SRC:tests/tools/%.c=$(BUILD)/tools/%)
+
+DEPS_STAMP := $(BUILD)/.deps-ok
+
+.PHONY: all deps test unit integration sanitize demo bench reliability soak clean install
+# keep object files of tests and tools (make would delete them as intermediates)
+.SECONDARY:
+all: $(BINS) $(UNIT_BINS) $(TOOL_BINS)
+
+# Installs missing Debian packages (non-interactive). Every build depends on it.
+deps:
+	@./deploy/install-deps.sh
+$(DEPS_STAMP): deploy/apt-packages.txt deploy/install-deps.sh
+	@./deploy/install-deps.sh
+	@mkdir -p $(@D) && touch $@
+
+$(BUILD)/%.o: %.c | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_SV) $(SV_CFLAGS) $(CFLAGS) -c $< -o $@
+$(BUILD)/%.o: %.cpp | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS_SV) $(SV_CXXFLAGS) $(CXXFLAGS) -c $< -o $@
+
+$(LIBCORE): $(CORE_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+$(LIBSERVER): $(SERVER_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+$(LIBSYLVA): $(CLIENT_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+# The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
+$(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lpthread -lm
+$(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBSYLVA) $(LIBCORE)
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lpthread -lm
+$(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(LIBCORE)
+	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
+
+$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBSYLVA) $(LIBCORE)
+	@mkdir -p $(@D)
+	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
+$(BUILD)/tools/%: $(BUILD)/tests/tools/%.o $(LIBSERVER) $(LIBSYLVA) $(LIBCORE)
+	@mkdir -p $(@D)
+	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
+
+# Every test: unit (cmocka), then integration/render scripts. Fails on any failure.
+test: all
+	@BUILD=$(BUILD) ./tests/run.sh
+
+unit: all
+	@BUILD=$(BUILD) ./tests/run.sh unit
+
+integration: all
+	@BUILD=$(BUILD) ./tests/run.sh integration
+
+sanitize:
+	$(MAKE) BUILD=build/asan SANITIZE=1 OPT="-O1 -g" test
+
+demo: all
+	@./examples/demo.sh $(BUILD)
+
+bench: all
+	@BUILD=$(BUILD) ./tests/bench/run.sh
+
+# Issue 12's fault, bad-input and load suites with their figures
+# (docs/reliability.md); RELIABILITY_LONG=1 for the long forms. `make soak` is
+# the 30-minute soak (SOAK_SECONDS) on its own.
+reliability: all
+	@BUILD=$(BUILD) sh ./tests/reliability/run.sh
+
+soak: all
+	@BUILD=$(BUILD) sh ./tests/reliability/soak.sh
+
+# Installs the binaries, the default config (kept if one exists: the new one goes
+# beside it as sylvad.conf.new), man pages made from each binary's --help, the
+# guides, the systemd unit + sysusers entry and the nginx example (docs/deploy.md).
+# The config lives in $(PREFIX)/etc/sylva/, or /etc/sylva/ when PREFIX=/usr.
+PREFIX ?= /usr/local
+DESTDIR ?=
+ifeq ($(PREFIX),/usr)
+SYSCONFDIR ?= /etc
+else
+SYSCONFDIR ?= $(PREFIX)/etc
+endif
+BINDIR := $(PREFIX)/bin
+DOCDIR := $(PREFIX)/share/doc/sylva
+MANDIR := $(PREFIX)/share/man/man1
+UNITDIR := $(PREFIX)/lib/systemd/system
+SYSUSERSDIR := $(PREFIX)/lib/sysusers.d
+install: $(BINS)
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(SYSCONFDIR)/sylva $(DESTDIR)$(DOCDIR)/nginx \
+	    $(DESTDIR)$(MANDIR) $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSUSERSDIR)
+	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
+	@if [ -e $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf ]; then \
+	    echo "keeping $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; new default: sylvad.conf.new"; \
+	    install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf.new; \
+	else install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; fi
+	set -e; for b in $(notdir $(BINS)); do \
+	    case $$b in sylvad) d="the sylva baking daemon" ;; sylva) d="the sylva client" ;; \
+	                *) d="bake a tree offline, and the daemon's worker" ;; esac; \
+	    ./deploy/help2man.sh $(BUILD)/$$b $$b "$$d" $(SYSCONFDIR)/sylva $(DOCDIR) \
+	        > $(DESTDIR)$(MANDIR)/$$b.1; done
+	install -m 644 docs/operations.md docs/api.md docs/client.md docs/spec.md docs/outputs.md \
+	    docs/deploy.md $(DESTDIR)$(DOCDIR)/
+	install -m 644 deploy/nginx/sylva.conf deploy/nginx/sylva-nodes.conf $(DESTDIR)$(DOCDIR)/nginx/
+	sed -e 's#/usr/local/bin#$(BINDIR)#g' -e 's#/usr/local/etc/sylva#$(SYSCONFDIR)/sylva#g' \
+	    -e 's#/usr/local/share/doc/sylva#$(DOCDIR)#g' deploy/sylvad.service \
+	    > $(DESTDIR)$(UNITDIR)/sylvad.service
+	install -m 644 deploy/sylva.sysusers $(DESTDIR)$(SYSUSERSDIR)/sylva.conf
+
+# libFuzzer targets (tests/fuzz/fuzz_*.c) under ASan+UBSan, built with clang into
+# $(BUILD)/fuzz/ (the core and the multipart parser recompiled with coverage);
+# `make fuzz` runs each for FUZZ_SECONDS from tests/fuzz/corpus/<target>/ and
+# fails on any finding (crash inputs go to $(BUILD)/fuzz/artifacts/).
+# Library objects get -Wall -Wextra without -Werror (clang may warn where gcc
+# does not); the fuzz targets themselves are -Werror.
+FUZZ_CC      ?= clang
+FUZZ_CXX     ?= clang++
+FUZZ_SECONDS ?= 60
+FUZZ_DIR     := $(BUILD)/fuzz
+FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
+FUZZ_CFLAGS  := -std=c11 -Wall -Wextra -O1 -g -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE \
+                -fsanitize=fuzzer-no-link $(FUZZ_SAN)
+FUZZ_SRC     := $(wildcard tests/fuzz/fuzz_*.c)
+FUZZ_BINS    := $(FUZZ_SRC:tests/fuzz/%.c=$(FUZZ_DIR)/%)
+FUZZ_LIB     := $(FUZZ_DIR)/libfuzzcore.a
+FUZZ_LIB_OBJ := $(CORE_C:%.c=$(FUZZ_DIR)/obj/%.o) $(CORE_CXX:%.cpp=$(FUZZ_DIR)/obj/%.o) \
+                $(FUZZ_DIR)/obj/server/multipart.o
+
+$(FUZZ_DIR)/obj/%.o: %.c | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS_SV) $(FUZZ_CFLAGS) -c $< -o $@
+$(FUZZ_DIR)/obj/%.o: %.cpp | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(FUZZ_CXX) $(CPPFLAGS_SV) -std=c++17 -Wall -Wextra -O1 -g -fsanitize=fuzzer-no-link $(FUZZ_SAN) -c $< -o $@
+$(FUZZ_DIR)/obj/tests/fuzz/%.o: tests/fuzz/%.c | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS_SV) $(FUZZ_CFLAGS) -Werror -c $< -o $@
+$(FUZZ_LIB): $(FUZZ_LIB_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+$(FUZZ_DIR)/fuzz_%: $(FUZZ_DIR)/obj/tests/fuzz/fuzz_%.o $(FUZZ_LIB)
+	$(FUZZ_CXX) -fsanitize=fuzzer $(FUZZ_SAN) -o $@ $^ $(LDLIBS_SV)
+
+fuzz-build: $(FUZZ_BINS)
+
+fuzz: fuzz-build
+	@set -e; for f in $(FUZZ_BINS); do \
+	    t=$$(basename $$f); mkdir -p $(FUZZ_DIR)/work/$$t $(FUZZ_DIR)/artifacts; \
+	    echo "== $$t for $(FUZZ_SECONDS) s"; \
+	    $$f -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+	        -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t- $(FUZZ_DIR)/work/$$t tests/fuzz/corpus/$$t \
+	        > $(FUZZ_DIR)/$$t.log 2>&1 || { tail -n 60 $(FUZZ_DIR)/$$t.log; echo "FUZZ FINDING: $$t"; exit 1; }; \
+	    grep -E '^stat::number_of_executed_runs|^#[0-9]+.*DONE' $(FUZZ_DIR)/$$t.log | tail -n 2; \
+	done; echo "fuzz: 0 findings"
+
+clean:
+	rm -rf build
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

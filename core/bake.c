@@ -1,0 +1,613 @@
+/* bake.c — texture baking of the quads of one LOD and the textured result mesh.
+ *
+ * Implements the billboard-cloud paper (Behrendt et al., "Realistic real-time
+ * rendering of landscapes using billboard clouds"), §3.3.7 "Texture generation":
+ * every face valid for a plane (not only the faces it simplifies) is rendered
+ * orthographically onto it, supersampled so that each small leaf polygon covers
+ * at least one sample, then downsampled with a rectangular median filter and an
+ * alpha threshold (default 0.3) so alpha is binary and needs no depth sorting.
+ * §3.3.9 (dynamic lighting): normals are projected as well as colours (normal
+ * map in the quad's tangent frame). Colour is dilated into empty texels so
+ * mipmaps and bilinear filtering do not bleed background into leaf edges.
+ *
+ * Choices (documented here and in bake.h):
+ *   - Supersampling s = ceil(texel / size5), size5 the 5th percentile of
+ *     sqrt(area) over every face baked in the LOD (robust to slivers), clamped
+ *     to [1, max_supersample] and at most 16 and the renderer's max size.
+ *   - Charts larger than 2048 samples on a side are rendered in tiles aligned to
+ *     texel blocks, so memory stays bounded and the result equals one big render.
+ *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
+ *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
+ *     from each; a texel's surface point is visible from a direction when it is
+ *     no farther than the stored depth plus two depth-map texels.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "atlas.h"
+#include "bake.h"
+#include "classify.h"
+
+#define SV_BAKE_TILE_SAMPLES 2048u
+#define SV_BAKE_MAX_SS 16u
+#define SV_AO_DIRS 12
+#define SV_AO_RES 1024u
+
+void sv_bake_options_init(sv_bake_options *opt)
+{
+    memset(opt, 0, sizeof *opt);
+    opt->max_atlas = 2048;
+    opt->max_supersample = 8;
+    opt->texel_size = 0;
+    opt->alpha_threshold = 0.3;
+    opt->padding = 4;
+    opt->dilate = 8;
+    opt->light_dir[0] = 0.2;
+    opt->light_dir[1] = 0.9;
+    opt->light_dir[2] = 0.4;
+}
+
+void sv_baked_lod_free(sv_baked_lod *b)
+{
+    if (!b)
+        return;
+    sv_mesh_destroy(b->mesh);
+    free(b->uv_rects);
+    sv_image_free(&b->albedo);
+    sv_image_free(&b->normal);
+    sv_image_free(&b->ao);
+    sv_image_free(&b->depth);
+    memset(b, 0, sizeof *b);
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void normalize3(double v[3])
+{
+    double l = sqrt(dot3(v, v));
+    if (l > 0)
+        for (int k = 0; k < 3; k++)
+            v[k] /= l;
+}
+
+/* Per quad: the faces to render and the depth range that holds them. */
+typedef struct quad_job {
+    uint32_t *tris;
+    uint32_t count;
+    double near_dist, far_dist; /* along forward = -normal, from the quad centre */
+    double depth_norm;          /* depth map: distance that maps to 65535 */
+} quad_job;
+
+static bool part_ok(const sv_quad *q, const uint8_t *tri_part, uint32_t t)
+{
+    if (q->parts == 0)
+        return true;
+    uint8_t part = tri_part ? tri_part[t] : SV_PART_TRUNK;
+    return (q->parts & (part == SV_PART_FOLIAGE ? SV_PARTS_FOLIAGE : SV_PARTS_TRUNK)) != 0;
+}
+
+/* Signed distance of vertex v from the plane, and its (u, v) from the centre. */
+static void vertex_frame(const sv_mesh *m, const sv_quad *q, uint32_t v, double out[3])
+{
+    const float *p = m->positions + 3 * (size_t)v;
+    double r[3] = {(double)p[0] - q->centre[0], (double)p[1] - q->centre[1],
+                   (double)p[2] - q->centre[2]};
+    out[0] = dot3(r, q->normal);
+    out[1] = dot3(r, q->axis_u);
+    out[2] = dot3(r, q->axis_v);
+}
+
+static sv_status select_faces(const sv_mesh *src, const sv_quad *q, uint32_t qi,
+                              const uint8_t *tri_part, quad_job *job, sv_error *err)
+{
+    double slab = q->slab > 0 ? q->slab : 0;
+    double ext = 0; /* largest |distance| of a selected vertex */
+    if (q->bake_faces) {
+        job->tris = sv_calloc(q->bake_face_count ? q->bake_face_count : 1, sizeof(uint32_t));
+        if (!job->tris)
+            return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for quad %u faces", qi);
+        for (uint32_t i = 0; i < q->bake_face_count; i++) {
+            uint32_t t = q->bake_faces[i];
+            if (t >= src->triangle_count)
+                return sv_fail(err, SV_ERR_INTERNAL, "bake: quad %u names face %u of %u", qi, t,
+                               src->triangle_count);
+            job->tris[job->count++] = t;
+        }
+    } else {
+        job->tris = sv_calloc(src->triangle_count ? src->triangle_count : 1, sizeof(uint32_t));
+        if (!job->tris)
+            return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for quad %u faces", qi);
+        double tol = 1e-9 * (fabs(q->d) + q->half_u + q->half_v + slab);
+        for (uint32_t t = 0; t < src->triangle_count; t++) {
+            if (!part_ok(q, tri_part, t))
+                continue;
+            double f[3][3];
+            for (int j = 0; j < 3; j++)
+                vertex_frame(src, q, src->indices[3 * (size_t)t + j], f[j]);
+            double dmin = fmin(f[0][0], fmin(f[1][0], f[2][0]));
+            double dmax = fmax(f[0][0], fmax(f[1][0], f[2][0]));
+            if (q->clip ? (dmin > slab + tol || dmax < -slab - tol)
+                        : (dmin < -slab - tol || dmax > slab + tol))
+                continue;
+            /* Faces that project outside the rectangle would only be clipped away. */
+            double umin = fmin(f[0][1], fmin(f[1][1], f[2][1]));
+            double umax = fmax(f[0][1], fmax(f[1][1], f[2][1]));
+            double vmin = fmin(f[0][2], fmin(f[1][2], f[2][2]));
+            double vmax = fmax(f[0][2], fmax(f[1][2], f[2][2]));
+            if (umin > q->half_u || umax < -q->half_u || vmin > q->half_v || vmax < -q->half_v)
+                continue;
+            job->tris[job->count++] = t;
+        }
+    }
+    for (uint32_t i = 0; i < job->count; i++)
+        for (int j = 0; j < 3; j++) {
+            double f[3];
+            vertex_frame(src, q, src->indices[3 * (size_t)job->tris[i] + j], f);
+            if (fabs(f[0]) > ext)
+                ext = fabs(f[0]);
+        }
+    double range = q->clip ? slab : fmax(slab, ext);
+    double eps = 1e-5 * (range + q->half_u + q->half_v) + 1e-9;
+    job->near_dist = -range - (q->clip ? 0 : eps);
+    job->far_dist = range + (q->clip ? 0 : eps);
+    if (q->clip && !(range > 0)) {
+        job->near_dist = -eps;
+        job->far_dist = eps;
+    }
+    job->depth_norm = slab > 0 ? slab : (ext > 0 ? ext : 1.0);
+    return SV_OK;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* 5th percentile of sqrt(area) over the faces of every job (each face once). */
+static sv_status face_size_p5(const sv_mesh *src, const quad_job *jobs, uint32_t n,
+                              double *size, sv_error *err)
+{
+    *size = 0;
+    uint8_t *seen = sv_calloc(src->triangle_count ? src->triangle_count : 1, 1);
+    double *sz = sv_calloc(src->triangle_count ? src->triangle_count : 1, sizeof *sz);
+    if (!seen || !sz) {
+        free(seen);
+        free(sz);
+        return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for face statistics");
+    }
+    size_t c = 0;
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t k = 0; k < jobs[i].count; k++) {
+            uint32_t t = jobs[i].tris[k];
+            if (seen[t])
+                continue;
+            seen[t] = 1;
+            double a = sv_tri_area(src, t);
+            if (a > 0 && isfinite(a))
+                sz[c++] = sqrt(a);
+        }
+    if (c) {
+        qsort(sz, c, sizeof *sz, cmp_double);
+        *size = sz[(size_t)floor(0.05 * (double)(c - 1))];
+    }
+    free(seen);
+    free(sz);
+    return SV_OK;
+}
+
+/* The camera seeing texels [x0,x1) × [y0,y1) (row 0 at +v) of a w × h chart. */
+static sv_camera tile_camera(const sv_quad *q, const quad_job *job, uint32_t w, uint32_t h,
+                             uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1)
+{
+    double tu = 2 * q->half_u / w, tv = 2 * q->half_v / h;
+    double cu = -q->half_u + 0.5 * (x0 + x1) * tu;
+    double cv = q->half_v - 0.5 * (y0 + y1) * tv;
+    sv_camera c;
+    for (int k = 0; k < 3; k++) {
+        c.origin[k] = q->centre[k] + cu * q->axis_u[k] + cv * q->axis_v[k];
+        c.right[k] = q->axis_u[k];
+        c.up[k] = q->axis_v[k];
+    }
+    c.half_width = 0.5 * (x1 - x0) * tu;
+    c.half_height = 0.5 * (y1 - y0) * tv;
+    c.near_dist = job->near_dist;
+    c.far_dist = job->far_dist;
+    return c;
+}
+
+/* Depth maps of the whole source from fixed sky directions (see top). */
+typedef struct ao_views {
+    sv_camera cam[SV_AO_DIRS];
+    float *depth[SV_AO_DIRS];
+    double bias;
+} ao_views;
+
+static void ao_free(ao_views *a)
+{
+    for (int i = 0; i < SV_AO_DIRS; i++)
+        free(a->depth[i]);
+}
+
+static sv_status ao_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mesh *src,
+                            ao_views *a, sv_error *err)
+{
+    memset(a, 0, sizeof *a);
+    double c[3], rad;
+    sv_mesh_sphere(src, c, &rad);
+    if (!(rad > 0))
+        rad = 1;
+    uint32_t res = SV_AO_RES;
+    if (res > sv_renderer_max_size(r))
+        res = sv_renderer_max_size(r);
+    a->bias = 2.0 * (2.0 * rad * 1.01 / res); /* two depth-map texels */
+    const double golden = M_PI * (3.0 - sqrt(5.0));
+    for (int i = 0; i < SV_AO_DIRS; i++) {
+        double y = 0.1 + 0.9 * (i + 0.5) / SV_AO_DIRS, s = sqrt(1 - y * y);
+        double dir[3] = {s * cos(golden * i), y, s * sin(golden * i)};
+        double fwd[3] = {-dir[0], -dir[1], -dir[2]};
+        double h[3] = {0, 1, 0};
+        if (fabs(fwd[1]) > 0.9) {
+            h[0] = 1;
+            h[1] = 0;
+        }
+        sv_camera *cam = &a->cam[i];
+        double rt[3] = {fwd[1] * h[2] - fwd[2] * h[1], fwd[2] * h[0] - fwd[0] * h[2],
+                        fwd[0] * h[1] - fwd[1] * h[0]};
+        normalize3(rt);
+        /* up = right × fwd, so that up × right = fwd */
+        double up[3] = {rt[1] * fwd[2] - rt[2] * fwd[1], rt[2] * fwd[0] - rt[0] * fwd[2],
+                        rt[0] * fwd[1] - rt[1] * fwd[0]};
+        memcpy(cam->origin, c, sizeof c);
+        memcpy(cam->right, rt, sizeof rt);
+        memcpy(cam->up, up, sizeof up);
+        cam->half_width = cam->half_height = rad * 1.01;
+        cam->near_dist = -rad * 1.02;
+        cam->far_dist = rad * 1.02;
+        a->depth[i] = sv_calloc((size_t)res * res, sizeof(float));
+        if (!a->depth[i]) {
+            ao_free(a);
+            return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for AO depth maps");
+        }
+        sv_status st = sv_render(r, g, NULL, 0, cam, NULL, res, res, NULL, a->depth[i], err);
+        if (st != SV_OK) {
+            ao_free(a);
+            return st;
+        }
+    }
+    return SV_OK;
+}
+
+/* Fraction of the directions from which world point p is unoccluded. */
+static double ao_visibility(const ao_views *a, uint32_t res, const double p[3])
+{
+    int vis = 0;
+    for (int i = 0; i < SV_AO_DIRS; i++) {
+        const sv_camera *c = &a->cam[i];
+        double d[3] = {p[0] - c->origin[0], p[1] - c->origin[1], p[2] - c->origin[2]};
+        double fwd[3];
+        sv_camera_forward(c, fwd);
+        double x = (dot3(d, c->right) / c->half_width * 0.5 + 0.5) * res;
+        double y = (0.5 - dot3(d, c->up) / c->half_height * 0.5) * res;
+        double z = dot3(d, fwd);
+        if (x < 0 || y < 0 || x >= res || y >= res) {
+            vis++;
+            continue;
+        }
+        float stored = a->depth[i][(size_t)y * res + (size_t)x];
+        if (z <= (double)stored + a->bias)
+            vis++;
+    }
+    return (double)vis / SV_AO_DIRS;
+}
+
+typedef struct bake_ctx {
+    sv_renderer *r;
+    const sv_gpu_mesh *g;
+    const sv_bake_options *opt;
+    uint32_t s;
+    double thr;
+    uint32_t aw, ah;          /* atlas size */
+    uint8_t *mask;            /* aw*ah: texel opaque */
+    sv_baked_lod *out;
+    const ao_views *ao;
+    uint32_t ao_res;
+} bake_ctx;
+
+static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job,
+                           const sv_chart *ch, sv_error *err)
+{
+    uint32_t s = b->s;
+    uint32_t tile = SV_BAKE_TILE_SAMPLES / s;
+    if (tile == 0)
+        tile = 1;
+    uint32_t w = ch->w, h = ch->h;
+    sv_status st = SV_OK;
+    uint8_t *tex = malloc((size_t)tile * tile * 4);
+    float *zs = malloc((size_t)tile * s * tile * s * sizeof(float));
+    float *zt = malloc((size_t)tile * tile * sizeof(float));
+    if (!tex || !zs || !zt) {
+        st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s, tile * s);
+        goto out;
+    }
+    sv_render_options ro = {.shade = b->opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO};
+    memcpy(ro.light_dir, b->opt->light_dir, sizeof ro.light_dir);
+    sv_render_options rn = {.shade = SV_SHADE_NORMAL};
+    double tu = 2 * q->half_u / w, tv = 2 * q->half_v / h;
+    for (uint32_t y0 = 0; y0 < h; y0 += tile)
+        for (uint32_t x0 = 0; x0 < w; x0 += tile) {
+            uint32_t x1 = x0 + tile < w ? x0 + tile : w, y1 = y0 + tile < h ? y0 + tile : h;
+            uint32_t tw = x1 - x0, th = y1 - y0;
+            sv_camera cam = tile_camera(q, job, w, h, x0, x1, y0, y1);
+            sv_image img;
+            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img,
+                           zs, err);
+            if (st != SV_OK)
+                goto out;
+            sv_downsample_median(img.data, tw, th, s, b->thr, tex);
+            sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
+            sv_image_free(&img);
+            uint8_t *alb = b->out->albedo.data;
+            for (uint32_t y = 0; y < th; y++)
+                for (uint32_t x = 0; x < tw; x++) {
+                    size_t ai = (size_t)(ch->y + y0 + y) * b->aw + ch->x + x0 + x;
+                    const uint8_t *t = tex + 4 * ((size_t)y * tw + x);
+                    memcpy(alb + 4 * ai, t, 4);
+                    b->mask[ai] = t[3] != 0;
+                    if (!t[3])
+                        continue;
+                    float dist = zt[(size_t)y * tw + x];
+                    if (b->out->depth.data) {
+                        double v = fabs((double)dist) / job->depth_norm;
+                        ((uint16_t *)b->out->depth.data)[ai] =
+                            (uint16_t)lround(65535.0 * (v < 1 ? v : 1));
+                    }
+                    if (b->out->ao.data) {
+                        double pu = -q->half_u + (x0 + x + 0.5) * tu;
+                        double pv = q->half_v - (y0 + y + 0.5) * tv;
+                        double p[3];
+                        for (int k = 0; k < 3; k++)
+                            p[k] = q->centre[k] + pu * q->axis_u[k] + pv * q->axis_v[k] -
+                                   (double)dist * q->normal[k];
+                        double vis = ao_visibility(b->ao, b->ao_res, p);
+                        ((uint8_t *)b->out->ao.data)[ai] = (uint8_t)lround(255.0 * vis);
+                    }
+                }
+            if (b->out->normal.data) {
+                st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s,
+                               &img, NULL, err);
+                if (st != SV_OK)
+                    goto out;
+                sv_downsample_median(img.data, tw, th, s, b->thr, tex);
+                sv_image_free(&img);
+                uint8_t *nm = b->out->normal.data;
+                for (uint32_t y = 0; y < th; y++)
+                    for (uint32_t x = 0; x < tw; x++) {
+                        size_t ai = (size_t)(ch->y + y0 + y) * b->aw + ch->x + x0 + x;
+                        memcpy(nm + 3 * ai, tex + 4 * ((size_t)y * tw + x), 3);
+                    }
+            }
+        }
+out:
+    free(tex);
+    free(zs);
+    free(zt);
+    return st;
+}
+
+/* The stand-in mesh: 4 vertices and 2 triangles per quad with the atlas
+ * material, then `keep` (materials and images copied, indices offset). */
+static sv_status build_mesh(const sv_lod_plan *lod, const sv_mesh *keep, bool lit,
+                            sv_baked_lod *out, sv_error *err)
+{
+    uint32_t n = lod->quad_count;
+    if (n == 0) {
+        if (keep)
+            return sv_mesh_merge(NULL, keep, &out->mesh, err);
+        out->mesh = sv_mesh_create(0, 0, 0, 0);
+        return out->mesh ? SV_OK : sv_fail(err, SV_ERR_NOMEM, "bake: out of memory");
+    }
+    if (n > UINT32_MAX / 4)
+        return sv_fail(err, SV_ERR_LIMIT, "bake: %u quads overflow the result mesh", n);
+    uint32_t nimg = 1 + (out->normal.data != NULL) + (out->ao.data != NULL);
+    sv_mesh *m = sv_mesh_create(4 * n, 2 * n, 1, nimg);
+    if (!m)
+        return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for the result mesh");
+    static const float cu[4] = {0, 1, 1, 0}, cv[4] = {1, 1, 0, 0}; /* corner → (u, v down) */
+    for (uint32_t i = 0; i < n; i++) {
+        const sv_quad *q = &lod->quads[i];
+        double corners[4][3];
+        sv_quad_corners(q, corners);
+        const float *rect = out->uv_rects + 4 * (size_t)i;
+        for (int c = 0; c < 4; c++) {
+            size_t v = 4 * (size_t)i + (size_t)c;
+            for (int k = 0; k < 3; k++) {
+                m->positions[3 * v + k] = (float)corners[c][k];
+                m->normals[3 * v + k] = (float)q->normal[k];
+            }
+            m->uvs[2 * v] = rect[0] + cu[c] * (rect[2] - rect[0]);
+            m->uvs[2 * v + 1] = rect[1] + cv[c] * (rect[3] - rect[1]);
+        }
+        static const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++)
+            m->indices[6 * (size_t)i + k] = 4 * i + tri[k];
+        m->tri_material[2 * i] = m->tri_material[2 * i + 1] = 0;
+    }
+    sv_material *mat = &m->materials[0];
+    sv_material_init(mat);
+    snprintf(mat->name, sizeof mat->name, "sylva_atlas_%s", lod->name);
+    mat->alpha_mode = SV_ALPHA_MASK;
+    mat->alpha_cutoff = 0.5f;
+    mat->double_sided = true;
+    mat->unlit = lit; /* static lighting is in the albedo */
+    mat->base_texture = 0;
+    sv_status st = sv_image_copy(&out->albedo, &m->images[0], err);
+    uint32_t next = 1;
+    if (st == SV_OK && out->normal.data) {
+        mat->normal_texture = (int32_t)next;
+        st = sv_image_copy(&out->normal, &m->images[next++], err);
+    }
+    if (st == SV_OK && out->ao.data) {
+        mat->occlusion_texture = (int32_t)next;
+        st = sv_image_copy(&out->ao, &m->images[next++], err);
+    }
+    if (st == SV_OK && keep && keep->triangle_count) {
+        sv_mesh *merged = NULL;
+        st = sv_mesh_merge(m, keep, &merged, err);
+        sv_mesh_destroy(m);
+        m = merged;
+    }
+    if (st != SV_OK) {
+        sv_mesh_destroy(m);
+        return st;
+    }
+    out->mesh = m;
+    return SV_OK;
+}
+
+sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *src,
+                      const sv_lod_plan *lod, const sv_mesh *keep,
+                      const sv_bake_options *opt_in, sv_baked_lod *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!r || !gsrc || !src || !lod)
+        return sv_fail(err, SV_ERR_INTERNAL, "bake: NULL renderer, mesh or LOD");
+    double t_start = sv_now(), t_pack = 0;
+    sv_bake_options opt;
+    if (opt_in)
+        opt = *opt_in;
+    else
+        sv_bake_options_init(&opt);
+    if (!opt.max_atlas) opt.max_atlas = 2048;
+    if (!opt.max_supersample) opt.max_supersample = 8;
+    if (opt.max_supersample > SV_BAKE_MAX_SS) opt.max_supersample = SV_BAKE_MAX_SS;
+    if (!(opt.alpha_threshold > 0)) opt.alpha_threshold = 0.3;
+    if (opt.alpha_threshold > 1) opt.alpha_threshold = 1;
+    if (!opt.padding) opt.padding = 4;
+    if (!opt.dilate) opt.dilate = 8;
+    if (!(dot3(opt.light_dir, opt.light_dir) > 0)) {
+        opt.light_dir[0] = 0.2;
+        opt.light_dir[1] = 0.9;
+        opt.light_dir[2] = 0.4;
+    }
+    normalize3(opt.light_dir);
+
+    uint32_t n = lod->quad_count;
+    sv_status st = SV_OK;
+    quad_job *jobs = sv_calloc(n ? n : 1, sizeof *jobs);
+    sv_chart *charts = sv_calloc(n ? n : 1, sizeof *charts);
+    double *half = sv_calloc(n ? 2 * (size_t)n : 1, sizeof *half);
+    out->uv_rects = sv_calloc(n ? 4 * (size_t)n : 1, sizeof *out->uv_rects);
+    uint8_t *mask = NULL;
+    ao_views ao;
+    bool have_ao = false;
+    if (!jobs || !charts || !half || !out->uv_rects) {
+        st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for %u quads", n);
+        goto out;
+    }
+    out->quad_count = n;
+    for (uint32_t i = 0; i < n; i++) {
+        const sv_quad *q = &lod->quads[i];
+        if (!(q->half_u >= 0) || !(q->half_v >= 0) || !isfinite(q->half_u) ||
+            !isfinite(q->half_v) || !isfinite(q->d)) {
+            st = sv_fail(err, SV_ERR_INTERNAL, "bake: quad %u of %s has bad extents", i,
+                         lod->name);
+            goto out;
+        }
+        if ((st = select_faces(src, q, i, opt.tri_part, &jobs[i], err)) != SV_OK)
+            goto out;
+        half[2 * i] = q->half_u;
+        half[2 * i + 1] = q->half_v;
+    }
+
+    /* Texel density and layout (pack). */
+    double tp0 = sv_now();
+    double texel = opt.texel_size;
+    if (n && !(texel > 0) &&
+        (st = sv_atlas_choose_texel(half, n, opt.padding, opt.max_atlas, &texel, err)) != SV_OK)
+        goto out;
+    if (!(texel > 0))
+        texel = 1.0;
+    uint32_t aw = 1, ah = 1;
+    for (uint32_t i = 0; i < n; i++)
+        sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
+    if (n && !sv_atlas_fit(charts, n, opt.padding, opt.max_atlas, &aw, &ah)) {
+        st = sv_fail(err, SV_ERR_LIMIT,
+                     "bake: %u charts at texel size %g do not fit a %ux%u atlas", n, texel,
+                     opt.max_atlas, opt.max_atlas);
+        goto out;
+    }
+    t_pack = sv_now() - tp0;
+    out->texel_size = texel;
+    for (uint32_t i = 0; i < n; i++) {
+        float *rc = out->uv_rects + 4 * (size_t)i;
+        rc[0] = (float)((double)charts[i].x / aw);
+        rc[1] = (float)((double)charts[i].y / ah);
+        rc[2] = (float)((double)(charts[i].x + charts[i].w) / aw);
+        rc[3] = (float)((double)(charts[i].y + charts[i].h) / ah);
+    }
+
+    /* Supersampling: the 5th-percentile face covers at least one sample. */
+    double p5 = 0;
+    if ((st = face_size_p5(src, jobs, n, &p5, err)) != SV_OK)
+        goto out;
+    double sf = p5 > 0 ? ceil(texel / p5 - 1e-9) : 1;
+    uint32_t s = sf < 1 ? 1 : sf > opt.max_supersample ? opt.max_supersample : (uint32_t)sf;
+    if (s > sv_renderer_max_size(r))
+        s = sv_renderer_max_size(r);
+    if (s > SV_BAKE_TILE_SAMPLES)
+        s = SV_BAKE_TILE_SAMPLES;
+    out->supersample = s;
+
+    if (n) {
+        if ((st = sv_image_alloc(&out->albedo, aw, ah, 4, 8, err)) != SV_OK ||
+            (opt.normal_map && (st = sv_image_alloc(&out->normal, aw, ah, 3, 8, err)) != SV_OK) ||
+            (opt.ao_map && (st = sv_image_alloc(&out->ao, aw, ah, 1, 8, err)) != SV_OK) ||
+            (opt.depth_map && (st = sv_image_alloc(&out->depth, aw, ah, 1, 16, err)) != SV_OK))
+            goto out;
+        mask = sv_calloc((size_t)aw * ah, 1);
+        if (!mask) {
+            st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u mask", aw, ah);
+            goto out;
+        }
+        if (opt.ao_map) {
+            if ((st = ao_prepare(r, gsrc, src, &ao, err)) != SV_OK)
+                goto out;
+            have_ao = true;
+        }
+        bake_ctx b = {r, gsrc, &opt, s, opt.alpha_threshold, aw, ah, mask, out,
+                      have_ao ? &ao : NULL, SV_AO_RES < sv_renderer_max_size(r)
+                                               ? SV_AO_RES : sv_renderer_max_size(r)};
+        for (uint32_t i = 0; i < n; i++)
+            if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK)
+                goto out;
+        /* Dilation: colour (not alpha) grows into empty texels of every map. */
+        if ((st = sv_dilate(&out->albedo, mask, 3, opt.dilate, err)) != SV_OK ||
+            (st = sv_dilate(&out->normal, mask, 3, opt.dilate, err)) != SV_OK ||
+            (st = sv_dilate(&out->ao, mask, 1, opt.dilate, err)) != SV_OK ||
+            (st = sv_dilate(&out->depth, mask, 1, opt.dilate, err)) != SV_OK)
+            goto out;
+    }
+    st = build_mesh(lod, keep, opt.lit, out, err);
+out:
+    if (have_ao)
+        ao_free(&ao);
+    for (uint32_t i = 0; jobs && i < n; i++)
+        free(jobs[i].tris);
+    free(jobs);
+    free(charts);
+    free(half);
+    free(mask);
+    if (st != SV_OK) {
+        sv_baked_lod_free(out);
+        return st;
+    }
+    out->seconds_pack = t_pack;
+    out->seconds_render = sv_now() - t_start - t_pack;
+    return SV_OK;
+}

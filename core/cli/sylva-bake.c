@@ -1,0 +1,404 @@
+/* sylva-bake — the offline baker and the daemon's worker.
+ *
+ *   sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json]
+ *   sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N] [--sandbox]
+ *   sylva-bake check-spec SPEC.json
+ *   sylva-bake sandbox-selftest [socket|exec]     (testing: see cmd_sandbox_selftest)
+ *
+ * Exit status: 0 success; 1 the input was refused or the bake failed (one line
+ * on stderr; with bake, DIR/error.json holds {"error":{"code","message"}});
+ * 2 usage. Anything else (a signal) is a crash.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/personality.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "pipeline.h"
+#include "sandbox.h"
+#include "spec.h"
+
+#define MAX_FILES 256
+
+static const char usage[] =
+    "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json]\n"
+    "       sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N]\n"
+    "                       [--sandbox]\n"
+    "       sylva-bake check-spec SPEC.json\n"
+    "\n"
+    "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
+    "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
+    "ever read. See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
+    "\n"
+    "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
+    "           the system calls a bake needs are allowed, others fail with EPERM,\n"
+    "           and network, exec and ptrace calls kill the process with SIGSYS\n"
+    "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n";
+
+typedef struct loaded {
+    sv_file files[MAX_FILES];
+    void *data[MAX_FILES];
+    size_t count;
+} loaded;
+
+static const char *base_name(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    return s ? s + 1 : path;
+}
+
+/* Reads a whole file; returns NULL with errno set on failure. */
+static void *read_all(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (n < cap) break;
+        char *nb = (cap > SIZE_MAX / 2) ? NULL : realloc(buf, cap * 2);
+        if (!nb) {
+            free(buf);
+            buf = NULL;
+            errno = ENOMEM;
+            break;
+        }
+        buf = nb;
+        cap *= 2;
+    }
+    if (buf && ferror(f)) {
+        free(buf);
+        buf = NULL;
+        errno = EIO;
+    }
+    fclose(f);
+    *size = n;
+    return buf;
+}
+
+static int load_files(char **paths, size_t n, loaded *l)
+{
+    memset(l, 0, sizeof *l);
+    if (n > MAX_FILES) {
+        fprintf(stderr, "sylva-bake: at most %d files\n", MAX_FILES);
+        return 1;
+    }
+    for (size_t i = 0; i < n; i++) {
+        size_t size = 0;
+        void *d = read_all(paths[i], &size);
+        if (!d) {
+            fprintf(stderr, "sylva-bake: cannot read %s: %s\n", paths[i], strerror(errno));
+            return 1;
+        }
+        l->data[i] = d;
+        l->files[i].name = base_name(paths[i]);
+        l->files[i].data = d;
+        l->files[i].size = size;
+        l->count++;
+    }
+    return 0;
+}
+
+static void free_files(loaded *l)
+{
+    for (size_t i = 0; i < l->count; i++) free(l->data[i]);
+}
+
+static void write_error_json(const char *dir, const sv_error *e)
+{
+    if (!dir) return;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/error.json", dir);
+    cJSON *root = cJSON_CreateObject(), *o = cJSON_AddObjectToObject(root, "error");
+    cJSON_AddStringToObject(o, "code", sv_status_code(e->status));
+    cJSON_AddStringToObject(o, "message", e->message);
+    char *s = cJSON_PrintUnformatted(root);
+    FILE *f = fopen(path, "w");
+    if (f && s) {
+        fprintf(f, "%s\n", s);
+    }
+    if (f) fclose(f);
+    free(s);
+    cJSON_Delete(root);
+}
+
+typedef struct progress_ctx {
+    int fd;
+    bool tty;
+} progress_ctx;
+
+static bool on_progress(void *user, const char *stage, double fraction)
+{
+    progress_ctx *p = user;
+    if (p->fd >= 0) {
+        char line[128];
+        int n = snprintf(line, sizeof line, "{\"stage\":\"%s\",\"progress\":%.3f}\n", stage,
+                         fraction);
+        if (n > 0 && write(p->fd, line, (size_t)n) < 0) { /* the reader went away: go on */
+        }
+    }
+    if (p->tty) fprintf(stderr, "\r%-10s %3d%%", stage, (int)(fraction * 100 + 0.5));
+    return true;
+}
+
+static int cmd_info(int argc, char **argv)
+{
+    char *paths[MAX_FILES];
+    size_t n = 0;
+    const char *spec_path = NULL;
+    bool json = false;
+    for (int i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "--json") == 0) json = true;
+        else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
+        else if (argv[i][0] == '-' && argv[i][1] == '-') {
+            fprintf(stderr, "sylva-bake: unknown option %s\n%s", argv[i], usage);
+            return 2;
+        } else if (n < MAX_FILES) paths[n++] = argv[i];
+    }
+    if (n == 0) {
+        fputs(usage, stderr);
+        return 2;
+    }
+    loaded l;
+    if (load_files(paths, n, &l)) {
+        free_files(&l);
+        return 1;
+    }
+    size_t spec_len = 0;
+    char *spec = NULL;
+    if (spec_path && !(spec = read_all(spec_path, &spec_len))) {
+        fprintf(stderr, "sylva-bake: cannot read %s: %s\n", spec_path, strerror(errno));
+        free_files(&l);
+        return 1;
+    }
+    char *out = NULL;
+    sv_error e = {0};
+    sv_status st = sv_pipeline_info(l.files, l.count, spec, spec_len, &out, &e);
+    free(spec);
+    free_files(&l);
+    if (st) {
+        fprintf(stderr, "sylva-bake: %s: %s\n", paths[0], e.message);
+        return 1;
+    }
+    if (json) {
+        printf("%s\n", out);
+    } else {
+        cJSON *j = cJSON_Parse(out);
+        const cJSON *m = cJSON_GetObjectItem(j, "mesh");
+        const cJSON *c = cJSON_GetObjectItem(j, "classification");
+        const cJSON *lv = cJSON_GetObjectItem(j, "leaves");
+        const cJSON *b = cJSON_GetObjectItem(j, "bounds");
+        printf("%s: %s, %d triangles, %d vertices, %d materials\n", paths[0],
+               cJSON_GetStringValue(cJSON_GetObjectItem(j, "format")),
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(m, "triangles")),
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(m, "vertices")),
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(m, "materials")));
+        printf("units: %g m per unit, up %s\n",
+               cJSON_GetNumberValue(cJSON_GetObjectItem(j, "unit_scale")),
+               cJSON_GetStringValue(cJSON_GetObjectItem(j, "up")));
+        const cJSON *mn = cJSON_GetObjectItem(b, "min"), *mx = cJSON_GetObjectItem(b, "max");
+        printf("bounds: [%.4g %.4g %.4g] .. [%.4g %.4g %.4g] m\n",
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mn, 0)),
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mn, 1)),
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mn, 2)),
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mx, 0)),
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mx, 1)),
+               cJSON_GetNumberValue(cJSON_GetArrayItem(mx, 2)));
+        printf("foliage: %d triangles, trunk: %d triangles\n",
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(c, "foliage_triangles")),
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(c, "trunk_triangles")));
+        const cJSON *mat;
+        cJSON_ArrayForEach(mat, cJSON_GetObjectItem(c, "materials"))
+        {
+            printf("  material %-24s %-7s %7d triangles  (%s)\n",
+                   cJSON_GetStringValue(cJSON_GetObjectItem(mat, "name")),
+                   cJSON_GetStringValue(cJSON_GetObjectItem(mat, "part")),
+                   (int)cJSON_GetNumberValue(cJSON_GetObjectItem(mat, "triangles")),
+                   cJSON_GetStringValue(cJSON_GetObjectItem(mat, "reason")));
+        }
+        printf("leaf elements: %d (median area %.4g m², max %.4g m², %d split)\n",
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(lv, "count")),
+               cJSON_GetNumberValue(cJSON_GetObjectItem(lv, "median_area")),
+               cJSON_GetNumberValue(cJSON_GetObjectItem(lv, "max_area")),
+               (int)cJSON_GetNumberValue(cJSON_GetObjectItem(lv, "split")));
+        const cJSON *rep = cJSON_GetObjectItem(j, "repairs");
+        const cJSON *r;
+        cJSON_ArrayForEach(r, rep)
+        {
+            if (cJSON_IsNumber(r) && r->valuedouble > 0)
+                printf("repair: %s %d\n", r->string, (int)r->valuedouble);
+        }
+        const cJSON *w = cJSON_GetObjectItem(j, "warnings");
+        cJSON_ArrayForEach(r, w) printf("warning: %s\n", cJSON_GetStringValue(r));
+        cJSON_Delete(j);
+    }
+    free(out);
+    return 0;
+}
+
+static int cmd_bake(int argc, char **argv)
+{
+    char *paths[MAX_FILES];
+    size_t n = 0;
+    const char *spec_path = NULL, *out_dir = NULL;
+    int progress_fd = -1;
+    bool sandbox = false;
+    for (int i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "--sandbox") == 0) sandbox = true;
+        else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
+        else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
+        else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
+            char *end;
+            long fd = strtol(argv[++i], &end, 10);
+            if (*end || fd < 0 || fd > 65535) {
+                fprintf(stderr, "sylva-bake: --progress-fd: expected a file descriptor\n");
+                return 2;
+            }
+            progress_fd = (int)fd;
+        } else if (argv[i][0] == '-' && argv[i][1] == '-') {
+            fprintf(stderr, "sylva-bake: unknown or incomplete option %s\n%s", argv[i], usage);
+            return 2;
+        } else if (n < MAX_FILES) paths[n++] = argv[i];
+    }
+    if (n == 0 || !out_dir) {
+        fprintf(stderr, "sylva-bake: bake needs MESH and --out DIR\n%s", usage);
+        return 2;
+    }
+    if (mkdir(out_dir, 0755) != 0 && errno != EEXIST) {
+        fprintf(stderr, "sylva-bake: cannot create %s: %s\n", out_dir, strerror(errno));
+        return 1;
+    }
+    sv_error e = {0};
+    /* As early as possible: before the spec and the mesh are read. Libraries
+     * are linked, not dlopen'ed, so nothing later needs a forbidden call, but
+     * for Mesa's on-disk shader cache: it finds its directory with
+     * getpwuid_r, whose NSS lookup opens a socket (nscd), and it would let a
+     * subverted bake plant JIT code for later bakes. Sandboxed bakes go
+     * without it (outputs are the same; llvmpipe compiles its few shaders). */
+    if (sandbox) setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+    if (sandbox && sv_sandbox_enter(&e) != SV_OK) {
+        fprintf(stderr, "sylva-bake: %s\n", e.message);
+        write_error_json(out_dir, &e);
+        return 1;
+    }
+    size_t spec_len = 0;
+    char *spec = NULL;
+    if (spec_path && !(spec = read_all(spec_path, &spec_len))) {
+        sv_fail(&e, SV_ERR_IO, "cannot read %s: %s", spec_path, strerror(errno));
+        fprintf(stderr, "sylva-bake: %s\n", e.message);
+        write_error_json(out_dir, &e);
+        return 1;
+    }
+    loaded l;
+    if (load_files(paths, n, &l)) {
+        free(spec);
+        free_files(&l);
+        return 1;
+    }
+    progress_ctx pc = {progress_fd, isatty(2) && progress_fd < 0};
+    sv_bake_request req = {l.files, l.count, spec, spec_len, out_dir, on_progress, &pc};
+    sv_status st = sv_pipeline_run(&req, &e);
+    if (pc.tty) fputc('\n', stderr);
+    free(spec);
+    free_files(&l);
+    if (st) {
+        fprintf(stderr, "sylva-bake: %s: %s\n", paths[0], e.message);
+        write_error_json(out_dir, &e);
+        return 1;
+    }
+    return 0;
+}
+
+static int cmd_check_spec(int argc, char **argv)
+{
+    if (argc != 1) {
+        fputs(usage, stderr);
+        return 2;
+    }
+    size_t len = 0;
+    char *s = read_all(argv[0], &len);
+    sv_error e = {0};
+    sv_spec spec;
+    sv_status st;
+    if (!s) st = sv_fail(&e, SV_ERR_IO, "cannot read %s: %s", argv[0], strerror(errno));
+    else st = sv_spec_parse(s, len, &spec, &e);
+    free(s);
+    if (st) {
+        printf("{\"error\":{\"code\":\"%s\",\"message\":", sv_status_code(st));
+        cJSON *tmp = cJSON_CreateString(e.message);
+        char *q = cJSON_PrintUnformatted(tmp);
+        printf("%s}}\n", q ? q : "\"\"");
+        free(q);
+        cJSON_Delete(tmp);
+        return 1;
+    }
+    sv_spec_free(&spec);
+    printf("{\"ok\":true}\n");
+    return 0;
+}
+
+/* Testing aid for tests/integration/sandbox_seccomp.sh: enters the sandbox,
+ * shows that an allowed call works (a line on stdout) and that a call off the
+ * list fails with EPERM (personality(2)'s query, which never fails outside
+ * the sandbox), then makes a call of the kill set: socket(AF_INET) (default)
+ * or execve (`exec`). Reaching the end is a failure (exit 1): the process
+ * must die by SIGSYS first. */
+static int cmd_sandbox_selftest(int argc, char **argv)
+{
+    const char *what = argc > 0 ? argv[0] : "socket";
+    if (argc > 1 || (strcmp(what, "socket") != 0 && strcmp(what, "exec") != 0)) {
+        fputs("usage: sylva-bake sandbox-selftest [socket|exec]\n", stderr);
+        return 2;
+    }
+    sv_error e = {0};
+    if (sv_sandbox_enter(&e) != SV_OK) {
+        fprintf(stderr, "sylva-bake: %s\n", e.message);
+        return 1;
+    }
+    printf("allowed: write works\n");
+    errno = 0;
+    int r = personality(0xffffffff);
+    if (r != -1 || errno != EPERM) {
+        printf("eperm: FAILED, personality returned %d (%s)\n", r, strerror(errno));
+        return 1;
+    }
+    printf("eperm: personality failed with EPERM\n");
+    printf("kill: trying %s\n", what);
+    fflush(stdout);
+    if (strcmp(what, "socket") == 0) {
+        int fd = socket(AF_INET, SOCK_STREAM, 0);
+        printf("kill: FAILED, socket returned %d (%s)\n", fd, fd < 0 ? strerror(errno) : "open");
+    } else {
+        char *args[] = {"/bin/true", NULL};
+        execv(args[0], args);
+        printf("kill: FAILED, execv returned (%s)\n", strerror(errno));
+    }
+    return 1;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+        fputs(usage, argc < 2 ? stderr : stdout);
+        return argc < 2 ? 2 : 0;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("sylva-bake %s\n", SV_VERSION);
+        return 0;
+    }
+    if (strcmp(argv[1], "info") == 0) return cmd_info(argc - 2, argv + 2);
+    if (strcmp(argv[1], "bake") == 0) return cmd_bake(argc - 2, argv + 2);
+    if (strcmp(argv[1], "check-spec") == 0) return cmd_check_spec(argc - 2, argv + 2);
+    if (strcmp(argv[1], "sandbox-selftest") == 0) return cmd_sandbox_selftest(argc - 2, argv + 2);
+    fprintf(stderr, "sylva-bake: unknown command '%s'\n%s", argv[1], usage);
+    return 2;
+}

@@ -1,0 +1,593 @@
+/* evaluate.c — accuracy of a stand-in against the original (see evaluate.h).
+ *
+ * Implements issue 3 "Accuracy: what every bake measures" (DESIGN.md, pipeline
+ * step 7): V orthographic views placed by the scene's viewer, supersampled
+ * renders box-filtered to each screen size, coverage IoU Σmin/Σmax, colour
+ * error on premultiplied colour, depth error relative to the bounding radius.
+ * The orbit views are a Fibonacci lattice (Á. González, "Measurement of areas
+ * on a sphere using Fibonacci and latitude–longitude lattices", Math. Geosci.
+ * 2010, §2); ground and aerial views use the same golden-angle azimuths over an
+ * elevation band, uniform in sin(elevation) (equal area per view).
+ */
+#include "evaluate.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DEFAULT_VIEWS 24
+#define DEFAULT_SUPERSAMPLE 4
+static const uint32_t default_sizes[] = {256, 128, 64, 32};
+
+struct sv_evaluator {
+    sv_renderer *r;
+    const sv_gpu_mesh *g;
+    double centre[3], radius;
+    uint32_t view_count, size_count, base;
+    uint32_t sizes[SV_EVAL_MAX_SIZES]; /* descending */
+    sv_render_options ropt;
+    double *dirs;                      /* 3 × view_count */
+    sv_eval_image *orig;               /* view_count × size_count */
+    sv_eval_image full;                /* scratch: one render at base resolution */
+    float *depth;                      /* scratch: base × base depth buffer */
+    sv_eval_image tmp[SV_EVAL_MAX_SIZES]; /* scratch: one subset, per size */
+};
+
+/* ---- view placement and cameras ----------------------------------------- */
+
+void sv_eval_place_views(sv_viewer viewer, uint32_t n, double *dirs)
+{
+    const double golden = M_PI * (3.0 - sqrt(5.0));
+    double y_lo = -1.0, y_hi = 1.0;
+    if (viewer == SV_VIEWER_GROUND) y_lo = 0.0, y_hi = sin(20.0 * M_PI / 180.0);
+    else if (viewer == SV_VIEWER_AERIAL) y_lo = sin(40.0 * M_PI / 180.0), y_hi = 1.0;
+    for (uint32_t i = 0; i < n; i++) {
+        /* Orbit: top to bottom; bands: bottom to top. Both uniform in y = sin(e). */
+        double t = (i + 0.5) / n;
+        double y = viewer == SV_VIEWER_ORBIT ? 1.0 - 2.0 * t : y_lo + (y_hi - y_lo) * t;
+        double rr = sqrt(fmax(0.0, 1.0 - y * y)), phi = golden * i;
+        dirs[3 * i] = rr * cos(phi);
+        dirs[3 * i + 1] = y;
+        dirs[3 * i + 2] = rr * sin(phi);
+    }
+}
+
+static void cross3(const double a[3], const double b[3], double o[3])
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static void normalize3(double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (l > 0) v[0] /= l, v[1] /= l, v[2] /= l;
+}
+
+void sv_eval_camera(const double centre[3], double radius, const double dir[3], sv_camera *cam)
+{
+    /* forward = up × right must equal -dir: right = ref × dir, up = dir × right. */
+    double d[3] = {dir[0], dir[1], dir[2]};
+    normalize3(d);
+    double ref[3] = {0, 1, 0};
+    if (fabs(d[1]) > 0.999) ref[1] = 0, ref[2] = d[1] > 0 ? -1 : 1;
+    memset(cam, 0, sizeof *cam);
+    cross3(ref, d, cam->right);
+    normalize3(cam->right);
+    cross3(d, cam->right, cam->up);
+    normalize3(cam->up);
+    memcpy(cam->origin, centre, sizeof cam->origin);
+    cam->half_width = cam->half_height = radius;
+    cam->near_dist = -1.01 * radius;
+    cam->far_dist = 1.01 * radius;
+}
+
+/* ---- image planes -------------------------------------------------------- */
+
+sv_status sv_eval_image_alloc(sv_eval_image *img, uint32_t w, uint32_t h, sv_error *err)
+{
+    memset(img, 0, sizeof *img);
+    size_t n;
+    if (!w || !h || !sv_mul_size(w, h, &n) || n > SIZE_MAX / (3 * sizeof(float)))
+        return sv_fail(err, SV_ERR_NOMEM, "evaluate: image %ux%u has a bad size", w, h);
+    img->coverage = calloc(n, sizeof(float));
+    img->color = calloc(3 * n, sizeof(float));
+    img->depth = calloc(n, sizeof(float));
+    if (!img->coverage || !img->color || !img->depth) {
+        sv_eval_image_free(img);
+        return sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a %ux%u image", w, h);
+    }
+    img->width = w;
+    img->height = h;
+    return SV_OK;
+}
+
+void sv_eval_image_free(sv_eval_image *img)
+{
+    if (!img) return;
+    free(img->coverage);
+    free(img->color);
+    free(img->depth);
+    memset(img, 0, sizeof *img);
+}
+
+static void image_zero(sv_eval_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    memset(img->coverage, 0, n * sizeof(float));
+    memset(img->color, 0, 3 * n * sizeof(float));
+    memset(img->depth, 0, n * sizeof(float));
+}
+
+/* Fills `out` (already sized like rgba) from a render. */
+static sv_status from_render_into(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                                  sv_error *err)
+{
+    if (rgba->channels != 4 || rgba->bits != 8 || rgba->width != out->width ||
+        rgba->height != out->height || !rgba->data)
+        return sv_fail(err, SV_ERR_INTERNAL, "evaluate: render is not RGBA8 of %ux%u",
+                       out->width, out->height);
+    size_t n = (size_t)out->width * out->height;
+    const uint8_t *p = rgba->data;
+    for (size_t i = 0; i < n; i++, p += 4) {
+        bool on = p[3] >= 128;
+        out->coverage[i] = on ? 1.0f : 0.0f;
+        for (int k = 0; k < 3; k++) out->color[3 * i + k] = on ? p[k] / 255.0f : 0.0f;
+        float z = depth && on && isfinite(depth[i]) ? depth[i] : 0.0f;
+        out->depth[i] = z;
+    }
+    return SV_OK;
+}
+
+sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth,
+                                    sv_eval_image *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    sv_status st = sv_eval_image_alloc(out, rgba->width, rgba->height, err);
+    if (st == SV_OK && (st = from_render_into(rgba, depth, out, err)) != SV_OK)
+        sv_eval_image_free(out);
+    return st;
+}
+
+/* Area weights of a 1-D box filter from n source pixels to m output pixels:
+ * output j covers source interval [j·n/m, (j+1)·n/m). first[j] is the first
+ * source index, and w[j·span .. ] the weights (normalised to sum 1). */
+typedef struct box1d {
+    uint32_t span;
+    uint32_t *first;
+    double *w;
+} box1d;
+
+static bool box1d_make(uint32_t n, uint32_t m, box1d *b)
+{
+    double s = (double)n / m;
+    b->span = (uint32_t)ceil(s) + 1;
+    b->first = calloc(m, sizeof *b->first);
+    b->w = calloc((size_t)m * b->span, sizeof *b->w);
+    if (!b->first || !b->w) return false;
+    for (uint32_t j = 0; j < m; j++) {
+        double lo = j * s, hi = (j + 1) * s;
+        uint32_t i0 = (uint32_t)floor(lo);
+        b->first[j] = i0;
+        for (uint32_t k = 0; k < b->span; k++) {
+            uint32_t i = i0 + k;
+            if (i >= n) break;
+            double ov = fmin(hi, i + 1.0) - fmax(lo, (double)i);
+            b->w[(size_t)j * b->span + k] = ov > 0 ? ov / s : 0.0;
+        }
+    }
+    return true;
+}
+
+static void box1d_free(box1d *b)
+{
+    free(b->first);
+    free(b->w);
+}
+
+/* Filters one plane with `ch` interleaved channels: src W×H → dst w×h, through
+ * tmp (w×H×ch doubles). */
+static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, uint32_t w,
+                         uint32_t h, uint32_t ch, const box1d *bx, const box1d *by, double *tmp)
+{
+    for (uint32_t y = 0; y < H; y++) {
+        const float *row = src + (size_t)y * W * ch;
+        for (uint32_t x = 0; x < w; x++) {
+            const double *wt = &bx->w[(size_t)x * bx->span];
+            uint32_t i0 = bx->first[x];
+            for (uint32_t c = 0; c < ch; c++) {
+                double acc = 0;
+                for (uint32_t k = 0; k < bx->span && i0 + k < W; k++)
+                    acc += wt[k] * row[(size_t)(i0 + k) * ch + c];
+                tmp[((size_t)y * w + x) * ch + c] = acc;
+            }
+        }
+    }
+    for (uint32_t y = 0; y < h; y++) {
+        const double *wt = &by->w[(size_t)y * by->span];
+        uint32_t i0 = by->first[y];
+        for (uint32_t x = 0; x < w; x++)
+            for (uint32_t c = 0; c < ch; c++) {
+                double acc = 0;
+                for (uint32_t k = 0; k < by->span && i0 + k < H; k++)
+                    acc += wt[k] * tmp[((size_t)(i0 + k) * w + x) * ch + c];
+                dst[((size_t)y * w + x) * ch + c] = (float)acc;
+            }
+    }
+}
+
+/* Box-filters src into out (already allocated at its target size). */
+static sv_status downsample_into(const sv_eval_image *src, sv_eval_image *out, sv_error *err)
+{
+    uint32_t W = src->width, H = src->height, w = out->width, h = out->height;
+    box1d bx = {0}, by = {0};
+    size_t n;
+    double *tmp = NULL;
+    sv_status st = SV_OK;
+    if (!sv_mul_size((size_t)w * 3, H, &n) || !(tmp = sv_calloc(n, sizeof *tmp)) ||
+        !box1d_make(W, w, &bx) || !box1d_make(H, h, &by)) {
+        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot filter %ux%u to %ux%u", W, H, w, h);
+        goto out;
+    }
+    filter_plane(src->coverage, W, H, out->coverage, w, h, 1, &bx, &by, tmp);
+    filter_plane(src->color, W, H, out->color, w, h, 3, &bx, &by, tmp);
+    filter_plane(src->depth, W, H, out->depth, w, h, 1, &bx, &by, tmp);
+out:
+    free(tmp);
+    box1d_free(&bx);
+    box1d_free(&by);
+    return st;
+}
+
+sv_status sv_eval_image_downsample(const sv_eval_image *src, uint32_t w, uint32_t h,
+                                   sv_eval_image *out, sv_error *err)
+{
+    sv_status st = sv_eval_image_alloc(out, w, h, err);
+    if (st == SV_OK && (st = downsample_into(src, out, err)) != SV_OK) sv_eval_image_free(out);
+    return st;
+}
+
+void sv_eval_image_accumulate(sv_eval_image *dst, const sv_eval_image *src, double weight)
+{
+    size_t n = (size_t)dst->width * dst->height;
+    float wf = (float)weight;
+    for (size_t i = 0; i < n; i++) {
+        dst->coverage[i] += wf * src->coverage[i];
+        dst->depth[i] += wf * src->depth[i];
+    }
+    for (size_t i = 0; i < 3 * n; i++) dst->color[i] += wf * src->color[i];
+}
+
+sv_eval_metrics sv_eval_compare(const sv_eval_image *a, const sv_eval_image *b, double radius)
+{
+    size_t n = (size_t)a->width * a->height;
+    double smin = 0, smax = 0, cerr = 0, dsum = 0;
+    size_t covered = 0;
+    for (size_t i = 0; i < n; i++) {
+        double ca = a->coverage[i], cb = b->coverage[i];
+        double lo = fmin(ca, cb), hi = fmax(ca, cb);
+        smin += lo;
+        smax += hi;
+        if (hi > 0) {
+            double e = 0;
+            for (int k = 0; k < 3; k++) e += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
+            cerr += e / 3.0;
+            covered++;
+        }
+        if (lo > 0) {
+            double za = a->depth[i] / ca, zb = b->depth[i] / cb;
+            dsum += lo * fabs(za - zb);
+        }
+    }
+    sv_eval_metrics m;
+    m.iou = smax > 0 ? smin / smax : 1.0;
+    m.color_error = covered ? cerr / (double)covered : 0.0;
+    m.depth_error = smin > 0 && radius > 0 ? dsum / smin / radius : 0.0;
+    return m;
+}
+
+/* ---- the evaluator ------------------------------------------------------- */
+
+void sv_eval_result_free(sv_eval_result *r)
+{
+    if (!r) return;
+    free(r->per_view);
+    memset(r, 0, sizeof *r);
+}
+
+uint32_t sv_evaluator_view_count(const sv_evaluator *e) { return e->view_count; }
+
+void sv_evaluator_view_dir(const sv_evaluator *e, uint32_t view, double dir[3])
+{
+    memcpy(dir, &e->dirs[3 * (size_t)view], 3 * sizeof(double));
+}
+
+void sv_evaluator_destroy(sv_evaluator *e)
+{
+    if (!e) return;
+    if (e->orig)
+        for (size_t i = 0; i < (size_t)e->view_count * e->size_count; i++)
+            sv_eval_image_free(&e->orig[i]);
+    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&e->tmp[s]);
+    sv_eval_image_free(&e->full);
+    free(e->depth);
+    free(e->orig);
+    free(e->dirs);
+    free(e);
+}
+
+/* Renders triangles tris of g from view v at base resolution and filters the
+ * render to every size into out[0..size_count). A box filter by an integer
+ * factor of a box filter by an integer factor is the box filter by their
+ * product, so each size is filtered from the smallest larger image it divides
+ * (exact, and much cheaper than filtering the base image every time). */
+static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
+                             uint32_t tri_count, uint32_t v, sv_eval_image *out, sv_error *err)
+{
+    sv_camera cam;
+    sv_eval_camera(e->centre, e->radius, &e->dirs[3 * (size_t)v], &cam);
+    sv_image color = {0};
+    sv_status st = sv_render(e->r, g, tris, tri_count, &cam, &e->ropt, e->base, e->base, &color,
+                             e->depth, err);
+    if (st == SV_OK) st = from_render_into(&color, e->depth, &e->full, err);
+    for (uint32_t s = 0; st == SV_OK && s < e->size_count; s++) {
+        const sv_eval_image *src = &e->full;
+        for (uint32_t p = s; p-- > 0;)
+            if (e->base % out[p].width == 0 && out[p].width % e->sizes[s] == 0) {
+                src = &out[p];
+                break;
+            }
+        st = downsample_into(src, &out[s], err);
+    }
+    sv_image_free(&color);
+    return st;
+}
+
+static int cmp_desc(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x < y) - (x > y);
+}
+
+sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_gpu_mesh *g,
+                              const sv_eval_options *opt, sv_evaluator **out, sv_error *err)
+{
+    *out = NULL;
+    sv_eval_options o = {0};
+    if (opt) o = *opt;
+    if (o.size_count > SV_EVAL_MAX_SIZES)
+        return sv_fail(err, SV_ERR_INVALID, "evaluate: %u sizes asked, at most %d", o.size_count,
+                       SV_EVAL_MAX_SIZES);
+    if (o.size_count == 0) {
+        o.size_count = sizeof default_sizes / sizeof *default_sizes;
+        memcpy(o.sizes, default_sizes, sizeof default_sizes);
+    }
+    qsort(o.sizes, o.size_count, sizeof *o.sizes, cmp_desc);
+    for (uint32_t s = 0; s < o.size_count; s++)
+        if (o.sizes[s] == 0 || (s && o.sizes[s] == o.sizes[s - 1]))
+            return sv_fail(err, SV_ERR_INVALID, "evaluate: screen sizes must be positive and distinct");
+    if (!o.view_count) o.view_count = DEFAULT_VIEWS;
+    if (o.view_count > 4096)
+        return sv_fail(err, SV_ERR_INVALID, "evaluate: %u views asked, at most 4096", o.view_count);
+    if (!o.supersample) o.supersample = DEFAULT_SUPERSAMPLE;
+    uint32_t rmax = sv_renderer_max_size(r);
+    if (o.sizes[0] > rmax)
+        return sv_fail(err, SV_ERR_INVALID, "evaluate: size %u exceeds the renderer's maximum %u",
+                       o.sizes[0], rmax);
+    if (o.supersample > rmax / o.sizes[0]) o.supersample = rmax / o.sizes[0];
+
+    double mn[3], mx[3];
+    if (!sv_mesh_bounds(original, mn, mx))
+        return sv_fail(err, SV_ERR_INVALID, "evaluate: the original mesh is empty");
+    sv_evaluator *e = calloc(1, sizeof *e);
+    if (!e) return sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+    e->r = r;
+    e->g = g;
+    sv_mesh_sphere(original, e->centre, &e->radius);
+    if (!(e->radius > 0)) e->radius = 1.0; /* a single point: any frame will do */
+    e->view_count = o.view_count;
+    e->size_count = o.size_count;
+    memcpy(e->sizes, o.sizes, sizeof e->sizes);
+    e->base = o.sizes[0] * o.supersample;
+    e->ropt = o.render;
+    sv_status st = SV_OK;
+    e->dirs = sv_calloc(e->view_count, 3 * sizeof(double));
+    e->orig = sv_calloc((size_t)e->view_count * e->size_count, sizeof(sv_eval_image));
+    if (!e->dirs || !e->orig) {
+        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+        goto out;
+    }
+    sv_eval_place_views(o.viewer, e->view_count, e->dirs);
+    if ((st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
+    if (!(e->depth = sv_calloc((size_t)e->base * e->base, sizeof *e->depth))) {
+        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a depth buffer");
+        goto out;
+    }
+    for (uint32_t s = 0; s < e->size_count; s++)
+        if ((st = sv_eval_image_alloc(&e->tmp[s], e->sizes[s], e->sizes[s], err)) != SV_OK)
+            goto out;
+    for (uint32_t v = 0; v < e->view_count; v++) {
+        sv_eval_image *row = &e->orig[(size_t)v * e->size_count];
+        for (uint32_t s = 0; s < e->size_count; s++)
+            if ((st = sv_eval_image_alloc(&row[s], e->sizes[s], e->sizes[s], err)) != SV_OK)
+                goto out;
+        if ((st = render_view(e, g, NULL, 0, v, row, err)) != SV_OK) goto out;
+    }
+out:
+    if (st != SV_OK) sv_evaluator_destroy(e);
+    else *out = e;
+    return st;
+}
+
+/* Renders the result from view v (blending subsets) into acc[0..size_count). */
+static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                               void *user, uint32_t v, sv_eval_image *acc, sv_error *err)
+{
+    if (!fn) return render_view(e, result, NULL, 0, v, acc, err);
+    sv_eval_subset sub[SV_EVAL_MAX_SUBSETS];
+    memset(sub, 0, sizeof sub);
+    uint32_t count = 0;
+    sv_status st = fn(user, &e->dirs[3 * (size_t)v], sub, &count, err);
+    if (st != SV_OK) return st;
+    double wsum = 0;
+    for (uint32_t k = 0; k < count && k < SV_EVAL_MAX_SUBSETS; k++) {
+        if (!(sub[k].weight >= 0)) count = 0;
+        wsum += sub[k].weight;
+    }
+    if (count < 1 || count > SV_EVAL_MAX_SUBSETS || fabs(wsum - 1.0) > 1e-6)
+        return sv_fail(err, SV_ERR_INVALID,
+                       "evaluate: view %u: subset callback gave %u subsets with weights summing "
+                       "to %g (need 1..%d, non-negative, sum 1)", v, count, wsum,
+                       SV_EVAL_MAX_SUBSETS);
+    for (uint32_t s = 0; s < e->size_count; s++) image_zero(&acc[s]);
+    for (uint32_t k = 0; k < count; k++) {
+        if (sub[k].weight == 0) continue;
+        if (sub[k].tris && sub[k].tri_count == 0) continue; /* an empty subset draws nothing */
+        if ((st = render_view(e, result, sub[k].tris, sub[k].tri_count, v, e->tmp, err)) != SV_OK)
+            return st;
+        for (uint32_t s = 0; s < e->size_count; s++)
+            sv_eval_image_accumulate(&acc[s], &e->tmp[s], sub[k].weight);
+    }
+    return SV_OK;
+}
+
+static sv_status alloc_sizes(const sv_evaluator *e, sv_eval_image *imgs, sv_error *err)
+{
+    for (uint32_t s = 0; s < e->size_count; s++) {
+        sv_status st = sv_eval_image_alloc(&imgs[s], e->sizes[s], e->sizes[s], err);
+        if (st != SV_OK) return st;
+    }
+    return SV_OK;
+}
+
+sv_status sv_evaluate_subsets(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                              void *user, sv_eval_result *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    double t0 = sv_now();
+    sv_eval_image acc[SV_EVAL_MAX_SIZES];
+    memset(acc, 0, sizeof acc);
+    sv_status st = SV_OK;
+    out->per_view = sv_calloc((size_t)e->view_count * e->size_count, sizeof *out->per_view);
+    if (!out->per_view) {
+        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+        goto out;
+    }
+    if ((st = alloc_sizes(e, acc, err)) != SV_OK) goto out;
+    out->view_count = e->view_count;
+    out->size_count = e->size_count;
+    for (uint32_t s = 0; s < e->size_count; s++) {
+        out->sizes[s].pixels = e->sizes[s];
+        out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
+    }
+    for (uint32_t v = 0; v < e->view_count; v++) {
+        if ((st = render_result(e, result, fn, user, v, acc, err)) != SV_OK) goto out;
+        for (uint32_t s = 0; s < e->size_count; s++) {
+            sv_eval_metrics m =
+                sv_eval_compare(&e->orig[(size_t)v * e->size_count + s], &acc[s], e->radius);
+            out->per_view[(size_t)v * e->size_count + s] = m;
+            sv_eval_size *z = &out->sizes[s];
+            z->mean.iou += m.iou / e->view_count;
+            z->mean.color_error += m.color_error / e->view_count;
+            z->mean.depth_error += m.depth_error / e->view_count;
+            z->worst.iou = fmin(z->worst.iou, m.iou);
+            z->worst.color_error = fmax(z->worst.color_error, m.color_error);
+            z->worst.depth_error = fmax(z->worst.depth_error, m.depth_error);
+        }
+    }
+    out->seconds = sv_now() - t0;
+out:
+    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
+    if (st != SV_OK) sv_eval_result_free(out);
+    return st;
+}
+
+sv_status sv_evaluate(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_result *out,
+                      sv_error *err)
+{
+    return sv_evaluate_subsets(e, result, NULL, NULL, out, err);
+}
+
+/* ---- preview ------------------------------------------------------------- */
+
+static uint8_t to8(double x)
+{
+    if (!(x > 0)) return 0;
+    if (x >= 1) return 255;
+    return (uint8_t)lrint(x * 255.0);
+}
+
+/* Writes tile (T×T) of an eval image over grey at (x0, y0) of the RGB8 canvas. */
+static void paint_tile(sv_image *canvas, const sv_eval_image *img, uint32_t x0, uint32_t y0)
+{
+    size_t stride = sv_image_stride(canvas);
+    for (uint32_t y = 0; y < img->height; y++)
+        for (uint32_t x = 0; x < img->width; x++) {
+            size_t i = (size_t)y * img->width + x;
+            uint8_t *p = (uint8_t *)canvas->data + (size_t)(y0 + y) * stride + (size_t)(x0 + x) * 3;
+            double bg = 0.5 * (1.0 - img->coverage[i]);
+            for (int k = 0; k < 3; k++) p[k] = to8(img->color[3 * i + k] + bg);
+        }
+}
+
+static void paint_heat(sv_image *canvas, const sv_eval_image *a, const sv_eval_image *b,
+                       uint32_t x0, uint32_t y0)
+{
+    size_t stride = sv_image_stride(canvas);
+    for (uint32_t y = 0; y < a->height; y++)
+        for (uint32_t x = 0; x < a->width; x++) {
+            size_t i = (size_t)y * a->width + x;
+            uint8_t *p = (uint8_t *)canvas->data + (size_t)(y0 + y) * stride + (size_t)(x0 + x) * 3;
+            double dc = fabs((double)a->coverage[i] - b->coverage[i]), de = 0;
+            for (int k = 0; k < 3; k++) de += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
+            /* colour where both are covered (edges are coverage, shown red);
+             * colour differences are small: amplify */
+            de = fmin(1.0, 4.0 * de / 3.0 * fmin(a->coverage[i], b->coverage[i]));
+            p[0] = to8(fmax(dc, de));
+            p[1] = to8(de);
+            p[2] = 0;
+        }
+}
+
+sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result,
+                               sv_eval_subset_fn fn, void *user, const char *png_path,
+                               sv_error *err)
+{
+    const uint32_t rows = 4, t = e->sizes[0];
+    sv_image canvas = {0};
+    sv_eval_image acc[SV_EVAL_MAX_SIZES];
+    memset(acc, 0, sizeof acc);
+    sv_status st = sv_image_alloc(&canvas, 3 * t, rows * t, 3, 8, err);
+    if (st == SV_OK) st = alloc_sizes(e, acc, err);
+    for (uint32_t row = 0; st == SV_OK && row < rows; row++) {
+        uint32_t v = (uint32_t)((uint64_t)row * e->view_count / rows);
+        if ((st = render_result(e, result, fn, user, v, acc, err)) != SV_OK) break;
+        const sv_eval_image *o = &e->orig[(size_t)v * e->size_count];
+        paint_tile(&canvas, o, 0, row * t);
+        paint_tile(&canvas, &acc[0], t, row * t);
+        paint_heat(&canvas, o, &acc[0], 2 * t, row * t);
+    }
+    if (st == SV_OK) st = sv_image_write_png(&canvas, png_path, err);
+    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
+    sv_image_free(&canvas);
+    return st;
+}
+
+/* ---- LOD switching ------------------------------------------------------- */
+
+double sv_eval_max_pixels(const sv_eval_result *r, double min_iou)
+{
+    if (!r || r->size_count == 0) return 0.0;
+    /* sizes are largest first: walk up from the smallest. */
+    int last = (int)r->size_count - 1;
+    if (r->sizes[last].mean.iou < min_iou) return 0.0;
+    for (int s = last - 1; s >= 0; s--) {
+        const sv_eval_size *pass = &r->sizes[s + 1], *fail = &r->sizes[s];
+        if (fail->mean.iou >= min_iou) continue;
+        double t = (pass->mean.iou - min_iou) / (pass->mean.iou - fail->mean.iou);
+        double l0 = log2((double)pass->pixels), l1 = log2((double)fail->pixels);
+        return exp2(l0 + t * (l1 - l0));
+    }
+    return (double)r->sizes[0].pixels;
+}

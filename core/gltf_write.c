@@ -1,0 +1,707 @@
+/* gltf_write.c — glTF 2.0 binary writer with an MSFT_lod chain.
+ *
+ * Implements the Khronos glTF 2.0 specification (§3.6 buffers/bufferViews/
+ * accessors, §3.7 meshes, §3.9 materials, §4.4 GLB container) and the MSFT_lod
+ * vendor extension (node-level LODs, extras.MSFT_screencoverage). See gltf.h.
+ *
+ * The JSON is built with cJSON (insertion-ordered, so output is deterministic)
+ * and every binary piece is appended to one buffer at 4-byte aligned offsets.
+ */
+#include "gltf.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define GLB_MAGIC 0x46546C67u      /* "glTF" */
+#define GLB_CHUNK_JSON 0x4E4F534Au /* "JSON" */
+#define GLB_CHUNK_BIN 0x004E4942u  /* "BIN\0" */
+#define GL_FLOAT 5126
+#define GL_UNSIGNED_SHORT 5123
+#define GL_UNSIGNED_INT 5125
+#define GL_ARRAY_BUFFER 34962
+#define GL_ELEMENT_ARRAY_BUFFER 34963
+
+/* One distinct image stored in the file, with the texture that samples it. */
+typedef struct unique_image {
+    const sv_image *img;
+    uint64_t hash;
+    int texture;
+} unique_image;
+
+typedef struct writer {
+    cJSON *root;
+    cJSON *nodes, *meshes, *materials, *textures, *images, *accessors, *views;
+    uint8_t *bin;
+    size_t bin_len, bin_cap;
+    cJSON *samplers;
+    unique_image *uniq;
+    size_t uniq_count, uniq_cap;
+    sv_error *err;
+    sv_status last; /* status of the last failure, for helpers that return an index */
+} writer;
+
+static sv_status nomem(writer *w)
+{
+    return w->last = sv_fail(w->err, SV_ERR_NOMEM, "glTF writer: out of memory");
+}
+
+/* Appends size bytes (data may be NULL for zeros), padding the buffer to a
+ * multiple of 4 afterwards so every buffer view starts 4-byte aligned. */
+static sv_status bin_append(writer *w, const void *data, size_t size, size_t *offset)
+{
+    size_t padded = (size + 3) & ~(size_t)3;
+    if (padded < size || w->bin_len > SIZE_MAX - padded) return nomem(w);
+    size_t need = w->bin_len + padded;
+    if (need > 0xFFFFFFF0u)
+        return w->last = sv_fail(w->err, SV_ERR_LIMIT, "glTF writer: binary chunk would exceed 4 GiB");
+    if (need > w->bin_cap) {
+        size_t cap = w->bin_cap ? w->bin_cap : 4096;
+        while (cap < need) cap *= 2;
+        uint8_t *nb = realloc(w->bin, cap);
+        if (!nb) return nomem(w);
+        w->bin = nb;
+        w->bin_cap = cap;
+    }
+    *offset = w->bin_len;
+    if (size) {
+        if (data) memcpy(w->bin + w->bin_len, data, size);
+        else memset(w->bin + w->bin_len, 0, size);
+    }
+    memset(w->bin + w->bin_len + size, 0, padded - size);
+    w->bin_len = need;
+    return SV_OK;
+}
+
+static bool add_int(cJSON *obj, const char *key, double v)
+{
+    return cJSON_AddNumberToObject(obj, key, v) != NULL;
+}
+
+/* Adds a buffer view over bytes already appended; returns its index or -1. */
+static int add_view(writer *w, size_t offset, size_t length, int target)
+{
+    cJSON *v = cJSON_CreateObject();
+    if (!v) return -1;
+    bool ok = add_int(v, "buffer", 0) && add_int(v, "byteOffset", (double)offset) &&
+              add_int(v, "byteLength", (double)length);
+    if (ok && target) ok = add_int(v, "target", target);
+    if (!ok) {
+        cJSON_Delete(v);
+        return -1;
+    }
+    cJSON_AddItemToArray(w->views, v);
+    return cJSON_GetArraySize(w->views) - 1;
+}
+
+static const char *type_name(uint32_t components)
+{
+    static const char *const names[5] = {NULL, "SCALAR", "VEC2", "VEC3", "VEC4"};
+    return components <= 4 ? names[components] : NULL;
+}
+
+/* Appends data as a new buffer view + accessor; returns accessor index or -1
+ * (error already recorded in w->err). min/max (may be NULL) have `components`
+ * entries each. */
+static int add_accessor(writer *w, const void *data, size_t bytes, int component_type,
+                        size_t count, uint32_t components, int target, const double *mn,
+                        const double *mx)
+{
+    size_t off;
+    if (bin_append(w, data, bytes, &off) != SV_OK) return -1;
+    int view = add_view(w, off, bytes, target);
+    cJSON *a = view < 0 ? NULL : cJSON_CreateObject();
+    if (!a) {
+        nomem(w);
+        return -1;
+    }
+    bool ok = add_int(a, "bufferView", view) && add_int(a, "componentType", component_type) &&
+              add_int(a, "count", (double)count) &&
+              cJSON_AddStringToObject(a, "type", type_name(components)) != NULL;
+    if (ok && mn && mx) {
+        cJSON *jmn = cJSON_AddArrayToObject(a, "min");
+        cJSON *jmx = cJSON_AddArrayToObject(a, "max");
+        ok = jmn && jmx;
+        for (uint32_t k = 0; ok && k < components; k++) {
+            cJSON *x = cJSON_CreateNumber(mn[k]), *y = cJSON_CreateNumber(mx[k]);
+            ok = x && y;
+            if (x) cJSON_AddItemToArray(jmn, x);
+            if (y) cJSON_AddItemToArray(jmx, y);
+        }
+    }
+    if (!ok) {
+        cJSON_Delete(a);
+        nomem(w);
+        return -1;
+    }
+    cJSON_AddItemToArray(w->accessors, a);
+    return cJSON_GetArraySize(w->accessors) - 1;
+}
+
+/* Shortest decimal that reads back as the same float, so material factors read
+ * as 0.8 rather than 0.800000011920929. Deterministic. */
+static double short_float(float f)
+{
+    char buf[32];
+    for (int prec = 6; prec <= 9; prec++) {
+        snprintf(buf, sizeof buf, "%.*g", prec, (double)f);
+        double d = strtod(buf, NULL);
+        if ((float)d == f) return d;
+    }
+    return (double)f;
+}
+
+/* FNV-1a over the image header and pixels: a dedup key only (collisions are
+ * resolved by comparing bytes). */
+static uint64_t image_hash(const sv_image *img, size_t bytes)
+{
+    uint64_t h = 1469598103934665603ull;
+    uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
+    const uint8_t *p = (const uint8_t *)head;
+    for (size_t i = 0; i < sizeof head; i++) h = (h ^ p[i]) * 1099511628211ull;
+    p = img->data;
+    for (size_t i = 0; i < bytes; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+static bool image_bytes(const sv_image *img, size_t *bytes)
+{
+    size_t n;
+    return img->bits % 8 == 0 && sv_mul_size(img->width, img->height, &n) &&
+           sv_mul_size(n, (size_t)img->channels * (img->bits / 8), bytes);
+}
+
+/* Returns the texture index for image `img` (adding image, texture and the
+ * shared sampler on first use), or -1 with w->err set. */
+static int texture_for(writer *w, const sv_image *img)
+{
+    size_t bytes;
+    if (!img->data || !img->width || !img->height || img->channels < 1 || img->channels > 4 ||
+        (img->bits != 8 && img->bits != 16) || !image_bytes(img, &bytes)) {
+        w->last = sv_fail(w->err, SV_ERR_INVALID,
+                          "glTF writer: a material refers to an empty or malformed image");
+        return -1;
+    }
+    uint64_t h = image_hash(img, bytes);
+    for (size_t i = 0; i < w->uniq_count; i++) {
+        const sv_image *o = w->uniq[i].img;
+        if (w->uniq[i].hash == h && o->width == img->width && o->height == img->height &&
+            o->channels == img->channels && o->bits == img->bits &&
+            memcmp(o->data, img->data, bytes) == 0)
+            return w->uniq[i].texture;
+    }
+    if (w->uniq_count == w->uniq_cap) {
+        size_t cap = w->uniq_cap ? 2 * w->uniq_cap : 8;
+        unique_image *nu = realloc(w->uniq, cap * sizeof *nu);
+        if (!nu) {
+            nomem(w);
+            return -1;
+        }
+        w->uniq = nu;
+        w->uniq_cap = cap;
+    }
+    uint8_t *png = NULL;
+    size_t png_size = 0;
+    if ((w->last = sv_image_encode_png(img, &png, &png_size, w->err)) != SV_OK) return -1;
+    size_t off;
+    sv_status st = bin_append(w, png, png_size, &off);
+    free(png);
+    if (st != SV_OK) return -1;
+    int view = add_view(w, off, png_size, 0);
+    cJSON *ji = view < 0 ? NULL : cJSON_CreateObject();
+    cJSON *jt = cJSON_CreateObject();
+    if (cJSON_GetArraySize(w->samplers) == 0) {
+        cJSON *s = cJSON_CreateObject();
+        if (!s || !add_int(s, "magFilter", 9729) /* LINEAR */ ||
+            !add_int(s, "minFilter", 9987) /* LINEAR_MIPMAP_LINEAR */) {
+            cJSON_Delete(s);
+            jt = (cJSON_Delete(jt), NULL);
+        } else {
+            cJSON_AddItemToArray(w->samplers, s);
+        }
+    }
+    if (!ji || !jt || !add_int(ji, "bufferView", view) ||
+        !cJSON_AddStringToObject(ji, "mimeType", "image/png") || !add_int(jt, "sampler", 0) ||
+        !add_int(jt, "source", cJSON_GetArraySize(w->images))) {
+        cJSON_Delete(ji);
+        cJSON_Delete(jt);
+        nomem(w);
+        return -1;
+    }
+    cJSON_AddItemToArray(w->images, ji);
+    cJSON_AddItemToArray(w->textures, jt);
+    int tex = cJSON_GetArraySize(w->textures) - 1;
+    w->uniq[w->uniq_count++] = (unique_image){img, h, tex};
+    return tex;
+}
+
+static bool add_texture_ref(cJSON *obj, const char *key, int tex)
+{
+    cJSON *t = cJSON_AddObjectToObject(obj, key);
+    return t && add_int(t, "index", tex);
+}
+
+/* Returns the glTF material index for material mi of mesh (identical materials
+ * are shared), or -1 with w->err set. */
+static int material_for(writer *w, const sv_mesh *mesh, uint32_t mi)
+{
+    const sv_material *m = &mesh->materials[mi];
+    int32_t refs[3] = {m->base_texture, m->normal_texture, m->occlusion_texture};
+    int tex[3];
+    for (int k = 0; k < 3; k++) {
+        tex[k] = -1;
+        if (refs[k] < 0) continue;
+        if ((uint32_t)refs[k] >= mesh->image_count) {
+            w->last = sv_fail(w->err, SV_ERR_INVALID,
+                              "glTF writer: material '%s' refers to image %d of %u", m->name,
+                              (int)refs[k], mesh->image_count);
+            return -1;
+        }
+        tex[k] = texture_for(w, &mesh->images[refs[k]]);
+        if (tex[k] < 0) return -1;
+    }
+    cJSON *j = cJSON_CreateObject();
+    bool ok = j != NULL;
+    if (ok && m->name[0]) ok = cJSON_AddStringToObject(j, "name", m->name) != NULL;
+    cJSON *pbr = ok ? cJSON_AddObjectToObject(j, "pbrMetallicRoughness") : NULL;
+    ok = pbr != NULL;
+    cJSON *bc = ok ? cJSON_AddArrayToObject(pbr, "baseColorFactor") : NULL;
+    ok = bc != NULL;
+    for (int k = 0; ok && k < 4; k++) {
+        float c = m->base_color[k];
+        if (!(c >= 0.0f)) c = 0.0f; /* also NaN */
+        if (c > 1.0f) c = 1.0f;
+        cJSON *x = cJSON_CreateNumber(short_float(c));
+        ok = x != NULL;
+        if (x) cJSON_AddItemToArray(bc, x);
+    }
+    if (ok && tex[0] >= 0) ok = add_texture_ref(pbr, "baseColorTexture", tex[0]);
+    if (ok) ok = add_int(pbr, "metallicFactor", 0) && add_int(pbr, "roughnessFactor", 1);
+    if (ok && tex[1] >= 0) ok = add_texture_ref(j, "normalTexture", tex[1]);
+    if (ok && tex[2] >= 0) ok = add_texture_ref(j, "occlusionTexture", tex[2]);
+    if (ok) {
+        const char *mode = m->alpha_mode == SV_ALPHA_MASK    ? "MASK"
+                           : m->alpha_mode == SV_ALPHA_BLEND ? "BLEND"
+                                                             : "OPAQUE";
+        ok = cJSON_AddStringToObject(j, "alphaMode", mode) != NULL;
+        if (ok && m->alpha_mode == SV_ALPHA_MASK) {
+            float c = m->alpha_cutoff;
+            if (!(c >= 0.0f)) c = 0.5f;
+            ok = cJSON_AddNumberToObject(j, "alphaCutoff", short_float(c)) != NULL;
+        }
+    }
+    if (ok && m->double_sided) ok = cJSON_AddTrueToObject(j, "doubleSided") != NULL;
+    if (ok && m->unlit) { /* baked static light: engines must not light it again */
+        cJSON *ext = cJSON_AddObjectToObject(j, "extensions");
+        ok = ext && cJSON_AddObjectToObject(ext, "KHR_materials_unlit") != NULL;
+    }
+    if (!ok) {
+        cJSON_Delete(j);
+        nomem(w);
+        return -1;
+    }
+    int n = cJSON_GetArraySize(w->materials);
+    for (int i = 0; i < n; i++)
+        if (cJSON_Compare(cJSON_GetArrayItem(w->materials, i), j, true)) {
+            cJSON_Delete(j);
+            return i;
+        }
+    cJSON_AddItemToArray(w->materials, j);
+    return n;
+}
+
+/* Checks what the file needs to be valid: indices and material ids in range,
+ * finite positions, well-formed extra attributes. */
+static sv_status check_lod(const sv_gltf_lod *l, uint32_t i, sv_error *err)
+{
+    const sv_mesh *m = l->mesh;
+    if (!m) return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u has no mesh", i);
+    if (m->triangle_count && (!m->indices || !m->tri_material || !m->positions))
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u mesh lacks arrays", i);
+    for (size_t t = 0; t < (size_t)m->triangle_count; t++) {
+        for (int k = 0; k < 3; k++)
+            if (m->indices[3 * t + k] >= m->vertex_count)
+                return sv_fail(err, SV_ERR_INVALID,
+                               "glTF writer: LOD %u triangle %zu uses vertex %u of %u", i, t,
+                               m->indices[3 * t + k], m->vertex_count);
+        if (m->tri_material[t] >= m->material_count)
+            return sv_fail(err, SV_ERR_INVALID,
+                           "glTF writer: LOD %u triangle %zu uses material %u of %u", i, t,
+                           m->tri_material[t], m->material_count);
+    }
+    if (m->triangle_count)
+        for (size_t v = 0; v < (size_t)m->vertex_count * 3; v++)
+            if (!isfinite(m->positions[v]))
+                return sv_fail(err, SV_ERR_INVALID,
+                               "glTF writer: LOD %u vertex %zu has a non-finite position", i, v / 3);
+    if (!(l->screen_coverage >= 0.0 && l->screen_coverage <= 1.0))
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u screen coverage %g is not in [0,1]",
+                       i, l->screen_coverage);
+    if (l->attribute_count && !l->attributes)
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attributes missing", i);
+    for (uint32_t a = 0; a < l->attribute_count; a++) {
+        const sv_gltf_attribute *at = &l->attributes[a];
+        if (!at->name || at->name[0] != '_' || strlen(at->name) > 63 || at->components < 1 ||
+            at->components > 4 || (!at->data && m->vertex_count))
+            return sv_fail(err, SV_ERR_INVALID,
+                           "glTF writer: LOD %u attribute %u must be named '_...' with 1-4 "
+                           "components and data", i, a);
+        for (uint32_t b = 0; b < a; b++)
+            if (strcmp(l->attributes[b].name, at->name) == 0)
+                return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attribute %s given twice",
+                               i, at->name);
+        for (size_t v = 0; v < (size_t)m->vertex_count * at->components; v++)
+            if (!isfinite(at->data[v]))
+                return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attribute %s is not finite",
+                               i, at->name);
+    }
+    return SV_OK;
+}
+
+/* Writes the vertex accessors of one LOD into `attrs` (a JSON object). */
+static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
+{
+    const sv_mesh *m = l->mesh;
+    size_t nv = m->vertex_count, bytes3, bytes2;
+    if (!sv_mul_size(nv, 3 * sizeof(float), &bytes3) || !sv_mul_size(nv, 2 * sizeof(float), &bytes2))
+        return nomem(w);
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < nv; v++)
+        for (int k = 0; k < 3; k++) {
+            double p = m->positions[3 * v + k];
+            if (p < mn[k]) mn[k] = p;
+            if (p > mx[k]) mx[k] = p;
+        }
+    int acc = add_accessor(w, m->positions, bytes3, GL_FLOAT, nv, 3, GL_ARRAY_BUFFER, mn, mx);
+    if (acc < 0) return w->last;
+    if (!add_int(attrs, "POSITION", acc)) return nomem(w);
+    if (m->normals) {
+        /* glTF requires unit normals; renormalise (zero → +Y) in double. */
+        float *n = malloc(bytes3 ? bytes3 : 1);
+        if (!n) return nomem(w);
+        for (size_t v = 0; v < nv; v++) {
+            double x = m->normals[3 * v], y = m->normals[3 * v + 1], z = m->normals[3 * v + 2];
+            double len = sqrt(x * x + y * y + z * z);
+            if (!(len > 1e-20) || !isfinite(len)) {
+                x = 0, y = 1, z = 0, len = 1;
+            }
+            n[3 * v] = (float)(x / len);
+            n[3 * v + 1] = (float)(y / len);
+            n[3 * v + 2] = (float)(z / len);
+        }
+        acc = add_accessor(w, n, bytes3, GL_FLOAT, nv, 3, GL_ARRAY_BUFFER, NULL, NULL);
+        free(n);
+        if (acc < 0) return w->last;
+        if (!add_int(attrs, "NORMAL", acc)) return nomem(w);
+    }
+    if (m->uvs) {
+        acc = add_accessor(w, m->uvs, bytes2, GL_FLOAT, nv, 2, GL_ARRAY_BUFFER, NULL, NULL);
+        if (acc < 0) return w->last;
+        if (!add_int(attrs, "TEXCOORD_0", acc)) return nomem(w);
+    }
+    for (uint32_t a = 0; a < l->attribute_count; a++) {
+        const sv_gltf_attribute *at = &l->attributes[a];
+        size_t bytes;
+        if (!sv_mul_size(nv, at->components * sizeof(float), &bytes)) return nomem(w);
+        acc = add_accessor(w, at->data, bytes, GL_FLOAT, nv, at->components, GL_ARRAY_BUFFER, NULL,
+                           NULL);
+        if (acc < 0) return w->last;
+        if (!add_int(attrs, at->name, acc)) return nomem(w);
+    }
+    return SV_OK;
+}
+
+/* Writes one glTF mesh for LOD l: shared vertex accessors, one primitive per
+ * material used (ascending material index), triangles in input order. */
+static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index)
+{
+    const sv_mesh *m = l->mesh;
+    sv_status st = SV_OK;
+    uint32_t *per_mat = sv_calloc(m->material_count, sizeof *per_mat);
+    void *idx = NULL;
+    cJSON *jm = cJSON_CreateObject(), *attrs = cJSON_CreateObject();
+    cJSON *prims = jm ? cJSON_AddArrayToObject(jm, "primitives") : NULL;
+    if (!per_mat || !jm || !attrs || !prims || !cJSON_AddStringToObject(jm, "name", name)) {
+        st = nomem(w);
+        goto out;
+    }
+    if ((st = write_vertices(w, l, attrs)) != SV_OK) goto out;
+    for (uint32_t t = 0; t < m->triangle_count; t++) per_mat[m->tri_material[t]]++;
+    bool small = m->vertex_count <= 65535; /* index 65535 is primitive restart: never used */
+    size_t isz = small ? 2 : 4;
+    for (uint32_t mi = 0; mi < m->material_count; mi++) {
+        if (!per_mat[mi]) continue;
+        size_t count = (size_t)per_mat[mi] * 3, bytes;
+        if (!sv_mul_size(count, isz, &bytes) || !(idx = malloc(bytes))) {
+            st = nomem(w);
+            goto out;
+        }
+        size_t k = 0;
+        for (uint32_t t = 0; t < m->triangle_count; t++) {
+            if (m->tri_material[t] != mi) continue;
+            for (int c = 0; c < 3; c++, k++) {
+                uint32_t v = m->indices[3 * (size_t)t + c];
+                if (small) ((uint16_t *)idx)[k] = (uint16_t)v;
+                else ((uint32_t *)idx)[k] = v;
+            }
+        }
+        int acc = add_accessor(w, idx, bytes, small ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, count,
+                               1, GL_ELEMENT_ARRAY_BUFFER, NULL, NULL);
+        free(idx);
+        idx = NULL;
+        if (acc < 0) {
+            st = w->last;
+            goto out;
+        }
+        int mat = material_for(w, m, mi);
+        if (mat < 0) {
+            st = w->last;
+            goto out;
+        }
+        cJSON *p = cJSON_CreateObject();
+        cJSON *pa = cJSON_Duplicate(attrs, true);
+        if (!p || !pa) {
+            cJSON_Delete(p);
+            cJSON_Delete(pa);
+            st = nomem(w);
+            goto out;
+        }
+        cJSON_AddItemToObject(p, "attributes", pa);
+        if (!add_int(p, "indices", acc) || !add_int(p, "material", mat)) {
+            cJSON_Delete(p);
+            st = nomem(w);
+            goto out;
+        }
+        cJSON_AddItemToArray(prims, p);
+    }
+    cJSON_AddItemToArray(w->meshes, jm);
+    jm = NULL;
+    *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
+out:
+    free(idx);
+    free(per_mat);
+    cJSON_Delete(attrs);
+    cJSON_Delete(jm);
+    return st;
+}
+
+static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
+{
+    cJSON *r = w->root;
+    cJSON *asset = cJSON_AddObjectToObject(r, "asset");
+    if (!asset || !cJSON_AddStringToObject(asset, "generator", "sylva " SV_VERSION) ||
+        !cJSON_AddStringToObject(asset, "version", "2.0"))
+        return nomem(w);
+    if (lod_count > 1) {
+        cJSON *used = cJSON_AddArrayToObject(r, "extensionsUsed");
+        cJSON *s = cJSON_CreateString("MSFT_lod");
+        if (!used || !s) {
+            cJSON_Delete(s);
+            return nomem(w);
+        }
+        cJSON_AddItemToArray(used, s);
+    }
+    cJSON *scenes = cJSON_CreateArray(), *scene = cJSON_CreateObject();
+    cJSON *sn = scene ? cJSON_AddArrayToObject(scene, "nodes") : NULL;
+    cJSON *zero = cJSON_CreateNumber(0);
+    if (!scenes || !scene || !sn || !zero || !add_int(r, "scene", 0)) {
+        cJSON_Delete(scenes);
+        cJSON_Delete(scene);
+        cJSON_Delete(zero);
+        return nomem(w);
+    }
+    cJSON_AddItemToArray(sn, zero);
+    cJSON_AddItemToArray(scenes, scene);
+    cJSON_AddItemToObject(r, "scenes", scenes);
+    /* Arrays in a fixed order; empty ones are removed at the end. */
+    if (!(w->nodes = cJSON_AddArrayToObject(r, "nodes")) ||
+        !(w->meshes = cJSON_AddArrayToObject(r, "meshes")) ||
+        !(w->materials = cJSON_AddArrayToObject(r, "materials")) ||
+        !(w->textures = cJSON_AddArrayToObject(r, "textures")) ||
+        !(w->samplers = cJSON_AddArrayToObject(r, "samplers")) ||
+        !(w->images = cJSON_AddArrayToObject(r, "images")) ||
+        !(w->accessors = cJSON_AddArrayToObject(r, "accessors")) ||
+        !(w->views = cJSON_AddArrayToObject(r, "bufferViews")))
+        return nomem(w);
+
+    for (uint32_t i = 0; i < lod_count; i++) {
+        const sv_gltf_lod *l = &lods[i];
+        char fallback[32];
+        snprintf(fallback, sizeof fallback, "lod%u", i);
+        const char *name = l->name && l->name[0] ? l->name : fallback;
+        cJSON *node = cJSON_CreateObject();
+        if (!node || !cJSON_AddStringToObject(node, "name", name)) {
+            cJSON_Delete(node);
+            return nomem(w);
+        }
+        cJSON_AddItemToArray(w->nodes, node);
+        if (l->mesh->triangle_count) {
+            int mesh_index = -1;
+            sv_status st = write_mesh(w, l, name, &mesh_index);
+            if (st != SV_OK) return st;
+            if (!add_int(node, "mesh", mesh_index)) return nomem(w);
+        }
+        cJSON *extras = NULL;
+        if (l->extras) {
+            if (!cJSON_IsObject(l->extras))
+                return sv_fail(w->err, SV_ERR_INVALID, "glTF writer: LOD %u extras is not an object", i);
+            if (!(extras = cJSON_Duplicate(l->extras, true))) return nomem(w);
+        }
+        if (i == 0 && lod_count > 1) {
+            cJSON *ext = cJSON_AddObjectToObject(node, "extensions");
+            cJSON *lod = ext ? cJSON_AddObjectToObject(ext, "MSFT_lod") : NULL;
+            cJSON *ids = lod ? cJSON_AddArrayToObject(lod, "ids") : NULL;
+            if (!extras) extras = cJSON_CreateObject();
+            cJSON *cov = extras ? cJSON_CreateArray() : NULL;
+            bool ok = ids && cov;
+            for (uint32_t k = 1; ok && k < lod_count; k++) {
+                cJSON *x = cJSON_CreateNumber(k);
+                ok = x != NULL;
+                if (x) cJSON_AddItemToArray(ids, x);
+            }
+            for (uint32_t k = 0; ok && k < lod_count; k++) {
+                cJSON *x = cJSON_CreateNumber(lods[k].screen_coverage);
+                ok = x != NULL;
+                if (x) cJSON_AddItemToArray(cov, x);
+            }
+            if (ok) {
+                cJSON_DeleteItemFromObjectCaseSensitive(extras, "MSFT_screencoverage");
+                cJSON_AddItemToObject(extras, "MSFT_screencoverage", cov);
+            } else {
+                cJSON_Delete(cov);
+                cJSON_Delete(extras);
+                return nomem(w);
+            }
+        }
+        if (extras) cJSON_AddItemToObject(node, "extras", extras);
+    }
+    if (w->bin_len) {
+        cJSON *buffers = cJSON_AddArrayToObject(r, "buffers");
+        cJSON *b = cJSON_CreateObject();
+        if (!buffers || !b || !add_int(b, "byteLength", (double)w->bin_len)) {
+            cJSON_Delete(b);
+            return nomem(w);
+        }
+        cJSON_AddItemToArray(buffers, b);
+    }
+    /* KHR_materials_unlit is declared when a material uses it. */
+    const cJSON *mat;
+    bool unlit = false;
+    cJSON_ArrayForEach(mat, w->materials)
+    {
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(mat, "extensions");
+        if (cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_unlit")) unlit = true;
+    }
+    if (unlit) {
+        cJSON *used = cJSON_GetObjectItemCaseSensitive(r, "extensionsUsed");
+        if (!used) used = cJSON_AddArrayToObject(r, "extensionsUsed");
+        cJSON *s = cJSON_CreateString("KHR_materials_unlit");
+        if (!used || !s) {
+            cJSON_Delete(s);
+            return nomem(w);
+        }
+        cJSON_AddItemToArray(used, s);
+    }
+    static const char *const optional[] = {"meshes",    "materials",  "textures", "samplers",
+                                           "images",    "accessors", "bufferViews"};
+    for (size_t k = 0; k < sizeof optional / sizeof *optional; k++) {
+        cJSON *a = cJSON_GetObjectItemCaseSensitive(r, optional[k]);
+        if (a && cJSON_GetArraySize(a) == 0) cJSON_DeleteItemFromObjectCaseSensitive(r, optional[k]);
+    }
+    return SV_OK;
+}
+
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_t **out,
+                             size_t *out_size, sv_error *err)
+{
+    *out = NULL;
+    *out_size = 0;
+    if (!lods || lod_count == 0)
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: no LODs to write");
+    for (uint32_t i = 0; i < lod_count; i++) {
+        sv_status st = check_lod(&lods[i], i, err);
+        if (st != SV_OK) return st;
+    }
+    writer w = {.err = err};
+    sv_status st = SV_OK;
+    char *json = NULL;
+    if (!(w.root = cJSON_CreateObject())) {
+        st = nomem(&w);
+        goto out;
+    }
+    if ((st = build(&w, lods, lod_count)) != SV_OK) goto out;
+    if (!(json = cJSON_PrintUnformatted(w.root))) {
+        st = nomem(&w);
+        goto out;
+    }
+    size_t jlen = strlen(json), jpad = (jlen + 3) & ~(size_t)3;
+    size_t total = 12 + 8 + jpad + (w.bin_len ? 8 + w.bin_len : 0);
+    if (total > 0xFFFFFFFFu || jpad < jlen) {
+        st = sv_fail(err, SV_ERR_LIMIT, "glTF writer: file would exceed 4 GiB");
+        goto out;
+    }
+    uint8_t *buf = malloc(total);
+    if (!buf) {
+        st = nomem(&w);
+        goto out;
+    }
+    put_u32(buf, GLB_MAGIC);
+    put_u32(buf + 4, 2);
+    put_u32(buf + 8, (uint32_t)total);
+    put_u32(buf + 12, (uint32_t)jpad);
+    put_u32(buf + 16, GLB_CHUNK_JSON);
+    memcpy(buf + 20, json, jlen);
+    memset(buf + 20 + jlen, ' ', jpad - jlen); /* JSON chunk pads with spaces */
+    if (w.bin_len) {
+        uint8_t *b = buf + 20 + jpad;
+        put_u32(b, (uint32_t)w.bin_len);
+        put_u32(b + 4, GLB_CHUNK_BIN);
+        memcpy(b + 8, w.bin, w.bin_len);
+    }
+    *out = buf;
+    *out_size = total;
+out:
+    cJSON_free(json);
+    cJSON_Delete(w.root);
+    free(w.bin);
+    free(w.uniq);
+    return st;
+}
+
+sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
+                            sv_error *err)
+{
+    uint8_t *data;
+    size_t size;
+    sv_status st = sv_gltf_encode_glb(lods, lod_count, &data, &size, err);
+    if (st != SV_OK) return st;
+    size_t plen = strlen(path);
+    char *tmp = malloc(plen + 5);
+    if (!tmp) {
+        free(data);
+        return sv_fail(err, SV_ERR_NOMEM, "glTF writer: out of memory");
+    }
+    memcpy(tmp, path, plen);
+    memcpy(tmp + plen, ".tmp", 5);
+    FILE *f = fopen(tmp, "wb");
+    bool ok = f && fwrite(data, 1, size, f) == size;
+    if (f && fclose(f) != 0) ok = false;
+    if (ok && rename(tmp, path) != 0) ok = false;
+    if (!ok) {
+        if (f) unlink(tmp);
+        st = sv_fail(err, SV_ERR_IO, "glTF writer: cannot write %s", path);
+    }
+    free(tmp);
+    free(data);
+    return st;
+}

@@ -1,0 +1,684 @@
+/* import.c — mesh import through assimp's C API, from memory only.
+ *
+ * The upload is served to assimp through a custom aiFileIO that knows only the
+ * files the caller handed in (sv_upload_find in sniff.c resolves names; anything
+ * absolute, with `..`, a scheme or a drive letter is refused and fails the
+ * import). The format is sniffed from the bytes first and assimp is given a file
+ * name whose extension matches it, so assimp 5.2.5 runs exactly one parser
+ * instead of trying ~40. glTF/GLB go through sv_gltf_precheck first, because
+ * assimp recurses per node level and trusts declared lengths.
+ *
+ * Conventions on the way out (see sv.h): metres, +Y up, CCW, UV v down (glTF's).
+ * Units and up axis: every format defaults to metres and +Y up (glTF by its
+ * specification); a non-zero options.unit_scale or up_axis 'Z' is applied to any
+ * format, glTF included, because files exported without conversion exist (the
+ * Scopia ficus GLB is in centimetres like its OBJ). For COLLADA and FBX assimp
+ * already applies the file's own unit/up metadata; the options apply on top.
+ * info->unit_scale and info->up_axis report what was converted from.
+ *
+ * Materials:
+ *  - base colour: glTF's baseColorFactor ($clr.base), else the diffuse colour.
+ *    For non-glTF sources with a base-colour texture the diffuse colour is not
+ *    multiplied in (as Blender's OBJ importer does: MTL exporters write Kd 0.8 or
+ *    a flat average next to map_Kd); alpha is the material's opacity.
+ *  - alpha mode: glTF's alphaMode/alphaCutoff. Other formats: an opacity map
+ *    (OBJ map_d) or a base texture with any alpha < 255 means MASK (cutoff 0.5);
+ *    opacity < 1 without such a texture means BLEND.
+ *  - double-sided: $mat.twosided; formats without the flag (OBJ, PLY) are taken
+ *    as double-sided when the material is alpha-masked or blended, since alpha
+ *    cards (leaves, twigs) are always meant to be seen from both sides.
+ *  - textures: embedded ("*N") or an uploaded file, decoded to RGBA8; one that
+ *    was not uploaded (or does not decode) is a warning, not an error.
+ * Non-finite positions never leave the importer (assimp 5.2.5 lets them through
+ * its validation): they fail with SV_ERR_INVALID naming the vertex. Repairs
+ * (degenerate and duplicate triangles) are sv_validate's job.
+ */
+#include "import.h"
+
+#include <assimp/GltfMaterial.h>
+#include <assimp/cfileio.h>
+#include <assimp/cimport.h>
+#include <assimp/config.h>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Copies src into dst (capacity cap), truncating. */
+static void copy_str(char *dst, size_t cap, const char *src)
+{
+    size_t n = strlen(src);
+    if (n >= cap) n = cap - 1;
+    memcpy(dst, src, n);
+    dst[n] = 0;
+}
+
+/* ---- the in-memory file system served to assimp ---- */
+
+typedef struct io_ctx {
+    const sv_file *files;
+    size_t count;
+    const char *main_name; /* what assimp is told files[0] is called */
+    sv_status refused;     /* SV_ERR_REFUSED once a reference was refused */
+    char refused_msg[400];
+    char missing[400];     /* first safe name asked for but not uploaded */
+} io_ctx;
+
+typedef struct mem_file {
+    const uint8_t *data;
+    size_t size, pos;
+} mem_file;
+
+static size_t mf_read(struct aiFile *f, char *buf, size_t size, size_t count)
+{
+    mem_file *m = (mem_file *)f->UserData;
+    if (size == 0 || count == 0) return 0;
+    size_t avail = m->size - m->pos, n = count;
+    if (avail / size < n) n = avail / size;
+    memcpy(buf, m->data + m->pos, n * size);
+    m->pos += n * size;
+    return n;
+}
+
+static size_t mf_write(struct aiFile *f, const char *buf, size_t size, size_t count)
+{
+    (void)f, (void)buf, (void)size, (void)count;
+    return 0;
+}
+
+static size_t mf_tell(struct aiFile *f) { return ((mem_file *)f->UserData)->pos; }
+static size_t mf_size(struct aiFile *f) { return ((mem_file *)f->UserData)->size; }
+static void mf_flush(struct aiFile *f) { (void)f; }
+
+static enum aiReturn mf_seek(struct aiFile *f, size_t off, enum aiOrigin origin)
+{
+    mem_file *m = (mem_file *)f->UserData;
+    size_t base = origin == aiOrigin_SET ? 0 : origin == aiOrigin_CUR ? m->pos : m->size;
+    if (origin == aiOrigin_END) {
+        /* assimp passes a "negative" size_t for offsets back from the end */
+        size_t back = (size_t)0 - off;
+        if (off == 0) back = 0;
+        if (back > m->size) return aiReturn_FAILURE;
+        m->pos = m->size - back;
+        return aiReturn_SUCCESS;
+    }
+    if (off > m->size || base > m->size - off) return aiReturn_FAILURE;
+    m->pos = base + off;
+    return aiReturn_SUCCESS;
+}
+
+static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char *mode)
+{
+    io_ctx *ctx = (io_ctx *)io->UserData;
+    if (!name || !mode || strpbrk(mode, "wa+")) return NULL;
+    size_t idx = 0;
+    if (strcmp(name, ctx->main_name) == 0) {
+        idx = 0;
+    } else {
+        sv_error e = {0};
+        sv_status st = sv_upload_find(ctx->files, ctx->count, name, &idx, &e);
+        if (st == SV_ERR_REFUSED) {
+            if (ctx->refused == SV_OK) {
+                ctx->refused = SV_ERR_REFUSED;
+                copy_str(ctx->refused_msg, sizeof ctx->refused_msg, e.message);
+            }
+            return NULL;
+        }
+        if (st != SV_OK) {
+            if (!ctx->missing[0]) copy_str(ctx->missing, sizeof ctx->missing, e.message);
+            return NULL;
+        }
+    }
+    struct aiFile *f = calloc(1, sizeof *f);
+    mem_file *m = calloc(1, sizeof *m);
+    if (!f || !m) {
+        free(f);
+        free(m);
+        return NULL;
+    }
+    m->data = ctx->files[idx].data;
+    m->size = ctx->files[idx].size;
+    f->ReadProc = mf_read;
+    f->WriteProc = mf_write;
+    f->TellProc = mf_tell;
+    f->FileSizeProc = mf_size;
+    f->SeekProc = mf_seek;
+    f->FlushProc = mf_flush;
+    f->UserData = (aiUserData)m;
+    return f;
+}
+
+static void io_close(struct aiFileIO *io, struct aiFile *f)
+{
+    (void)io;
+    if (!f) return;
+    free(f->UserData);
+    free(f);
+}
+
+/* ---- helpers ---- */
+
+static void add_warning(sv_import_info *info, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+static void add_warning(sv_import_info *info, const char *fmt, ...)
+{
+    size_t len = strlen(info->warnings), cap = sizeof info->warnings;
+    if (len + 2 >= cap) return;
+    if (len) info->warnings[len++] = '\n';
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(info->warnings + len, cap - len, fmt, ap);
+    va_end(ap);
+}
+
+/* Rough counts from the text before assimp allocates anything: OBJ `v` lines and
+ * triangles of `f` lines (n-gon = n-2). */
+static void obj_precount(const uint8_t *d, size_t n, uint64_t *verts, uint64_t *tris)
+{
+    *verts = *tris = 0;
+    size_t i = 0;
+    while (i < n) {
+        while (i < n && (d[i] == ' ' || d[i] == '\t')) i++;
+        size_t eol = i;
+        const uint8_t *nl = memchr(d + i, '\n', n - i);
+        eol = nl ? (size_t)(nl - d) : n;
+        if (eol - i >= 2 && d[i] == 'v' && (d[i + 1] == ' ' || d[i + 1] == '\t')) {
+            (*verts)++;
+        } else if (eol - i >= 2 && d[i] == 'f' && (d[i + 1] == ' ' || d[i + 1] == '\t')) {
+            uint64_t tokens = 0;
+            bool in = false;
+            for (size_t k = i + 1; k < eol; k++) {
+                bool sp = isspace(d[k]) != 0;
+                if (!sp && !in) tokens++;
+                in = !sp;
+            }
+            if (tokens >= 3) *tris += tokens - 2;
+        }
+        i = eol + 1;
+    }
+}
+
+/* PLY header: "element vertex N" and "element face N" (each face at least one
+ * triangle). */
+static void ply_precount(const uint8_t *d, size_t n, uint64_t *verts, uint64_t *tris)
+{
+    *verts = *tris = 0;
+    size_t lim = n < 65536 ? n : 65536, i = 0;
+    while (i < lim) {
+        size_t eol = i;
+        while (eol < lim && d[eol] != '\n') eol++;
+        char line[128];
+        size_t len = eol - i < sizeof line - 1 ? eol - i : sizeof line - 1;
+        memcpy(line, d + i, len);
+        line[len] = 0;
+        unsigned long long c = 0;
+        if (sscanf(line, "element vertex %llu", &c) == 1) *verts = c;
+        else if (sscanf(line, "element face %llu", &c) == 1) *tris = c;
+        if (strncmp(line, "end_header", 10) == 0) break;
+        i = eol + 1;
+    }
+}
+
+static bool is_gltf(sv_format f) { return f == SV_FORMAT_GLB || f == SV_FORMAT_GLTF; }
+
+typedef struct image_slot {
+    char key[64]; /* "*N" or "file:<index>" */
+} image_slot;
+
+typedef struct importer {
+    const sv_file *files;
+    size_t count;
+    sv_limits lim;
+    sv_format format;
+    sv_import_info *info;
+    sv_error *err;
+    sv_image *images; /* up to material_count */
+    image_slot *slots;
+    uint32_t image_count;
+} importer;
+
+/* Loads (or reuses) the texture at `path` for material `mname`. Returns SV_OK
+ * with *index = -1 when it is missing or does not decode (a warning); fails
+ * with SV_ERR_REFUSED for an unsafe reference and SV_ERR_LIMIT for an image
+ * over the size limit. */
+static sv_status load_texture(importer *im, const struct aiScene *scene, const char *path,
+                              const char *mname, int32_t *index)
+{
+    *index = -1;
+    char key[64];
+    const uint8_t *data = NULL;
+    size_t size = 0;
+    char shown[200];
+    copy_str(shown, sizeof shown, path);
+    if (path[0] == '*') {
+        char *end = NULL;
+        unsigned long n = strtoul(path + 1, &end, 10);
+        if (!end || *end || n >= scene->mNumTextures) {
+            add_warning(im->info, "material '%s': embedded texture '%s' does not exist", mname, shown);
+            im->info->textures_missing++;
+            return SV_OK;
+        }
+        const struct aiTexture *t = scene->mTextures[n];
+        snprintf(key, sizeof key, "*%lu", n);
+        for (uint32_t i = 0; i < im->image_count; i++)
+            if (strcmp(im->slots[i].key, key) == 0) {
+                *index = (int32_t)i;
+                return SV_OK;
+            }
+        sv_image *img = &im->images[im->image_count];
+        if (t->mHeight == 0) {
+            data = (const uint8_t *)t->pcData;
+            size = t->mWidth;
+        } else {
+            /* uncompressed BGRA texels */
+            if (t->mWidth > im->lim.max_texture_size || t->mHeight > im->lim.max_texture_size)
+                return sv_fail(im->err, SV_ERR_LIMIT,
+                               "material '%s': embedded texture %s is %ux%u, over the %u limit",
+                               mname, shown, t->mWidth, t->mHeight, im->lim.max_texture_size);
+            sv_status st = sv_image_alloc(img, t->mWidth, t->mHeight, 4, 8, im->err);
+            if (st != SV_OK) return st;
+            uint8_t *o = img->data;
+            for (size_t k = 0; k < (size_t)t->mWidth * t->mHeight; k++) {
+                o[4 * k + 0] = t->pcData[k].r;
+                o[4 * k + 1] = t->pcData[k].g;
+                o[4 * k + 2] = t->pcData[k].b;
+                o[4 * k + 3] = t->pcData[k].a;
+            }
+        }
+    } else {
+        if (strncmp(path, "data:", 5) == 0) {
+            add_warning(im->info, "material '%s': inline data: texture left undecoded", mname);
+            im->info->textures_missing++;
+            return SV_OK;
+        }
+        size_t fi = 0;
+        sv_error e = {0};
+        sv_status st = sv_upload_find(im->files, im->count, path, &fi, &e);
+        if (st == SV_ERR_REFUSED)
+            return sv_fail(im->err, SV_ERR_REFUSED, "material '%s': texture %s", mname, e.message);
+        if (st != SV_OK) {
+            add_warning(im->info, "material '%s': texture '%s' was not uploaded", mname, shown);
+            im->info->textures_missing++;
+            return SV_OK;
+        }
+        snprintf(key, sizeof key, "file:%zu", fi);
+        for (uint32_t i = 0; i < im->image_count; i++)
+            if (strcmp(im->slots[i].key, key) == 0) {
+                *index = (int32_t)i;
+                return SV_OK;
+            }
+        data = im->files[fi].data;
+        size = im->files[fi].size;
+    }
+    sv_image *img = &im->images[im->image_count];
+    if (data) {
+        sv_error e = {0};
+        sv_status st = sv_image_decode_rgba8(data, size, shown, im->lim.max_texture_size, img, &e);
+        if (st == SV_ERR_LIMIT || st == SV_ERR_NOMEM)
+            return sv_fail(im->err, st, "material '%s': %s", mname, e.message);
+        if (st != SV_OK) {
+            add_warning(im->info, "material '%s': %s", mname, e.message);
+            im->info->textures_missing++;
+            return SV_OK;
+        }
+    }
+    snprintf(im->slots[im->image_count].key, sizeof im->slots[0].key, "%s", key);
+    *index = (int32_t)im->image_count++;
+    im->info->textures_decoded++;
+    return SV_OK;
+}
+
+static bool texture_has_alpha(const sv_image *img)
+{
+    const uint8_t *p = img->data;
+    size_t n = (size_t)img->width * img->height;
+    for (size_t i = 0; i < n; i++)
+        if (p[4 * i + 3] < 255) return true;
+    return false;
+}
+
+static sv_status convert_material(importer *im, const struct aiScene *scene,
+                                  const struct aiMaterial *am, uint32_t mi, sv_material *m)
+{
+    sv_material_init(m);
+    struct aiString s;
+    if (aiGetMaterialString(am, AI_MATKEY_NAME, &s) == aiReturn_SUCCESS)
+        copy_str(m->name, sizeof m->name, s.data);
+    else
+        snprintf(m->name, sizeof m->name, "material%u", mi);
+    bool gltf = is_gltf(im->format);
+    struct aiColor4D c;
+    if ((gltf && aiGetMaterialColor(am, AI_MATKEY_BASE_COLOR, &c) == aiReturn_SUCCESS) ||
+        aiGetMaterialColor(am, AI_MATKEY_COLOR_DIFFUSE, &c) == aiReturn_SUCCESS) {
+        m->base_color[0] = c.r;
+        m->base_color[1] = c.g;
+        m->base_color[2] = c.b;
+        m->base_color[3] = gltf ? c.a : 1.0f;
+    }
+    ai_real opacity = 1;
+    unsigned int one = 1;
+    if (!gltf && aiGetMaterialFloatArray(am, AI_MATKEY_OPACITY, &opacity, &one) == aiReturn_SUCCESS &&
+        isfinite(opacity) && opacity >= 0 && opacity <= 1)
+        m->base_color[3] = opacity;
+    for (int k = 0; k < 4; k++)
+        if (!isfinite(m->base_color[k])) m->base_color[k] = 1.0f;
+
+    enum aiTextureType tt = aiGetMaterialTextureCount(am, aiTextureType_BASE_COLOR) > 0
+                                ? aiTextureType_BASE_COLOR
+                                : aiTextureType_DIFFUSE;
+    if (aiGetMaterialTextureCount(am, tt) > 0 &&
+        aiGetMaterialTexture(am, tt, 0, &s, NULL, NULL, NULL, NULL, NULL, NULL) == aiReturn_SUCCESS &&
+        s.length > 0) {
+        copy_str(m->texture_uri, sizeof m->texture_uri, s.data);
+        sv_status st = load_texture(im, scene, s.data, m->name, &m->base_texture);
+        if (st != SV_OK) return st;
+        if (!gltf && m->base_texture >= 0) m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
+    }
+
+    int two = 0;
+    unsigned int n1 = 1;
+    bool has_two = aiGetMaterialIntegerArray(am, AI_MATKEY_TWOSIDED, &two, &n1) == aiReturn_SUCCESS;
+    m->double_sided = has_two && two != 0;
+
+    if (gltf) {
+        if (aiGetMaterialString(am, AI_MATKEY_GLTF_ALPHAMODE, &s) == aiReturn_SUCCESS) {
+            if (strcmp(s.data, "MASK") == 0) m->alpha_mode = SV_ALPHA_MASK;
+            else if (strcmp(s.data, "BLEND") == 0) m->alpha_mode = SV_ALPHA_BLEND;
+        }
+        ai_real cut = 0.5f;
+        one = 1;
+        if (aiGetMaterialFloatArray(am, AI_MATKEY_GLTF_ALPHACUTOFF, &cut, &one) == aiReturn_SUCCESS &&
+            isfinite(cut) && cut >= 0 && cut <= 1)
+            m->alpha_cutoff = cut;
+    } else {
+        bool opacity_map = aiGetMaterialTextureCount(am, aiTextureType_OPACITY) > 0;
+        bool tex_alpha = m->base_texture >= 0 && texture_has_alpha(&im->images[m->base_texture]);
+        if (opacity_map || tex_alpha) m->alpha_mode = SV_ALPHA_MASK;
+        else if (m->base_color[3] < 1.0f) m->alpha_mode = SV_ALPHA_BLEND;
+        if (m->alpha_mode != SV_ALPHA_OPAQUE) m->double_sided = true;
+    }
+    return SV_OK;
+}
+
+/* Area-weighted vertex normals for triangles [t0,t1) over vertices [v0,v1). */
+static sv_status normals_for_range(sv_mesh *mesh, uint32_t t0, uint32_t t1, uint32_t v0,
+                                   uint32_t v1, sv_error *err)
+{
+    double *acc = sv_calloc((size_t)(v1 - v0), 3 * sizeof(double));
+    if (!acc) return sv_fail(err, SV_ERR_NOMEM, "cannot allocate normals for %u vertices", v1 - v0);
+    for (uint32_t t = t0; t < t1; t++) {
+        const uint32_t *ix = &mesh->indices[3 * (size_t)t];
+        const float *a = &mesh->positions[3 * (size_t)ix[0]];
+        const float *b = &mesh->positions[3 * (size_t)ix[1]];
+        const float *c = &mesh->positions[3 * (size_t)ix[2]];
+        double e1[3], e2[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            e1[k] = (double)b[k] - a[k];
+            e2[k] = (double)c[k] - a[k];
+        }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++) acc[3 * (size_t)(ix[j] - v0) + k] += n[k];
+    }
+    for (uint32_t v = v0; v < v1; v++) {
+        double *a = &acc[3 * (size_t)(v - v0)];
+        double l = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        for (int k = 0; k < 3; k++)
+            mesh->normals[3 * (size_t)v + k] = (l > 0 && isfinite(l)) ? (float)(a[k] / l) : (k == 1);
+    }
+    free(acc);
+    return SV_OK;
+}
+
+/* Merges every triangle mesh of the scene into one sv_mesh. */
+static sv_status merge_scene(importer *im, const struct aiScene *scene, double scale, char up,
+                             sv_mesh **out)
+{
+    uint64_t nv = 0, nt = 0;
+    uint32_t used = 0;
+    for (unsigned i = 0; i < scene->mNumMeshes; i++) {
+        const struct aiMesh *am = scene->mMeshes[i];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        for (unsigned f = 0; f < am->mNumFaces; f++) nt += am->mFaces[f].mNumIndices == 3;
+        nv += am->mNumVertices;
+        used++;
+    }
+    im->info->source_meshes = used;
+    if (nt > im->lim.max_triangles)
+        return sv_fail(im->err, SV_ERR_LIMIT, "mesh has %llu triangles (limit %llu)",
+                       (unsigned long long)nt, (unsigned long long)im->lim.max_triangles);
+    if (nv > im->lim.max_vertices || nv >= UINT32_MAX)
+        return sv_fail(im->err, SV_ERR_LIMIT, "mesh has %llu vertices (limit %llu)",
+                       (unsigned long long)nv, (unsigned long long)im->lim.max_vertices);
+    if (nt == 0) return sv_fail(im->err, SV_ERR_INVALID, "the file contains no triangles");
+    uint32_t nmat = scene->mNumMaterials ? scene->mNumMaterials : 1;
+    if (nmat > im->lim.max_materials)
+        return sv_fail(im->err, SV_ERR_LIMIT, "the file has %u materials (limit %u)", nmat,
+                       im->lim.max_materials);
+
+    im->images = sv_calloc(nmat, sizeof *im->images);
+    im->slots = sv_calloc(nmat, sizeof *im->slots);
+    sv_material *mats = sv_calloc(nmat, sizeof *mats);
+    sv_status st = SV_OK;
+    sv_mesh *mesh = NULL;
+    if (!im->images || !im->slots || !mats) {
+        st = sv_fail(im->err, SV_ERR_NOMEM, "out of memory for %u materials", nmat);
+        goto out;
+    }
+    for (uint32_t i = 0; i < nmat; i++) {
+        if (i < scene->mNumMaterials)
+            st = convert_material(im, scene, scene->mMaterials[i], i, &mats[i]);
+        else
+            sv_material_init(&mats[i]);
+        if (st != SV_OK) goto out;
+    }
+    mesh = sv_mesh_create((uint32_t)nv, (uint32_t)nt, nmat, im->image_count);
+    if (!mesh) {
+        st = sv_fail(im->err, SV_ERR_NOMEM, "cannot allocate a mesh of %llu vertices, %llu triangles",
+                     (unsigned long long)nv, (unsigned long long)nt);
+        goto out;
+    }
+    memcpy(mesh->materials, mats, nmat * sizeof *mats);
+    for (uint32_t i = 0; i < im->image_count; i++) {
+        mesh->images[i] = im->images[i];
+        memset(&im->images[i], 0, sizeof im->images[i]);
+    }
+    uint32_t v0 = 0, t0 = 0;
+    bool bad_uv = false;
+    for (unsigned i = 0; i < scene->mNumMeshes; i++) {
+        const struct aiMesh *am = scene->mMeshes[i];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        uint32_t mat = am->mMaterialIndex < nmat ? am->mMaterialIndex : 0;
+        for (unsigned v = 0; v < am->mNumVertices; v++) {
+            const struct aiVector3D *p = &am->mVertices[v];
+            double x = p->x * scale, y = p->y * scale, z = p->z * scale;
+            float *o = &mesh->positions[3 * ((size_t)v0 + v)];
+            if (up == 'Z') {
+                o[0] = (float)x, o[1] = (float)z, o[2] = (float)-y;
+            } else {
+                o[0] = (float)x, o[1] = (float)y, o[2] = (float)z;
+            }
+            for (int k = 0; k < 3; k++)
+                if (!isfinite(o[k])) {
+                    st = sv_fail(im->err, SV_ERR_INVALID, "vertex %u has %s coordinate", v0 + v,
+                                 isnan(o[k]) ? "a NaN" : "an infinite");
+                    goto out;
+                }
+            if (am->mNormals) {
+                const struct aiVector3D *n = &am->mNormals[v];
+                float *q = &mesh->normals[3 * ((size_t)v0 + v)];
+                q[0] = n->x;
+                q[1] = up == 'Z' ? n->z : n->y;
+                q[2] = up == 'Z' ? -n->y : n->z;
+            }
+            if (am->mTextureCoords[0]) {
+                float u = am->mTextureCoords[0][v].x, w = am->mTextureCoords[0][v].y;
+                if (!isfinite(u) || !isfinite(w)) {
+                    u = w = 0;
+                    bad_uv = true;
+                }
+                mesh->uvs[2 * ((size_t)v0 + v)] = u;
+                mesh->uvs[2 * ((size_t)v0 + v) + 1] = w;
+            }
+        }
+        uint32_t tstart = t0;
+        for (unsigned f = 0; f < am->mNumFaces; f++) {
+            const struct aiFace *face = &am->mFaces[f];
+            if (face->mNumIndices != 3) continue;
+            for (int k = 0; k < 3; k++) {
+                if (face->mIndices[k] >= am->mNumVertices) {
+                    st = sv_fail(im->err, SV_ERR_INVALID, "triangle %u refers to vertex %u of %u",
+                                 t0, v0 + face->mIndices[k], v0 + am->mNumVertices);
+                    goto out;
+                }
+                mesh->indices[3 * (size_t)t0 + k] = v0 + face->mIndices[k];
+            }
+            mesh->tri_material[t0] = mat;
+            t0++;
+        }
+        if (!am->mNormals) {
+            st = normals_for_range(mesh, tstart, t0, v0, v0 + am->mNumVertices, im->err);
+            if (st != SV_OK) goto out;
+        }
+        v0 += am->mNumVertices;
+    }
+    if (bad_uv) add_warning(im->info, "non-finite texture coordinates were set to (0,0)");
+out:
+    if (im->images)
+        for (uint32_t i = 0; i < im->image_count; i++) sv_image_free(&im->images[i]);
+    free(im->images);
+    free(im->slots);
+    free(mats);
+    im->images = NULL;
+    im->slots = NULL;
+    if (st != SV_OK) {
+        sv_mesh_destroy(mesh);
+        mesh = NULL;
+    }
+    *out = mesh;
+    return st;
+}
+
+/* The name assimp is told files[0] has: its stem (when that is a plain, safe
+ * name, so assimp's "<stem>.mtl" fallback finds the MTL) with the extension of
+ * the sniffed format. */
+static void main_file_name(const sv_file *f, sv_format fmt, char *out, size_t cap)
+{
+    const char *ext = sv_format_name(fmt);
+    char stem[128] = "upload";
+    const char *n = f->name;
+    if (n && n[0] && n[0] != '.') {
+        size_t len = 0;
+        bool ok = true;
+        for (; n[len] && n[len] != '.'; len++)
+            if (!(isalnum((unsigned char)n[len]) || n[len] == '_' || n[len] == '-')) ok = false;
+        if (ok && len > 0 && len < sizeof stem) {
+            memcpy(stem, n, len);
+            stem[len] = 0;
+        }
+    }
+    snprintf(out, cap, "%s.%s", stem, ext);
+}
+
+sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt,
+                    sv_mesh **out, sv_import_info *info, sv_error *err)
+{
+    sv_import_info local_info;
+    if (!info) info = &local_info;
+    memset(info, 0, sizeof *info);
+    if (!out) return sv_fail(err, SV_ERR_INTERNAL, "sv_import: out is NULL");
+    *out = NULL;
+    if (!files || count == 0) return sv_fail(err, SV_ERR_INTERNAL, "sv_import: no files");
+    sv_import_options o = {0};
+    if (opt) o = *opt;
+    sv_limits lim = sv_limits_resolve(o.limits);
+    const char *main = files[0].name ? files[0].name : "(unnamed)";
+    char shown[160];
+    copy_str(shown, sizeof shown, main);
+
+    for (size_t i = 0; i < count; i++) {
+        if (files[i].size && !files[i].data)
+            return sv_fail(err, SV_ERR_INTERNAL, "sv_import: file %zu has no data", i);
+        if (files[i].size > lim.max_file_bytes)
+            return sv_fail(err, SV_ERR_LIMIT, "file '%.150s' is %zu bytes (limit %llu)",
+                           files[i].name ? files[i].name : "?", files[i].size,
+                           (unsigned long long)lim.max_file_bytes);
+    }
+    if (files[0].size == 0) return sv_fail(err, SV_ERR_PARSE, "'%s' is empty", shown);
+    sv_format fmt = sv_sniff_format(files[0].data, files[0].size);
+    info->format = fmt;
+    if (fmt == SV_FORMAT_UNKNOWN)
+        return sv_fail(err, SV_ERR_FORMAT,
+                       "'%s' is not a mesh format sylva accepts (glTF/GLB, OBJ, PLY, FBX, COLLADA)",
+                       shown);
+
+    double scale = 1.0;
+    char up = 'Y';
+    if (o.unit_scale < 0 || !isfinite(o.unit_scale))
+        return sv_fail(err, SV_ERR_SPEC, "unit scale %g is not a positive number", o.unit_scale);
+    if (o.unit_scale > 0) scale = o.unit_scale;
+    char u = (char)toupper((unsigned char)o.up_axis);
+    if (u == 'Z') up = 'Z';
+    else if (u != 0 && u != 'Y')
+        return sv_fail(err, SV_ERR_SPEC, "up axis '%c' is not supported (Y or Z)", o.up_axis);
+    info->unit_scale = scale;
+    info->up_axis = up;
+
+    /* Refuse what is over the limits before assimp allocates for it. */
+    if (is_gltf(fmt)) {
+        sv_status st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB,
+                                        files, count, &lim, err);
+        if (st != SV_OK) return st;
+    } else if (fmt == SV_FORMAT_OBJ || fmt == SV_FORMAT_PLY) {
+        uint64_t v, t;
+        if (fmt == SV_FORMAT_OBJ) obj_precount(files[0].data, files[0].size, &v, &t);
+        else ply_precount(files[0].data, files[0].size, &v, &t);
+        if (t > lim.max_triangles)
+            return sv_fail(err, SV_ERR_LIMIT, "'%s' declares %llu triangles (limit %llu)", shown,
+                           (unsigned long long)t, (unsigned long long)lim.max_triangles);
+        if (v > lim.max_vertices)
+            return sv_fail(err, SV_ERR_LIMIT, "'%s' declares %llu vertices (limit %llu)", shown,
+                           (unsigned long long)v, (unsigned long long)lim.max_vertices);
+    }
+
+    char name[160];
+    main_file_name(&files[0], fmt, name, sizeof name);
+    io_ctx ctx = {.files = files, .count = count, .main_name = name};
+    struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
+    struct aiPropertyStore *props = aiCreatePropertyStore();
+    if (!props) return sv_fail(err, SV_ERR_NOMEM, "assimp: cannot create a property store");
+    aiSetImportPropertyInteger(props, AI_CONFIG_PP_SBP_REMOVE,
+                               aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+    /* Normals are computed by sylva when missing (cheaper than assimp's spatial
+     * sort); degenerate/duplicate faces are sv_validate's job. */
+    unsigned flags = aiProcess_Triangulate | aiProcess_PreTransformVertices |
+                     aiProcess_SortByPType | aiProcess_ValidateDataStructure | aiProcess_FlipUVs;
+    const struct aiScene *scene = aiImportFileExWithProperties(name, flags, &io, props);
+    aiReleasePropertyStore(props);
+
+    sv_status st = SV_OK;
+    if (ctx.refused != SV_OK) {
+        st = sv_fail(err, SV_ERR_REFUSED, "'%s' references a file outside the upload: %s", shown,
+                     ctx.refused_msg);
+    } else if (!scene) {
+        char msg[300];
+        copy_str(msg, sizeof msg, aiGetErrorString());
+        for (char *c = msg; *c; c++)
+            if (*c == '\n' || *c == '\r') *c = ' ';
+        st = sv_fail(err, SV_ERR_PARSE, "cannot read '%s' as %s: %s", shown, sv_format_name(fmt),
+                     msg[0] ? msg : "assimp gave no reason");
+    } else {
+        if (ctx.missing[0]) add_warning(info, "%s", ctx.missing);
+        importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
+                       .err = err};
+        st = merge_scene(&im, scene, scale, up, out);
+    }
+    if (scene) aiReleaseImport(scene);
+    return st;
+}

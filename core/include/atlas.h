@@ -1,0 +1,69 @@
+/* atlas.h — chart packing (stb_rect_pack) and the texel filters of quad baking:
+ * the median/threshold downsampler and colour dilation (billboard-cloud paper
+ * §3.3.7). Used by core/bake.c; exposed for tests.
+ *
+ * Texel coordinates: x right, y down, (0,0) the top-left texel of the atlas.
+ */
+#ifndef SV_ATLAS_H
+#define SV_ATLAS_H
+
+#include "sv.h"
+#include "image.h"
+
+typedef struct sv_chart {
+    /* input */
+    uint32_t w, h;      /* chart size in texels, >= 1 */
+    /* output */
+    uint32_t x, y;      /* top-left texel of the chart itself (its padding lies around it) */
+} sv_chart;
+
+/* Packs charts[0..n) into a width × height atlas, each chart reserving
+ * w+padding × h+padding texels, so two charts are at least `padding` texels
+ * apart (and charts keep padding/2 texels from the atlas border). Deterministic
+ * (stable sort, no qsort). Returns true when every chart fits; x,y are then set.
+ * Returns false (x,y unspecified) when they do not fit or memory runs out. */
+bool sv_atlas_pack(sv_chart *charts, uint32_t n, uint32_t width, uint32_t height,
+                   uint32_t padding);
+
+/* Packs into the smallest power-of-two atlas with sides <= max_side: the
+ * smallest square that fits, then half its height if that still fits.
+ * Returns false when even max_side × max_side is too small. */
+bool sv_atlas_fit(sv_chart *charts, uint32_t n, uint32_t padding, uint32_t max_side,
+                  uint32_t *width, uint32_t *height);
+
+/* Size in texels of a chart of half extents (half_u, half_v) at `texel` world
+ * units per texel: ceil(2 half / texel), at least 1 (saturates at UINT32_MAX/4). */
+void sv_chart_size(double half_u, double half_v, double texel, uint32_t *w, uint32_t *h);
+
+/* The finest texel size (world units per texel) at which charts of half
+ * extents half[2i], half[2i+1] (i < n) pack into max_side × max_side with
+ * `padding`: binary search on the density with the real packer.
+ * SV_ERR_LIMIT when not even 1-texel charts fit. */
+sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding,
+                                uint32_t max_side, double *texel, sv_error *err);
+
+/* Downsamples an RGBA8 image of (w·s) × (h·s) samples whose alpha is coverage
+ * (0 = empty) into w × h texels (dst, RGBA8, caller storage): a texel is opaque
+ * (alpha 255) when the fraction of covered samples in its s×s block is
+ * >= alpha_threshold, and then each colour channel is the median of that
+ * channel over the covered samples (the lower median for even counts);
+ * otherwise the texel is (0,0,0,0). Binary alpha: no sorting needed to draw. */
+void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
+                          double alpha_threshold, uint8_t *dst);
+
+/* The same for one float channel (e.g. depth) where a finite value is covered:
+ * the median of the finite samples, or INFINITY below the threshold. */
+void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s,
+                              double alpha_threshold, float *dst);
+
+/* Colour dilation: `passes` times, every texel whose mask is 0 and that has a
+ * neighbour (8-connected) with a value takes the rounded mean of those
+ * neighbours and gains a value; then texels still without one take the mean of
+ * all valued texels, so mipmaps never bleed black. Only the first
+ * fill_channels channels are written (alpha is left untouched). mask has
+ * w*h bytes, nonzero = has a value; it is not modified. img: 8 or 16 bits.
+ * SV_ERR_NOMEM on allocation failure (img unchanged). */
+sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
+                    uint32_t passes, sv_error *err);
+
+#endif

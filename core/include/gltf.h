@@ -1,0 +1,61 @@
+/* gltf.h — glTF 2.0 binary (.glb) writer for a chain of levels of detail.
+ *
+ * Layout of what is written (glTF 2.0 spec, §4.4 "GLB file format"):
+ *   - one node per LOD, one mesh per non-empty LOD; ONLY the finest LOD's node
+ *     is in the scene. The coarser ones are MSFT_lod alternates of it
+ *     (node.extensions.MSFT_lod.ids, finest→coarsest) and
+ *     node.extras.MSFT_screencoverage holds one value per LOD: LOD i is drawn
+ *     while the object covers more than value i of the screen (MSFT_lod README);
+ *     "extensionsUsed": ["MSFT_lod"] when there is more than one LOD.
+ *   - one primitive per material used by the LOD's triangles; all primitives of
+ *     a LOD share its vertex accessors (POSITION with min/max, NORMAL
+ *     renormalised, TEXCOORD_0, then the caller's extra attributes) and each has
+ *     its own index accessor (uint16 when every index < 65535, else uint32).
+ *   - materials: pbrMetallicRoughness with baseColorFactor, baseColorTexture,
+ *     metallicFactor 0, roughnessFactor 1; alphaMode OPAQUE / MASK (with
+ *     alphaCutoff) / BLEND; doubleSided; normalTexture, occlusionTexture.
+ *   - images are PNG (sv_image_encode_png) in the binary chunk; images with the
+ *     same pixels are stored once, whichever LOD or material uses them.
+ *   - asset.generator is "sylva <SV_VERSION>".
+ * Bytes are deterministic: the same input gives the same file. Chunks and
+ * buffer views are 4-byte aligned.
+ */
+#ifndef SV_GLTF_H
+#define SV_GLTF_H
+
+#include <cjson/cJSON.h>
+
+#include "mesh.h"
+
+/* An extra per-vertex float attribute (glTF: application-specific semantics
+ * must begin with '_', e.g. "_LEAF_CENTRE", "_ORDER"). */
+typedef struct sv_gltf_attribute {
+    const char *name;       /* must start with '_' and be at most 63 bytes */
+    const float *data;      /* components * mesh->vertex_count floats, finite */
+    uint32_t components;    /* 1 (SCALAR) .. 4 (VEC4) */
+} sv_gltf_attribute;
+
+typedef struct sv_gltf_lod {
+    const char *name;               /* node and mesh name; NULL = "lod<i>" */
+    const sv_mesh *mesh;            /* may have zero triangles: the node has no mesh */
+    double screen_coverage;         /* MSFT_screencoverage: lower bound of this LOD, in [0,1] */
+    const sv_gltf_attribute *attributes; /* optional extra vertex attributes */
+    uint32_t attribute_count;
+    const cJSON *extras;            /* optional object merged into the node's extras
+                                       (e.g. the fade window); copied, not owned */
+} sv_gltf_lod;
+
+/* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a
+ * malloc'ed buffer (*out, *out_size; caller frees). On failure *out is NULL and
+ * the error names the problem: SV_ERR_INVALID for bad input (index out of range,
+ * NaN position, material index out of range, bad attribute), SV_ERR_NOMEM,
+ * SV_ERR_LIMIT when the file would exceed 4 GiB, or an image-encoding error. */
+sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_t **out,
+                             size_t *out_size, sv_error *err);
+
+/* sv_gltf_encode_glb, then writes the bytes to path (SV_ERR_IO on failure; no
+ * partial file is left behind). */
+sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
+                            sv_error *err);
+
+#endif

@@ -1,0 +1,83 @@
+/* import.h — mesh import from in-memory files (assimp behind this interface).
+ *
+ * The caller hands in every file of the upload: files[0] is the main mesh file
+ * (.glb, .gltf, .obj, .ply, .fbx, .dae); the rest are what it references (.bin,
+ * .mtl, textures). The importer serves assimp only these files: an absolute path,
+ * a `..` component, a `file:` or other URI scheme, or a name not handed in is
+ * refused with SV_ERR_REFUSED naming the reference. The format is sniffed from
+ * the bytes (not the name); only glTF/GLB, OBJ, PLY, FBX and COLLADA reach assimp.
+ * glTF/GLB are pre-checked (structure, node depth, cycles, declared counts)
+ * before assimp sees them. Textures are decoded to RGBA8 through image.h.
+ */
+#ifndef SV_IMPORT_H
+#define SV_IMPORT_H
+
+#include "mesh.h"
+
+typedef struct sv_file {
+    const char *name;     /* base name as uploaded, e.g. "tree.obj" */
+    const uint8_t *data;
+    size_t size;
+} sv_file;
+
+typedef enum sv_format {
+    SV_FORMAT_UNKNOWN = 0,
+    SV_FORMAT_GLB,
+    SV_FORMAT_GLTF,
+    SV_FORMAT_OBJ,
+    SV_FORMAT_PLY,
+    SV_FORMAT_FBX,
+    SV_FORMAT_COLLADA
+} sv_format;
+
+/* Name of a format ("glb", "obj", ...). */
+const char *sv_format_name(sv_format f);
+
+/* Sniffs the format from the first bytes. Returns SV_FORMAT_UNKNOWN when the
+ * bytes match none of the accepted formats. Pure; never reads past size. */
+sv_format sv_sniff_format(const uint8_t *data, size_t size);
+
+/* Resolves `ref`, a file name written inside an upload (an OBJ's mtllib or
+ * map_Kd, a glTF uri after percent-decoding, a name assimp asks for), to one of
+ * files[0..count-1]: by exact name, then by base name, then by base name ignoring
+ * case; a percent-encoded ref ("my%20leaf.png") is also tried decoded, and both
+ * forms must be safe. Backslashes count as separators. Returns SV_OK and *index; SV_ERR_REFUSED
+ * (message names ref) for an empty, absolute (/x, \x, C:x), `..`-containing or
+ * scheme-prefixed (file:, http:, ...) reference, which is never looked up; SV_ERR_IO
+ * when ref is safe but no uploaded file has that name. Pure. */
+sv_status sv_upload_find(const sv_file *files, size_t count, const char *ref, size_t *index,
+                         sv_error *err);
+
+typedef struct sv_import_options {
+    double unit_scale;  /* metres per source unit; 0 = format default (1) */
+    char up_axis;       /* 'Y' (default, 0 means Y) or 'Z': Z-up sources are rotated to Y-up */
+    sv_limits limits;   /* zero fields = defaults */
+} sv_import_options;
+
+typedef struct sv_import_info {
+    sv_format format;
+    double unit_scale;      /* what was applied */
+    char up_axis;
+    uint32_t source_meshes; /* assimp meshes merged */
+    uint32_t textures_decoded;
+    uint32_t textures_missing; /* referenced but not uploaded: material keeps its colour */
+    char warnings[1024];    /* '\n'-separated notes (missing textures, ...) */
+} sv_import_info;
+
+/* Imports files[0] (with files[1..count-1] as its companions) into a new mesh
+ * in sylva's convention (metres, +Y up), node transforms applied, all meshes
+ * merged, triangulated. On success *out owns the mesh (sv_mesh_destroy).
+ * On failure *out is NULL and err names the problem. info may be NULL. */
+sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt,
+                    sv_mesh **out, sv_import_info *info, sv_error *err);
+
+/* Pre-check of a glTF JSON document or GLB container without assimp: header and
+ * chunk lengths, JSON syntax, node graph depth <= limits.max_node_depth and no
+ * cycles, node/mesh/accessor counts and accessor sizes within limits, every
+ * buffer/image URI either data: or the name of a file in `files`.
+ * Exposed for tests and fuzzing. */
+sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb,
+                           const sv_file *files, size_t count,
+                           const sv_limits *limits, sv_error *err);
+
+#endif

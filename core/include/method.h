@@ -1,0 +1,58 @@
+/* method.h — the interface every stand-in method implements.
+ *
+ * A method turns the classified mesh into an sv_stand_in (quads and kept
+ * geometry per LOD); the pipeline bakes, packs, evaluates and writes it.
+ * Methods are pure geometry: no GL, no files. Each method's settings are the
+ * JSON object under the spec key named after it (NULL = all defaults); unknown
+ * keys, wrong types and out-of-range values fail with SV_ERR_SPEC naming the key.
+ */
+#ifndef SV_METHOD_H
+#define SV_METHOD_H
+
+#include <cjson/cJSON.h>
+
+#include "classify.h"
+#include "scene.h"
+#include "stand_in.h"
+
+typedef struct sv_method_input {
+    const sv_mesh *mesh;
+    const sv_classification *cls;
+    const sv_leaves *leaves;
+    double centre[3];         /* bounding sphere (sv_mesh_sphere) */
+    double radius;
+    const sv_scene *scene;
+    uint64_t seed;            /* spec "seed" (default 1): every random choice derives from it */
+} sv_method_input;
+
+typedef struct sv_method {
+    const char *name;         /* spec "method" value and settings key */
+    const char *summary;      /* one line for `GET /v1/info` and --help */
+    /* Validates settings without running (the daemon calls this). */
+    sv_status (*check)(const cJSON *settings, sv_error *err);
+    /* Builds the stand-in. out is zero-initialised by the caller. */
+    sv_status (*run)(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
+                     sv_error *err);
+} sv_method;
+
+/* The method named `name`, or NULL. */
+const sv_method *sv_method_find(const char *name);
+
+/* All registered methods; *count receives their number. */
+const sv_method *const *sv_method_list(size_t *count);
+
+/* Helpers for strict settings parsing shared by the methods: each returns
+ * SV_ERR_SPEC naming `method.key` when the value has the wrong type or lies
+ * outside [lo, hi]; a missing key leaves *out unchanged (the default). */
+sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key,
+                            double lo, double hi, double *out, sv_error *err);
+sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key,
+                         long lo, long hi, long *out, sv_error *err);
+sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key,
+                          bool *out, sv_error *err);
+/* Fails naming the first key of obj not in the NULL-terminated list `known`
+ * (also fails when obj is not an object). NULL obj is fine. */
+sv_status sv_setting_only(const cJSON *obj, const char *method, const char *const *known,
+                          sv_error *err);
+
+#endif

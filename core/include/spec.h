@@ -1,0 +1,73 @@
+/* spec.h — the bake spec: the JSON document a user sends with a mesh.
+ *
+ *   {"method": "billboard_cloud", "billboard_cloud": {...}, "scene": {...},
+ *    "import": {...}, "classify": {...}, "bake": {...}, "evaluate": {...},
+ *    "lod": {...}, "target": {...}, "seed": 1}
+ *
+ * Every field has a default, so `{}` is valid. Parsing is strict: unknown keys,
+ * wrong types and out-of-range values fail with SV_ERR_SPEC naming the key
+ * (e.g. "scene.viewer: expected one of ground, aerial, orbit"). The daemon
+ * parses specs with this too (pure C + cJSON, no GL, no assimp). Field
+ * reference: docs/spec.md.
+ */
+#ifndef SV_SPEC_H
+#define SV_SPEC_H
+
+#include <cjson/cJSON.h>
+
+#include "scene.h"
+
+#define SV_MAX_EVAL_SIZES 8
+
+typedef struct sv_spec {
+    char method[32];
+    cJSON *root;                  /* the parsed document, owned */
+    const cJSON *settings;        /* root[method] or NULL (defaults) */
+    sv_scene scene;
+    uint64_t seed;                /* default 1 */
+    /* import */
+    double unit_scale;            /* metres per unit; 0 = format default */
+    char up_axis;                 /* 'Y' or 'Z' */
+    /* classify */
+    const char **foliage;         /* pointers into root */
+    size_t foliage_count;
+    const char **trunk;
+    size_t trunk_count;
+    /* bake */
+    uint32_t max_atlas;           /* default 2048 */
+    uint32_t max_supersample;     /* default 8 */
+    double texel_size;            /* 0 = auto */
+    double alpha_threshold;       /* default 0.3 */
+    uint32_t padding;             /* default 4 */
+    uint32_t dilate;              /* default 8 */
+    /* evaluate */
+    bool evaluate;                /* default true */
+    uint32_t eval_views;          /* default 24 */
+    uint32_t eval_supersample;    /* default 4 */
+    uint32_t eval_sizes[SV_MAX_EVAL_SIZES]; /* default 256,128,64,32 */
+    uint32_t eval_size_count;
+    /* lod */
+    double lod_tolerance;         /* max (1 - coverage IoU) for a LOD at its switch size, default 0.1 */
+    bool lod_chain;               /* full mesh → stochastic levels → method → coarsest (default true) */
+    char lod_coarsest[32];        /* method appended as the coarsest LOD, "" = none
+                                     (default "crossed_quads"); docs/lod.md */
+    /* target (docs/spec.md "target"): search the method's knobs, cheapest first */
+    bool has_target;              /* a "target" object was given */
+    double target_iou;            /* coverage IoU to reach, 0 = none */
+    uint32_t target_pixels;       /* screen size the IoU is judged at (an evaluate size) */
+    bool target_worst;            /* judge the worst view instead of the mean */
+    uint32_t target_max_planes;   /* 0 = no budget */
+    uint32_t target_max_triangles;/* 0 = no budget */
+} sv_spec;
+
+/* Parses and validates a spec (including the method's own settings through its
+ * check function). On failure the spec is left empty (safe to sv_spec_free). */
+sv_status sv_spec_parse(const char *json, size_t len, sv_spec *out, sv_error *err);
+
+/* Frees what sv_spec_parse allocated. NULL or an empty spec is fine. */
+void sv_spec_free(sv_spec *spec);
+
+/* Default method name when the spec does not give one. */
+#define SV_DEFAULT_METHOD "billboard_cloud"
+
+#endif

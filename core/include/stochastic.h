@@ -1,0 +1,180 @@
+/* stochastic.h — stochastic simplification of the foliage (spec method
+ * "stochastic"), after Cook, Halstead, Planck, Ryu, "Stochastic simplification
+ * of aggregate detail" (SIGGRAPH 2007) as presented by Fichtner, "GPU Based
+ * Stochastic Foliage Simplification" (papers/stochastic-foliage-simplification.txt).
+ *
+ * A level λ ∈ (0, 1] draws the first ⌈λN⌉ of the N leaves in a fixed order
+ * (§3.2), each scaled about its centre by √s (§3.3, §4.3.1) and colour-adjusted
+ * towards the mean leaf colour (§3.4). The order is a seeded random permutation
+ * (optionally weighted by leaf area, see sv_stochastic_order), so any prefix is
+ * a random sample of the leaves. docs/methods/stochastic.md describes the
+ * settings and the outputs.
+ *
+ * The pure formulas are exposed for tests. Nothing here needs GL: the visible
+ * area ratio r is measured through a caller-supplied coverage function (the
+ * pipeline renders with render.h; see sv_stochastic_measure_ratio).
+ */
+#ifndef SV_STOCHASTIC_H
+#define SV_STOCHASTIC_H
+
+#include <cjson/cJSON.h>
+
+#include "method.h"
+
+#define SV_STOCH_MAX_LEVELS 8
+
+/* ---- pure formulas -------------------------------------------------------- */
+
+/* §3.1 eq. 1: the image-area fraction b = d0²/d² (1 when d <= d0 or d <= 0). */
+double sv_stochastic_b(double d0, double d);
+
+/* §3.1 eq. 2: λ = b^log_h(1/2), clamped to [0, 1]; b >= 1 gives 1, b <= 0 gives
+ * 0. h ∈ (0, 1) is the value of b at which half of the leaves are drawn
+ * (h = 1/2: λ = b). */
+double sv_stochastic_lambda(double b, double h);
+
+/* The motion term (Cook et al. 2007 reduce detail where motion blur hides it;
+ * Fichtner §3.1 leaves it out). Our form: a blur of m pixels smears a feature
+ * over 1 + m pixels along the motion, so the effective image area shrinks by
+ * b_motion = 1/(1 + m), multiplied into b before eq. 2. Returns 1 for m <= 0. */
+double sv_stochastic_motion_b(double blur_pixels);
+
+/* §3.3 eq. 3: area scale s = (1 − (1 − r)^{1/λ}) / r, computed as
+ * −expm1(log1p(−r)/λ)/r so it is exact for tiny r. Limits: λ >= 1 → 1;
+ * r <= 0 → 1/λ (no overlap); r >= 1 → 1; λ → 0 → 1/r. Always finite and in
+ * [1, min(1/λ, 1/r)] (λ is floored at 1e-9). */
+double sv_stochastic_area_scale(double r, double lambda);
+
+/* §3.4 eq. 4 with α = √λ: c' = c̄ + √λ (c − c̄) (λ clamped to [0, 1]). */
+double sv_stochastic_contrast(double c, double mean, double lambda);
+
+/* §3.5/§4.3.3 fade window in order position (fraction of N): leaves whose
+ * position lies in [lo, hi] fade, with radius R = min(1 − λ, radius) (the
+ * paper's choice, so λ = 1 shows every leaf fully): lo = max(0, λ − R),
+ * hi = min(1, λ + R). */
+void sv_stochastic_fade(double lambda, double radius, double *lo, double *hi);
+
+/* Importance used to order leaves (§3.2). */
+typedef enum sv_stoch_order_mode {
+    SV_STOCH_ORDER_RANDOM = 0, /* uniform seeded permutation (Fisher–Yates, splitmix64) */
+    SV_STOCH_ORDER_AREA        /* weighted random permutation (Efraimidis–Spirakis keys
+                                  u^(1/w)), w = leaf area: a leaf twice as large is twice
+                                  as likely to come first; still random, so any prefix is a
+                                  sample, but prefixes favour the leaves that cover more */
+} sv_stoch_order_mode;
+
+/* order[0..leaves->count) receives a permutation of the leaf indices. Same
+ * seed, same order. */
+sv_status sv_stochastic_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_order_mode mode,
+                              uint32_t *order, sv_error *err);
+
+/* Number of leaves drawn at λ: ⌈λN⌉ (at least 1 when N > 0, at most N). */
+uint32_t sv_stochastic_count(double lambda, uint32_t n);
+
+/* The r of eq. 3 from two coverage measurements (the paper's §6 suggestion:
+ * count covered pixels offscreen). With Cook's model — leaves placed at random
+ * over the tree's image, each covering a fraction r of it — n leaves cover
+ * A·(1 − (1 − r)^n). Given the covered area of the first `n_sub` leaves and of
+ * all `n` leaves, q = covered_sub / covered_all = (1 − (1 − r)^n_sub) /
+ * (1 − (1 − r)^n), which increases monotonically from n_sub/n (r → 0) to 1
+ * (r → 1); solved for r by bisection on log r. Returns 0 for q <= n_sub/n
+ * and 1 for q >= 1; 0 for invalid counts. */
+double sv_stochastic_ratio_from_coverage(double q, uint32_t n_sub, uint32_t n);
+
+/* ---- measuring r ---------------------------------------------------------- */
+
+/* Covered area (e.g. pixels summed over several views) when triangles
+ * tris[0..count) of the source mesh are drawn alone. */
+typedef sv_status (*sv_coverage_fn)(void *user, const uint32_t *tris, uint32_t count,
+                                    double *covered, sv_error *err);
+
+typedef struct sv_stoch_ratio {
+    double r;                  /* the measured ratio */
+    double covered_all;        /* coverage of every leaf */
+    double covered_sub;        /* coverage of the first n_sub leaves of the order */
+    uint32_t n_sub, n;
+} sv_stoch_ratio;
+
+/* Measures r for the tree: draws all leaves and the prefix of `order` holding
+ * a fraction `fraction` (default 0.1 when <= 0) of them, through fn, and solves
+ * with sv_stochastic_ratio_from_coverage. SV_ERR_UNBAKEABLE when the tree has
+ * no leaves or nothing is covered. */
+sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *order,
+                                      double fraction, sv_coverage_fn fn, void *user,
+                                      sv_stoch_ratio *out, sv_error *err);
+
+/* ---- settings and the levels ---------------------------------------------- */
+
+typedef struct sv_stochastic_settings {
+    double levels[SV_STOCH_MAX_LEVELS]; /* "levels": λ values, strictly decreasing in (0, 1];
+                                           default 1, 0.5, 0.25, 0.1 (1 = the full reordered mesh) */
+    uint32_t level_count;
+    double h;                  /* "h": in (0, 1), default 0.5 */
+    double d0;                 /* "d0": metres where simplification starts; 0 = scene.distance_min */
+    sv_stoch_order_mode order; /* "order": "random" (default) | "area" */
+    double fade;               /* "fade": fade radius, [0, 0.5], default 0.1 (Cook) */
+    bool area_preservation;    /* "area_preservation": default true */
+    bool contrast_preservation;/* "contrast_preservation": default true */
+    double shutter;            /* "shutter": seconds of exposure for the motion term, default 1/60 */
+    double ratio_fraction;     /* "ratio_fraction": leaf fraction drawn to measure r, default 0.1 */
+    double visible_ratio;      /* "visible_ratio": r given by the user, in (0, 1]; 0 (default) =
+                                  the pipeline measures it by rendering. The method's run()
+                                  (without a renderer) needs it given. */
+} sv_stochastic_settings;
+
+/* Parses the spec's "stochastic" object (NULL = defaults) strictly. */
+sv_status sv_stochastic_parse(const cJSON *settings, sv_stochastic_settings *out, sv_error *err);
+
+/* λ at distance d in `scene`: eq. 1 and 2, with b multiplied by the motion
+ * term when scene->camera_speed > 0 (blur = camera_speed × shutter × pixels
+ * per metre at d, the camera moving across the view). d0 = 0 in s means
+ * scene->distance_min. */
+double sv_stochastic_lambda_at(const sv_stochastic_settings *s, const sv_scene *scene, double d);
+
+/* The nearest distance at which λ(d) <= lambda (bisection; λ(d) decreases
+ * with d). Returns 0 for lambda >= 1 and INFINITY when never reached below 1e7 m. */
+double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const sv_scene *scene,
+                                         double lambda);
+
+typedef struct sv_stoch_level {
+    double lambda;
+    double area_scale;         /* s (1 when area preservation is off) */
+    double contrast_alpha;     /* √λ (1 when contrast preservation is off) */
+    uint32_t leaves;           /* ⌈λN⌉ */
+    double fade_lo, fade_hi;   /* sv_stochastic_fade */
+    sv_mesh *geometry;         /* the drawn leaves (owned until moved out) */
+    float *leaf_centre;        /* 3 per geometry vertex: its leaf's centre */
+    float *leaf_order;         /* 1 per geometry vertex: (order position + 0.5) / N */
+    uint32_t contrast_materials; /* material copies added for contrast bins */
+    uint32_t contrast_capped;  /* leaves whose brightening was capped at factor 1 */
+} sv_stoch_level;
+
+typedef struct sv_stoch_result {
+    sv_stoch_level levels[SV_STOCH_MAX_LEVELS];
+    uint32_t level_count;
+    uint32_t *order;           /* N leaf indices */
+    uint32_t leaf_count;       /* N */
+    double mean_color[3];      /* c̄, area-weighted mean leaf colour (0..1) */
+    double r;
+} sv_stoch_result;
+
+/* Builds every level of s from in->leaves (in->mesh, in->seed) with the ratio
+ * r (must be in (0, 1] when s->area_preservation). Each level's geometry holds
+ * the leaf triangles of its prefix, in order, every leaf with its own vertices
+ * scaled by √s about its centre, and the source's materials and images plus one
+ * copy of a leaf material per contrast bin (contrast: each leaf's luminance Y
+ * is moved to Ȳ + √λ (Y − Ȳ) by a base-colour factor, quantised in steps of
+ * 2^(1/16); factors are capped where the base colour would exceed 1). On
+ * failure out is freed. */
+sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
+                              double r, sv_stoch_result *out, sv_error *err);
+
+/* Frees geometry, attributes and order. NULL is fine. */
+void sv_stoch_result_free(sv_stoch_result *res);
+
+/* The LOD name used for level λ: "full" for 1, else "stochastic<λ·100>". */
+void sv_stochastic_level_name(double lambda, char name[32]);
+
+extern const sv_method sv_method_stochastic;
+
+#endif

@@ -1,0 +1,306 @@
+/* leaf_clusters.c — the "leaf_clusters" method: leaf-cluster impostors.
+ *
+ * Garcia, Sbert, Szirmay-Kalos, "Leaf Cluster Impostors for Tree Rendering
+ * with Parallax": leaves that lie nearly in one plane become one fixed (not
+ * camera-facing) textured quad (§2), clustered by K-means on the error of
+ * eq. 1 with planes refit by eq. 5 (cluster.c), organised in hierarchical
+ * levels 32 → 16 → 8 with parent links for smooth LOD (§2.4).
+ *
+ * Output, one LOD per level, finest first, named "clusters<K>" after the
+ * requested count; one quad per non-empty cluster:
+ *   - plane: the cluster's eq. 5 plane, normal pointing away from the tree
+ *     centre (in->centre on the back side; see cluster.h), texture seen from
+ *     +normal, i.e. from outside the tree;
+ *   - rectangle: minimum-area enclosing rectangle (sv_quad_fit_points) of ALL
+ *     vertices of the cluster's leaf triangles (each distinct vertex once)
+ *     projected onto the plane;
+ *   - faces = bake_faces = the cluster's leaf triangles: an impostor shows
+ *     exactly its own leaves (§2: "replace the whole group by a single
+ *     impostor"), never a neighbour cluster's leaves that happen to lie near
+ *     its plane, so no leaf is drawn twice;
+ *   - slab: largest |distance| of those vertices to the plane (for the record:
+ *     bake_faces decides what is baked); parts = foliage; group = level index;
+ *     parent = the quad of the next coarser LOD this cluster merges into
+ *     (-1 at the coarsest);
+ *   - trunk: SV_TRUNK_SIMPLIFIED with trunk_ratio per level (default 0.5,
+ *     0.25, 0.1, then 0.05 for further levels): the trunk stays geometry,
+ *     thinner as the level coarsens.
+ *
+ * Settings (spec key "leaf_clusters"), all optional:
+ *   "clusters":      array of 1..8 integers in [1, 1024], strictly decreasing,
+ *                    finest first (default [32, 16, 8]);
+ *   "alpha_rel":     number in [0, 100] (default 0.003): α = alpha_rel·R², R
+ *                    the bounding-sphere radius (docs/methods/leaf_clusters.md
+ *                    has the measurement behind the default);
+ *   "area_weighted": bool (default true): weight each leaf's error by its area;
+ *   "iterations":    integer in [1, 1000] (default 50): k-means iterations;
+ *   "seed_tries":    integer in [1, 64] (default 4): k-means++ candidates per seed;
+ *   "trunk_ratio":   array of numbers in (0, 1], one per level.
+ */
+#include "method.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cluster.h"
+
+#define LC_NAME "leaf_clusters"
+#define LC_MAX_LEVELS 8
+#define LC_MAX_CLUSTERS 1024
+
+static const char *const lc_keys[] = {"clusters", "alpha_rel", "area_weighted", "iterations",
+                                      "seed_tries", "trunk_ratio", NULL};
+
+typedef struct lc_settings {
+    uint32_t levels[LC_MAX_LEVELS];
+    uint32_t level_count;
+    double alpha_rel;
+    bool area_weighted;
+    long iterations;
+    long seed_tries;
+    double trunk_ratio[LC_MAX_LEVELS];
+} lc_settings;
+
+static double default_trunk_ratio(uint32_t level)
+{
+    static const double table[3] = {0.5, 0.25, 0.1};
+    return level < 3 ? table[level] : 0.05;
+}
+
+static sv_status parse_levels(const cJSON *s, lc_settings *o, sv_error *err)
+{
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(s, "clusters");
+    if (!a) return SV_OK;
+    int n = cJSON_IsArray(a) ? cJSON_GetArraySize(a) : -1;
+    if (n < 1 || n > LC_MAX_LEVELS)
+        return sv_fail(err, SV_ERR_SPEC, LC_NAME ".clusters: expected an array of 1 to %d integers",
+                       LC_MAX_LEVELS);
+    int i = 0;
+    for (const cJSON *it = a->child; it; it = it->next, i++) {
+        double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
+        if (!isfinite(v) || v != floor(v) || v < 1 || v > LC_MAX_CLUSTERS)
+            return sv_fail(err, SV_ERR_SPEC,
+                           LC_NAME ".clusters[%d]: expected an integer in [1, %d]", i,
+                           LC_MAX_CLUSTERS);
+        o->levels[i] = (uint32_t)v;
+        if (i > 0 && o->levels[i] >= o->levels[i - 1])
+            return sv_fail(err, SV_ERR_SPEC,
+                           LC_NAME ".clusters[%d]: counts must strictly decrease (%u after %u)", i,
+                           o->levels[i], o->levels[i - 1]);
+    }
+    o->level_count = (uint32_t)n;
+    return SV_OK;
+}
+
+static sv_status parse_trunk(const cJSON *s, lc_settings *o, sv_error *err)
+{
+    for (uint32_t l = 0; l < LC_MAX_LEVELS; l++) o->trunk_ratio[l] = default_trunk_ratio(l);
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(s, "trunk_ratio");
+    if (!a) return SV_OK;
+    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != (int)o->level_count)
+        return sv_fail(err, SV_ERR_SPEC,
+                       LC_NAME ".trunk_ratio: expected an array of %u numbers (one per level)",
+                       o->level_count);
+    int i = 0;
+    for (const cJSON *it = a->child; it; it = it->next, i++) {
+        double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
+        if (!(v > 0 && v <= 1))
+            return sv_fail(err, SV_ERR_SPEC, LC_NAME ".trunk_ratio[%d]: expected a number in (0, 1]", i);
+        o->trunk_ratio[i] = v;
+    }
+    return SV_OK;
+}
+
+static sv_status lc_parse(const cJSON *s, lc_settings *o, sv_error *err)
+{
+    memset(o, 0, sizeof *o);
+    o->levels[0] = 32, o->levels[1] = 16, o->levels[2] = 8;
+    o->level_count = 3;
+    o->alpha_rel = 0.003;
+    o->area_weighted = true;
+    o->iterations = 50;
+    o->seed_tries = 4;
+    sv_status st;
+    if ((st = sv_setting_only(s, LC_NAME, lc_keys, err))) return st;
+    if ((st = parse_levels(s, o, err))) return st;
+    if ((st = sv_setting_number(s, LC_NAME, "alpha_rel", 0, 100, &o->alpha_rel, err))) return st;
+    if ((st = sv_setting_bool(s, LC_NAME, "area_weighted", &o->area_weighted, err))) return st;
+    if ((st = sv_setting_int(s, LC_NAME, "iterations", 1, 1000, &o->iterations, err))) return st;
+    if ((st = sv_setting_int(s, LC_NAME, "seed_tries", 1, 64, &o->seed_tries, err))) return st;
+    return parse_trunk(s, o, err);
+}
+
+static sv_status lc_check(const cJSON *settings, sv_error *err)
+{
+    lc_settings s;
+    return lc_parse(settings, &s, err);
+}
+
+/* Builds the quad of cluster c of a level from its leaves' triangles. The
+ * face list is the member leaves' triangles in leaf order. */
+static sv_status make_quad(const sv_mesh *m, const sv_leaves *lv, const sv_cluster_level *level,
+                           uint32_t c, uint32_t ntris, int32_t group, sv_quad *q, double *pts,
+                           uint32_t *stamp, uint32_t mark, sv_error *err)
+{
+    memset(q, 0, sizeof *q);
+    const sv_cluster_plane *p = &level->planes[c];
+    for (int j = 0; j < 3; j++) q->normal[j] = p->normal[j];
+    q->d = p->d;
+    q->faces = sv_calloc(ntris, sizeof *q->faces);
+    q->bake_faces = sv_calloc(ntris, sizeof *q->bake_faces);
+    if (!q->faces || !q->bake_faces) {
+        free(q->faces);
+        free(q->bake_faces);
+        return sv_fail(err, SV_ERR_NOMEM, LC_NAME ": no memory for the faces of cluster %u", c);
+    }
+    uint32_t k = 0;
+    size_t np = 0; /* distinct vertices: a vertex shared by several faces is one point */
+    double slab = 0.0, area = 0.0;
+    for (uint32_t i = 0; i < lv->count; i++) {
+        if (level->assign[i] != c) continue;
+        const sv_leaf *leaf = &lv->leaves[i];
+        for (uint32_t t = 0; t < leaf->count; t++) {
+            uint32_t tri = lv->tris[leaf->first + t];
+            q->faces[k] = q->bake_faces[k] = tri;
+            area += sv_tri_area(m, tri);
+            for (int v = 0; v < 3; v++) {
+                uint32_t vi = m->indices[3 * (size_t)tri + v];
+                if (stamp[vi] == mark) continue;
+                stamp[vi] = mark;
+                const float *pos = &m->positions[3 * (size_t)vi];
+                double *out = &pts[3 * np++];
+                for (int j = 0; j < 3; j++) out[j] = pos[j];
+                double dist = fabs(out[0] * q->normal[0] + out[1] * q->normal[1] +
+                                   out[2] * q->normal[2] + q->d);
+                if (dist > slab) slab = dist;
+            }
+            k++;
+        }
+    }
+    q->face_count = q->bake_face_count = k;
+    q->face_area = area;
+    q->slab = slab;
+    q->clip = false;
+    q->parts = SV_PARTS_FOLIAGE;
+    q->group = group;
+    q->parent = level->parent[c];
+    sv_quad_fit_points(q, pts, np);
+    return SV_OK;
+}
+
+static sv_status check_leaves(const sv_mesh *m, const sv_leaves *lv, sv_error *err)
+{
+    for (uint32_t i = 0; i < lv->count; i++) {
+        const sv_leaf *l = &lv->leaves[i];
+        if (l->first > lv->tri_count || l->count > lv->tri_count - l->first)
+            return sv_fail(err, SV_ERR_INTERNAL, LC_NAME ": leaf %u's triangles lie outside the list", i);
+        for (uint32_t t = 0; t < l->count; t++)
+            if (lv->tris[l->first + t] >= m->triangle_count)
+                return sv_fail(err, SV_ERR_INTERNAL, LC_NAME ": leaf %u names triangle %u of %u", i,
+                               lv->tris[l->first + t], m->triangle_count);
+    }
+    return SV_OK;
+}
+
+static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
+                          sv_error *err)
+{
+    lc_settings s;
+    sv_status st = lc_parse(settings, &s, err);
+    if (st) return st;
+    const sv_mesh *m = in->mesh;
+    const sv_leaves *lv = in->leaves;
+    if (!m) return sv_fail(err, SV_ERR_INTERNAL, LC_NAME ": no mesh");
+    if (!lv || lv->count == 0)
+        return sv_fail(err, SV_ERR_UNBAKEABLE,
+                       LC_NAME ": the tree has no leaf elements (no foliage was classified)");
+    if (!(in->radius > 0) || !isfinite(in->radius))
+        return sv_fail(err, SV_ERR_UNBAKEABLE, LC_NAME ": bounding radius %g is not positive",
+                       in->radius);
+    if ((st = check_leaves(m, lv, err))) return st;
+
+    sv_cluster_options co = {
+        .levels = s.levels,
+        .level_count = s.level_count,
+        .alpha = s.alpha_rel * in->radius * in->radius,
+        .area_weighted = s.area_weighted,
+        .max_iterations = (uint32_t)s.iterations,
+        .seed_tries = (uint32_t)s.seed_tries,
+        .seed = in->seed,
+        .centre = in->centre,
+    };
+    sv_clusters cl;
+    if ((st = sv_cluster_build(lv->leaves, lv->count, &co, &cl, err))) return st;
+
+    snprintf(out->method, sizeof out->method, "%s", LC_NAME);
+    uint32_t *tris = NULL, mark = 0;
+    double *pts = NULL;
+    uint32_t *stamp = sv_calloc(m->vertex_count, sizeof *stamp); /* vertex → last quad that took it */
+    if (!stamp) {
+        sv_clusters_free(&cl);
+        return sv_fail(err, SV_ERR_NOMEM, LC_NAME ": no memory for %u vertices", m->vertex_count);
+    }
+    for (uint32_t l = 0; l < cl.level_count && st == SV_OK; l++) {
+        const sv_cluster_level *level = &cl.levels[l];
+        char name[32];
+        snprintf(name, sizeof name, "clusters%u", s.levels[l]);
+        sv_lod_plan *lod = sv_stand_in_add_lod(out, name);
+        if (!lod) {
+            st = sv_fail(err, SV_ERR_NOMEM, LC_NAME ": no memory for LOD %s", name);
+            break;
+        }
+        lod->trunk = SV_TRUNK_SIMPLIFIED;
+        lod->trunk_ratio = s.trunk_ratio[l];
+        /* triangles per cluster, and room for the largest cluster's vertices */
+        free(tris);
+        tris = sv_calloc(level->count, sizeof *tris);
+        if (!tris) {
+            st = sv_fail(err, SV_ERR_NOMEM, LC_NAME ": no memory for level %u", l);
+            break;
+        }
+        uint32_t most = 0;
+        for (uint32_t i = 0; i < lv->count; i++) tris[level->assign[i]] += lv->leaves[i].count;
+        for (uint32_t c = 0; c < level->count; c++)
+            if (tris[c] > most) most = tris[c];
+        size_t nvert;
+        if (!sv_mul_size(most, 3, &nvert)) {
+            st = sv_fail(err, SV_ERR_NOMEM, LC_NAME ": cluster too large");
+            break;
+        }
+        free(pts);
+        pts = sv_calloc(nvert, 3 * sizeof *pts);
+        if (!pts) {
+            st = sv_fail(err, SV_ERR_NOMEM, LC_NAME ": no memory for %u triangles", most);
+            break;
+        }
+        for (uint32_t c = 0; c < level->count && st == SV_OK; c++) {
+            sv_quad q;
+            st = make_quad(m, lv, level, c, tris[c], (int32_t)l, &q, pts, stamp, ++mark, err);
+            if (st == SV_OK) st = sv_lod_add_quad(lod, &q, err);
+        }
+    }
+    free(tris);
+    free(pts);
+    free(stamp);
+    sv_clusters_free(&cl);
+    return st;
+}
+
+/* On failure the partial stand-in is freed (out is left zeroed). */
+static sv_status lc_run(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
+                        sv_error *err)
+{
+    sv_status st = lc_build(in, settings, out, err);
+    if (st) sv_stand_in_free(out);
+    return st;
+}
+
+const sv_method sv_method_leaf_clusters = {
+    .name = LC_NAME,
+    .summary = "leaf-cluster impostors (Garcia et al.): k-means planes over leaves, "
+               "levels 32/16/8 with parent links",
+    .check = lc_check,
+    .run = lc_run,
+};

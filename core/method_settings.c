@@ -1,0 +1,78 @@
+/* method_settings.c — strict parsing helpers for method settings (method.h).
+ *
+ * Every helper names the offending key as "section.key" so a spec error points
+ * at the exact place. A missing object or key is not an error: the caller's
+ * default stays in *out.
+ */
+#include "method.h"
+
+#include <math.h>
+#include <string.h>
+
+static const cJSON *item_of(const cJSON *obj, const char *key)
+{
+    if (!obj || !cJSON_IsObject(obj)) return NULL;
+    return cJSON_GetObjectItemCaseSensitive(obj, key);
+}
+
+sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key,
+                            double lo, double hi, double *out, sv_error *err)
+{
+    const cJSON *it = item_of(obj, key);
+    if (!it) return SV_OK;
+    if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble))
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected a number", method, key);
+    double v = it->valuedouble;
+    if (!(v >= lo && v <= hi))
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: %g is outside [%g, %g]", method, key, v, lo, hi);
+    *out = v;
+    return SV_OK;
+}
+
+sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key, long lo,
+                         long hi, long *out, sv_error *err)
+{
+    const cJSON *it = item_of(obj, key);
+    if (!it) return SV_OK;
+    if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble) ||
+        it->valuedouble != floor(it->valuedouble))
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected an integer", method, key);
+    double v = it->valuedouble;
+    /* Compare in double first so huge values cannot overflow the conversion. */
+    if (!(v >= (double)lo && v <= (double)hi))
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: %g is outside [%ld, %ld]", method, key, v, lo,
+                       hi);
+    *out = (long)v;
+    return SV_OK;
+}
+
+sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key, bool *out,
+                          sv_error *err)
+{
+    const cJSON *it = item_of(obj, key);
+    if (!it) return SV_OK;
+    if (!cJSON_IsBool(it))
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected true or false", method, key);
+    *out = cJSON_IsTrue(it);
+    return SV_OK;
+}
+
+sv_status sv_setting_only(const cJSON *obj, const char *method, const char *const *known,
+                          sv_error *err)
+{
+    if (!obj) return SV_OK;
+    if (!cJSON_IsObject(obj))
+        return sv_fail(err, SV_ERR_SPEC, "%s: expected an object", method);
+    for (const cJSON *it = obj->child; it; it = it->next) {
+        bool found = false;
+        for (size_t i = 0; known && known[i]; i++)
+            if (it->string && strcmp(it->string, known[i]) == 0) {
+                found = true;
+                break;
+            }
+        if (!found)
+            return sv_fail(err, SV_ERR_SPEC, "%s.%.64s: unknown setting", method,
+                           it->string ? it->string : "?");
+    }
+    return SV_OK;
+}

@@ -1,0 +1,32 @@
+/* methods.c — the registry of stand-in methods (method.h). */
+#include "method.h"
+
+#include <string.h>
+
+extern const sv_method sv_method_crossed_quads;
+extern const sv_method sv_method_leaf_clusters;
+extern const sv_method sv_method_stochastic;
+extern const sv_method sv_method_slicing;
+extern const sv_method sv_method_billboard_cloud;
+
+static const sv_method *const registry[] = {
+    &sv_method_crossed_quads,
+    &sv_method_leaf_clusters,
+    &sv_method_stochastic,
+    &sv_method_slicing,
+    &sv_method_billboard_cloud,
+};
+
+const sv_method *const *sv_method_list(size_t *count)
+{
+    *count = sizeof registry / sizeof registry[0];
+    return registry;
+}
+
+const sv_method *sv_method_find(const char *name)
+{
+    if (!name) return NULL;
+    for (size_t i = 0; i < sizeof registry / sizeof registry[0]; i++)
+        if (strcmp(registry[i]->name, name) == 0) return registry[i];
+    return NULL;
+}

@@ -1,0 +1,37 @@
+/* scene.c — scene defaults and the screen-size ⇄ distance conversion used to
+ * plan LODs (perspective camera: pixels = h / (2 d tan(fov/2)) × screen_height). */
+#include "scene.h"
+
+#include <math.h>
+
+void sv_scene_defaults(sv_scene *s)
+{
+    s->lighting = SV_LIGHTING_STATIC;
+    /* From above and in front, normalised (0.3, 0.8, 0.5). */
+    double l = sqrt(0.3 * 0.3 + 0.8 * 0.8 + 0.5 * 0.5);
+    s->light_dir[0] = 0.3 / l;
+    s->light_dir[1] = 0.8 / l;
+    s->light_dir[2] = 0.5 / l;
+    s->shadows = false;
+    s->ambient_occlusion = false;
+    s->viewer = SV_VIEWER_ORBIT;
+    s->distance_min = 10.0;
+    s->distance_max = 200.0;
+    s->screen_height = 1080;
+    s->fov_y_deg = 60.0;
+    s->camera_speed = 0.0;
+}
+
+double sv_scene_pixels(const sv_scene *s, double h, double dist)
+{
+    double t = tan(0.5 * s->fov_y_deg * M_PI / 180.0);
+    if (dist <= 0 || t <= 0) return INFINITY;
+    return h / (2.0 * dist * t) * (double)s->screen_height;
+}
+
+double sv_scene_distance_for_pixels(const sv_scene *s, double h, double pixels)
+{
+    double t = tan(0.5 * s->fov_y_deg * M_PI / 180.0);
+    if (pixels <= 0 || t <= 0) return INFINITY;
+    return h * (double)s->screen_height / (2.0 * t * pixels);
+}

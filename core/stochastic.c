@@ -1,0 +1,626 @@
+/* stochastic.c — stochastic simplification of the foliage (stochastic.h).
+ *
+ * Fichtner, "GPU Based Stochastic Foliage Simplification", after Cook et al.
+ * 2007 (papers/stochastic-foliage-simplification.txt):
+ *   §3.1 eq. 1–2   λ from distance           sv_stochastic_b, sv_stochastic_lambda
+ *   §3.2           leaf order                sv_stochastic_order
+ *   §3.3 eq. 3     area preservation         sv_stochastic_area_scale
+ *   §4.3.1         scale by √s about centres build_level
+ *   §3.4 eq. 4     contrast preservation     sv_stochastic_contrast, contrast bins
+ *   §3.5, §4.3.3   fade window               sv_stochastic_fade
+ *   §6             r measured by rendering   sv_stochastic_measure_ratio
+ * Pure C: no GL (the daemon links this file through the method registry).
+ */
+#include "stochastic.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define ST_NAME "stochastic"
+#define LAMBDA_MIN 1e-9
+#define CONTRAST_STEPS 16   /* bins per octave of the luminance factor */
+#define CONTRAST_BINS 64    /* |bin| <= 64: factors 1/16 .. 16 */
+
+/* ---- formulas ------------------------------------------------------------- */
+
+double sv_stochastic_b(double d0, double d)
+{
+    if (!(d > 0) || !(d > d0)) return 1.0;
+    return (d0 * d0) / (d * d);
+}
+
+double sv_stochastic_lambda(double b, double h)
+{
+    if (!(b > 0)) return 0.0;
+    if (b >= 1.0) return 1.0;
+    if (!(h > 0) || !(h < 1)) return 1.0;
+    double e = log(0.5) / log(h); /* log_h(1/2) */
+    double l = exp(e * log(b));
+    return l > 1.0 ? 1.0 : l < 0.0 ? 0.0 : l;
+}
+
+double sv_stochastic_motion_b(double blur_pixels)
+{
+    if (!(blur_pixels > 0)) return 1.0;
+    if (isinf(blur_pixels)) return 0.0;
+    return 1.0 / (1.0 + blur_pixels);
+}
+
+double sv_stochastic_area_scale(double r, double lambda)
+{
+    if (!(lambda < 1.0)) return 1.0;
+    if (!(lambda > LAMBDA_MIN)) lambda = LAMBDA_MIN;
+    if (!(r > 0)) return 1.0 / lambda;
+    if (r >= 1.0) return 1.0;
+    /* 1 − (1 − r)^{1/λ} = −expm1(log1p(−r)/λ): no cancellation for tiny r */
+    double s = -expm1(log1p(-r) / lambda) / r;
+    double hi = fmin(1.0 / lambda, 1.0 / r);
+    if (!(s >= 1.0)) s = 1.0;
+    if (s > hi) s = hi;
+    return s;
+}
+
+double sv_stochastic_contrast(double c, double mean, double lambda)
+{
+    if (!(lambda > 0)) lambda = 0;
+    if (lambda > 1) lambda = 1;
+    return mean + sqrt(lambda) * (c - mean);
+}
+
+void sv_stochastic_fade(double lambda, double radius, double *lo, double *hi)
+{
+    if (lambda > 1) lambda = 1;
+    if (!(lambda > 0)) lambda = 0;
+    double R = fmin(1.0 - lambda, radius > 0 ? radius : 0);
+    *lo = fmax(0.0, lambda - R);
+    *hi = fmin(1.0, lambda + R);
+}
+
+uint32_t sv_stochastic_count(double lambda, uint32_t n)
+{
+    if (n == 0) return 0;
+    if (!(lambda > 0)) return 1;
+    if (lambda >= 1) return n;
+    double c = ceil(lambda * (double)n - 1e-9);
+    if (c < 1) return 1;
+    if (c > n) return n;
+    return (uint32_t)c;
+}
+
+static uint64_t splitmix64(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* Uniform in (0, 1): never 0, so log() is finite. */
+static double u01(uint64_t *s)
+{
+    return ((double)(splitmix64(s) >> 11) + 0.5) * 0x1.0p-53;
+}
+
+typedef struct keyed {
+    double key;
+    uint32_t index;
+} keyed;
+
+static int keyed_cmp(const void *a, const void *b)
+{
+    const keyed *x = a, *y = b;
+    if (x->key > y->key) return -1;
+    if (x->key < y->key) return 1;
+    return x->index < y->index ? -1 : x->index > y->index;
+}
+
+sv_status sv_stochastic_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_order_mode mode,
+                              uint32_t *order, sv_error *err)
+{
+    uint32_t n = leaves ? leaves->count : 0;
+    uint64_t s = seed ^ 0x5354434853494D50ull; /* a stream of its own for this method */
+    if (mode == SV_STOCH_ORDER_AREA) {
+        keyed *k = sv_calloc(n ? n : 1, sizeof *k);
+        if (!k) return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for the leaf order");
+        for (uint32_t i = 0; i < n; i++) {
+            double w = leaves->leaves[i].area;
+            double u = u01(&s);
+            k[i].key = (w > 0 && isfinite(w)) ? log(u) / w : -INFINITY;
+            k[i].index = i;
+        }
+        qsort(k, n, sizeof *k, keyed_cmp);
+        for (uint32_t i = 0; i < n; i++) order[i] = k[i].index;
+        free(k);
+        return SV_OK;
+    }
+    for (uint32_t i = 0; i < n; i++) order[i] = i;
+    for (uint32_t i = n; i > 1; i--) { /* Fisher–Yates */
+        uint32_t j = (uint32_t)(u01(&s) * (double)i);
+        if (j >= i) j = i - 1;
+        uint32_t t = order[i - 1];
+        order[i - 1] = order[j];
+        order[j] = t;
+    }
+    return SV_OK;
+}
+
+/* 1 − (1 − r)^k without cancellation. */
+static double covered_fraction(double r, double k)
+{
+    if (r >= 1.0) return 1.0;
+    return -expm1(k * log1p(-r));
+}
+
+double sv_stochastic_ratio_from_coverage(double q, uint32_t n_sub, uint32_t n)
+{
+    if (n == 0 || n_sub == 0 || n_sub > n || !isfinite(q)) return 0.0;
+    double f = (double)n_sub / (double)n;
+    if (q <= f) return 0.0;
+    if (q >= 1.0) return 1.0;
+    double lo = log(1e-15), hi = 0.0; /* bisection on log r: q(r) increases with r */
+    for (int it = 0; it < 200; it++) {
+        double mid = 0.5 * (lo + hi), r = exp(mid);
+        double qm = covered_fraction(r, n_sub) / covered_fraction(r, n);
+        if (qm < q)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return exp(0.5 * (lo + hi));
+}
+
+sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *order,
+                                      double fraction, sv_coverage_fn fn, void *user,
+                                      sv_stoch_ratio *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!leaves || leaves->count == 0)
+        return sv_fail(err, SV_ERR_UNBAKEABLE, "stochastic: the tree has no leaves to measure");
+    if (!(fraction > 0) || fraction > 1) fraction = 0.1;
+    uint32_t n = leaves->count, ns = sv_stochastic_count(fraction, n);
+    uint32_t *tris = sv_calloc(leaves->tri_count ? leaves->tri_count : 1, sizeof *tris);
+    if (!tris) return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory to measure r");
+    uint32_t m = 0;
+    for (uint32_t k = 0; k < ns; k++) {
+        const sv_leaf *l = &leaves->leaves[order[k]];
+        for (uint32_t t = 0; t < l->count; t++) tris[m++] = leaves->tris[l->first + t];
+    }
+    sv_status st = fn(user, tris, m, &out->covered_sub, err);
+    free(tris);
+    if (st) return st;
+    if ((st = fn(user, leaves->tris, leaves->tri_count, &out->covered_all, err))) return st;
+    if (!(out->covered_all > 0))
+        return sv_fail(err, SV_ERR_UNBAKEABLE,
+                       "stochastic: the leaves cover no pixel (cannot measure r)");
+    out->n = n;
+    out->n_sub = ns;
+    out->r = sv_stochastic_ratio_from_coverage(out->covered_sub / out->covered_all, ns, n);
+    if (!(out->r > 0)) out->r = 1e-12; /* no measurable overlap: s → 1/λ */
+    return SV_OK;
+}
+
+/* ---- settings ----------------------------------------------------------- */
+
+static const char *const st_keys[] = {"levels", "h", "d0", "order", "fade", "area_preservation",
+                                      "contrast_preservation", "shutter", "ratio_fraction",
+                                      "visible_ratio", NULL};
+
+sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_error *err)
+{
+    memset(s, 0, sizeof *s);
+    static const double def[4] = {1, 0.5, 0.25, 0.1};
+    memcpy(s->levels, def, sizeof def);
+    s->level_count = 4;
+    s->h = 0.5;
+    s->fade = 0.1;
+    s->area_preservation = true;
+    s->contrast_preservation = true;
+    s->shutter = 1.0 / 60.0;
+    s->ratio_fraction = 0.1;
+    sv_status st;
+    if ((st = sv_setting_only(o, ST_NAME, st_keys, err))) return st;
+    const cJSON *lv = cJSON_GetObjectItemCaseSensitive(o, "levels");
+    if (lv) {
+        int n = cJSON_IsArray(lv) ? cJSON_GetArraySize(lv) : -1;
+        if (n < 1 || n > SV_STOCH_MAX_LEVELS)
+            return sv_fail(err, SV_ERR_SPEC,
+                           ST_NAME ".levels: expected an array of 1 to %d numbers in (0, 1]",
+                           SV_STOCH_MAX_LEVELS);
+        for (int i = 0; i < n; i++) {
+            const cJSON *e = cJSON_GetArrayItem(lv, i);
+            if (!cJSON_IsNumber(e) || !(e->valuedouble > 0) || e->valuedouble > 1)
+                return sv_fail(err, SV_ERR_SPEC, ST_NAME ".levels[%d]: expected a number in (0, 1]",
+                               i);
+            if (i > 0 && !(e->valuedouble < s->levels[i - 1]))
+                return sv_fail(err, SV_ERR_SPEC,
+                               ST_NAME ".levels[%d]: levels must be strictly decreasing", i);
+            s->levels[i] = e->valuedouble;
+        }
+        s->level_count = (uint32_t)n;
+    }
+    if ((st = sv_setting_number(o, ST_NAME, "h", 0.01, 0.99, &s->h, err))) return st;
+    if ((st = sv_setting_number(o, ST_NAME, "d0", 0, 1e7, &s->d0, err))) return st;
+    if ((st = sv_setting_number(o, ST_NAME, "fade", 0, 0.5, &s->fade, err))) return st;
+    if ((st = sv_setting_bool(o, ST_NAME, "area_preservation", &s->area_preservation, err)))
+        return st;
+    if ((st = sv_setting_bool(o, ST_NAME, "contrast_preservation", &s->contrast_preservation,
+                              err)))
+        return st;
+    if ((st = sv_setting_number(o, ST_NAME, "shutter", 0, 1, &s->shutter, err))) return st;
+    if ((st = sv_setting_number(o, ST_NAME, "ratio_fraction", 0.01, 0.5, &s->ratio_fraction, err)))
+        return st;
+    if ((st = sv_setting_number(o, ST_NAME, "visible_ratio", 0, 1, &s->visible_ratio, err)))
+        return st;
+    const cJSON *ord = cJSON_GetObjectItemCaseSensitive(o, "order");
+    if (ord) {
+        if (cJSON_IsString(ord) && strcmp(ord->valuestring, "random") == 0)
+            s->order = SV_STOCH_ORDER_RANDOM;
+        else if (cJSON_IsString(ord) && strcmp(ord->valuestring, "area") == 0)
+            s->order = SV_STOCH_ORDER_AREA;
+        else
+            return sv_fail(err, SV_ERR_SPEC, ST_NAME ".order: expected one of random, area");
+    }
+    return SV_OK;
+}
+
+double sv_stochastic_lambda_at(const sv_stochastic_settings *s, const sv_scene *scene, double d)
+{
+    double d0 = s->d0 > 0 ? s->d0 : scene->distance_min;
+    double b = sv_stochastic_b(d0, d);
+    if (scene->camera_speed > 0) {
+        double px_per_m = sv_scene_pixels(scene, 1.0, d);
+        b *= sv_stochastic_motion_b(scene->camera_speed * s->shutter * px_per_m);
+    }
+    return sv_stochastic_lambda(b, s->h);
+}
+
+double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const sv_scene *scene,
+                                         double lambda)
+{
+    if (lambda >= 1) return 0;
+    double lo = log(1e-6), hi = log(1e7);
+    if (sv_stochastic_lambda_at(s, scene, exp(hi)) > lambda) return INFINITY;
+    if (sv_stochastic_lambda_at(s, scene, exp(lo)) <= lambda) return exp(lo);
+    for (int it = 0; it < 100; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (sv_stochastic_lambda_at(s, scene, exp(mid)) <= lambda)
+            hi = mid;
+        else
+            lo = mid;
+    }
+    return exp(hi);
+}
+
+void sv_stochastic_level_name(double lambda, char name[32])
+{
+    if (lambda >= 1)
+        snprintf(name, 32, "full");
+    else
+        snprintf(name, 32, "stochastic%g", round(lambda * 1e4) / 100.0);
+}
+
+/* ---- leaf colours (§3.4: c̄ from the textures) ------------------------------ */
+
+static double luminance(const double c[3])
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+/* Colour and alpha of material m at uv (nearest texel, repeat wrap). */
+static void sample(const sv_mesh *mesh, uint32_t m, float u, float v, double rgb[3], double *a)
+{
+    const sv_material *mt = &mesh->materials[m];
+    double t[4] = {1, 1, 1, 1};
+    if (mt->base_texture >= 0 && (uint32_t)mt->base_texture < mesh->image_count) {
+        const sv_image *im = &mesh->images[mt->base_texture];
+        if (im->data && im->bits == 8 && im->width && im->height && im->channels >= 1) {
+            double fu = u - floor(u), fv = v - floor(v);
+            uint32_t x = (uint32_t)(fu * im->width), y = (uint32_t)(fv * im->height);
+            if (x >= im->width) x = im->width - 1;
+            if (y >= im->height) y = im->height - 1;
+            const uint8_t *p = (const uint8_t *)im->data +
+                               ((size_t)y * im->width + x) * im->channels;
+            for (uint32_t c = 0; c < 3; c++) t[c] = p[c < im->channels ? c : 0] / 255.0;
+            t[3] = im->channels == 4 ? p[3] / 255.0 : im->channels == 2 ? p[1] / 255.0 : 1.0;
+        }
+    }
+    for (int c = 0; c < 3; c++) rgb[c] = t[c] * mt->base_color[c];
+    *a = t[3] * mt->base_color[3];
+}
+
+/* Mean colour of every leaf (alpha- and area-weighted samples at the corners
+ * and centroid of each triangle); leaves with no opaque sample get their
+ * material's base colour. */
+static void leaf_colours(const sv_mesh *mesh, const sv_leaves *lv, double *col)
+{
+    for (uint32_t i = 0; i < lv->count; i++) {
+        const sv_leaf *l = &lv->leaves[i];
+        double acc[3] = {0, 0, 0}, w = 0;
+        uint32_t m0 = 0;
+        for (uint32_t k = 0; k < l->count; k++) {
+            uint32_t t = lv->tris[l->first + k];
+            uint32_t m = mesh->tri_material[t];
+            if (k == 0) m0 = m;
+            double area = sv_tri_area(mesh, t);
+            const uint32_t *ix = &mesh->indices[3 * (size_t)t];
+            float uc = 0, vc = 0;
+            for (int j = 0; j <= 3; j++) {
+                float u, v;
+                if (j < 3) {
+                    u = mesh->uvs[2 * (size_t)ix[j]];
+                    v = mesh->uvs[2 * (size_t)ix[j] + 1];
+                    uc += u / 3;
+                    vc += v / 3;
+                } else {
+                    u = uc;
+                    v = vc;
+                }
+                double rgb[3], a;
+                sample(mesh, m, u, v, rgb, &a);
+                double ww = a * (area > 0 ? area : 1e-30);
+                for (int c = 0; c < 3; c++) acc[c] += ww * rgb[c];
+                w += ww;
+            }
+        }
+        for (int c = 0; c < 3; c++)
+            col[3 * (size_t)i + c] = w > 0 ? acc[c] / w : mesh->materials[m0].base_color[c];
+    }
+}
+
+/* ---- building a level --------------------------------------------------- */
+
+typedef struct build_ctx {
+    const sv_mesh *mesh;
+    const sv_leaves *lv;
+    const uint32_t *order;
+    const double *colour;      /* 3 per leaf */
+    double mean_y;
+    uint32_t *stamp;           /* per source vertex: leaf position + 1 last seen */
+    uint32_t *local;           /* per source vertex: index in the level's mesh */
+    int32_t *matmap;           /* material_count × (2·CONTRAST_BINS + 1) */
+    int32_t *leaf_bin;         /* per leaf position */
+} build_ctx;
+
+static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r,
+                             double lambda, sv_stoch_level *L, sv_error *err)
+{
+    const sv_mesh *src = b->mesh;
+    const sv_leaves *lv = b->lv;
+    uint32_t N = lv->count, n = sv_stochastic_count(lambda, N);
+    L->lambda = lambda;
+    L->leaves = n;
+    L->area_scale = s->area_preservation ? sv_stochastic_area_scale(r, lambda) : 1.0;
+    L->contrast_alpha = s->contrast_preservation ? sqrt(lambda) : 1.0;
+    sv_stochastic_fade(lambda, s->fade, &L->fade_lo, &L->fade_hi);
+
+    /* Contrast bins: each leaf's luminance factor, quantised. */
+    const uint32_t nb = 2 * CONTRAST_BINS + 1, M = src->material_count;
+    size_t mm;
+    if (!sv_mul_size(M, nb, &mm)) return sv_fail(err, SV_ERR_NOMEM, "stochastic: too many materials");
+    for (size_t i = 0; i < mm; i++) b->matmap[i] = -1;
+    uint32_t copies = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        int bin = 0;
+        if (s->contrast_preservation && lambda < 1) {
+            double y = luminance(&b->colour[3 * (size_t)b->order[k]]);
+            double y2 = sv_stochastic_contrast(y, b->mean_y, lambda);
+            if (y > 1e-6 && y2 > 1e-6) {
+                double q = round(CONTRAST_STEPS * log2(y2 / y));
+                bin = q > CONTRAST_BINS ? CONTRAST_BINS : q < -CONTRAST_BINS ? -CONTRAST_BINS : (int)q;
+            }
+        }
+        b->leaf_bin[k] = bin;
+        const sv_leaf *l = &lv->leaves[b->order[k]];
+        for (uint32_t t = 0; t < l->count; t++) {
+            uint32_t m = src->tri_material[lv->tris[l->first + t]];
+            int32_t *slot = &b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
+            if (*slot < 0) *slot = bin == 0 ? (int32_t)m : (int32_t)(M + copies++);
+        }
+    }
+    /* Vertices: every leaf gets its own copies (scaled about its own centre). */
+    uint64_t nv = 0, nt = 0;
+    for (uint32_t v = 0; v < src->vertex_count; v++) b->stamp[v] = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        const sv_leaf *l = &lv->leaves[b->order[k]];
+        nt += l->count;
+        for (uint32_t t = 0; t < l->count; t++) {
+            const uint32_t *ix = &src->indices[3 * (size_t)lv->tris[l->first + t]];
+            for (int j = 0; j < 3; j++)
+                if (b->stamp[ix[j]] != k + 1) {
+                    b->stamp[ix[j]] = k + 1;
+                    nv++;
+                }
+        }
+    }
+    if (nv > UINT32_MAX || nt > UINT32_MAX || (uint64_t)M + copies > UINT32_MAX)
+        return sv_fail(err, SV_ERR_LIMIT, "stochastic: level %g is too large", lambda);
+    sv_mesh *g = sv_mesh_create((uint32_t)nv, (uint32_t)nt, M + copies, src->image_count);
+    L->leaf_centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
+    L->leaf_order = sv_calloc(nv ? nv : 1, sizeof(float));
+    if (!g || !L->leaf_centre || !L->leaf_order) {
+        sv_mesh_destroy(g);
+        return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for level %g", lambda);
+    }
+    L->geometry = g;
+    for (uint32_t i = 0; i < src->image_count; i++) {
+        sv_status st = sv_image_copy(&src->images[i], &g->images[i], err);
+        if (st) return st;
+    }
+    memcpy(g->materials, src->materials, (size_t)M * sizeof *g->materials);
+    for (uint32_t m = 0; m < M; m++)
+        for (uint32_t bi = 0; bi < nb; bi++) {
+            int32_t slot = b->matmap[(size_t)m * nb + bi];
+            int bin = (int)bi - CONTRAST_BINS;
+            if (slot < 0 || bin == 0) continue;
+            sv_material *c = &g->materials[slot];
+            *c = src->materials[m];
+            double f = exp2((double)bin / CONTRAST_STEPS);
+            double mx = fmax(c->base_color[0], fmax(c->base_color[1], c->base_color[2]));
+            if (mx > 0 && f * mx > 1.0) f = 1.0 / mx; /* glTF factors stay in [0, 1] */
+            for (int ch = 0; ch < 3; ch++) c->base_color[ch] = (float)(c->base_color[ch] * f);
+            char name[128];
+            snprintf(name, sizeof name, "%.100s#contrast%+d", src->materials[m].name, bin);
+            memcpy(c->name, name, sizeof c->name);
+        }
+    L->contrast_materials = copies;
+    double g2 = sqrt(L->area_scale);
+    uint32_t vo = 0, to = 0;
+    for (uint32_t v = 0; v < src->vertex_count; v++) b->stamp[v] = 0;
+    for (uint32_t k = 0; k < n; k++) {
+        const sv_leaf *l = &lv->leaves[b->order[k]];
+        const double *c = l->centre;
+        float pos_order = (float)(((double)k + 0.5) / (double)N);
+        int bin = b->leaf_bin[k];
+        if (bin > 0) {
+            /* count leaves whose brightening hit the [0, 1] cap */
+            uint32_t m = src->tri_material[lv->tris[l->first]];
+            const float *bc = src->materials[m].base_color;
+            double mx = fmax(bc[0], fmax(bc[1], bc[2]));
+            if (mx * exp2((double)bin / CONTRAST_STEPS) > 1.0) L->contrast_capped++;
+        }
+        for (uint32_t t = 0; t < l->count; t++) {
+            uint32_t st_ = lv->tris[l->first + t];
+            const uint32_t *ix = &src->indices[3 * (size_t)st_];
+            for (int j = 0; j < 3; j++) {
+                uint32_t v = ix[j];
+                if (b->stamp[v] != k + 1) {
+                    b->stamp[v] = k + 1;
+                    b->local[v] = vo;
+                    for (int a = 0; a < 3; a++) {
+                        double p = src->positions[3 * (size_t)v + a];
+                        g->positions[3 * (size_t)vo + a] = (float)(c[a] + g2 * (p - c[a]));
+                        g->normals[3 * (size_t)vo + a] = src->normals[3 * (size_t)v + a];
+                        L->leaf_centre[3 * (size_t)vo + a] = (float)c[a];
+                    }
+                    g->uvs[2 * (size_t)vo] = src->uvs[2 * (size_t)v];
+                    g->uvs[2 * (size_t)vo + 1] = src->uvs[2 * (size_t)v + 1];
+                    L->leaf_order[vo] = pos_order;
+                    vo++;
+                }
+                g->indices[3 * (size_t)to + j] = b->local[v];
+            }
+            uint32_t m = src->tri_material[st_];
+            g->tri_material[to] =
+                (uint32_t)b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
+            to++;
+        }
+    }
+    return SV_OK;
+}
+
+void sv_stoch_result_free(sv_stoch_result *res)
+{
+    if (!res) return;
+    for (uint32_t i = 0; i < SV_STOCH_MAX_LEVELS; i++) {
+        sv_mesh_destroy(res->levels[i].geometry);
+        free(res->levels[i].leaf_centre);
+        free(res->levels[i].leaf_order);
+    }
+    free(res->order);
+    memset(res, 0, sizeof *res);
+}
+
+sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
+                              double r, sv_stoch_result *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    const sv_mesh *mesh = in->mesh;
+    const sv_leaves *lv = in->leaves;
+    if (!mesh || !lv || lv->count == 0)
+        return sv_fail(err, SV_ERR_UNBAKEABLE, "stochastic: the tree has no leaves");
+    if (s->area_preservation && !(r > 0 && r <= 1))
+        return sv_fail(err, SV_ERR_INVALID,
+                       "stochastic: the visible-area ratio r is unknown (got %g): the pipeline "
+                       "measures it by rendering, or give stochastic.visible_ratio",
+                       r);
+    sv_status st = SV_OK;
+    build_ctx b = {0};
+    b.mesh = mesh;
+    b.lv = lv;
+    uint32_t N = lv->count;
+    double *colour = sv_calloc(N, 3 * sizeof(double));
+    out->order = sv_calloc(N, sizeof(uint32_t));
+    b.stamp = sv_calloc(mesh->vertex_count ? mesh->vertex_count : 1, sizeof(uint32_t));
+    b.local = sv_calloc(mesh->vertex_count ? mesh->vertex_count : 1, sizeof(uint32_t));
+    b.leaf_bin = sv_calloc(N, sizeof(int32_t));
+    b.matmap = sv_calloc((size_t)(mesh->material_count ? mesh->material_count : 1),
+                         (2 * CONTRAST_BINS + 1) * sizeof(int32_t));
+    if (!colour || !out->order || !b.stamp || !b.local || !b.leaf_bin || !b.matmap) {
+        st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory");
+        goto out;
+    }
+    out->leaf_count = N;
+    out->r = r;
+    if ((st = sv_stochastic_order(lv, in->seed, s->order, out->order, err))) goto out;
+    leaf_colours(mesh, lv, colour);
+    double wsum = 0;
+    for (uint32_t i = 0; i < N; i++) {
+        double w = lv->leaves[i].area > 0 ? lv->leaves[i].area : 0;
+        for (int c = 0; c < 3; c++) out->mean_color[c] += w * colour[3 * (size_t)i + c];
+        wsum += w;
+    }
+    for (int c = 0; c < 3; c++) out->mean_color[c] = wsum > 0 ? out->mean_color[c] / wsum : 0;
+    b.order = out->order;
+    b.colour = colour;
+    b.mean_y = luminance(out->mean_color);
+    for (uint32_t i = 0; i < s->level_count; i++) {
+        out->level_count = i + 1;
+        if ((st = build_level(&b, s, r, s->levels[i], &out->levels[i], err))) goto out;
+    }
+out:
+    free(colour);
+    free(b.stamp);
+    free(b.local);
+    free(b.leaf_bin);
+    free(b.matmap);
+    if (st) sv_stoch_result_free(out);
+    return st;
+}
+
+/* ---- the method ------------------------------------------------------------ */
+
+static sv_status st_check(const cJSON *settings, sv_error *err)
+{
+    sv_stochastic_settings s;
+    return sv_stochastic_parse(settings, &s, err);
+}
+
+/* One LOD per level: the level's geometry, the trunk kept (λ = 1) or
+ * simplified to a fraction max(λ, 0.05) (the pipeline bounds the error by the
+ * level's distance). */
+static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
+                        sv_error *err)
+{
+    sv_stochastic_settings s;
+    sv_status st = sv_stochastic_parse(settings, &s, err);
+    if (st) return st;
+    sv_stoch_result res;
+    if ((st = sv_stochastic_build(in, &s, s.visible_ratio, &res, err))) return st;
+    snprintf(out->method, sizeof out->method, "%s", ST_NAME);
+    for (uint32_t i = 0; i < res.level_count; i++) {
+        char name[32];
+        sv_stochastic_level_name(res.levels[i].lambda, name);
+        sv_lod_plan *lod = sv_stand_in_add_lod(out, name);
+        if (!lod) {
+            st = sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for a LOD");
+            break;
+        }
+        lod->geometry = res.levels[i].geometry;
+        res.levels[i].geometry = NULL;
+        lod->trunk = res.levels[i].lambda >= 1 ? SV_TRUNK_MESH : SV_TRUNK_SIMPLIFIED;
+        lod->trunk_ratio = fmax(res.levels[i].lambda, 0.05);
+    }
+    sv_stoch_result_free(&res);
+    if (st) sv_stand_in_free(out);
+    return st;
+}
+
+const sv_method sv_method_stochastic = {
+    .name = ST_NAME,
+    .summary = "stochastic simplification of the foliage (Cook et al. 2007): random leaf "
+               "subsets, area- and contrast-preserving, as meshes",
+    .check = st_check,
+    .run = st_run,
+};

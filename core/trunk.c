@@ -1,0 +1,127 @@
+/* trunk.c — trunk kept as a mesh at every LOD (Jakulin; Behrendt et al. keep
+ * the trunk as geometry at near LODs), simplified with meshoptimizer's
+ * meshopt_simplify, material by material so material borders stay intact. */
+#include "trunk.h"
+
+#include <math.h>
+#include <meshoptimizer.h>
+#include <stdlib.h>
+#include <string.h>
+#include <stdio.h>
+
+sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                        double max_error, sv_mesh **out, sv_error *err)
+{
+    *out = NULL;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++)
+        if (tri_part[t] == SV_PART_TRUNK) n++;
+    if (n == 0) return SV_OK;
+    uint32_t *tris = malloc((size_t)n * sizeof *tris);
+    if (!tris) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++)
+        if (tri_part[t] == SV_PART_TRUNK) tris[n++] = t;
+    sv_mesh *sub = NULL;
+    sv_status st = sv_mesh_subset(mesh, tris, n, &sub, err);
+    free(tris);
+    if (st) return st;
+    if (!(ratio < 1.0)) {
+        *out = sub;
+        return SV_OK;
+    }
+    if (ratio < 0) ratio = 0;
+    double c[3], r;
+    sv_mesh_sphere(sub, c, &r);
+    /* meshoptimizer's target_error is relative to the mesh extent. */
+    float rel = (max_error > 0 && r > 0) ? (float)(max_error / (2.0 * r)) : 1.0f;
+    size_t ni = (size_t)sub->triangle_count * 3;
+    unsigned int *src = malloc(ni * sizeof *src), *dst = malloc(ni * sizeof *dst);
+    uint32_t *mat = malloc((size_t)sub->triangle_count * sizeof *mat);
+    unsigned int *weld = malloc((size_t)sub->vertex_count * sizeof *weld);
+    float *pu = sv_calloc(sub->vertex_count, 5 * sizeof(float));
+    if (!src || !dst || !mat || !weld || !pu) {
+        free(src);
+        free(dst);
+        free(mat);
+        free(weld);
+        free(pu);
+        sv_mesh_destroy(sub);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    /* Many exporters (OBJ especially) give every face its own vertices, and
+     * meshopt_simplify cannot collapse what is not connected: weld vertices
+     * that share position and UV (normals may differ per face; meshoptimizer
+     * handles the remaining UV seams itself). */
+    for (uint32_t v = 0; v < sub->vertex_count; v++) {
+        memcpy(&pu[5 * (size_t)v], &sub->positions[3 * (size_t)v], 3 * sizeof(float));
+        memcpy(&pu[5 * (size_t)v + 3], &sub->uvs[2 * (size_t)v], 2 * sizeof(float));
+    }
+    size_t unique = meshopt_generateVertexRemap(weld, NULL, sub->vertex_count, pu, sub->vertex_count,
+                                5 * sizeof(float));
+    free(pu);
+    /* Simplify on the compact welded buffer: meshoptimizer classifies vertices
+     * that share a position as seams, so unreferenced duplicates must not be
+     * in the vertex buffer it sees. rep[] maps compact vertices back. */
+    unsigned int *rep = malloc(unique * sizeof *rep);
+    float *cpos = malloc(unique * 3 * sizeof *cpos);
+    if (!rep || !cpos) {
+        free(rep);
+        free(cpos);
+        free(src);
+        free(dst);
+        free(mat);
+        free(weld);
+        sv_mesh_destroy(sub);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    for (uint32_t v = sub->vertex_count; v-- > 0;) rep[weld[v]] = v;
+    meshopt_remapVertexBuffer(cpos, sub->positions, sub->vertex_count, 3 * sizeof(float), weld);
+    for (size_t i = 0; i < ni; i++) sub->indices[i] = weld[sub->indices[i]];
+    free(weld);
+    size_t total = 0;
+    for (uint32_t m = 0; m < sub->material_count; m++) {
+        size_t k = 0;
+        for (uint32_t t = 0; t < sub->triangle_count; t++)
+            if (sub->tri_material[t] == m) {
+                memcpy(&src[k], &sub->indices[3 * (size_t)t], 3 * sizeof *src);
+                k += 3;
+            }
+        if (k == 0) continue;
+        size_t target = (size_t)((double)(k / 3) * ratio) * 3;
+        if (target < 3) target = 3;
+        float result_error = 0;
+        size_t got = meshopt_simplify(&dst[total], src, k, cpos, unique, 3 * sizeof(float),
+                                      target, rel, 0, &result_error);
+        for (size_t i = 0; i < got / 3; i++) mat[total / 3 + i] = m;
+        total += got;
+    }
+    free(src);
+    free(cpos);
+    for (size_t i = 0; i < total; i++) dst[i] = rep[dst[i]];
+    free(rep);
+    st = SV_OK;
+    if (total == 0) {
+        /* everything collapsed: no trunk at this LOD */
+        free(dst);
+        free(mat);
+        sv_mesh_destroy(sub);
+        return SV_OK;
+    }
+    memcpy(sub->indices, dst, total * sizeof *dst);
+    memcpy(sub->tri_material, mat, (total / 3) * sizeof *mat);
+    sub->triangle_count = (uint32_t)(total / 3);
+    free(dst);
+    free(mat);
+    /* compact away unused vertices */
+    uint32_t *all = malloc((size_t)sub->triangle_count * sizeof *all);
+    if (!all) {
+        sv_mesh_destroy(sub);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    for (uint32_t t = 0; t < sub->triangle_count; t++) all[t] = t;
+    st = sv_mesh_subset(sub, all, sub->triangle_count, out, err);
+    free(all);
+    sv_mesh_destroy(sub);
+    return st;
+}

@@ -1,0 +1,776 @@
+/* http.c — request handling on libmicrohttpd (see http.h, docs/api.md). */
+#include "http.h"
+
+#include <arpa/inet.h>
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <microhttpd.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <openssl/evp.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "import.h"
+#include "method.h"
+#include "multipart.h"
+#include "spec.h"
+
+#define SPEC_MAX (1u << 20)
+
+struct svd_http {
+    struct MHD_Daemon *d;
+    const svd_config *cfg;
+    svd_jobs *jobs;
+    svd_metrics *metrics;
+    svd_log *log;
+    const svd_tokens *tokens;
+    atomic_bool draining;
+    uint16_t port;
+};
+
+enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT };
+
+typedef struct upload {
+    svd_multipart *mp;
+    char tmpdir[SVD_STORE_PATH];
+    int fd;                      /* current file part, -1 if none */
+    EVP_MD_CTX *md;
+    int part;                    /* 0 none, 1 spec, 2 mesh, 3 file */
+    char part_name[SVD_NAME_MAX + 1];
+    uint64_t part_bytes, total;
+    char *spec;
+    size_t spec_len;
+    char mesh[SVD_NAME_MAX + 1];
+    char **files;
+    size_t nfiles;
+    cJSON *objects;              /* name -> {size, sha256} */
+    int err_status;              /* first error: HTTP status */
+    char err_code[32];
+    char err_msg[600];
+} upload;
+
+typedef struct req {
+    enum req_kind kind;
+    svd_http *h;
+    struct MHD_Connection *conn;
+    svd_route_match m;
+    char client[96];
+    upload *up;
+    /* long-poll */
+    pthread_mutex_t mu;
+    svd_waiter waiter;
+    int suspended, woken;
+    int authorized, answered;
+} req;
+
+/* ---- responses ---- */
+
+static enum MHD_Result send_text(svd_http *h, struct MHD_Connection *c, svd_route route,
+                                 unsigned status, const char *body, const char *ctype)
+{
+    struct MHD_Response *r = MHD_create_response_from_buffer(strlen(body), (void *)body,
+                                                             MHD_RESPMEM_MUST_COPY);
+    if (!r) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", ctype);
+    if (status == 401) MHD_add_response_header(r, "WWW-Authenticate", "Bearer realm=\"sylva\"");
+    if (status == 429 || status == 503) MHD_add_response_header(r, "Retry-After", "5");
+    enum MHD_Result ret = MHD_queue_response(c, status, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(h->metrics, route, status);
+    return ret;
+}
+
+static enum MHD_Result send_json(svd_http *h, struct MHD_Connection *c, svd_route route,
+                                 unsigned status, char *body /* freed */)
+{
+    enum MHD_Result ret = send_text(h, c, route, status, body ? body : "{}", "application/json");
+    free(body);
+    return ret;
+}
+
+static enum MHD_Result send_error(svd_http *h, struct MHD_Connection *c, svd_route route,
+                                  unsigned status, const char *code, const char *msg)
+{
+    return send_json(h, c, route, status, svd_error_json(code, msg));
+}
+
+/* ---- upload streaming ---- */
+
+static void upload_fail(upload *u, int status, const char *code, const char *fmt, const char *arg)
+{
+    if (u->err_status) return; /* keep the first */
+    u->err_status = status;
+    snprintf(u->err_code, sizeof u->err_code, "%s", code);
+    snprintf(u->err_msg, sizeof u->err_msg, fmt, arg ? arg : "");
+}
+
+static bool name_taken(const upload *u, const char *name)
+{
+    if (strcmp(u->mesh, name) == 0) return true;
+    for (size_t i = 0; i < u->nfiles; i++)
+        if (strcmp(u->files[i], name) == 0) return true;
+    return false;
+}
+
+static int on_part_begin(void *user, const svd_part_info *info)
+{
+    req *q = user;
+    upload *u = q->up;
+    const svd_config *cfg = q->h->cfg;
+    if (strcmp(info->name, "spec") == 0) {
+        if (u->spec) return upload_fail(u, 400, "bad_request", "more than one spec part%s", NULL), 1;
+        u->spec = malloc(SPEC_MAX);
+        if (!u->spec) return upload_fail(u, 500, "nomem", "out of memory%s", NULL), 1;
+        u->part = 1;
+        return 0;
+    }
+    int is_mesh = strcmp(info->name, "mesh") == 0;
+    if (!is_mesh && strcmp(info->name, "file") != 0)
+        return upload_fail(u, 400, "bad_request",
+                           "unknown form field '%s' (expected spec, mesh, file)", info->name), 1;
+    if (!info->has_filename || !svd_name_valid(info->filename))
+        return upload_fail(u, 400, "bad_name",
+                           "invalid file name '%s': a base name without '/', '\\\\', spaces or control "
+                           "characters, not '.' or '..', at most 255 bytes", info->filename), 1;
+    if (is_mesh && u->mesh[0]) return upload_fail(u, 400, "bad_request", "more than one mesh part%s", NULL), 1;
+    if (name_taken(u, info->filename))
+        return upload_fail(u, 400, "bad_name", "duplicate file name '%s'", info->filename), 1;
+    if (!is_mesh && u->nfiles >= cfg->max_files)
+        return upload_fail(u, 413, "too_many_files", "too many companion files%s", NULL), 1;
+    char path[SVD_STORE_PATH + 300];
+    snprintf(path, sizeof path, "%s/in/%s", u->tmpdir, info->filename);
+    u->fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (u->fd < 0) return upload_fail(u, 500, "io", "cannot store the upload: %s", strerror(errno)), 1;
+    if (is_mesh) {
+        snprintf(u->mesh, sizeof u->mesh, "%s", info->filename);
+    } else {
+        char **nf = realloc(u->files, (u->nfiles + 1) * sizeof *nf);
+        if (!nf) return upload_fail(u, 500, "nomem", "out of memory%s", NULL), 1;
+        u->files = nf;
+        u->files[u->nfiles] = strdup(info->filename);
+        if (!u->files[u->nfiles]) return upload_fail(u, 500, "nomem", "out of memory%s", NULL), 1;
+        u->nfiles++;
+    }
+    snprintf(u->part_name, sizeof u->part_name, "%s", info->filename);
+    u->part = is_mesh ? 2 : 3;
+    u->part_bytes = 0;
+    EVP_DigestInit_ex(u->md, EVP_sha256(), NULL);
+    return 0;
+}
+
+static int on_part_data(void *user, const uint8_t *data, size_t size)
+{
+    req *q = user;
+    upload *u = q->up;
+    if (u->part == 1) {
+        if (u->spec_len + size > SPEC_MAX)
+            return upload_fail(u, 413, "too_large", "spec part over 1 MiB%s", NULL), 1;
+        memcpy(u->spec + u->spec_len, data, size);
+        u->spec_len += size;
+        return 0;
+    }
+    u->part_bytes += size;
+    if (u->part_bytes > q->h->cfg->max_mesh_bytes)
+        return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name), 1;
+    EVP_DigestUpdate(u->md, data, size);
+    while (size) {
+        ssize_t w = write(u->fd, data, size);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) {
+            int e = errno;
+            return upload_fail(u, e == ENOSPC ? 507 : 500, e == ENOSPC ? "store_full" : "io",
+                               "cannot store the upload: %s", strerror(e)), 1;
+        }
+        data += w;
+        size -= (size_t)w;
+    }
+    return 0;
+}
+
+static int on_part_end(void *user)
+{
+    req *q = user;
+    upload *u = q->up;
+    if (u->part >= 2) {
+        close(u->fd);
+        u->fd = -1;
+        unsigned char md[32];
+        unsigned int ml = 0;
+        EVP_DigestFinal_ex(u->md, md, &ml);
+        char hex[SVD_KEY_HEX];
+        static const char dg[] = "0123456789abcdef";
+        for (int i = 0; i < 32; i++) hex[2 * i] = dg[md[i] >> 4], hex[2 * i + 1] = dg[md[i] & 15];
+        hex[64] = '\0';
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddNumberToObject(o, "size", (double)u->part_bytes);
+        cJSON_AddStringToObject(o, "sha256", hex);
+        cJSON_AddItemToObject(u->objects, u->part_name, o);
+    }
+    u->part = 0;
+    return 0;
+}
+
+static void upload_free(upload *u)
+{
+    if (!u) return;
+    if (u->fd >= 0) close(u->fd);
+    svd_multipart_destroy(u->mp);
+    EVP_MD_CTX_free(u->md);
+    free(u->spec);
+    for (size_t i = 0; i < u->nfiles; i++) free(u->files[i]);
+    free(u->files);
+    cJSON_Delete(u->objects);
+    if (u->tmpdir[0]) svd_rm_rf(u->tmpdir); /* committed uploads were renamed away */
+    free(u);
+}
+
+static const svd_multipart_callbacks mp_cb = {on_part_begin, on_part_data, on_part_end};
+
+/* First call of an upload: checks before any body byte is read. Returns 0 to
+ * go on reading, or an HTTP status already answered. */
+static enum MHD_Result upload_begin(req *q, int *answered)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    *answered = 1;
+    if (atomic_load(&h->draining))
+        return send_error(h, c, q->m.route, 503, "draining", "the server is shutting down; retry later");
+    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (cl) {
+        uint64_t n;
+        if (!svd_parse_size(cl, &n) || strpbrk(cl, "KkMmGg"))
+            return send_error(h, c, q->m.route, 400, "bad_request", "bad Content-Length");
+        if (n > h->cfg->max_upload_bytes) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "upload of %llu bytes is over the limit of %llu bytes",
+                     (unsigned long long)n, (unsigned long long)h->cfg->max_upload_bytes);
+            return send_error(h, c, q->m.route, 413, "too_large", msg);
+        }
+    }
+    /* A PUT of a key we already hold answers at once: the body is not needed. */
+    if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key)) {
+        char *body = NULL;
+        int st = svd_jobs_status(h->jobs, q->m.key, &body);
+        return send_json(h, c, q->m.route, (unsigned)st, body);
+    }
+    const char *ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    char boundary[71];
+    sv_error e = {0};
+    sv_status st = svd_multipart_boundary(ct, boundary, &e);
+    if (st != SV_OK)
+        return send_error(h, c, q->m.route, st == SV_ERR_FORMAT ? 415 : 400,
+                          st == SV_ERR_FORMAT ? "unsupported_media_type" : "bad_request", e.message);
+    upload *u = calloc(1, sizeof *u);
+    if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
+    u->fd = -1;
+    q->up = u;
+    u->md = EVP_MD_CTX_new();
+    u->objects = cJSON_CreateObject();
+    u->mp = svd_multipart_create(boundary, &mp_cb, q);
+    char in[SVD_STORE_PATH + 4];
+    if (!u->md || !u->objects || !u->mp ||
+        svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e) != SV_OK ||
+        (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
+        return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
+    q->kind = REQ_UPLOAD;
+    *answered = 0;
+    return MHD_YES;
+}
+
+static const char *status_code_for(sv_status st)
+{
+    return sv_status_code(st);
+}
+
+/* Last call of an upload: validate, key, commit. */
+static enum MHD_Result upload_end(req *q)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    upload *u = q->up;
+    svd_route route = q->m.route;
+    sv_error e = {0};
+    if (!u->err_status && svd_multipart_finish(u->mp, &e) != SV_OK)
+        upload_fail(u, 400, "bad_multipart", "%s", e.message);
+    if (!u->err_status && !u->mesh[0])
+        upload_fail(u, 400, "bad_request", "no mesh part (a form field 'mesh' with a filename)%s", NULL);
+    if (u->err_status) return send_error(h, c, route, (unsigned)u->err_status, u->err_code, u->err_msg);
+    svd_metrics_upload_bytes(h->metrics, u->total);
+
+    /* The spec, checked as the worker will check it. */
+    const char *spec = u->spec && u->spec_len ? u->spec : "{}";
+    size_t spec_len = u->spec && u->spec_len ? u->spec_len : 2;
+    sv_spec parsed;
+    memset(&parsed, 0, sizeof parsed);
+    if (sv_spec_parse(spec, spec_len, &parsed, &e) != SV_OK) {
+        sv_spec_free(&parsed);
+        char msg[700];
+        snprintf(msg, sizeof msg, "bad spec: %s", e.message);
+        return send_error(h, c, route, 400, "spec", msg);
+    }
+    sv_spec_free(&parsed);
+
+    /* The format, sniffed from the mesh's first bytes. */
+    char mpath[SVD_STORE_PATH + 300];
+    snprintf(mpath, sizeof mpath, "%s/in/%s", u->tmpdir, u->mesh);
+    uint8_t head[65536];
+    ssize_t hn = 0;
+    int fd = open(mpath, O_RDONLY | O_CLOEXEC);
+    if (fd >= 0) {
+        hn = read(fd, head, sizeof head);
+        close(fd);
+    }
+    if (hn < 0) hn = 0;
+    sv_format fmt = sv_sniff_format(head, (size_t)hn);
+    if (fmt == SV_FORMAT_UNKNOWN) {
+        char msg[400];
+        snprintf(msg, sizeof msg, "'%.255s' is not a mesh format sylva accepts (glTF/GLB, OBJ, PLY, FBX, COLLADA)",
+                 u->mesh);
+        return send_error(h, c, route, 415, "format", msg);
+    }
+
+    /* The key over exactly the uploaded bytes. */
+    svd_key_part sp = {.data = (const uint8_t *)spec, .size = spec_len};
+    svd_key_part mp = {.name = u->mesh, .path = mpath};
+    svd_key_part *fp = sv_calloc(u->nfiles ? u->nfiles : 1, sizeof *fp);
+    char (*paths)[SVD_STORE_PATH + 300] = sv_calloc(u->nfiles ? u->nfiles : 1, sizeof *paths);
+    if (!fp || !paths) {
+        free(fp);
+        free(paths);
+        return send_error(h, c, route, 500, "nomem", "out of memory");
+    }
+    for (size_t i = 0; i < u->nfiles; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/in/%s", u->tmpdir, u->files[i]);
+        fp[i].name = u->files[i];
+        fp[i].path = paths[i];
+    }
+    svd_upload up = {.tmpdir = u->tmpdir, .client = q->client};
+    sv_status st = svd_key_compute(&sp, &mp, fp, u->nfiles, up.key, &e);
+    free(fp);
+    free(paths);
+    if (st != SV_OK) return send_error(h, c, route, st == SV_ERR_SPEC ? 400 : 500, status_code_for(st), e.message);
+    if (route == SVD_R_PUT && strcmp(up.key, q->m.key) != 0) {
+        char msg[300];
+        snprintf(msg, sizeof msg, "key mismatch: the uploaded bytes hash to %s (see docs/api.md, content key)", up.key);
+        return send_error(h, c, route, 400, "key_mismatch", msg);
+    }
+
+    /* Lay out the job directory, fsync it, commit. */
+    cJSON *in = cJSON_CreateObject();
+    cJSON_AddStringToObject(in, "mesh", u->mesh);
+    cJSON *fl = cJSON_AddArrayToObject(in, "files");
+    for (size_t i = 0; i < u->nfiles; i++) cJSON_AddItemToArray(fl, cJSON_CreateString(u->files[i]));
+    cJSON_AddItemReferenceToObject(in, "objects", u->objects);
+    cJSON_AddStringToObject(in, "format", sv_format_name(fmt));
+    char *intext = cJSON_PrintUnformatted(in);
+    cJSON_Delete(in);
+    st = intext ? SV_OK : sv_fail(&e, SV_ERR_NOMEM, "out of memory");
+    if (st == SV_OK) st = svd_store_write_file(u->tmpdir, "inputs.json", intext, strlen(intext), &e);
+    free(intext);
+    if (st == SV_OK) st = svd_store_write_file(u->tmpdir, "spec.json", spec, spec_len, &e);
+    if (st == SV_OK) st = svd_store_sync_tree(u->tmpdir, &e);
+    if (st != SV_OK) {
+        svd_log_kv(h->log, SVD_LOG_ERROR, "upload_store_failed", "msg", e.message, (const char *)NULL);
+        return send_error(h, c, route, st == SV_ERR_LIMIT ? 507 : 500,
+                          st == SV_ERR_LIMIT ? "store_full" : "io", "could not store the upload");
+    }
+    up.bytes = svd_dir_bytes(u->tmpdir);
+    char *body = NULL;
+    int status = svd_jobs_submit(h->jobs, &up, &body);
+    u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
+    return send_json(h, c, route, (unsigned)status, body);
+}
+
+/* ---- long-poll ---- */
+
+static void wake_req(void *arg)
+{
+    req *q = arg;
+    pthread_mutex_lock(&q->mu);
+    q->woken = 1;
+    if (q->suspended) {
+        q->suspended = 0;
+        MHD_resume_connection(q->conn);
+    }
+    pthread_mutex_unlock(&q->mu);
+}
+
+static enum MHD_Result handle_status(req *q, int allow_wait)
+{
+    svd_http *h = q->h;
+    const char *w = MHD_lookup_connection_value(q->conn, MHD_GET_ARGUMENT_KIND, "wait");
+    if (allow_wait && w && !q->woken) {
+        char *end;
+        double s = strtod(w, &end);
+        if (end == w || *end || !(s >= 0) || s > 1e6)
+            return send_error(h, q->conn, q->m.route, 400, "bad_request", "wait: expected seconds (a number >= 0)");
+        if (s > h->cfg->max_wait) s = h->cfg->max_wait;
+        if (s > 0) {
+            q->kind = REQ_WAIT;
+            q->waiter.wake = wake_req;
+            q->waiter.arg = q;
+            q->waiter.deadline = sv_now() + s;
+            pthread_mutex_lock(&q->mu);
+            if (svd_jobs_wait(h->jobs, q->m.key, &q->waiter)) {
+                q->suspended = 1;
+                MHD_suspend_connection(q->conn);
+                pthread_mutex_unlock(&q->mu);
+                return MHD_YES;
+            }
+            pthread_mutex_unlock(&q->mu);
+        }
+    }
+    char *body = NULL;
+    int st = svd_jobs_status(h->jobs, q->m.key, &body);
+    return send_json(h, q->conn, q->m.route, (unsigned)st, body);
+}
+
+/* ---- other routes ---- */
+
+static const char *content_type_of(const char *name)
+{
+    const char *dot = strrchr(name, '.');
+    if (!dot) return "application/octet-stream";
+    if (strcmp(dot, ".glb") == 0) return "model/gltf-binary";
+    if (strcmp(dot, ".json") == 0) return "application/json";
+    if (strcmp(dot, ".png") == 0) return "image/png";
+    if (strcmp(dot, ".jpg") == 0) return "image/jpeg";
+    if (strcmp(dot, ".ktx2") == 0) return "image/ktx2";
+    return "application/octet-stream";
+}
+
+static enum MHD_Result handle_artifact(req *q)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size = 0;
+    int st = svd_jobs_artifact(h->jobs, q->m.key, q->m.name, path, &size, sha);
+    if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no such bake or artifact");
+    if (st == 409) {
+        char *body = NULL;
+        svd_jobs_status(h->jobs, q->m.key, &body);
+        cJSON *s = body ? cJSON_Parse(body) : NULL;
+        free(body);
+        const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(s, "state"));
+        const cJSON *err = cJSON_GetObjectItemCaseSensitive(s, "error");
+        enum MHD_Result r;
+        if (state && strcmp(state, "failed") == 0 && err) {
+            const char *code = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "code"));
+            const char *msg = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "message"));
+            r = send_error(h, c, q->m.route, 422, code ? code : "failed", msg ? msg : "the bake failed");
+        } else {
+            char msg[80];
+            snprintf(msg, sizeof msg, "the bake is %s, not done", state ? state : "not done");
+            r = send_error(h, c, q->m.route, 409, "not_ready", msg);
+        }
+        cJSON_Delete(s);
+        return r;
+    }
+    char etag[SVD_KEY_HEX + 2];
+    snprintf(etag, sizeof etag, "\"%s\"", sha);
+    const char *inm = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_NONE_MATCH);
+    if (inm && (strstr(inm, sha) || strcmp(inm, "*") == 0)) {
+        struct MHD_Response *r = MHD_create_response_from_buffer(0, (void *)"", MHD_RESPMEM_PERSISTENT);
+        if (!r) return MHD_NO;
+        MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+        enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_NOT_MODIFIED, r);
+        MHD_destroy_response(r);
+        svd_metrics_request(h->metrics, q->m.route, 304);
+        return ret;
+    }
+    sv_error e = {0};
+    sv_status vs = svd_store_verify(svd_jobs_store(h->jobs), path, size, sha, &e);
+    if (vs == SV_ERR_INVALID) {
+        svd_jobs_result_corrupt(h->jobs, q->m.key, path);
+        return send_error(h, c, q->m.route, 503, "corrupt",
+                          "the stored artifact failed its SHA-256 check; it was quarantined and the bake requeued");
+    }
+    int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
+    if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", "artifact missing from the store");
+    struct MHD_Response *r = MHD_create_response_from_fd64(size, fd); /* closes fd */
+    if (!r) {
+        close(fd);
+        return MHD_NO;
+    }
+    MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, content_type_of(q->m.name));
+    enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_OK, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(h->metrics, q->m.route, 200);
+    return ret;
+}
+
+static enum MHD_Result handle_info(req *q)
+{
+    svd_http *h = q->h;
+    const svd_config *c = h->cfg;
+    cJSON *r = cJSON_CreateObject();
+    cJSON_AddStringToObject(r, "name", "sylvad");
+    cJSON_AddStringToObject(r, "version", SV_VERSION);
+    cJSON_AddNumberToObject(r, "api", 1);
+    cJSON *m = cJSON_AddArrayToObject(r, "methods");
+    size_t n = 0;
+    const sv_method *const *ms = sv_method_list(&n);
+    for (size_t i = 0; i < n; i++) cJSON_AddItemToArray(m, cJSON_CreateString(ms[i]->name));
+    cJSON *fx = cJSON_AddArrayToObject(r, "effects");
+    const char *effects[] = {"lighting:static", "lighting:dynamic", "ambient_occlusion", "shadows",
+                             "viewer:ground", "viewer:aerial", "viewer:orbit", "camera_motion"};
+    for (size_t i = 0; i < sizeof effects / sizeof effects[0]; i++)
+        cJSON_AddItemToArray(fx, cJSON_CreateString(effects[i]));
+    cJSON *fm = cJSON_AddArrayToObject(r, "formats");
+    const char *formats[] = {"glb", "gltf", "obj", "ply", "fbx", "dae"};
+    for (size_t i = 0; i < 6; i++) cJSON_AddItemToArray(fm, cJSON_CreateString(formats[i]));
+    cJSON *l = cJSON_AddObjectToObject(r, "limits");
+    cJSON_AddNumberToObject(l, "max_upload_bytes", (double)c->max_upload_bytes);
+    cJSON_AddNumberToObject(l, "max_mesh_bytes", (double)c->max_mesh_bytes);
+    cJSON_AddNumberToObject(l, "max_files", c->max_files);
+    cJSON_AddNumberToObject(l, "queue_max", c->queue_max);
+    cJSON_AddNumberToObject(l, "queue_per_client", c->queue_per_client);
+    cJSON_AddNumberToObject(l, "job_timeout", c->job_timeout);
+    cJSON_AddNumberToObject(l, "attempts", c->attempts);
+    cJSON_AddNumberToObject(l, "max_wait", c->max_wait);
+    cJSON_AddNumberToObject(l, "store_max_bytes", (double)c->store_max_bytes);
+    cJSON_AddNumberToObject(r, "workers", c->workers);
+    cJSON_AddBoolToObject(r, "auth", h->tokens != NULL);
+    char *s = cJSON_PrintUnformatted(r);
+    cJSON_Delete(r);
+    return send_json(h, q->conn, q->m.route, 200, s);
+}
+
+static enum MHD_Result handle_metrics(req *q)
+{
+    svd_gauges g;
+    svd_jobs_gauges(q->h->jobs, &g);
+    g.workers = q->h->cfg->workers;
+    /* count this request before rendering so a scrape sees itself */
+    char *text = svd_metrics_render(q->h->metrics, &g);
+    if (!text) return send_error(q->h, q->conn, q->m.route, 500, "nomem", "out of memory");
+    enum MHD_Result r = send_text(q->h, q->conn, q->m.route, 200, text, "text/plain; version=0.0.4");
+    free(text);
+    return r;
+}
+
+/* ---- dispatch ---- */
+
+static void remote_addr(struct MHD_Connection *c, char *out, size_t cap)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    out[0] = '\0';
+    if (!ci || !ci->client_addr) return;
+    const struct sockaddr *sa = ci->client_addr;
+    if (sa->sa_family == AF_INET)
+        inet_ntop(AF_INET, &((const struct sockaddr_in *)(const void *)sa)->sin_addr, out, (socklen_t)cap);
+    else if (sa->sa_family == AF_INET6)
+        inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)(const void *)sa)->sin6_addr, out, (socklen_t)cap);
+}
+
+static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
+                                  const char *method, const char *version, const char *upload_data,
+                                  size_t *upload_data_size, void **con_cls)
+{
+    (void)version;
+    svd_http *h = cls;
+    req *q = *con_cls;
+    if (!q) { /* first call: headers only */
+        q = calloc(1, sizeof *q);
+        if (!q) return MHD_NO;
+        pthread_mutex_init(&q->mu, NULL);
+        q->h = h;
+        q->conn = c;
+        *con_cls = q;
+        svd_route_find(method, url, &q->m);
+        const char *auth = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
+        char addr[64];
+        remote_addr(c, addr, sizeof addr);
+        svd_client_id(h->tokens ? auth : NULL, addr, q->client, sizeof q->client);
+        q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH || svd_tokens_check(h->tokens, auth);
+        /* Uploads are checked before any body byte is read: an answer queued
+         * now makes libmicrohttpd skip the body and close the connection.
+         * Everything else answers on the next call, which keeps the
+         * connection alive. */
+        if (q->m.status == 0 && q->authorized &&
+            (q->m.route == SVD_R_SUBMIT || q->m.route == SVD_R_PUT)) {
+            int answered;
+            enum MHD_Result r = upload_begin(q, &answered);
+            if (answered) q->answered = 1;
+            return r;
+        }
+        return MHD_YES;
+    }
+    if (q->answered) { /* answered early; discard anything else */
+        *upload_data_size = 0;
+        return MHD_YES;
+    }
+    if (q->m.status) {
+        if (*upload_data_size) {
+            *upload_data_size = 0;
+            return MHD_YES;
+        }
+        if (q->m.status == 405) {
+            char *body = svd_error_json("method_not_allowed", q->m.message);
+            struct MHD_Response *r = MHD_create_response_from_buffer(strlen(body), body, MHD_RESPMEM_MUST_COPY);
+            free(body);
+            if (!r) return MHD_NO;
+            MHD_add_response_header(r, "Allow", q->m.allow);
+            MHD_add_response_header(r, "Content-Type", "application/json");
+            enum MHD_Result ret = MHD_queue_response(c, 405, r);
+            MHD_destroy_response(r);
+            svd_metrics_request(h->metrics, SVD_R_NONE, 405);
+            return ret;
+        }
+        return send_error(h, c, SVD_R_NONE, (unsigned)q->m.status,
+                          q->m.status == 404 ? "not_found" : "bad_request", q->m.message);
+    }
+    if (!q->authorized) {
+        if (*upload_data_size) {
+            *upload_data_size = 0;
+            return MHD_YES;
+        }
+        return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+    }
+    if (q->kind == REQ_UPLOAD) {
+        upload *u = q->up;
+        if (*upload_data_size) {
+            size_t n = *upload_data_size;
+            *upload_data_size = 0;
+            u->total += n;
+            if (u->total > h->cfg->max_upload_bytes) {
+                /* chunked body over the limit: libmicrohttpd cannot answer in
+                 * mid-body, so the connection is closed (cut off). */
+                svd_log_kv(h->log, SVD_LOG_WARN, "upload_cut_off", "client", q->client, "msg",
+                           "chunked upload over max_upload_bytes", (const char *)NULL);
+                svd_metrics_request(h->metrics, q->m.route, 413);
+                return MHD_NO;
+            }
+            if (!u->err_status) {
+                sv_error e = {0};
+                if (svd_multipart_feed(u->mp, (const uint8_t *)upload_data, n, &e) != SV_OK)
+                    upload_fail(u, 400, "bad_multipart", "%s", e.message);
+            }
+            return MHD_YES;
+        }
+        return upload_end(q);
+    }
+    if (q->kind == REQ_WAIT) return handle_status(q, 0); /* resumed */
+    if (q->m.route == SVD_R_STATUS && !*upload_data_size) return handle_status(q, 1);
+    if (*upload_data_size) { /* a body on a GET/DELETE: ignore it */
+        *upload_data_size = 0;
+        return MHD_YES;
+    }
+    switch (q->m.route) {
+    case SVD_R_HEALTH: {
+        bool d = atomic_load(&h->draining);
+        return send_text(h, c, q->m.route, d ? 503 : 200,
+                         d ? "{\"status\":\"draining\"}" : "{\"status\":\"ok\"}", "application/json");
+    }
+    case SVD_R_METRICS: return handle_metrics(q);
+    case SVD_R_INFO: return handle_info(q);
+    case SVD_R_ARTIFACT: return handle_artifact(q);
+    case SVD_R_DELETE: {
+        char *body = NULL;
+        int st = svd_jobs_delete(h->jobs, q->m.key, &body);
+        return send_json(h, c, q->m.route, (unsigned)st, body);
+    }
+    case SVD_R_STATUS: return handle_status(q, 0);
+    default: return send_error(h, c, SVD_R_NONE, 404, "not_found", "no such resource");
+    }
+}
+
+static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
+                         enum MHD_RequestTerminationCode toe)
+{
+    (void)c;
+    svd_http *h = cls;
+    req *q = *con_cls;
+    if (!q) return;
+    if (q->kind == REQ_UPLOAD && toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
+        svd_log_kv(h->log, SVD_LOG_INFO, "upload_aborted", "client", q->client, (const char *)NULL);
+    if (q->kind == REQ_WAIT) svd_jobs_unwait(h->jobs, &q->waiter);
+    upload_free(q->up);
+    pthread_mutex_destroy(&q->mu);
+    free(q);
+    *con_cls = NULL;
+}
+
+static void mhd_logger(void *cls, const char *fmt, va_list ap)
+{
+    svd_http *h = cls;
+    char msg[512];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    size_t n = strlen(msg);
+    while (n && msg[n - 1] == '\n') msg[--n] = '\0';
+    svd_log_kv(h->log, SVD_LOG_WARN, "http", "msg", msg, (const char *)NULL);
+}
+
+svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *metrics, svd_log *log,
+                         const svd_tokens *tokens, sv_error *err)
+{
+    svd_http *h = calloc(1, sizeof *h);
+    if (!h) {
+        sv_fail(err, SV_ERR_NOMEM, "http: out of memory");
+        return NULL;
+    }
+    h->cfg = cfg;
+    h->jobs = jobs;
+    h->metrics = metrics;
+    h->log = log;
+    h->tokens = tokens;
+    atomic_init(&h->draining, false);
+
+    struct addrinfo hints = {0}, *ai = NULL;
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_NUMERICSERV | AI_PASSIVE;
+    char port[16];
+    snprintf(port, sizeof port, "%u", cfg->port);
+    int gai = getaddrinfo(cfg->listen_host, port, &hints, &ai);
+    if (gai != 0 || !ai) {
+        sv_fail(err, SV_ERR_IO, "listen: cannot resolve '%s': %s", cfg->listen_host, gai_strerror(gai));
+        free(h);
+        return NULL;
+    }
+    unsigned flags = MHD_USE_EPOLL_INTERNAL_THREAD | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
+    if (ai->ai_family == AF_INET6) flags |= MHD_USE_IPv6;
+    h->d = MHD_start_daemon(
+        flags, 0, NULL, NULL, on_request, h,
+        MHD_OPTION_EXTERNAL_LOGGER, mhd_logger, h,
+        MHD_OPTION_SOCK_ADDR, ai->ai_addr,
+        MHD_OPTION_THREAD_POOL_SIZE, (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
+        MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
+        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
+        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
+        MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
+        MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)1,
+        MHD_OPTION_END);
+    freeaddrinfo(ai);
+    if (!h->d) {
+        sv_fail(err, SV_ERR_IO, "cannot listen on %s:%u (in use, or no permission)", cfg->listen_host, cfg->port);
+        free(h);
+        return NULL;
+    }
+    const union MHD_DaemonInfo *di = MHD_get_daemon_info(h->d, MHD_DAEMON_INFO_BIND_PORT);
+    h->port = di ? di->port : (uint16_t)cfg->port;
+    return h;
+}
+
+uint16_t svd_http_port(const svd_http *h) { return h->port; }
+
+void svd_http_set_draining(svd_http *h) { atomic_store(&h->draining, true); }
+
+void svd_http_stop(svd_http *h)
+{
+    if (!h) return;
+    svd_jobs_sweep(h->jobs, 0, true); /* resume every long-poll first */
+    MHD_stop_daemon(h->d);
+    free(h);
+}

@@ -1,0 +1,958 @@
+/* jobs.c — job table, fair queue, journal-backed durability, long-poll
+ * waiters and LRU store accounting (see jobs.h). */
+#include "jobs.h"
+
+#include <cjson/cJSON.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <dirent.h>
+#include <sys/stat.h>
+
+#define NBUCKETS 4096
+
+struct svd_job {
+    char key[SVD_KEY_HEX];
+    char client[96];
+    svd_job_state state;
+    uint64_t seq;             /* FIFO order */
+    uint64_t lru;             /* last use, for eviction */
+    unsigned attempts;        /* attempts in the current run */
+    int stage;                /* -1 before the first progress line */
+    double progress;
+    double stage_start;
+    double times[SVD_STAGE_COUNT];
+    double t_started;
+    char code[32];
+    char *message;            /* failure reason */
+    cJSON *manifest;          /* when done */
+    uint64_t bytes;           /* on disk: inputs + result */
+    bool cancel;
+    svd_waiter *waiters;
+    svd_job *hnext;
+};
+
+struct svd_jobs {
+    const svd_config *cfg;
+    svd_store *store;
+    svd_log *log;
+    svd_metrics *metrics;
+    svd_journal *journal;
+    pthread_mutex_t mu;        /* the table */
+    pthread_cond_t cv;         /* work available / stopping */
+    pthread_mutex_t commit_mu; /* serialises commits of new keys */
+    svd_job *buckets[NBUCKETS];
+    size_t count;
+    uint64_t seq_next, lru_clock;
+    uint64_t store_bytes;
+    bool stopping, aborting;
+};
+
+static const char *const state_names[] = {"queued", "running", "done", "failed", "cancelled"};
+
+const char *svd_job_state_name(svd_job_state s)
+{
+    return (unsigned)s < 5 ? state_names[s] : "unknown";
+}
+
+static bool is_final(svd_job_state s)
+{
+    return s == SVD_JOB_DONE || s == SVD_JOB_FAILED || s == SVD_JOB_CANCELLED;
+}
+
+char *svd_error_json(const char *code, const char *message)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON *e = cJSON_AddObjectToObject(root, "error");
+    cJSON_AddStringToObject(e, "code", code);
+    cJSON_AddStringToObject(e, "message", message);
+    char *s = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    return s;
+}
+
+static size_t bucket_of(const char *key)
+{
+    size_t h = 0;
+    for (int i = 0; i < 3; i++) {
+        char c = key[i];
+        h = h * 16 + (size_t)(c >= 'a' ? c - 'a' + 10 : c - '0');
+    }
+    return h % NBUCKETS;
+}
+
+static svd_job *find(svd_jobs *jobs, const char *key)
+{
+    for (svd_job *j = jobs->buckets[bucket_of(key)]; j; j = j->hnext)
+        if (strcmp(j->key, key) == 0) return j;
+    return NULL;
+}
+
+static svd_job *insert(svd_jobs *jobs, const char *key)
+{
+    svd_job *j = calloc(1, sizeof *j);
+    if (!j) return NULL;
+    snprintf(j->key, sizeof j->key, "%s", key);
+    j->stage = -1;
+    j->seq = ++jobs->seq_next;
+    j->lru = ++jobs->lru_clock;
+    size_t b = bucket_of(key);
+    j->hnext = jobs->buckets[b];
+    jobs->buckets[b] = j;
+    jobs->count++;
+    return j;
+}
+
+static void wake_all(svd_job *j)
+{
+    svd_waiter *w = j->waiters;
+    j->waiters = NULL;
+    while (w) {
+        svd_waiter *next = w->next;
+        w->job = NULL;
+        w->next = NULL;
+        w->wake(w->arg);
+        w = next;
+    }
+}
+
+static void job_free(svd_job *j)
+{
+    free(j->message);
+    cJSON_Delete(j->manifest);
+    free(j);
+}
+
+static void unlink_job(svd_jobs *jobs, svd_job *j)
+{
+    svd_job **pp = &jobs->buckets[bucket_of(j->key)];
+    while (*pp && *pp != j) pp = &(*pp)->hnext;
+    if (*pp) *pp = j->hnext;
+    jobs->count--;
+    wake_all(j);
+    jobs->store_bytes -= j->bytes < jobs->store_bytes ? j->bytes : jobs->store_bytes;
+    job_free(j);
+}
+
+static void set_message(svd_job *j, const char *code, const char *msg)
+{
+    snprintf(j->code, sizeof j->code, "%s", code ? code : "");
+    free(j->message);
+    j->message = msg ? strdup(msg) : NULL;
+}
+
+/* ---- journal records ---- */
+
+static sv_status journal_json(svd_jobs *jobs, cJSON *rec, sv_error *err)
+{
+    char *s = cJSON_PrintUnformatted(rec);
+    cJSON_Delete(rec);
+    if (!s) return sv_fail(err, SV_ERR_NOMEM, "journal: out of memory");
+    sv_status st = svd_journal_append(jobs->journal, s, strlen(s), err);
+    free(s);
+    return st;
+}
+
+static cJSON *record(const char *op, const svd_job *j)
+{
+    cJSON *r = cJSON_CreateObject();
+    cJSON_AddStringToObject(r, "op", op);
+    cJSON_AddStringToObject(r, "key", j->key);
+    return r;
+}
+
+/* The full description of a job, used by "accept" and by compaction. */
+static cJSON *accept_record(const svd_job *j)
+{
+    cJSON *r = record("accept", j);
+    cJSON_AddStringToObject(r, "client", j->client);
+    cJSON_AddStringToObject(r, "state", j->state == SVD_JOB_RUNNING ? "queued" : svd_job_state_name(j->state));
+    if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
+        cJSON_AddStringToObject(r, "code", j->code);
+        cJSON_AddStringToObject(r, "message", j->message ? j->message : "");
+    }
+    return r;
+}
+
+static char *print_free(cJSON *r)
+{
+    char *s = cJSON_PrintUnformatted(r);
+    cJSON_Delete(r);
+    return s;
+}
+
+static void log_journal_error(svd_jobs *jobs, const char *key, const sv_error *e)
+{
+    svd_log_kv(jobs->log, SVD_LOG_ERROR, "journal_write_failed", "key", key, "msg", e->message,
+               (const char *)NULL);
+}
+
+/* ---- create / recover ---- */
+
+svd_jobs *svd_jobs_create(const svd_config *cfg, svd_store *store, svd_log *log,
+                          svd_metrics *metrics, sv_error *err)
+{
+    svd_jobs *jobs = calloc(1, sizeof *jobs);
+    if (!jobs) {
+        sv_fail(err, SV_ERR_NOMEM, "jobs: out of memory");
+        return NULL;
+    }
+    jobs->cfg = cfg;
+    jobs->store = store;
+    jobs->log = log;
+    jobs->metrics = metrics;
+    pthread_mutex_init(&jobs->mu, NULL);
+    pthread_mutex_init(&jobs->commit_mu, NULL);
+    pthread_cond_init(&jobs->cv, NULL);
+    return jobs;
+}
+
+void svd_jobs_destroy(svd_jobs *jobs)
+{
+    if (!jobs) return;
+    for (size_t b = 0; b < NBUCKETS; b++) {
+        svd_job *j = jobs->buckets[b];
+        while (j) {
+            svd_job *next = j->hnext;
+            wake_all(j);
+            job_free(j);
+            j = next;
+        }
+    }
+    svd_journal_close(jobs->journal);
+    pthread_cond_destroy(&jobs->cv);
+    pthread_mutex_destroy(&jobs->commit_mu);
+    pthread_mutex_destroy(&jobs->mu);
+    free(jobs);
+}
+
+static svd_job_state state_from_name(const char *s)
+{
+    for (int i = 0; i < 5; i++)
+        if (s && strcmp(s, state_names[i]) == 0) return (svd_job_state)i;
+    return SVD_JOB_QUEUED;
+}
+
+static void replay_one(void *user, const char *payload, size_t size)
+{
+    svd_jobs *jobs = user;
+    cJSON *r = cJSON_ParseWithLength(payload, size);
+    const char *op = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "op"));
+    const char *key = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "key"));
+    if (!op || !svd_key_valid(key)) {
+        svd_log_kv(jobs->log, SVD_LOG_WARN, "journal_record_ignored", "msg",
+                   "record without op or key", (const char *)NULL);
+        cJSON_Delete(r);
+        return;
+    }
+    svd_job *j = find(jobs, key);
+    const char *code = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "code"));
+    const char *msg = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "message"));
+    if (strcmp(op, "accept") == 0) {
+        if (!j) j = insert(jobs, key);
+        if (j) {
+            const char *client = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "client"));
+            snprintf(j->client, sizeof j->client, "%s", client ? client : "unknown");
+            j->state = state_from_name(cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "state")));
+            if (j->state == SVD_JOB_RUNNING) j->state = SVD_JOB_QUEUED;
+            if (code || msg) set_message(j, code, msg);
+        }
+    } else if (j && strcmp(op, "done") == 0) {
+        j->state = SVD_JOB_DONE;
+    } else if (j && strcmp(op, "failed") == 0) {
+        j->state = SVD_JOB_FAILED;
+        set_message(j, code, msg);
+    } else if (j && strcmp(op, "cancel") == 0) {
+        j->state = SVD_JOB_CANCELLED;
+        set_message(j, "cancelled", "cancelled by DELETE");
+    } else if (j && strcmp(op, "requeue") == 0) {
+        j->state = SVD_JOB_QUEUED;
+        set_message(j, NULL, NULL);
+    } else if (j && strcmp(op, "delete") == 0) {
+        unlink_job(jobs, j);
+    }
+    cJSON_Delete(r);
+}
+
+static cJSON *read_json_file(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    char *buf = NULL;
+    size_t cap = 0, n = 0;
+    for (;;) {
+        if (n == cap) {
+            if (cap > (64u << 20)) break;
+            size_t nc = cap ? cap * 2 : 4096;
+            char *nb = realloc(buf, nc);
+            if (!nb) break;
+            buf = nb;
+            cap = nc;
+        }
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (got == 0) break;
+    }
+    fclose(f);
+    cJSON *j = buf ? cJSON_ParseWithLength(buf, n) : NULL;
+    free(buf);
+    return j;
+}
+
+/* Removes job directories the journal does not know (a crash between the
+ * rename and the journal append: never acknowledged, so safe to drop). */
+static void drop_orphans(svd_jobs *jobs)
+{
+    char dir[SVD_STORE_PATH];
+    snprintf(dir, sizeof dir, "%s/jobs", svd_store_root(jobs->store));
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        if (svd_key_valid(e->d_name) && find(jobs, e->d_name)) continue;
+        char path[SVD_STORE_PATH + 300];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        svd_log_kv(jobs->log, SVD_LOG_WARN, "store_orphan_removed", "path", path, (const char *)NULL);
+        svd_rm_rf(path);
+    }
+    closedir(d);
+}
+
+sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
+{
+    char path[SVD_STORE_PATH];
+    snprintf(path, sizeof path, "%s/journal", svd_store_root(jobs->store));
+    svd_journal_stats stats;
+    jobs->journal = svd_journal_open(path, replay_one, jobs, &stats, err);
+    if (!jobs->journal) return err ? err->status : SV_ERR_IO;
+    char n1[32], n2[32], n3[32];
+    snprintf(n1, sizeof n1, "%llu", (unsigned long long)stats.records);
+    snprintf(n2, sizeof n2, "%llu", (unsigned long long)stats.torn_bytes);
+    snprintf(n3, sizeof n3, "%llu", (unsigned long long)stats.corrupt);
+    svd_log_kv(jobs->log, stats.corrupt ? SVD_LOG_ERROR : SVD_LOG_INFO, "journal_replayed", "records", n1,
+               "torn_bytes", n2, "corrupt_records", n3, (const char *)NULL);
+    /* Reconcile with the store. */
+    size_t live = 0;
+    for (size_t b = 0; b < NBUCKETS; b++) {
+        svd_job *j = jobs->buckets[b], *next;
+        for (; j; j = next) {
+            next = j->hnext;
+            char p[SVD_STORE_PATH];
+            svd_store_job_path(jobs->store, j->key, "inputs.json", p);
+            struct stat sb;
+            bool inputs = stat(p, &sb) == 0;
+            if (j->state == SVD_JOB_DONE) {
+                svd_store_job_path(jobs->store, j->key, "result/manifest.json", p);
+                j->manifest = read_json_file(p);
+                if (!j->manifest) {
+                    svd_log_kv(jobs->log, SVD_LOG_WARN, "result_missing_requeued", "key", j->key,
+                               (const char *)NULL);
+                    j->state = SVD_JOB_QUEUED;
+                }
+            }
+            if (!inputs && j->state != SVD_JOB_DONE) {
+                svd_log_kv(jobs->log, SVD_LOG_ERROR, "job_inputs_missing", "key", j->key,
+                           "msg", "inputs of an accepted job are gone; dropping it", (const char *)NULL);
+                unlink_job(jobs, j);
+                continue;
+            }
+            if (j->state == SVD_JOB_QUEUED) svd_store_remove(jobs->store, j->key, "result");
+            svd_store_job_path(jobs->store, j->key, NULL, p);
+            j->bytes = svd_dir_bytes(p);
+            jobs->store_bytes += j->bytes;
+            live++;
+        }
+    }
+    drop_orphans(jobs);
+    /* Compact: one record per live job, ordered by seq so FIFO order survives. */
+    svd_job **order = sv_calloc(live ? live : 1, sizeof *order);
+    char **recs = sv_calloc(live ? live : 1, sizeof *recs);
+    size_t *sizes = sv_calloc(live ? live : 1, sizeof *sizes);
+    size_t n = 0;
+    sv_status st = order && recs && sizes ? SV_OK : sv_fail(err, SV_ERR_NOMEM, "jobs: out of memory");
+    for (size_t b = 0; st == SV_OK && b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j && n < live; j = j->hnext) order[n++] = j;
+    for (size_t i = 1; st == SV_OK && i < n; i++) /* insertion sort by seq */
+        for (size_t k = i; k > 0 && order[k - 1]->seq > order[k]->seq; k--) {
+            svd_job *t = order[k];
+            order[k] = order[k - 1];
+            order[k - 1] = t;
+        }
+    for (size_t i = 0; st == SV_OK && i < n; i++) {
+        recs[i] = print_free(accept_record(order[i]));
+        if (!recs[i]) st = sv_fail(err, SV_ERR_NOMEM, "jobs: out of memory");
+        else sizes[i] = strlen(recs[i]);
+    }
+    if (st == SV_OK)
+        st = svd_journal_rewrite(jobs->journal, (const char *const *)recs, sizes, n, err);
+    if (st == SV_OK) {
+        char q[32];
+        size_t queued = 0;
+        for (size_t i = 0; i < n; i++) queued += order[i]->state == SVD_JOB_QUEUED;
+        snprintf(n1, sizeof n1, "%zu", n);
+        snprintf(q, sizeof q, "%zu", queued);
+        svd_log_kv(jobs->log, SVD_LOG_INFO, "jobs_recovered", "jobs", n1, "requeued", q,
+                   (const char *)NULL);
+    }
+    free(order);
+    for (size_t i = 0; recs && i < n; i++) free(recs[i]);
+    free(recs);
+    free(sizes);
+    return st;
+}
+
+/* ---- status documents ---- */
+
+static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
+{
+    cJSON *r = cJSON_CreateObject();
+    cJSON_AddStringToObject(r, "key", j->key);
+    cJSON_AddStringToObject(r, "state", svd_job_state_name(j->state));
+    if (j->stage >= 0) cJSON_AddStringToObject(r, "stage", svd_stage_names[j->stage]);
+    else cJSON_AddNullToObject(r, "stage");
+    cJSON_AddNumberToObject(r, "progress", j->state == SVD_JOB_DONE ? 1.0 : j->progress);
+    cJSON_AddNumberToObject(r, "attempts", j->attempts);
+    if (j->state == SVD_JOB_RUNNING && j->cancel) cJSON_AddTrueToObject(r, "cancel_requested");
+    if (j->state == SVD_JOB_QUEUED) {
+        unsigned pos = 0;
+        for (size_t b = 0; b < NBUCKETS; b++)
+            for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+                pos += o->state == SVD_JOB_QUEUED && o->seq < j->seq;
+        cJSON_AddNumberToObject(r, "queue_position", pos);
+    }
+    cJSON *t = cJSON_AddObjectToObject(r, "times");
+    for (int s = 0; s < SVD_STAGE_COUNT; s++)
+        if (j->times[s] > 0 || (s == j->stage && j->state == SVD_JOB_RUNNING))
+            cJSON_AddNumberToObject(t, svd_stage_names[s],
+                                    j->times[s] + (s == j->stage && j->state == SVD_JOB_RUNNING
+                                                       ? sv_now() - j->stage_start : 0));
+    if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
+        cJSON *e = cJSON_AddObjectToObject(r, "error");
+        cJSON_AddStringToObject(e, "code", j->code[0] ? j->code : "failed");
+        cJSON_AddStringToObject(e, "message", j->message ? j->message : "");
+    }
+    if (j->state == SVD_JOB_DONE && j->manifest)
+        cJSON_AddItemToObject(r, "manifest", cJSON_Duplicate(j->manifest, 1));
+    return r;
+}
+
+int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out)
+{
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    if (!j) {
+        pthread_mutex_unlock(&jobs->mu);
+        *json_out = svd_error_json("not_found", "no bake with this key");
+        return 404;
+    }
+    j->lru = ++jobs->lru_clock;
+    *json_out = print_free(status_json(jobs, j));
+    pthread_mutex_unlock(&jobs->mu);
+    return 200;
+}
+
+bool svd_jobs_has(svd_jobs *jobs, const char *key)
+{
+    pthread_mutex_lock(&jobs->mu);
+    bool has = find(jobs, key) != NULL;
+    pthread_mutex_unlock(&jobs->mu);
+    return has;
+}
+
+/* ---- submit ---- */
+
+static unsigned client_load(svd_jobs *jobs, const char *client, bool running_only)
+{
+    unsigned n = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            if (strcmp(o->client, client) == 0 &&
+                (o->state == SVD_JOB_RUNNING || (!running_only && o->state == SVD_JOB_QUEUED)))
+                n++;
+    return n;
+}
+
+static unsigned count_state(svd_jobs *jobs, svd_job_state s)
+{
+    unsigned n = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext) n += o->state == s;
+    return n;
+}
+
+/* Evicts least-recently-used finished jobs until need more bytes fit under
+ * the limit. Never touches queued or running jobs (their inputs are needed).
+ * Called with mu held. */
+static bool make_room(svd_jobs *jobs, uint64_t need)
+{
+    uint64_t limit = jobs->cfg->store_max_bytes;
+    while (jobs->store_bytes + need > limit) {
+        svd_job *victim = NULL;
+        for (size_t b = 0; b < NBUCKETS; b++)
+            for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+                if (is_final(o->state) && (!victim || o->lru < victim->lru)) victim = o;
+        if (!victim) return false;
+        sv_error e = {0};
+        if (journal_json(jobs, record("delete", victim), &e) != SV_OK) {
+            log_journal_error(jobs, victim->key, &e);
+            return false;
+        }
+        svd_log_kv(jobs->log, SVD_LOG_INFO, "store_evicted", "key", victim->key, (const char *)NULL);
+        svd_store_remove(jobs->store, victim->key, NULL);
+        unlink_job(jobs, victim);
+    }
+    return true;
+}
+
+int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
+{
+    int status;
+    sv_error e = {0};
+    pthread_mutex_lock(&jobs->commit_mu);
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, up->key);
+    if (j) {
+        j->lru = ++jobs->lru_clock;
+        if (j->state == SVD_JOB_CANCELLED) {
+            if (journal_json(jobs, record("requeue", j), &e) == SV_OK) {
+                j->state = SVD_JOB_QUEUED;
+                j->attempts = 0;
+                j->seq = ++jobs->seq_next;
+                set_message(j, NULL, NULL);
+                pthread_cond_broadcast(&jobs->cv);
+            } else {
+                log_journal_error(jobs, j->key, &e);
+            }
+        }
+        *json_out = print_free(status_json(jobs, j));
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
+        svd_rm_rf(up->tmpdir);
+        return 200;
+    }
+    if (jobs->stopping) {
+        status = 503;
+        *json_out = svd_error_json("draining", "the server is shutting down; retry on another node or later");
+    } else if (count_state(jobs, SVD_JOB_QUEUED) >= jobs->cfg->queue_max) {
+        status = 503;
+        *json_out = svd_error_json("queue_full", "the bake queue is full; retry later");
+    } else if (client_load(jobs, up->client, false) >= jobs->cfg->queue_per_client) {
+        status = 429;
+        *json_out = svd_error_json("client_queue_full",
+                                   "this client has too many bakes queued or running; retry later");
+    } else if (!make_room(jobs, up->bytes)) {
+        status = 507;
+        *json_out = svd_error_json("store_full", "the store is full of jobs that are not finished");
+    } else {
+        status = 0;
+    }
+    if (status) {
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
+        svd_rm_rf(up->tmpdir);
+        return status;
+    }
+    jobs->store_bytes += up->bytes; /* reserved while we commit */
+    pthread_mutex_unlock(&jobs->mu);
+
+    /* Install and journal outside the table lock (GETs go on meanwhile). */
+    svd_job tmp = {0};
+    snprintf(tmp.key, sizeof tmp.key, "%s", up->key);
+    snprintf(tmp.client, sizeof tmp.client, "%s", up->client);
+    tmp.state = SVD_JOB_QUEUED;
+    sv_status st = svd_store_install(jobs->store, up->tmpdir, up->key, NULL, &e);
+    if (st == SV_OK) {
+        st = journal_json(jobs, accept_record(&tmp), &e);
+        if (st != SV_OK) svd_store_remove(jobs->store, up->key, NULL);
+    }
+    pthread_mutex_lock(&jobs->mu);
+    if (st != SV_OK) {
+        jobs->store_bytes -= up->bytes;
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
+        svd_rm_rf(up->tmpdir);
+        svd_log_kv(jobs->log, SVD_LOG_ERROR, "commit_failed", "key", up->key, "msg", e.message,
+                   (const char *)NULL);
+        *json_out = svd_error_json(st == SV_ERR_LIMIT ? "store_full" : "io",
+                                   "could not store the upload durably");
+        return st == SV_ERR_LIMIT ? 507 : 500;
+    }
+    j = insert(jobs, up->key);
+    if (!j) {
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
+        *json_out = svd_error_json("nomem", "out of memory");
+        return 500; /* journaled: the job runs after a restart */
+    }
+    snprintf(j->client, sizeof j->client, "%s", up->client);
+    j->bytes = up->bytes;
+    j->state = SVD_JOB_QUEUED;
+    pthread_cond_broadcast(&jobs->cv);
+    *json_out = print_free(status_json(jobs, j));
+    pthread_mutex_unlock(&jobs->mu);
+    pthread_mutex_unlock(&jobs->commit_mu);
+    svd_log_kv(jobs->log, SVD_LOG_INFO, "job_accepted", "key", up->key, "client", up->client,
+               (const char *)NULL);
+    return 202;
+}
+
+/* ---- waiters ---- */
+
+bool svd_jobs_wait(svd_jobs *jobs, const char *key, svd_waiter *w)
+{
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    bool ok = j && !is_final(j->state);
+    if (ok) {
+        w->job = j;
+        w->next = j->waiters;
+        j->waiters = w;
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    return ok;
+}
+
+void svd_jobs_unwait(svd_jobs *jobs, svd_waiter *w)
+{
+    pthread_mutex_lock(&jobs->mu);
+    if (w->job) {
+        svd_waiter **pp = &w->job->waiters;
+        while (*pp && *pp != w) pp = &(*pp)->next;
+        if (*pp) *pp = w->next;
+        w->job = NULL;
+        w->next = NULL;
+    }
+    pthread_mutex_unlock(&jobs->mu);
+}
+
+void svd_jobs_sweep(svd_jobs *jobs, double now, bool all)
+{
+    pthread_mutex_lock(&jobs->mu);
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) {
+            svd_waiter **pp = &j->waiters;
+            while (*pp) {
+                svd_waiter *w = *pp;
+                if (all || w->deadline <= now) {
+                    *pp = w->next;
+                    w->job = NULL;
+                    w->next = NULL;
+                    w->wake(w->arg);
+                } else {
+                    pp = &w->next;
+                }
+            }
+        }
+    pthread_mutex_unlock(&jobs->mu);
+}
+
+/* ---- delete / artifacts ---- */
+
+int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
+{
+    sv_error e = {0};
+    pthread_mutex_lock(&jobs->commit_mu);
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    int status = 200;
+    if (!j) {
+        *json_out = svd_error_json("not_found", "no bake with this key");
+        status = 404;
+    } else if (j->state == SVD_JOB_RUNNING) {
+        j->cancel = true; /* the worker stops the process and reports cancelled */
+        *json_out = print_free(status_json(jobs, j));
+        status = 202;
+    } else if (j->state == SVD_JOB_QUEUED) {
+        if (journal_json(jobs, record("cancel", j), &e) != SV_OK) {
+            log_journal_error(jobs, key, &e);
+            *json_out = svd_error_json("io", "could not record the cancellation");
+            status = 500;
+        } else {
+            j->state = SVD_JOB_CANCELLED;
+            set_message(j, "cancelled", "cancelled by DELETE");
+            wake_all(j);
+            svd_metrics_job_final(jobs->metrics, "cancelled", 0);
+            *json_out = print_free(status_json(jobs, j));
+        }
+    } else {
+        if (journal_json(jobs, record("delete", j), &e) != SV_OK) {
+            log_journal_error(jobs, key, &e);
+            *json_out = svd_error_json("io", "could not record the deletion");
+            status = 500;
+        } else {
+            cJSON *r = cJSON_CreateObject();
+            cJSON_AddStringToObject(r, "key", key);
+            cJSON_AddStringToObject(r, "state", "deleted");
+            *json_out = print_free(r);
+            svd_store_remove(jobs->store, key, NULL);
+            unlink_job(jobs, j);
+        }
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    pthread_mutex_unlock(&jobs->commit_mu);
+    if (status == 200 || status == 202)
+        svd_log_kv(jobs->log, SVD_LOG_INFO, "job_deleted", "key", key, (const char *)NULL);
+    return status;
+}
+
+int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
+                      uint64_t *size, char sha[SVD_KEY_HEX])
+{
+    int status = 404;
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    if (j && j->state != SVD_JOB_DONE) status = 409;
+    if (j && j->state == SVD_JOB_DONE) {
+        j->lru = ++jobs->lru_clock;
+        const cJSON *a;
+        cJSON_ArrayForEach(a, cJSON_GetObjectItemCaseSensitive(j->manifest, "artifacts"))
+        {
+            const char *n = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(a, "name"));
+            const char *h = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(a, "sha256"));
+            const cJSON *sz = cJSON_GetObjectItemCaseSensitive(a, "size");
+            if (n && h && cJSON_IsNumber(sz) && strcmp(n, name) == 0 && svd_name_valid(n)) {
+                char sub[SVD_NAME_MAX + 16];
+                snprintf(sub, sizeof sub, "result/%s", n);
+                svd_store_job_path(jobs->store, key, sub, path);
+                *size = (uint64_t)sz->valuedouble;
+                snprintf(sha, SVD_KEY_HEX, "%s", h);
+                status = 200;
+                break;
+            }
+        }
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    return status;
+}
+
+void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
+{
+    sv_error e = {0};
+    pthread_mutex_lock(&jobs->commit_mu);
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    if (j && j->state == SVD_JOB_DONE) {
+        svd_log_kv(jobs->log, SVD_LOG_ERROR, "store_object_corrupt", "key", key, "path", path,
+                   "msg", "SHA-256 mismatch: result quarantined, job requeued", (const char *)NULL);
+        char rdir[SVD_STORE_PATH];
+        svd_store_job_path(jobs->store, key, "result", rdir);
+        uint64_t rb = svd_dir_bytes(rdir);
+        svd_store_quarantine(jobs->store, key, rdir);
+        j->bytes -= rb < j->bytes ? rb : j->bytes;
+        jobs->store_bytes -= rb < jobs->store_bytes ? rb : jobs->store_bytes;
+        if (journal_json(jobs, record("requeue", j), &e) != SV_OK) log_journal_error(jobs, key, &e);
+        j->state = SVD_JOB_QUEUED;
+        j->attempts = 0;
+        cJSON_Delete(j->manifest);
+        j->manifest = NULL;
+        pthread_cond_broadcast(&jobs->cv);
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    pthread_mutex_unlock(&jobs->commit_mu);
+}
+
+void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g)
+{
+    memset(g, 0, sizeof *g);
+    pthread_mutex_lock(&jobs->mu);
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) {
+            g->queued += j->state == SVD_JOB_QUEUED;
+            g->running += j->state == SVD_JOB_RUNNING;
+            for (svd_waiter *w = j->waiters; w; w = w->next) g->waiters++;
+        }
+    g->jobs = jobs->count;
+    g->store_bytes = jobs->store_bytes;
+    pthread_mutex_unlock(&jobs->mu);
+    g->store_limit = jobs->cfg->store_max_bytes;
+}
+
+/* ---- worker side ---- */
+
+bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
+{
+    pthread_mutex_lock(&jobs->mu);
+    for (;;) {
+        if (jobs->stopping) {
+            pthread_mutex_unlock(&jobs->mu);
+            return false;
+        }
+        /* Oldest queued job among the clients with the fewest running jobs. */
+        svd_job *best = NULL;
+        unsigned best_load = 0;
+        for (size_t b = 0; b < NBUCKETS; b++)
+            for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) {
+                if (j->state != SVD_JOB_QUEUED) continue;
+                unsigned load = client_load(jobs, j->client, true);
+                if (!best || load < best_load || (load == best_load && j->seq < best->seq)) {
+                    best = j;
+                    best_load = load;
+                }
+            }
+        if (best) {
+            best->state = SVD_JOB_RUNNING;
+            best->attempts++;
+            best->cancel = false;
+            best->stage = -1;
+            best->progress = 0;
+            memset(best->times, 0, sizeof best->times);
+            best->t_started = sv_now();
+            best->stage_start = best->t_started;
+            t->job = best;
+            snprintf(t->key, sizeof t->key, "%s", best->key);
+            t->attempt = best->attempts;
+            wake_all(best);
+            pthread_mutex_unlock(&jobs->mu);
+            return true;
+        }
+        pthread_cond_wait(&jobs->cv, &jobs->mu);
+    }
+}
+
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress)
+{
+    int s = svd_stage_index(stage);
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = t->job;
+    double now = sv_now();
+    if (s >= 0 && s != j->stage) {
+        if (j->stage >= 0) {
+            double d = now - j->stage_start;
+            j->times[j->stage] += d;
+            svd_metrics_stage(jobs->metrics, j->stage, d);
+        }
+        j->stage = s;
+        j->stage_start = now;
+        wake_all(j);
+    }
+    if (progress >= 0 && progress <= 1) j->progress = progress;
+    pthread_mutex_unlock(&jobs->mu);
+}
+
+bool svd_jobs_cancelled(svd_jobs *jobs, svd_ticket *t)
+{
+    pthread_mutex_lock(&jobs->mu);
+    bool c = t->job->cancel;
+    pthread_mutex_unlock(&jobs->mu);
+    return c;
+}
+
+bool svd_jobs_aborting(svd_jobs *jobs)
+{
+    pthread_mutex_lock(&jobs->mu);
+    bool a = jobs->aborting;
+    pthread_mutex_unlock(&jobs->mu);
+    return a;
+}
+
+void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char *code,
+                     const char *message, const char *manifest_json)
+{
+    sv_error e = {0};
+    char jdir[SVD_STORE_PATH];
+    svd_store_job_path(jobs->store, t->key, NULL, jdir);
+    uint64_t bytes = out == SVD_OUT_DONE ? svd_dir_bytes(jdir) : 0;
+    char msg[700];
+    snprintf(msg, sizeof msg, "%s", message ? message : "");
+    if (out == SVD_OUT_RETRY && t->attempt >= jobs->cfg->attempts) {
+        snprintf(msg, sizeof msg, "%s on %u attempts", message ? message : "worker failed", t->attempt);
+        out = SVD_OUT_FAILED;
+        code = "crash";
+    }
+    if (out == SVD_OUT_FAILED) { /* error.json beside the inputs, for operators */
+        char *ej = svd_error_json(code ? code : "failed", msg);
+        if (ej) svd_store_write_file(jdir, "error.json", ej, strlen(ej), NULL);
+        free(ej);
+    }
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = t->job;
+    double now = sv_now();
+    if (j->stage >= 0) {
+        double d = now - j->stage_start;
+        j->times[j->stage] += d;
+        svd_metrics_stage(jobs->metrics, j->stage, d);
+    }
+    const char *final = NULL;
+    switch (out) {
+    case SVD_OUT_DONE: {
+        cJSON *rec = record("done", j);
+        if (journal_json(jobs, rec, &e) != SV_OK) log_journal_error(jobs, j->key, &e);
+        cJSON_Delete(j->manifest);
+        j->manifest = manifest_json ? cJSON_Parse(manifest_json) : NULL;
+        j->state = SVD_JOB_DONE;
+        j->progress = 1;
+        /* A fresh result is a use: else make_room() below picks it as the LRU
+         * victim (its last use was its upload) and it is gone before its
+         * client, polling later, ever sees it. */
+        j->lru = ++jobs->lru_clock;
+        jobs->store_bytes += bytes > j->bytes ? bytes - j->bytes : 0;
+        j->bytes = bytes > j->bytes ? bytes : j->bytes;
+        final = "done";
+        break;
+    }
+    case SVD_OUT_FAILED: {
+        cJSON *rec = record("failed", j);
+        cJSON_AddStringToObject(rec, "code", code ? code : "failed");
+        cJSON_AddStringToObject(rec, "message", msg);
+        if (journal_json(jobs, rec, &e) != SV_OK) log_journal_error(jobs, j->key, &e);
+        j->state = SVD_JOB_FAILED;
+        set_message(j, code ? code : "failed", msg);
+        final = "failed";
+        break;
+    }
+    case SVD_OUT_CANCELLED:
+        if (journal_json(jobs, record("cancel", j), &e) != SV_OK) log_journal_error(jobs, j->key, &e);
+        j->state = SVD_JOB_CANCELLED;
+        set_message(j, "cancelled", "cancelled by DELETE");
+        final = "cancelled";
+        break;
+    case SVD_OUT_RETRY:
+        j->state = SVD_JOB_QUEUED; /* keeps its seq: first in line again */
+        break;
+    case SVD_OUT_REQUEUE:
+        j->state = SVD_JOB_QUEUED;
+        if (j->attempts) j->attempts--;
+        break;
+    }
+    j->stage = out == SVD_OUT_DONE ? j->stage : -1;
+    j->cancel = false;
+    if (final) svd_metrics_job_final(jobs->metrics, final, now - j->t_started);
+    wake_all(j);
+    pthread_cond_broadcast(&jobs->cv);
+    if (j->state == SVD_JOB_DONE) make_room(jobs, 0);
+    pthread_mutex_unlock(&jobs->mu);
+    svd_log_kv(jobs->log, out == SVD_OUT_FAILED ? SVD_LOG_WARN : SVD_LOG_INFO, "job_finished",
+               "key", t->key, "state", final ? final : "queued", "msg", msg[0] ? msg : NULL,
+               (const char *)NULL);
+    t->job = NULL;
+}
+
+void svd_jobs_stop(svd_jobs *jobs)
+{
+    pthread_mutex_lock(&jobs->mu);
+    jobs->stopping = true;
+    pthread_cond_broadcast(&jobs->cv);
+    pthread_mutex_unlock(&jobs->mu);
+}
+
+void svd_jobs_abort(svd_jobs *jobs)
+{
+    pthread_mutex_lock(&jobs->mu);
+    jobs->aborting = true;
+    pthread_mutex_unlock(&jobs->mu);
+}
+
+unsigned svd_jobs_running(svd_jobs *jobs)
+{
+    pthread_mutex_lock(&jobs->mu);
+    unsigned n = count_state(jobs, SVD_JOB_RUNNING);
+    pthread_mutex_unlock(&jobs->mu);
+    return n;
+}
+
+svd_store *svd_jobs_store(svd_jobs *jobs) { return jobs->store; }
+const svd_config *svd_jobs_config(svd_jobs *jobs) { return jobs->cfg; }
+svd_log *svd_jobs_log(svd_jobs *jobs) { return jobs->log; }
+svd_metrics *svd_jobs_metrics(svd_jobs *jobs) { return jobs->metrics; }

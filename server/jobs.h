@@ -1,0 +1,166 @@
+/* jobs.h — the job table: accepted bakes, their states, the fair queue,
+ * durability through the journal, long-poll waiters and store accounting.
+ *
+ * States: queued → running → done | failed | cancelled (running → queued again
+ * on a retry or a drain). Every transition to a final state is journaled
+ * (fsync) before it becomes visible. Thread-safe: one mutex guards the table;
+ * no disk I/O but journal appends and small deletes happens under it.
+ *
+ * Fair queue: workers take the oldest queued job among the clients with the
+ * fewest running jobs; one client may hold at most queue_per_client queued or
+ * running jobs (429 beyond), all clients together queue_max queued (503).
+ */
+#ifndef SVD_JOBS_H
+#define SVD_JOBS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#include "config.h"
+#include "journal.h"
+#include "key.h"
+#include "log.h"
+#include "metrics.h"
+#include "store.h"
+
+typedef enum svd_job_state {
+    SVD_JOB_QUEUED = 0,
+    SVD_JOB_RUNNING,
+    SVD_JOB_DONE,
+    SVD_JOB_FAILED,
+    SVD_JOB_CANCELLED
+} svd_job_state;
+
+/* "queued", "running", ... */
+const char *svd_job_state_name(svd_job_state s);
+
+typedef struct svd_jobs svd_jobs;
+typedef struct svd_job svd_job;
+
+/* A long-poll registration owned by the caller (the HTTP layer). wake() is
+ * called once, under the table lock, when the job changes state or stage, is
+ * removed, or the deadline passes; it must not call back into svd_jobs. */
+typedef struct svd_waiter {
+    void (*wake)(void *arg);
+    void *arg;
+    double deadline;          /* sv_now() seconds */
+    struct svd_waiter *next;  /* private */
+    svd_job *job;             /* private: NULL when not registered */
+} svd_waiter;
+
+/* Creates the table. The config, store, log and metrics must outlive it. */
+svd_jobs *svd_jobs_create(const svd_config *cfg, svd_store *store, svd_log *log,
+                          svd_metrics *metrics, sv_error *err);
+
+/* Opens ROOT/journal, replays it, reconciles with the store (requeues every
+ * accepted job that had not finished, drops orphan directories, counts store
+ * bytes), and compacts the journal. Call once before serving. */
+sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err);
+
+/* Frees the table (after the workers stopped). NULL is a no-op. */
+void svd_jobs_destroy(svd_jobs *jobs);
+
+/* An upload ready to be committed: a directory under ROOT/tmp laid out like
+ * a job directory (spec.json, inputs.json, in/), already fsynced. */
+typedef struct svd_upload {
+    const char *tmpdir;
+    char key[SVD_KEY_HEX];
+    const char *client;
+    uint64_t bytes;
+} svd_upload;
+
+/* Commits an upload: a known key answers 200 with its status (the upload is
+ * discarded; a cancelled job is requeued); new work is installed in the store,
+ * journaled (fsync) and queued, then 202. 429/503 when the queue is full, 507
+ * when the store cannot make room, 500 on I/O failure. *json_out gets the
+ * response body (malloc'ed). Returns the HTTP status. */
+int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out);
+
+/* True if a job with this key exists (and its inputs are kept). */
+bool svd_jobs_has(svd_jobs *jobs, const char *key);
+
+/* Status document of a job (see docs/api.md) into *json_out; 200 or 404. */
+int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out);
+
+/* Registers w to be woken when the job with this key changes state or stage.
+ * Returns false (nothing registered) if the job is missing or already final. */
+bool svd_jobs_wait(svd_jobs *jobs, const char *key, svd_waiter *w);
+
+/* Unregisters w if still registered. */
+void svd_jobs_unwait(svd_jobs *jobs, svd_waiter *w);
+
+/* Wakes waiters whose deadline passed (or all of them when all is true). */
+void svd_jobs_sweep(svd_jobs *jobs, double now, bool all);
+
+/* DELETE: cancels a queued or running job (200, the worker is stopped), or
+ * deletes a finished one (200). 404 if unknown. */
+int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out);
+
+/* Looks up an artifact of a done job in its manifest: path, size, SHA-256.
+ * 200, 404 (no job / no such artifact) or 409 (job not done). */
+int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
+                      char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX]);
+
+/* A stored artifact failed verification: quarantines the job's result and
+ * requeues the job so it is rebaked. */
+void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path);
+
+/* Gauges for metrics and /v1/info. */
+void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g);
+
+/* ---- worker side ---- */
+
+/* What a worker needs to run a job; valid until svd_jobs_finish. */
+typedef struct svd_ticket {
+    svd_job *job;
+    char key[SVD_KEY_HEX];
+    unsigned attempt;        /* 1-based */
+} svd_ticket;
+
+/* Blocks until a job is runnable (marks it running) or the table is stopping
+ * (returns false). */
+bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t);
+
+/* Progress line from the worker: stage name and overall fraction. */
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress);
+
+/* True if the job was cancelled (the worker must stop the process). */
+bool svd_jobs_cancelled(svd_jobs *jobs, svd_ticket *t);
+
+/* True once the drain deadline passed (running workers must stop and requeue). */
+bool svd_jobs_aborting(svd_jobs *jobs);
+
+typedef enum svd_outcome {
+    SVD_OUT_DONE,      /* result installed; manifest given */
+    SVD_OUT_FAILED,    /* final failure: code + message */
+    SVD_OUT_RETRY,     /* crash or timeout: retry if attempts remain, else fail with message */
+    SVD_OUT_CANCELLED, /* stopped because of DELETE */
+    SVD_OUT_REQUEUE    /* stopped by a drain: stays accepted, runs after restart */
+} svd_outcome;
+
+/* Ends a run. For RETRY, message says what happened in this attempt
+ * ("worker killed by signal 11"); after cfg->attempts the job fails with
+ * "<message> on N attempts". manifest_json is the result manifest for DONE. */
+void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char *code,
+                     const char *message, const char *manifest_json);
+
+/* Stops taking jobs (drain). svd_jobs_take returns false from now on. */
+void svd_jobs_stop(svd_jobs *jobs);
+
+/* After the drain timeout: asks running workers to stop and requeue. */
+void svd_jobs_abort(svd_jobs *jobs);
+
+/* Number of running jobs. */
+unsigned svd_jobs_running(svd_jobs *jobs);
+
+/* Store paths a worker uses: inputs manifest of the job. */
+svd_store *svd_jobs_store(svd_jobs *jobs);
+const svd_config *svd_jobs_config(svd_jobs *jobs);
+svd_log *svd_jobs_log(svd_jobs *jobs);
+svd_metrics *svd_jobs_metrics(svd_jobs *jobs);
+
+/* Builds the JSON body {"error":{"code":...,"message":...}} (malloc'ed). */
+char *svd_error_json(const char *code, const char *message);
+
+#endif

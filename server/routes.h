@@ -1,0 +1,36 @@
+/* routes.h — maps (method, path) to a route of the v1 API. Pure; tested
+ * without a socket. Paths arrive already percent-decoded (libmicrohttpd). */
+#ifndef SVD_ROUTES_H
+#define SVD_ROUTES_H
+
+#include "key.h"
+
+typedef enum svd_route {
+    SVD_R_NONE = 0,     /* no route: see status */
+    SVD_R_HEALTH,       /* GET /v1/health */
+    SVD_R_METRICS,      /* GET /v1/metrics */
+    SVD_R_INFO,         /* GET /v1/info */
+    SVD_R_SUBMIT,       /* POST /v1/bakes */
+    SVD_R_PUT,          /* PUT /v1/bakes/{key} */
+    SVD_R_STATUS,       /* GET /v1/bakes/{key} */
+    SVD_R_DELETE,       /* DELETE /v1/bakes/{key} */
+    SVD_R_ARTIFACT,     /* GET /v1/bakes/{key}/artifacts/{name} */
+    SVD_R_COUNT
+} svd_route;
+
+typedef struct svd_route_match {
+    svd_route route;
+    int status;                      /* 0 on a match, else 400, 404 or 405 */
+    const char *allow;               /* for 405: the Allow header value */
+    const char *message;             /* for errors: why */
+    char key[SVD_KEY_HEX];           /* for bake routes */
+    char name[SVD_NAME_MAX + 1];     /* for SVD_R_ARTIFACT */
+} svd_route_match;
+
+/* Matches a request. HEAD is treated as GET. Never fails to fill *m. */
+void svd_route_find(const char *method, const char *path, svd_route_match *m);
+
+/* Stable label of a route for metrics and logs ("health", "artifact", ...). */
+const char *svd_route_label(svd_route r);
+
+#endif

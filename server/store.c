@@ -1,0 +1,286 @@
+/* store.c — content-addressed store: temp + fsync + rename, verify on read,
+ * quarantine (see store.h). */
+#include "store.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "journal.h"
+
+#define VCACHE 1024
+
+typedef struct vcache_entry {
+    char path[SVD_STORE_PATH];
+    dev_t dev;
+    ino_t ino;
+    off_t size;
+    struct timespec mtime;
+    char sha[SVD_KEY_HEX];
+} vcache_entry;
+
+struct svd_store {
+    char root[1024];
+    pthread_mutex_t mu;
+    uint64_t counter;
+    vcache_entry *cache; /* direct-mapped cache of verified files */
+};
+
+void svd_rm_rf(const char *path)
+{
+    struct stat st;
+    if (lstat(path, &st) != 0) return;
+    if (S_ISDIR(st.st_mode)) {
+        DIR *d = opendir(path);
+        if (d) {
+            struct dirent *e;
+            while ((e = readdir(d))) {
+                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+                char sub[4096];
+                if (snprintf(sub, sizeof sub, "%s/%s", path, e->d_name) >= (int)sizeof sub) continue;
+                svd_rm_rf(sub);
+            }
+            closedir(d);
+        }
+        rmdir(path);
+    } else {
+        unlink(path);
+    }
+}
+
+uint64_t svd_dir_bytes(const char *dir)
+{
+    struct stat st;
+    if (lstat(dir, &st) != 0) return 0;
+    if (!S_ISDIR(st.st_mode)) return S_ISREG(st.st_mode) ? (uint64_t)st.st_size : 0;
+    uint64_t total = 0;
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        char sub[4096];
+        if (snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name) >= (int)sizeof sub) continue;
+        total += svd_dir_bytes(sub);
+    }
+    closedir(d);
+    return total;
+}
+
+static sv_status mkdir_p1(const char *path, sv_error *err)
+{
+    if (mkdir(path, 0700) != 0 && errno != EEXIST)
+        return sv_fail(err, SV_ERR_IO, "%s: cannot create directory: %s", path, strerror(errno));
+    return SV_OK;
+}
+
+svd_store *svd_store_open(const char *root, sv_error *err)
+{
+    if (strlen(root) > 900) {
+        sv_fail(err, SV_ERR_IO, "store path too long");
+        return NULL;
+    }
+    char p[SVD_STORE_PATH];
+    if (mkdir_p1(root, err) != SV_OK) return NULL;
+    const char *subs[] = {"tmp", "jobs", "quarantine"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(p, sizeof p, "%s/%s", root, subs[i]);
+        if (i == 0) svd_rm_rf(p); /* stray temp files from a crash */
+        if (mkdir_p1(p, err) != SV_OK) return NULL;
+    }
+    svd_store *s = calloc(1, sizeof *s);
+    if (s) s->cache = calloc(VCACHE, sizeof *s->cache);
+    if (!s || !s->cache) {
+        if (s) free(s);
+        sv_fail(err, SV_ERR_NOMEM, "store: out of memory");
+        return NULL;
+    }
+    snprintf(s->root, sizeof s->root, "%s", root);
+    pthread_mutex_init(&s->mu, NULL);
+    return s;
+}
+
+void svd_store_close(svd_store *s)
+{
+    if (!s) return;
+    pthread_mutex_destroy(&s->mu);
+    free(s->cache);
+    free(s);
+}
+
+const char *svd_store_root(const svd_store *s) { return s->root; }
+
+void svd_store_job_path(const svd_store *s, const char *key, const char *sub,
+                        char out[SVD_STORE_PATH])
+{
+    if (sub) snprintf(out, SVD_STORE_PATH, "%s/jobs/%s/%s", s->root, key, sub);
+    else snprintf(out, SVD_STORE_PATH, "%s/jobs/%s", s->root, key);
+}
+
+sv_status svd_store_mktemp(svd_store *s, const char *prefix, char out[SVD_STORE_PATH],
+                           sv_error *err)
+{
+    snprintf(out, SVD_STORE_PATH, "%s/tmp/%s-XXXXXX", s->root, prefix);
+    if (!mkdtemp(out)) return sv_fail(err, SV_ERR_IO, "%s: cannot create temp dir: %s", out, strerror(errno));
+    return SV_OK;
+}
+
+sv_status svd_store_write_file(const char *dir, const char *name, const void *data, size_t size,
+                               sv_error *err)
+{
+    char tmp[SVD_STORE_PATH + 300], dst[SVD_STORE_PATH + 300];
+    snprintf(tmp, sizeof tmp, "%s/.%s.tmp", dir, name);
+    snprintf(dst, sizeof dst, "%s/%s", dir, name);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
+    const char *p = data;
+    size_t left = size;
+    while (left) {
+        ssize_t w = write(fd, p, left);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) {
+            int e = errno;
+            close(fd);
+            unlink(tmp);
+            return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO, "%s: write failed: %s", tmp, strerror(e));
+        }
+        p += w;
+        left -= (size_t)w;
+    }
+    if (fsync(fd) != 0) {
+        int e = errno;
+        close(fd);
+        unlink(tmp);
+        return sv_fail(err, SV_ERR_IO, "%s: fsync failed: %s", tmp, strerror(e));
+    }
+    close(fd);
+    if (rename(tmp, dst) != 0) {
+        int e = errno;
+        unlink(tmp);
+        return sv_fail(err, SV_ERR_IO, "%s: rename failed: %s", dst, strerror(e));
+    }
+    return svd_fsync_parent(dst, err);
+}
+
+static sv_status fsync_path(const char *path, int dir, sv_error *err)
+{
+    int fd = open(path, (dir ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
+    if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    int r = fsync(fd);
+    int e = errno;
+    close(fd);
+    if (r != 0) return sv_fail(err, SV_ERR_IO, "%s: fsync failed: %s", path, strerror(e));
+    return SV_OK;
+}
+
+static sv_status sync_tree(const char *dir, int depth, sv_error *err)
+{
+    DIR *d = opendir(dir);
+    if (!d) return sv_fail(err, SV_ERR_IO, "%s: cannot open: %s", dir, strerror(errno));
+    sv_status st = SV_OK;
+    struct dirent *e;
+    while (st == SV_OK && (e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        char sub[4096];
+        if (snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name) >= (int)sizeof sub) continue;
+        struct stat sb;
+        if (lstat(sub, &sb) != 0) continue;
+        if (S_ISREG(sb.st_mode)) st = fsync_path(sub, 0, err);
+        else if (S_ISDIR(sb.st_mode) && depth > 0) st = sync_tree(sub, depth - 1, err);
+    }
+    closedir(d);
+    if (st == SV_OK) st = fsync_path(dir, 1, err);
+    return st;
+}
+
+sv_status svd_store_sync_tree(const char *dir, sv_error *err)
+{
+    return sync_tree(dir, 1, err);
+}
+
+sv_status svd_store_install(svd_store *s, const char *src, const char *key, const char *sub,
+                            sv_error *err)
+{
+    char dst[SVD_STORE_PATH];
+    svd_store_job_path(s, key, sub, dst);
+    struct stat st;
+    if (lstat(dst, &st) == 0) return sv_fail(err, SV_ERR_IO, "%s: already exists", dst);
+    if (rename(src, dst) != 0) return sv_fail(err, SV_ERR_IO, "%s: rename failed: %s", dst, strerror(errno));
+    return svd_fsync_parent(dst, err);
+}
+
+void svd_store_remove(svd_store *s, const char *key, const char *sub)
+{
+    char path[SVD_STORE_PATH], tmp[SVD_STORE_PATH];
+    svd_store_job_path(s, key, sub, path);
+    pthread_mutex_lock(&s->mu);
+    unsigned long long n = ++s->counter;
+    pthread_mutex_unlock(&s->mu);
+    snprintf(tmp, sizeof tmp, "%s/tmp/del-%llu-%s", s->root, n, key);
+    if (rename(path, tmp) == 0) {
+        svd_fsync_parent(path, NULL);
+        svd_rm_rf(tmp);
+    } else {
+        svd_rm_rf(path);
+    }
+}
+
+static size_t slot_of(const char *path)
+{
+    /* FNV-1a: only picks a cache slot; the entry stores the full path. */
+    uint64_t h = 1469598103934665603ull;
+    for (const unsigned char *p = (const unsigned char *)path; *p; p++) h = (h ^ *p) * 1099511628211ull;
+    return (size_t)(h % VCACHE);
+}
+
+sv_status svd_store_verify(svd_store *s, const char *path, uint64_t size, const char *sha256,
+                           sv_error *err)
+{
+    struct stat st;
+    if (stat(path, &st) != 0) return sv_fail(err, SV_ERR_IO, "%s: missing: %s", path, strerror(errno));
+    size_t slot = slot_of(path);
+    pthread_mutex_lock(&s->mu);
+    vcache_entry *c = &s->cache[slot];
+    int hit = strcmp(c->path, path) == 0 && c->dev == st.st_dev && c->ino == st.st_ino &&
+              c->size == st.st_size && c->mtime.tv_sec == st.st_mtim.tv_sec &&
+              c->mtime.tv_nsec == st.st_mtim.tv_nsec && strcmp(c->sha, sha256) == 0;
+    pthread_mutex_unlock(&s->mu);
+    if (hit) return SV_OK;
+    if ((uint64_t)st.st_size != size)
+        return sv_fail(err, SV_ERR_INVALID, "%s: size %lld, expected %llu", path,
+                       (long long)st.st_size, (unsigned long long)size);
+    char got[SVD_KEY_HEX];
+    uint64_t n = 0;
+    sv_status rs = svd_sha256_file(path, got, &n, err);
+    if (rs != SV_OK) return rs;
+    if (strcmp(got, sha256) != 0 || n != size)
+        return sv_fail(err, SV_ERR_INVALID, "%s: SHA-256 mismatch", path);
+    pthread_mutex_lock(&s->mu);
+    snprintf(c->path, sizeof c->path, "%s", path);
+    c->dev = st.st_dev;
+    c->ino = st.st_ino;
+    c->size = st.st_size;
+    c->mtime = st.st_mtim;
+    memcpy(c->sha, sha256, SVD_KEY_HEX);
+    pthread_mutex_unlock(&s->mu);
+    return SV_OK;
+}
+
+void svd_store_quarantine(svd_store *s, const char *key, const char *path)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    pthread_mutex_lock(&s->mu);
+    unsigned long long n = ++s->counter;
+    pthread_mutex_unlock(&s->mu);
+    char dst[SVD_STORE_PATH + 300];
+    snprintf(dst, sizeof dst, "%s/quarantine/%s-%s-%llu", s->root, key, base, n);
+    if (rename(path, dst) != 0) svd_rm_rf(path);
+    svd_fsync_parent(path, NULL);
+}

@@ -1,0 +1,161 @@
+/* sylvad — the sylva baking daemon (issue 8; docs/api.md, docs/operations.md).
+ *
+ * main: configuration, store + journal recovery, the worker pool, the HTTP
+ * front end, then a signal loop (signals are blocked in every thread and
+ * taken synchronously here with sigtimedwait: no handler, no global flag).
+ * SIGTERM/SIGINT drain, SIGHUP reopens the log file.
+ */
+#include <errno.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "auth.h"
+#include "config.h"
+#include "http.h"
+#include "jobs.h"
+#include "log.h"
+#include "metrics.h"
+#include "store.h"
+#include "workers.h"
+
+static void default_worker(char *out, size_t cap)
+{
+    char exe[SVD_PATH_MAX];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0) {
+        snprintf(out, cap, "sylva-bake");
+        return;
+    }
+    exe[n] = '\0';
+    char *slash = strrchr(exe, '/');
+    if (slash) *slash = '\0';
+    snprintf(out, cap, "%.1000s/sylva-bake", exe);
+}
+
+int main(int argc, char **argv)
+{
+    svd_config cfg;
+    sv_error err = {0};
+    sv_status st = svd_config_from_args(&cfg, argc, argv, &err);
+    if (st == SV_ERR_CANCELLED) {
+        fputs(svd_config_usage(), stdout);
+        return 0;
+    }
+    if (st != SV_OK) {
+        fprintf(stderr, "sylvad: %s\n%s", err.message, svd_config_usage());
+        return 2;
+    }
+    svd_log *log = svd_log_open(cfg.log_file, cfg.log_level);
+    if (!log) {
+        fprintf(stderr, "sylvad: cannot open log file %s\n", cfg.log_file);
+        return 1;
+    }
+    int rc = 1;
+    svd_store *store = NULL;
+    svd_metrics *metrics = NULL;
+    svd_jobs *jobs = NULL;
+    svd_tokens *tokens = NULL;
+    svd_workers *workers = NULL;
+    svd_http *http = NULL;
+
+    if (!svd_config_is_loopback(&cfg) && !cfg.tokens[0]) {
+        svd_log_kv(log, SVD_LOG_ERROR, "config_error", "msg",
+                   "listening beyond loopback requires --tokens FILE (bearer auth)", (const char *)NULL);
+        rc = 2;
+        goto out;
+    }
+    if (!cfg.worker[0]) default_worker(cfg.worker, sizeof cfg.worker);
+    if (cfg.workers == 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        cfg.workers = n > 0 ? (uint32_t)n : 1;
+    }
+    if (cfg.prlimit[0] && access(cfg.prlimit, X_OK) != 0) {
+        svd_log_kv(log, SVD_LOG_WARN, "prlimit_missing", "path", cfg.prlimit, "msg",
+                   "rlimits will be set with prlimit(2) right after spawn", (const char *)NULL);
+        cfg.prlimit[0] = '\0';
+    }
+    if (access(cfg.worker, X_OK) != 0)
+        svd_log_kv(log, SVD_LOG_WARN, "worker_missing", "path", cfg.worker, "msg",
+                   "the worker is not executable; bakes will fail until it is", (const char *)NULL);
+
+    /* Block the signals we take synchronously before any thread starts. */
+    sigset_t sigs;
+    sigemptyset(&sigs);
+    sigaddset(&sigs, SIGTERM);
+    sigaddset(&sigs, SIGINT);
+    sigaddset(&sigs, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &sigs, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    if (cfg.tokens[0] && !(tokens = svd_tokens_load(cfg.tokens, &err))) goto fail;
+    if (!(store = svd_store_open(cfg.store, &err))) goto fail;
+    if (!(metrics = svd_metrics_create())) {
+        sv_fail(&err, SV_ERR_NOMEM, "out of memory");
+        goto fail;
+    }
+    if (!(jobs = svd_jobs_create(&cfg, store, log, metrics, &err))) goto fail;
+    if (svd_jobs_recover(jobs, &err) != SV_OK) goto fail;
+    if (!(workers = svd_workers_start(jobs, cfg.worker, cfg.workers, &err))) goto fail;
+    if (!(http = svd_http_start(&cfg, jobs, metrics, log, tokens, &err))) goto fail;
+
+    char port[16], nworkers[16];
+    snprintf(port, sizeof port, "%u", svd_http_port(http));
+    snprintf(nworkers, sizeof nworkers, "%u", cfg.workers);
+    if (cfg.port_file[0] && svd_config_write_port_file(cfg.port_file, svd_http_port(http)) != 0)
+        svd_log_kv(log, SVD_LOG_ERROR, "port_file_failed", "path", cfg.port_file, (const char *)NULL);
+    svd_log_kv(log, SVD_LOG_INFO, "listening", "host", cfg.listen_host, "port", port, "store", cfg.store,
+               "workers", nworkers, "worker", cfg.worker, "version", SV_VERSION, (const char *)NULL);
+
+    double drain_deadline = 0;
+    for (;;) {
+        struct timespec tick = {0, 100 * 1000 * 1000};
+        int sig = sigtimedwait(&sigs, NULL, &tick);
+        svd_jobs_sweep(jobs, sv_now(), false);
+        if (sig == SIGHUP) {
+            if (!svd_log_reopen(log)) fprintf(stderr, "sylvad: cannot reopen log file\n");
+            svd_log_kv(log, SVD_LOG_INFO, "log_reopened", (const char *)NULL);
+        } else if ((sig == SIGTERM || sig == SIGINT) && drain_deadline == 0) {
+            svd_log_kv(log, SVD_LOG_INFO, "draining", "signal", sig == SIGTERM ? "TERM" : "INT",
+                       (const char *)NULL);
+            svd_http_set_draining(http);
+            svd_jobs_stop(jobs);
+            drain_deadline = sv_now() + cfg.drain_timeout;
+        } else if ((sig == SIGTERM || sig == SIGINT) && drain_deadline > 0) {
+            drain_deadline = sv_now(); /* a second signal: stop now */
+        }
+        if (drain_deadline > 0) {
+            if (svd_jobs_running(jobs) == 0) break;
+            if (sv_now() >= drain_deadline) {
+                svd_log_kv(log, SVD_LOG_WARN, "drain_timeout", "msg",
+                           "stopping running bakes; they stay accepted and run after restart",
+                           (const char *)NULL);
+                svd_jobs_abort(jobs);
+                break;
+            }
+        }
+    }
+    svd_workers_join(workers);
+    workers = NULL;
+    svd_http_stop(http);
+    http = NULL;
+    svd_log_kv(log, SVD_LOG_INFO, "stopped", (const char *)NULL);
+    rc = 0;
+    goto out;
+fail:
+    svd_log_kv(log, SVD_LOG_ERROR, "startup_failed", "msg", err.message, (const char *)NULL);
+    rc = 1;
+    if (jobs) svd_jobs_stop(jobs);
+out:
+    svd_workers_join(workers);
+    svd_http_stop(http);
+    svd_jobs_destroy(jobs);
+    svd_metrics_destroy(metrics);
+    svd_store_close(store);
+    svd_tokens_free(tokens);
+    svd_log_close(log);
+    return rc;
+}

@@ -1,0 +1,35 @@
+/* workers.h — the pool that runs bakes in `sylva-bake` processes.
+ *
+ * N supervisor threads; each takes a job from the table (jobs.h), verifies
+ * its inputs against their SHA-256, and runs
+ *   [prlimit --as=.. --cpu=.. --nofile=.. --fsize=.. --core=0 --]
+ *   sylva-bake bake IN/MESH IN/FILES... --spec SPEC --out TMP --progress-fd 3 [--sandbox]
+ * with posix_spawn (never fork() from the threaded daemon), in its own process
+ * group, stdin /dev/null, stdout+stderr to a log file, signal mask and
+ * dispositions reset. Limits are applied by util-linux prlimit(1), which sets
+ * them on itself and then execs the worker (same pid, no window without
+ * limits); with `prlimit = ""` they are set by prlimit(2) right after spawn.
+ * Progress lines ({"stage":..,"progress":..}) come over a pipe. A wall-clock
+ * timeout, DELETE or a drain kills the process group (SIGKILL); it is reaped
+ * with waitpid. Exit 0: the outputs are hashed, a manifest written, fsynced
+ * and renamed into the store. Exit 1: failed with DIR/error.json's reason.
+ * A signal, an unexpected exit or a timeout: retried (jobs.h decides when
+ * to give up).
+ */
+#ifndef SVD_WORKERS_H
+#define SVD_WORKERS_H
+
+#include "jobs.h"
+
+typedef struct svd_workers svd_workers;
+
+/* Starts count supervisor threads running jobs from the table. worker_path
+ * is the sylva-bake executable. NULL with err set on failure. */
+svd_workers *svd_workers_start(svd_jobs *jobs, const char *worker_path, unsigned count,
+                               sv_error *err);
+
+/* Joins the threads (call after svd_jobs_stop, and svd_jobs_abort if they
+ * must not wait for running bakes). NULL is a no-op. */
+void svd_workers_join(svd_workers *w);
+
+#endif

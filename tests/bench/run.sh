@@ -1,0 +1,20 @@
+#!/bin/sh
+# run.sh — what `make bench` runs (issue 10): sweeps the knobs that buy
+# accuracy on the trees in $SYLVA_DATA (default ../shared/data; the bundled
+# example tree when absent), measures the peers and the floor, and writes
+# bench/results/ and docs/benchmarks.md (tests/bench/bench.py).
+#   SYLVA_BENCH=quick (default: 3 trees, 8 views, a few minutes)
+#   SYLVA_BENCH=full  (5 trees, 24 views, wider sweep, ~30 minutes)
+#   SYLVA_BENCH=all   (the full sweep on every tree, about an hour)
+#   SYLVA_BENCH_TREES=dir1,dir2  only these data folders
+# Bakes run one at a time (the machine is shared).
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+: "${BUILD:=build}"
+: "${SYLVA_DATA:=$root/../shared/data}"
+export BUILD SYLVA_DATA
+command -v python3 > /dev/null 2>&1 || { echo "bench: python3 missing (make deps)"; exit 1; }
+command -v gnuplot > /dev/null 2>&1 || echo "bench: gnuplot missing (make deps installs gnuplot-nox): no plots"
+cd "$root"
+exec python3 "$here/bench.py"

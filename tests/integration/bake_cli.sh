@@ -1,0 +1,64 @@
+#!/bin/sh
+# bake_cli.sh — sylva-bake end to end on the bundled oak: info, a crossed-quads
+# bake whose outputs validate (Khronos validator) and are byte-identical across
+# two runs (report.json's "times" aside), and clear errors for bad input.
+set -eu
+. "$(dirname "$0")/lib.inc"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT INT TERM
+oak="$root/examples/oak_large"
+files="$oak/oak_large.obj $oak/oak_large.mtl $oak/leaves_oak_color.png $oak/bark_oak_color_1k.jpg"
+
+# info: text and JSON
+"$bake" info $files > "$tmp/info.txt" || fail "info failed"
+grep -q "22566 triangles" "$tmp/info.txt" || fail "info text lacks the triangle count"
+"$bake" info $files --json > "$tmp/info.json" || fail "info --json failed"
+[ "$(json_get "$tmp/info.json" "j['classification']['foliage_triangles']")" = 10560 ] ||
+    fail "info --json: foliage triangles"
+
+# bake twice: byte-identical outputs
+echo '{"method": "crossed_quads", "evaluate": {"views": 8}}' > "$tmp/spec.json"
+"$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/a" || fail "bake a failed"
+"$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/b" || fail "bake b failed"
+for f in model.glb planes.json report.json preview.png atlas_crossed_albedo.png; do
+    [ -s "$tmp/a/$f" ] || fail "missing output $f"
+done
+for f in "$tmp"/a/*; do
+    n=$(basename "$f")
+    [ "$n" = report.json ] && continue
+    cmp -s "$f" "$tmp/b/$n" || fail "$n differs between two identical bakes"
+done
+strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.pop('times'); print(json.dumps(j, sort_keys=True))" "$1"; }
+[ "$(strip_times "$tmp/a/report.json")" = "$(strip_times "$tmp/b/report.json")" ] ||
+    fail "report.json differs (beyond times) between two identical bakes"
+# the report holds accuracy per size and per-stage times
+[ "$(json_get "$tmp/a/report.json" "len(j['lods'][0]['accuracy'])")" = 4 ] || fail "accuracy sizes"
+json_get "$tmp/a/report.json" "j['times']['evaluate']" > /dev/null || fail "times.evaluate"
+
+# the glTF passes the Khronos validator
+if command -v npm > /dev/null 2>&1; then
+    v=$(ensure_validator) || fail "cannot install gltf-validator"
+    node "$v" "$tmp/a/model.glb" || fail "model.glb does not validate"
+else
+    echo "note: npm missing, validator step skipped"
+fi
+
+# bad input: one clear line, exit 1; usage: exit 2
+: > "$tmp/empty.glb"
+set +e
+"$bake" info "$tmp/empty.glb" 2> "$tmp/err.txt"; rc=$?
+set -e
+[ $rc = 1 ] || fail "empty file: exit $rc, expected 1"
+[ "$(wc -l < "$tmp/err.txt")" = 1 ] || fail "empty file: expected one line of error"
+echo '{"scene": {"viewer": "underwater"}}' > "$tmp/bad.json"
+set +e
+"$bake" bake $files --spec "$tmp/bad.json" --out "$tmp/c" 2> "$tmp/err2.txt"; rc=$?
+set -e
+[ $rc = 1 ] || fail "bad spec: exit $rc"
+[ "$(json_get "$tmp/c/error.json" "j['error']['code']")" = spec ] || fail "bad spec: error.json code"
+grep -q "scene.viewer" "$tmp/err2.txt" || fail "bad spec: message does not name scene.viewer"
+set +e
+"$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
+set -e
+[ $rc = 2 ] || fail "missing --out: exit $rc, expected 2"
+echo "ok"

@@ -1,0 +1,163 @@
+#!/bin/sh
+# client_cli.sh — the `sylva` command end to end against a real sylvad on a free
+# loopback port: exit codes, --json output, artifacts verified on disk, progress
+# lines without \r when stdout is not a terminal, status/fetch/cancel/health,
+# idempotent resubmission, a bake failure, a batch of two meshes.
+# Needs $BUILD/sylva, $BUILD/sylvad and $BUILD/sylva-bake (fails if missing).
+set -u
+ROOT=${SYLVA_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
+BUILD=${BUILD:-build}
+cd "$ROOT" || exit 1
+SYLVA=${SYLVA_CLI:-$BUILD/sylva}      # overridable: e.g. an ASan client against a plain daemon
+SYLVAD=${SYLVAD:-$BUILD/sylvad}
+BAKER=${SYLVA_BAKE:-$BUILD/sylva-bake}
+for b in "$SYLVA" "$SYLVAD" "$BAKER"; do
+    [ -x "$b" ] || { echo "FAIL: $b is missing (build it first)"; exit 1; }
+done
+T=$(mktemp -d /tmp/sylva_client_cli.XXXXXX)
+DPID=""
+cleanup() {
+    [ -n "$DPID" ] && kill "$DPID" 2>/dev/null && wait "$DPID" 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT INT TERM
+fails=0
+check() { # check DESCRIPTION COMMAND...
+    desc=$1; shift
+    if "$@"; then echo "ok   $desc"; else echo "FAIL $desc"; fails=$((fails + 1)); fi
+}
+
+"$SYLVAD" --listen 127.0.0.1:0 --store "$T/store" --port-file "$T/port" --worker "$BAKER" \
+    --workers 2 >"$T/sylvad.log" 2>&1 &
+DPID=$!
+i=0
+while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+[ -s "$T/port" ] || { echo "FAIL: sylvad did not start"; cat "$T/sylvad.log"; exit 1; }
+export SYLVA_SERVER="http://127.0.0.1:$(cat "$T/port")"
+unset SYLVA_TOKEN
+
+# A small tree: the aspen from the shared data, else the bundled oak.
+if [ -f "${SYLVA_DATA:-/nonexistent}/eztree_aspen_small/aspen_small.obj" ]; then
+    M=$SYLVA_DATA/eztree_aspen_small
+    MESH="$M/aspen_small.obj $M/aspen_small.mtl $M/bark_birch_color_1k.jpg $M/leaves_aspen_color.png"
+    STEM=aspen_small
+else
+    echo "note: SYLVA_DATA not found, using examples/oak_large"
+    M=examples/oak_large
+    MESH="$M/oak_large.obj $M/oak_large.mtl $M/bark_oak_color_1k.jpg $M/leaves_oak_color.png"
+    STEM=oak_large
+fi
+FAST="--method crossed_quads --set bake.max_atlas=256 --set evaluate.views=2 --set evaluate.sizes=[64]"
+
+json_get() { # json_get FILE PYTHON-EXPR (d = the document)
+    python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"
+}
+
+# health
+check "health exits 0" "$SYLVA" health
+"$SYLVA" health --json >"$T/health.json"
+check "health --json is JSON naming the server" \
+    test "$(json_get "$T/health.json" 'd["server"]')" = "$SYLVA_SERVER"
+"$SYLVA" health --server http://127.0.0.1:1 --retries 0 >"$T/down.out" 2>"$T/down.err"
+check "health against a closed port exits 3" test $? -eq 3
+check "  with one line on stderr" test "$(wc -l <"$T/down.err")" -eq 1
+
+# usage errors
+"$SYLVA" bake $MESH >/dev/null 2>"$T/usage.err"
+check "bake without --out exits 2" test $? -eq 2
+check "  naming --out" grep -q -- "--out" "$T/usage.err"
+"$SYLVA" status nothex --json >"$T/badkey.json" 2>/dev/null
+check "status of a malformed key exits 2" test $? -eq 2
+check "  and prints an error object with --json" \
+    test "$(json_get "$T/badkey.json" 'd["error"]["code"]')" != ""
+
+# bake with --json
+"$SYLVA" bake $MESH $FAST --out "$T/out" --json >"$T/bake.json" 2>"$T/bake.err"
+rc=$?
+check "bake --json exits 0" test $rc -eq 0
+[ $rc -eq 0 ] || cat "$T/bake.err"
+KEY=$(json_get "$T/bake.json" 'd["key"]')
+check "  reports a 64-hex key" sh -c "echo '$KEY' | grep -Eq '^[0-9a-f]{64}$'"
+check "  state done" test "$(json_get "$T/bake.json" 'd["state"]')" = done
+check "  lists model.glb" \
+    test "$(json_get "$T/bake.json" '"model.glb" in [a["name"] for a in d["artifacts"]]')" = True
+check "  summary has LODs and times" \
+    test "$(json_get "$T/bake.json" 'len(d["summary"]["lods"]) > 0 and "total" in d["summary"]["times"]')" = True
+json_get "$T/bake.json" '"\n".join(a["sha256"] + "  " + a["name"] for a in d["artifacts"])' \
+    >"$T/sums"
+check "  every artifact on disk matches its SHA-256" sh -c "cd '$T/out' && sha256sum -c --quiet '$T/sums'"
+check "  no temporary files left" sh -c "! ls -A '$T/out' | grep -q part"
+
+# the same bake again: same key, answered from the store; plain progress lines
+"$SYLVA" bake $MESH $FAST --out "$T/out2" >"$T/plain.out" 2>&1
+check "second identical bake exits 0" test $? -eq 0
+check "  has the same key" grep -q "$KEY" "$T/plain.out"
+check "  progress output has no carriage return when not a terminal" \
+    sh -c "! grep -q \"\$(printf '\\r')\" '$T/plain.out'"
+check "  and prints the summary" grep -q "LODs:" "$T/plain.out"
+check "  same artifacts" cmp -s "$T/out/model.glb" "$T/out2/model.glb"
+# on a terminal (script(1) gives the command a pty): a \r-updated bar
+if command -v script >/dev/null; then
+    script -qec "'$SYLVA' bake $MESH $FAST --out '$T/tty'" /dev/null >"$T/tty.out" 2>&1
+    check "on a terminal the progress is a bar updated with \\r" \
+        sh -c "grep -q \"\$(printf '\\r')\" '$T/tty.out' && grep -q '\\[#' '$T/tty.out'"
+else
+    echo "FAIL script(1) is missing: cannot test the terminal progress bar"; fails=$((fails + 1))
+fi
+"$SYLVA" bake $MESH $FAST --out "$T/out3" --quiet >"$T/quiet.out" 2>&1
+check "--quiet prints no progress lines" sh -c "! grep -q submitted '$T/quiet.out'"
+
+# status / fetch
+"$SYLVA" status "$KEY" --json >"$T/status.json"
+check "status --json exits 0" test $? -eq 0
+check "  state done with a manifest" \
+    test "$(json_get "$T/status.json" 'd["state"] + str(len(d["manifest"]["artifacts"]) > 0)')" = doneTrue
+"$SYLVA" status "$KEY" >"$T/status.txt"
+check "status prints the state" grep -q "done" "$T/status.txt"
+"$SYLVA" fetch "$KEY" --out "$T/fetched" --json >"$T/fetch.json"
+check "fetch exits 0" test $? -eq 0
+check "  fetched files equal the baked ones" cmp -s "$T/out/model.glb" "$T/fetched/model.glb"
+ZERO=0000000000000000000000000000000000000000000000000000000000000000
+"$SYLVA" status $ZERO >/dev/null 2>"$T/nf.err"
+check "status of an unknown key exits 1" test $? -eq 1
+check "  with one line on stderr" test "$(wc -l <"$T/nf.err")" -eq 1
+
+# a bad spec is refused by the server (400) -> exit 1
+"$SYLVA" bake $MESH --method no_such_method --out "$T/bad" --json >"$T/bad.json" 2>"$T/bad.err"
+check "bake with an unknown method exits 1" test $? -eq 1
+check "  the error names the method" grep -q "no_such_method" "$T/bad.err"
+check "  --json carries the server's error code" \
+    test "$(json_get "$T/bad.json" 'd["error"]["code"]')" = spec
+
+# a mesh that is not a mesh: the bake fails in the worker (or is refused) -> exit 1
+printf 'this is not an OBJ file\x00\x01\x02' >"$T/broken.obj"
+"$SYLVA" bake "$T/broken.obj" $FAST --out "$T/broken" --json >"$T/broken.json" 2>"$T/broken.err"
+check "bake of a broken mesh exits 1" test $? -eq 1
+check "  with a clear one-line reason" test "$(wc -l <"$T/broken.err")" -eq 1
+check "  and no artifacts" sh -c "! test -f '$T/broken/model.glb'"
+
+# batch: two meshes, submitted together, each into out/<stem>/
+mkdir -p "$T/b2"
+cp $MESH "$T/b2/"
+for f in "$T"/b2/*.obj; do mv "$f" "$T/b2/copy.obj"; done
+"$SYLVA" bake $MESH "$T/b2/copy.obj" $(ls "$T"/b2/* | grep -v '\.obj$') $FAST \
+    --out "$T/batch" --json >"$T/batch.json" 2>"$T/batch.err"
+rc=$?
+check "batch bake exits 0" test $rc -eq 0
+[ $rc -eq 0 ] || cat "$T/batch.err"
+check "  reports two bakes, ok" test "$(json_get "$T/batch.json" 'str(d["ok"]) + str(len(d["bakes"]))')" = True2
+check "  writes out/$STEM/ and out/copy/" \
+    sh -c "test -f '$T/batch/$STEM/model.glb' && test -f '$T/batch/copy/model.glb'"
+
+# cancel (DELETE) a finished bake: it is gone afterwards
+"$SYLVA" cancel "$KEY" >/dev/null
+check "cancel of a finished bake exits 0" test $? -eq 0
+"$SYLVA" status "$KEY" >/dev/null 2>&1
+check "  and its status is then unknown (exit 1)" test $? -eq 1
+
+if [ $fails -ne 0 ]; then
+    echo "$fails check(s) failed; daemon log tail:"
+    tail -n 20 "$T/sylvad.log"
+    exit 1
+fi
+echo "all client CLI checks passed"

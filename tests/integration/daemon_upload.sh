@@ -1,0 +1,86 @@
+#!/bin/sh
+# Upload -> wait -> artifact with ETag/304; idempotence (16 concurrent uploads
+# bake once); key mismatch 400; oversized Content-Length 413 before the body;
+# bad spec 400; unknown format 415; traversal refused.
+. "$(dirname "$0")/daemon_lib.inc"
+export FAKE_WORKER_LOG=$T/invocations
+: > "$FAKE_WORKER_LOG"
+start_daemon --workers 2 --max-upload-bytes 1M
+pick_spec
+
+m=$(mesh tree.obj ok)
+body=$(post "$m")
+check "new upload answers 202" 202 "$(cat "$T/status")"
+key=$(echo "$body" | json_str key)
+check "response carries a 64-hex key" 64 "${#key}"
+wait_state "$key" done && ok "bake reaches done" || bad "bake did not finish"
+st=$(curl -s "$URL/v1/bakes/$key")
+contains "status has the manifest" '"artifacts":[' "$st"
+code=$(curl -s -D "$T/h" -o "$T/model.glb" -w '%{http_code}' "$URL/v1/bakes/$key/artifacts/model.glb")
+check "artifact answers 200" 200 "$code"
+cmp -s "$T/model.glb" "$m" && ok "artifact bytes are the worker's output" || bad "artifact differs"
+etag=$(sed -n 's/^ETag: *\(".*"\).*/\1/Ip' "$T/h" | tr -d '\r')
+sha=$(sha256sum "$T/model.glb" | cut -d' ' -f1)
+check "ETag is the SHA-256" "\"$sha\"" "$etag"
+check "If-None-Match answers 304" 304 "$(curl -s -o /dev/null -w '%{http_code}' -H "If-None-Match: $etag" "$URL/v1/bakes/$key/artifacts/model.glb")"
+check "unknown artifact is 404" 404 "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/bakes/$key/artifacts/inputs.json")"
+check "traversal is refused" 404 "$(curl -s -o /dev/null -w '%{http_code}' --path-as-is "$URL/v1/bakes/$key/artifacts/%2e%2e%2fspec.json")"
+post "$m" >/dev/null
+check "same upload again answers 200" 200 "$(cat "$T/status")"
+
+# 16 concurrent identical uploads of new content: one bake.
+m2=$(mesh concurrent.obj slow)
+i=0
+pids=""
+while [ $i -lt 16 ]; do
+    curl -s -o "$T/c$i" -w '%{http_code}\n' -F "spec=$SPEC" -F "mesh=@$m2" "$URL/v1/bakes" >> "$T/codes" &
+    pids="$pids $!"
+    i=$((i + 1))
+done
+for p in $pids; do wait "$p"; done
+check "16 uploads: exactly one 202" 1 "$(grep -c 202 "$T/codes")"
+check "16 uploads: fifteen 200" 15 "$(grep -c 200 "$T/codes")"
+k2=$(json_str key < "$T/c0")
+wait_state "$k2" done && ok "concurrent bake done" || bad "concurrent bake not done"
+check "the worker ran once for 16 uploads" 1 "$(grep -c '^concurrent.obj ' "$FAKE_WORKER_LOG")"
+
+# PUT with the right key (computed by the server for POST) and a wrong one.
+m3=$(mesh put.obj ok)
+wrong=0000000000000000000000000000000000000000000000000000000000000000
+code=$(curl -s -o "$T/b" -w '%{http_code}' -X PUT -F "spec=$SPEC" -F "mesh=@$m3" "$URL/v1/bakes/$wrong")
+check "PUT with a wrong key is 400" 400 "$code"
+contains "mismatch names the real key" "key_mismatch" "$(cat "$T/b")"
+real=$(sed -n 's/.*hash to \([0-9a-f]*\).*/\1/p' "$T/b")
+code=$(curl -s -o "$T/b" -w '%{http_code}' -X PUT -F "spec=$SPEC" -F "mesh=@$m3" "$URL/v1/bakes/$real")
+check "PUT with the right key is 202" 202 "$code"
+
+# 413 from Content-Length, before the body: the request is answered although
+# the client never sends the 2 GiB it announces.
+start=$(date +%s)
+code=$(printf 'xx' | curl -s -o "$T/b" -w '%{http_code}' --max-time 5 -X POST \
+    -H 'Content-Type: multipart/form-data; boundary=x' -H 'Content-Length: 2147483648' \
+    --data-binary @- "$URL/v1/bakes")
+check "oversized Content-Length is 413" 413 "$code"
+[ $(( $(date +%s) - start )) -le 2 ] && ok "413 came without waiting for the body" || bad "413 was slow"
+# Only upload directories count: the job accepted above may be baking
+# right now in an out-* directory of its own.
+ls "$T/store/tmp" | grep -q '^up-' && bad "413 left an upload in tmp" || ok "413 wrote nothing"
+
+# Bad spec, unknown format, wrong content type, bad names.
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F 'spec={"method": 12' -F "mesh=@$m3" "$URL/v1/bakes")
+check "bad spec JSON is 400" 400 "$code"
+contains "bad spec names the problem" '"code":"spec"' "$(cat "$T/b")"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F 'spec={"no_such_field":1}' -F "mesh=@$m3" "$URL/v1/bakes")
+check "unknown spec field is 400" 400 "$code"
+head -c 300 /dev/urandom > "$T/noise.bin"
+printf 'GARBAGE' | cat - "$T/noise.bin" > "$T/noise.glb"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$T/noise.glb" "$URL/v1/bakes")
+check "unknown format is 415" 415 "$code"
+code=$(curl -s -o /dev/null -w '%{http_code}' -H 'Content-Type: application/json' -d '{}' "$URL/v1/bakes")
+check "non-multipart upload is 415" 415 "$code"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filename=../evil.obj" "$URL/v1/bakes")
+check "a path in a file name is 400" 400 "$code"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3" -F "file=@$m3;filename=put.obj" "$URL/v1/bakes")
+check "a duplicate file name is 400" 400 "$code"
+check "daemon still healthy" 200 "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/health")"
+finish

@@ -1,0 +1,99 @@
+#!/bin/sh
+# lod_chain.sh — the LOD chain of issue 6 on every tree in ../shared/data:
+# full mesh → stochastic levels → the spec's method → crossed quads. Each bake
+# must succeed, model.glb must validate (Khronos validator), the stochastic
+# LODs must carry _LEAF_CENTRE/_LEAF_ORDER and their fade window, switch sizes
+# must not increase along the chain, and report.json must say which λ terms
+# were used and which LODs were skipped. Skips (saying so) without the data.
+set -eu
+. "$(dirname "$0")/lib.inc"
+if [ ! -d "$data" ]; then
+    echo "skipped: no tree data at $data"
+    exit 0
+fi
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT INT TERM
+v=""
+command -v npm > /dev/null 2>&1 && v=$(ensure_validator)
+[ -n "$v" ] || echo "note: npm missing, model.glb not validated"
+
+# glb_check FILE: the chain's structural promises, read from the GLB's JSON chunk
+glb_check() {
+    python3 - "$1" "$2" <<'EOF'
+import json, struct, sys
+b = open(sys.argv[1], 'rb').read()
+n = struct.unpack_from('<I', b, 12)[0]
+g = json.loads(b[20:20 + n])
+rep = json.load(open(sys.argv[2]))
+nodes = g['nodes']
+names = [nd['name'] for nd in nodes]
+lods = [l['name'] for l in rep['lods']]
+assert names == lods, (names, lods)
+stoch = [l for l in rep['lods'] if l['source'] == 'stochastic']
+for l in stoch:
+    nd = nodes[names.index(l['name'])]
+    ex = nd['extras']['sylva_stochastic']
+    lo, hi = ex['fade_window']
+    assert 0 <= lo <= ex['lambda'] <= hi <= 1, ex
+    prim = g['meshes'][nd['mesh']]['primitives'][0]
+    assert '_LEAF_CENTRE' in prim['attributes'] and '_LEAF_ORDER' in prim['attributes'], prim
+sw = [l['switch_pixels'] for l in rep['lods']]
+assert all(sw[i] >= sw[i + 1] for i in range(len(sw) - 1)), sw
+c = rep['lod_chain']
+assert isinstance(c['skipped'], list)
+if 'stochastic' in c:
+    terms = {t['term']: t['status'] for t in c['stochastic']['lambda_terms']}
+    assert terms['size'] == 'done'
+    assert 0 < c['stochastic']['visible_ratio']['r'] <= 1
+print(len(lods), 'LODs:', ' '.join('%s(%d)' % (l['name'], l['triangles']) for l in rep['lods']),
+      '| skipped:', ' '.join(s['name'] for s in c['skipped']) or '-')
+EOF
+}
+
+grep -v '^#' "$root/tests/data/trees.tsv" | while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
+    d="$data/$dir"
+    [ -f "$d/$mesh" ] || fail "missing $d/$mesh"
+    # shellcheck disable=SC2046
+    set -- "$d/$mesh" $(companions "$d" "$mesh")
+    # A scene in which the tree is seen from 2 to 100 bounding radii (about
+    # 540 px down to 19 px tall), so the whole chain is planned; few views and
+    # small sizes keep the run short.
+    echo "{\"import\": {\"units\": \"$units\"}}" > "$tmp/units.json"
+    "$bake" info "$@" --spec "$tmp/units.json" --json > "$tmp/info.json" || fail "$mesh: info"
+    rad=$(json_get "$tmp/info.json" "j['bounds']['radius']")
+    echo "{\"import\": {\"units\": \"$units\"}, \"method\": \"leaf_clusters\",
+           \"scene\": {\"distance\": [$(python3 -c "print(2*$rad, 100*$rad)" | tr ' ' ',')]},
+           \"evaluate\": {\"views\": 4, \"sizes\": [128, 64, 32]}}" > "$tmp/spec.json"
+    out="$tmp/out-$mesh"
+    "$bake" bake "$@" --spec "$tmp/spec.json" --out "$out" || fail "$mesh: chain bake failed"
+    [ -z "$v" ] || node "$v" "$out/model.glb" > /dev/null || fail "$mesh: model.glb does not validate"
+    res=$(glb_check "$out/model.glb" "$out/report.json") || fail "$mesh: chain structure"
+    echo "ok $mesh: $res"
+done
+
+# One tree in detail: the motion term only with camera motion; chain off.
+d="$data/eztree_aspen_small"
+if [ -f "$d/aspen_small.obj" ]; then
+    # shellcheck disable=SC2046
+    set -- "$d/aspen_small.obj" $(companions "$d" aspen_small.obj)
+    echo '{"method": "crossed_quads", "scene": {"camera_speed": 20},
+           "evaluate": {"views": 4, "sizes": [64, 32]}}' > "$tmp/moving.json"
+    "$bake" bake "$@" --spec "$tmp/moving.json" --out "$tmp/moving" || fail "moving bake"
+    [ "$(json_get "$tmp/moving/report.json" "[t['status'] for t in j['lod_chain']['stochastic']['lambda_terms'] if t['term']=='motion'][0]")" = done ] ||
+        fail "motion term not used with camera_speed > 0"
+    echo '{"method": "crossed_quads", "lod": {"chain": false},
+           "evaluate": {"views": 4, "sizes": [64, 32]}}' > "$tmp/nochain.json"
+    "$bake" bake "$@" --spec "$tmp/nochain.json" --out "$tmp/nochain" || fail "chain:false bake"
+    [ "$(json_get "$tmp/nochain/report.json" "[l['name'] for l in j['lods']]")" = "['crossed']" ] ||
+        fail "lod.chain false still made a chain"
+    "$bake" info "$@" --json > "$tmp/info.json" || fail "aspen info"
+    rad=$(json_get "$tmp/info.json" "j['bounds']['radius']")
+    # seen only from 60 to 100 radii (about 31 px down to 19 px), with a
+    # tolerance the crossed quads meet: the full mesh is never needed
+    echo "{\"method\": \"crossed_quads\", \"lod\": {\"tolerance\": 0.5}, \"scene\": {\"distance\": [$(python3 -c "print(60*$rad, 100*$rad)" | tr ' ' ',')]},
+           \"evaluate\": {\"views\": 4, \"sizes\": [64, 32]}}" > "$tmp/far.json"
+    "$bake" bake "$@" --spec "$tmp/far.json" --out "$tmp/far" || fail "far bake"
+    [ "$(json_get "$tmp/far/report.json" "'full' in [s['name'] for s in j['lod_chain']['skipped']]")" = True ] ||
+        fail "a scene that never comes near still has the full mesh"
+    echo "ok aspen: motion term only with camera motion; chain off; far scene skips the full mesh"
+fi

@@ -1,0 +1,116 @@
+#!/bin/sh
+# target.sh — issue 10, "accuracy targets in the spec": `target` searches the
+# method's knobs cheapest first and stops at the first setting that meets it.
+#  1. an IoU target that is met: the chosen setting is the first try that
+#     reaches it, and the bake is that setting's bake;
+#  2. an IoU target that cannot be met: exit 0, "met": false, the best try;
+#  3. a plane budget, and a triangle budget without evaluation;
+#  4. bad targets are refused naming the key; the same target twice gives
+#     byte-identical outputs; the daemon and `sylva` take a target end to end.
+# A small synthetic tree (a square trunk and 40 leaf quads) keeps it quick.
+. "$(dirname "$0")/lib.inc"
+[ -x "$bake" ] || { echo "skipped: $bake not built"; exit 0; }
+T=$(mktemp -d /tmp/sylva-target.XXXXXX)
+DPID=""
+cleanup() {
+    [ -n "$DPID" ] && kill -9 "$DPID" 2>/dev/null
+    [ -n "${KEEP_T:-}" ] || rm -rf "$T"
+}
+trap cleanup EXIT
+
+python3 "$root/tests/tools/synth_tree.py" "$T/tree.obj" 40 4242
+MESH="$T/tree.obj $T/tree.mtl"
+COMMON='"bake":{"max_atlas":256},"evaluate":{"views":4,"sizes":[64,32]}'
+
+# run NAME SPEC: bakes into $T/NAME, status in $T/NAME.rc
+run() {
+    printf '%s\n' "$2" > "$T/$1.json"
+    # shellcheck disable=SC2086
+    "$bake" bake $MESH --spec "$T/$1.json" --out "$T/$1" > "$T/$1.log" 2>&1
+    echo $? > "$T/$1.rc"
+}
+target() { json_get "$T/$1/report.json" "$2"; }
+# stmts NAME CODE: runs python statements on j (the report) with t = j["target"], tr = its tries
+stmts() { python3 -c 'import json,sys
+j = json.load(open(sys.argv[1])); t = j["target"]; tr = t["tries"]; c = t["chosen"]
+'"$2" "$T/$1/report.json"; }
+
+# 1. met: the first try at or above the goal is the one chosen and baked
+run met '{"method":"leaf_clusters",'"$COMMON"',"target":{"iou":0.6}}'
+check "an IoU target that is met exits 0" 0 "$(cat "$T/met.rc")"
+check "... and says met" True "$(target met 'j["target"]["met"]')"
+check "... the chosen try is the first that reaches the goal" True "$(stmts met '
+print(c == next(i for i, x in enumerate(tr) if x.get("iou", 0) >= 0.6) == len(tr) - 1)')"
+check "... the bake uses the chosen setting" True "$(target met '
+j["method"]["settings"] == j["target"]["tries"][j["target"]["chosen"]]["settings"]')"
+check "... and each try has its cost in times.target_tries" True "$(target met '
+len(j["times"]["target_tries"]) == len(j["target"]["tries"]) and all(s >= 0 for s in j["times"]["target_tries"])')"
+[ -s "$T/met/model.glb" ] && ok "... model.glb written" || bad "no model.glb"
+
+# 2. cannot be met: the best try is baked and flagged, not an error
+run unmet '{"method":"crossed_quads",'"$COMMON"',"target":{"iou":0.999}}'
+check "an IoU target that cannot be met exits 0" 0 "$(cat "$T/unmet.rc")"
+check "... and says met: false" False "$(target unmet 'j["target"]["met"]')"
+check "... after trying every setting of the method (4)" 4 "$(target unmet 'len(j["target"]["tries"])')"
+check "... and bakes the best of them" True "$(stmts unmet '
+print(tr[c]["iou"] == max(x["iou"] for x in tr) and j["method"]["settings"] == tr[c]["settings"])')"
+
+# 3. budgets
+run planes '{"method":"billboard_cloud",'"$COMMON"',"target":{"max_planes":10}}'
+check "a plane budget exits 0" 0 "$(cat "$T/planes.rc")"
+check "... is met" True "$(target planes 'j["target"]["met"]')"
+check "... the baked billboard cloud has at most 10 planes" True "$(target planes '
+all(l["quads"] <= 10 for l in j["lods"] if l["source"] == "billboard_cloud") and
+any(l["source"] == "billboard_cloud" for l in j["lods"])')"
+check "... the search stopped at the first setting over budget" True "$(stmts planes '
+print(all(x["within_budget"] for x in tr[:-1]) and (not tr[-1]["within_budget"] or len(tr) == 11))')"
+run tris '{"method":"billboard_cloud","bake":{"max_atlas":256},"evaluate":{"enabled":false},"target":{"max_triangles":20}}'
+check "a triangle budget without evaluation exits 0" 0 "$(cat "$T/tris.rc")"
+check "... is met with the richest setting within it" True "$(stmts tris '
+print(t["met"] and tr[c]["triangles"] <= 20 and all(not x["within_budget"] for x in tr[c + 1:]) and "iou" not in tr[c])')"
+
+# 4. refusals, determinism, the daemon
+for bad_target in '{}' '{"iou":0.9,"pixels":100}' '{"iou":2}' '{"max_planes":0}' '{"iou":0.9,"colour":1}'; do
+    run refused '{"method":"leaf_clusters",'"$COMMON"',"target":'"$bad_target"'}'
+    check "target $bad_target is refused (exit 1)" 1 "$(cat "$T/refused.rc")"
+    grep -q 'target' "$T/refused.log" && ok "... naming target" || bad "message: $(cat "$T/refused.log")"
+done
+run noeval '{"evaluate":{"enabled":false},"target":{"iou":0.9}}'
+check "an IoU target without evaluation is refused" 1 "$(cat "$T/noeval.rc")"
+run planes2 '{"method":"billboard_cloud",'"$COMMON"',"target":{"max_planes":10}}'
+same=1
+for f in "$T"/planes/*; do
+    n=$(basename "$f")
+    [ "$n" = report.json ] && continue
+    cmp -s "$f" "$T/planes2/$n" || { same=0; echo "differs: $n"; }
+done
+strip='import json,sys; j=json.load(open(sys.argv[1])); j.pop("times"); print(json.dumps(j, sort_keys=True))'
+[ "$(python3 -c "$strip" "$T/planes/report.json")" = "$(python3 -c "$strip" "$T/planes2/report.json")" ] || same=0
+check "the same target twice gives byte-identical outputs (report.json but its times)" 1 "$same"
+
+SYLVAD=$build/sylvad SYLVA=$build/sylva
+if [ -x "$SYLVAD" ] && [ -x "$SYLVA" ]; then
+    "$SYLVAD" --listen 127.0.0.1:0 --store "$T/store" --port-file "$T/port" --worker "$bake" \
+        --workers 1 2>"$T/daemon.log" &
+    DPID=$!
+    i=0
+    while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+    # shellcheck disable=SC2086
+    "$SYLVA" --server "http://127.0.0.1:$(cat "$T/port")" bake $MESH --spec "$T/met.json" \
+        --out "$T/via-daemon" > "$T/client.log" 2>&1
+    check "sylva bake with a target through the daemon exits 0" 0 "$?"
+    cmp -s "$T/via-daemon/model.glb" "$T/met/model.glb" &&
+        ok "... its model.glb is the offline bake's" || bad "daemon's model.glb differs: $(cat "$T/client.log")"
+    check "... its report has the search" True "$(target via-daemon 'j["target"]["met"]')"
+    code=$(curl -s -o "$T/err.json" -w '%{http_code}' -F 'spec={"target":{}};type=application/json' \
+        -F "mesh=@$T/tree.obj" "http://127.0.0.1:$(cat "$T/port")/v1/bakes")
+    check "the daemon refuses a bad target with 400" 400 "$code"
+    grep -q target "$T/err.json" && ok "... naming target" || bad "body: $(cat "$T/err.json")"
+    kill -TERM "$DPID"; wait "$DPID" 2>/dev/null; DPID=""
+    grep -q -E "AddressSanitizer|LeakSanitizer|runtime error:" "$T/daemon.log" && bad "sanitizer report in the daemon log"
+fi
+if [ "$fails" -ne 0 ]; then
+    for f in "$T"/*.log; do echo "--- $f"; tail -n 5 "$f"; done
+    exit 1
+fi
+exit 0

@@ -1,0 +1,255 @@
+/* test_atlas.c — chart packing, texel-density choice, the median/threshold
+ * downsampler and colour dilation (core/atlas.c). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "atlas.h"
+
+static uint64_t rng(uint64_t *s)
+{
+    *s = *s * 6364136223846793005ull + 1442695040888963407ull;
+    return *s >> 33;
+}
+
+static bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
+
+static void assert_disjoint_with_padding(const sv_chart *c, uint32_t n, uint32_t pad,
+                                         uint32_t w, uint32_t h)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        assert_true(c[i].x + c[i].w <= w);
+        assert_true(c[i].y + c[i].h <= h);
+        for (uint32_t j = i + 1; j < n; j++) {
+            bool apart_x = c[j].x >= c[i].x + c[i].w + pad || c[i].x >= c[j].x + c[j].w + pad;
+            bool apart_y = c[j].y >= c[i].y + c[i].h + pad || c[i].y >= c[j].y + c[j].h + pad;
+            if (!apart_x && !apart_y)
+                fail_msg("charts %u and %u closer than %u texels", i, j, pad);
+        }
+    }
+}
+
+static void atlas_packs_charts_without_overlap_with_padding(void **state)
+{
+    (void)state;
+    enum { N = 60 };
+    sv_chart c[N];
+    uint64_t s = 7;
+    for (int i = 0; i < N; i++) {
+        c[i].w = 1 + (uint32_t)(rng(&s) % 90);
+        c[i].h = 1 + (uint32_t)(rng(&s) % 90);
+    }
+    uint32_t w = 0, h = 0;
+    assert_true(sv_atlas_fit(c, N, 4, 1024, &w, &h));
+    assert_true(is_pow2(w) && is_pow2(h));
+    assert_true(w <= 1024 && h <= 1024);
+    assert_disjoint_with_padding(c, N, 4, w, h);
+}
+
+static void atlas_shrinks_to_the_smallest_power_of_two_that_fits(void **state)
+{
+    (void)state;
+    sv_chart c[4] = {{.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}};
+    uint32_t w = 0, h = 0;
+    assert_true(sv_atlas_fit(c, 4, 2, 2048, &w, &h));
+    assert_int_equal(w, 32); /* 2×2 of 12-texel cells: 16 is too small */
+    assert_int_equal(h, 32);
+    sv_chart wide[2] = {{.w = 30, .h = 5}, {.w = 30, .h = 5}};
+    assert_true(sv_atlas_fit(wide, 2, 2, 2048, &w, &h));
+    assert_int_equal(w, 32);
+    assert_int_equal(h, 16); /* two 7-texel rows fit in half the height */
+    assert_disjoint_with_padding(wide, 2, 2, w, h);
+    sv_chart big = {.w = 3000, .h = 10};
+    assert_false(sv_atlas_fit(&big, 1, 2, 2048, &w, &h));
+}
+
+static void atlas_layout_is_deterministic_for_equal_charts(void **state)
+{
+    (void)state;
+    enum { N = 40 };
+    sv_chart a[N], b[N];
+    for (int i = 0; i < N; i++) {
+        a[i].w = b[i].w = 8 + (uint32_t)(i % 3) * 4; /* many equal keys for the sort */
+        a[i].h = b[i].h = 8;
+    }
+    assert_true(sv_atlas_pack(a, N, 128, 128, 2));
+    assert_true(sv_atlas_pack(b, N, 128, 128, 2));
+    assert_memory_equal(a, b, sizeof a);
+    /* Equal charts keep their input order along the skyline (stable sort). */
+    assert_true(a[0].y < a[3].y || (a[0].y == a[3].y && a[0].x < a[3].x));
+}
+
+static void texel_choice_is_the_finest_density_that_fits(void **state)
+{
+    (void)state;
+    double half[8] = {1, 1, 1, 1, 1, 1, 1, 1}; /* four 2×2 m quads */
+    double t = 0;
+    assert_int_equal(sv_atlas_choose_texel(half, 4, 4, 256, &t, NULL), SV_OK);
+    /* 2×2 layout: each chart <= 124 texels: t ≈ 2/124 */
+    assert_true(fabs(t - 2.0 / 124) < 2.0 / 124 * 0.01);
+    sv_chart c[4];
+    for (int i = 0; i < 4; i++)
+        sv_chart_size(1, 1, t, &c[i].w, &c[i].h);
+    assert_true(sv_atlas_pack(c, 4, 256, 256, 4));
+    for (int i = 0; i < 4; i++)
+        sv_chart_size(1, 1, t * 0.98, &c[i].w, &c[i].h);
+    assert_false(sv_atlas_pack(c, 4, 256, 256, 4));
+}
+
+static void texel_choice_fails_when_not_even_single_texels_fit(void **state)
+{
+    (void)state;
+    enum { N = 100 };
+    double half[2 * N];
+    for (int i = 0; i < 2 * N; i++)
+        half[i] = 1;
+    double t = 0;
+    sv_error err = {0};
+    assert_int_equal(sv_atlas_choose_texel(half, N, 4, 32, &t, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "do not fit"));
+}
+
+static void downsampler_gives_binary_alpha_and_thresholded_coverage(void **state)
+{
+    (void)state;
+    /* 4 texels of 4×4 samples with 0, 4, 5 and 16 covered samples. */
+    enum { S = 4, W = 4 };
+    uint8_t src[S * S * W * 4];
+    memset(src, 0, sizeof src);
+    const uint32_t cover[W] = {0, 4, 5, 16};
+    for (uint32_t t = 0; t < W; t++)
+        for (uint32_t k = 0; k < cover[t]; k++) {
+            uint32_t x = t * S + k % S, y = k / S;
+            uint8_t *p = src + 4 * (y * S * W + x);
+            p[0] = (uint8_t)(10 * (k + 1)); /* values 10, 20, ... : median known */
+            p[1] = 77;
+            p[2] = (uint8_t)(k == 0 ? 250 : 5);
+            p[3] = 255;
+        }
+    uint8_t dst[W * 4];
+    sv_downsample_median(src, W, 1, S, 0.3, dst); /* needs ceil(0.3·16) = 5 */
+    for (int t = 0; t < W; t++)
+        assert_true(dst[4 * t + 3] == 0 || dst[4 * t + 3] == 255);
+    assert_int_equal(dst[3], 0);
+    assert_int_equal(dst[7], 0);      /* 4/16 < 0.3 */
+    assert_int_equal(dst[11], 255);   /* 5/16 >= 0.3 */
+    assert_int_equal(dst[8], 30);     /* median of 10..50 */
+    assert_int_equal(dst[9], 77);
+    assert_int_equal(dst[10], 5);     /* the outlier 250 is rejected */
+    assert_int_equal(dst[15], 255);
+    assert_int_equal(dst[12], 80);    /* lower median of 10..160 */
+    sv_downsample_median(src, W, 1, S, 0.2, dst); /* needs 4 */
+    assert_int_equal(dst[7], 255);
+}
+
+static int cmp_u8(const void *a, const void *b)
+{
+    return (int)*(const uint8_t *)a - (int)*(const uint8_t *)b;
+}
+
+static void downsampler_median_matches_sorting_on_random_samples(void **state)
+{
+    (void)state;
+    enum { S = 5, W = 16, H = 9 };
+    uint8_t *src = malloc(S * S * W * H * 4), dst[W * H * 4];
+    uint64_t s = 99;
+    for (int i = 0; i < S * S * W * H; i++) {
+        for (int k = 0; k < 3; k++)
+            src[4 * i + k] = (uint8_t)(rng(&s) % 7 * 40); /* many ties */
+        src[4 * i + 3] = rng(&s) % 3 ? 255 : 0;
+    }
+    sv_downsample_median(src, W, H, S, 0.3, dst);
+    for (int ty = 0; ty < H; ty++)
+        for (int tx = 0; tx < W; tx++) {
+            uint8_t v[3][S * S];
+            int c = 0;
+            for (int y = 0; y < S; y++)
+                for (int x = 0; x < S; x++) {
+                    const uint8_t *p = src + 4 * ((ty * S + y) * W * S + tx * S + x);
+                    if (!p[3]) continue;
+                    for (int k = 0; k < 3; k++) v[k][c] = p[k];
+                    c++;
+                }
+            const uint8_t *o = dst + 4 * (ty * W + tx);
+            if (c < 8) { /* ceil(0.3·25) */
+                assert_int_equal(o[3], 0);
+                continue;
+            }
+            assert_int_equal(o[3], 255);
+            for (int k = 0; k < 3; k++) {
+                qsort(v[k], (size_t)c, 1, cmp_u8);
+                assert_int_equal(o[k], v[k][(c - 1) / 2]);
+            }
+        }
+    free(src);
+}
+
+static void float_downsampler_takes_the_median_of_covered_depths(void **state)
+{
+    (void)state;
+    float src[2 * 2 * 2] = {1.0f, 3.0f, INFINITY, INFINITY,
+                            2.0f, 100.0f, INFINITY, 0.5f};
+    float dst[2];
+    sv_downsample_median_f32(src, 2, 1, 2, 0.3, dst);
+    assert_true(dst[0] == 2.0f); /* lower median of 1,2,3,100 */
+    assert_true(isinf(dst[1]));  /* 1 of 4 < 0.3 */
+}
+
+static void dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 8, 8, 4, 8, NULL), SV_OK);
+    uint8_t *p = img.data, mask[64] = {0};
+    p[4 * (1 * 8 + 1) + 0] = 255; p[4 * (1 * 8 + 1) + 3] = 255; mask[1 * 8 + 1] = 1; /* red */
+    p[4 * (6 * 8 + 6) + 2] = 255; p[4 * (6 * 8 + 6) + 3] = 255; mask[6 * 8 + 6] = 1; /* blue */
+    assert_int_equal(sv_dilate(&img, mask, 3, 1, NULL), SV_OK);
+    const uint8_t *a = p + 4 * (0 * 8 + 0), *b = p + 4 * (2 * 8 + 2);
+    const uint8_t *c = p + 4 * (7 * 8 + 7), *d = p + 4 * (4 * 8 + 4);
+    assert_int_equal(a[0], 255); assert_int_equal(a[2], 0);   /* next to red */
+    assert_int_equal(b[0], 255);
+    assert_int_equal(c[2], 255); assert_int_equal(c[0], 0);   /* next to blue */
+    assert_int_equal(d[0], 128); assert_int_equal(d[2], 128); /* far: mean of all */
+    for (int i = 0; i < 64; i++)
+        assert_int_equal(p[4 * i + 3], mask[i] ? 255 : 0);   /* alpha untouched */
+    sv_image_free(&img);
+}
+
+static void dilation_reaches_as_many_texels_as_passes(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 16, 1, 1, 16, NULL), SV_OK);
+    uint16_t *p = img.data;
+    uint8_t mask[16] = {0};
+    p[0] = 1000; mask[0] = 1;
+    p[15] = 3000; mask[15] = 1;
+    assert_int_equal(sv_dilate(&img, mask, 1, 3, NULL), SV_OK);
+    assert_int_equal(p[3], 1000);
+    assert_int_equal(p[12], 3000);
+    assert_int_equal(p[7], 2000); /* beyond reach: mean of valued texels */
+    sv_image_free(&img);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(atlas_packs_charts_without_overlap_with_padding),
+        cmocka_unit_test(atlas_shrinks_to_the_smallest_power_of_two_that_fits),
+        cmocka_unit_test(atlas_layout_is_deterministic_for_equal_charts),
+        cmocka_unit_test(texel_choice_is_the_finest_density_that_fits),
+        cmocka_unit_test(texel_choice_fails_when_not_even_single_texels_fit),
+        cmocka_unit_test(downsampler_gives_binary_alpha_and_thresholded_coverage),
+        cmocka_unit_test(downsampler_median_matches_sorting_on_random_samples),
+        cmocka_unit_test(float_downsampler_takes_the_median_of_covered_depths),
+        cmocka_unit_test(dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha),
+        cmocka_unit_test(dilation_reaches_as_many_texels_as_passes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,681 @@
+/* test_evaluate.c — accuracy evaluation (evaluate.h): view placement, cameras,
+ * the box filter, the metrics, and (with the OSMesa renderer) whole evaluations:
+ * self-comparison, a moved-away result, a sub-pixel shift, subset blending and
+ * the preview image. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "evaluate.h"
+
+#define DEG (180.0 / M_PI)
+
+/* ---- fixtures ---------------------------------------------------------- */
+
+static double rnd(uint64_t *s)
+{
+    *s ^= *s >> 12;
+    *s ^= *s << 25;
+    *s ^= *s >> 27;
+    return (double)((*s * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* A synthetic tree: `leaves` small quads of random orientation in a crown
+ * around (0, 2, 0) with three leaf colours, plus a trunk quad pair. Translated
+ * by `shift`. Deterministic. */
+static sv_mesh *tree_mesh_h(uint32_t leaves, double h, const double shift[3])
+{
+    sv_mesh *m = sv_mesh_create(4 * leaves + 8, 2 * leaves + 4, 4, 0);
+    assert_non_null(m);
+    uint64_t s = 42;
+    for (uint32_t l = 0; l < leaves; l++) {
+        double c[3], r2;
+        do {
+            for (int k = 0; k < 3; k++) c[k] = rnd(&s) * 2 - 1;
+            r2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+        } while (r2 > 1);
+        c[1] += 2.0;
+        double a = rnd(&s) * 2 * M_PI, b = rnd(&s) * M_PI;
+        double u[3] = {cos(a) * h, 0, sin(a) * h};
+        double v[3] = {-sin(a) * cos(b) * h, sin(b) * h, cos(a) * cos(b) * h};
+        static const double q[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+        for (int i = 0; i < 4; i++)
+            for (int k = 0; k < 3; k++)
+                m->positions[3 * (4 * l + i) + k] =
+                    (float)(c[k] + q[i][0] * u[k] + q[i][1] * v[k] + shift[k]);
+        uint32_t o = 4 * l, *t = &m->indices[6 * l];
+        t[0] = o, t[1] = o + 1, t[2] = o + 2, t[3] = o, t[4] = o + 2, t[5] = o + 3;
+        m->tri_material[2 * l] = m->tri_material[2 * l + 1] = l % 3;
+    }
+    /* Trunk: two crossed vertical quads from y = 0 to 1.2. */
+    for (int p = 0; p < 2; p++) {
+        uint32_t o = 4 * leaves + 4 * p;
+        static const double q[4][2] = {{-1, 0}, {1, 0}, {1, 1.2}, {-1, 1.2}};
+        for (int i = 0; i < 4; i++) {
+            double x = q[i][0] * 0.08;
+            m->positions[3 * (o + i)] = (float)((p ? 0 : x) + shift[0]);
+            m->positions[3 * (o + i) + 1] = (float)(q[i][1] + shift[1]);
+            m->positions[3 * (o + i) + 2] = (float)((p ? x : 0) + shift[2]);
+        }
+        uint32_t *t = &m->indices[3 * (2 * leaves + 2 * p)];
+        t[0] = o, t[1] = o + 1, t[2] = o + 2, t[3] = o, t[4] = o + 2, t[5] = o + 3;
+        m->tri_material[2 * leaves + 2 * p] = m->tri_material[2 * leaves + 2 * p + 1] = 3;
+    }
+    static const float col[4][3] = {{0.2f, 0.6f, 0.1f}, {0.3f, 0.7f, 0.2f}, {0.1f, 0.4f, 0.1f},
+                                    {0.4f, 0.25f, 0.1f}};
+    for (int i = 0; i < 4; i++) {
+        memcpy(m->materials[i].base_color, col[i], sizeof col[i]);
+        m->materials[i].double_sided = true;
+    }
+    sv_mesh_compute_normals(m);
+    return m;
+}
+
+static sv_mesh *tree_mesh(uint32_t leaves, const double shift[3])
+{
+    return tree_mesh_h(leaves, 0.05, shift);
+}
+
+/* Concatenates a and b into one mesh (same materials as a). */
+static sv_mesh *concat(const sv_mesh *a, const sv_mesh *b)
+{
+    sv_mesh *m = sv_mesh_create(a->vertex_count + b->vertex_count,
+                                a->triangle_count + b->triangle_count, a->material_count, 0);
+    assert_non_null(m);
+    memcpy(m->positions, a->positions, 12 * (size_t)a->vertex_count);
+    memcpy(m->positions + 3 * a->vertex_count, b->positions, 12 * (size_t)b->vertex_count);
+    memcpy(m->normals, a->normals, 12 * (size_t)a->vertex_count);
+    memcpy(m->normals + 3 * a->vertex_count, b->normals, 12 * (size_t)b->vertex_count);
+    memcpy(m->indices, a->indices, 12 * (size_t)a->triangle_count);
+    for (size_t i = 0; i < 3 * (size_t)b->triangle_count; i++)
+        m->indices[3 * a->triangle_count + i] = b->indices[i] + a->vertex_count;
+    memcpy(m->tri_material, a->tri_material, 4 * (size_t)a->triangle_count);
+    memcpy(m->tri_material + a->triangle_count, b->tri_material, 4 * (size_t)b->triangle_count);
+    memcpy(m->materials, a->materials, sizeof(sv_material) * a->material_count);
+    return m;
+}
+
+/* A w×h eval image of "leaves": random s×s squares inside a disc, shifted by
+ * (dx, dy) pixels. Colour (0.2, 0.6, 0.1). */
+static void leaf_image(sv_eval_image *img, uint32_t size, uint32_t leaf, int dx, int dy)
+{
+    assert_int_equal(sv_eval_image_alloc(img, size, size, NULL), SV_OK);
+    uint64_t s = 7;
+    double c = size / 2.0, r = size * 0.4;
+    for (int l = 0; l < 15000; l++) {
+        double x, y;
+        do {
+            x = rnd(&s) * size, y = rnd(&s) * size;
+        } while ((x - c) * (x - c) + (y - c) * (y - c) > r * r);
+        for (uint32_t j = 0; j < leaf; j++)
+            for (uint32_t i = 0; i < leaf; i++) {
+                long px = (long)x + i + dx, py = (long)y + j + dy;
+                if (px < 0 || py < 0 || px >= size || py >= size) continue;
+                size_t k = (size_t)py * size + (size_t)px;
+                img->coverage[k] = 1;
+                img->color[3 * k] = 0.2f, img->color[3 * k + 1] = 0.6f, img->color[3 * k + 2] = 0.1f;
+                img->depth[k] = 0.5f;
+            }
+    }
+}
+
+/* ---- pure tests: views, cameras, filter, metrics ------------------------ */
+
+static void elevation(const double *d, double *deg) { *deg = asin(d[1]) * DEG; }
+
+static void ground_views_stay_near_the_horizon(void **state)
+{
+    (void)state;
+    double d[3 * 24], e, sx = 0, sz = 0;
+    sv_eval_place_views(SV_VIEWER_GROUND, 24, d);
+    for (int i = 0; i < 24; i++) {
+        assert_float_equal(sqrt(d[3 * i] * d[3 * i] + d[3 * i + 1] * d[3 * i + 1] +
+                                d[3 * i + 2] * d[3 * i + 2]), 1.0, 1e-12);
+        elevation(&d[3 * i], &e);
+        assert_true(e >= 0.0 && e <= 20.0);
+        sx += d[3 * i], sz += d[3 * i + 2];
+    }
+    /* all around the tree, not from one side */
+    assert_true(hypot(sx, sz) / 24 < 0.1);
+}
+
+static void aerial_views_look_from_above(void **state)
+{
+    (void)state;
+    double d[3 * 24], e, lo = 90, hi = 0;
+    sv_eval_place_views(SV_VIEWER_AERIAL, 24, d);
+    for (int i = 0; i < 24; i++) {
+        elevation(&d[3 * i], &e);
+        assert_true(e >= 40.0 - 1e-9 && e <= 90.0);
+        lo = fmin(lo, e), hi = fmax(hi, e);
+    }
+    assert_true(lo < 45 && hi > 75); /* spans the band */
+}
+
+static void orbit_views_cover_the_whole_sphere_evenly(void **state)
+{
+    (void)state;
+    double d[3 * 24], s[3] = {0, 0, 0}, min_angle = M_PI;
+    sv_eval_place_views(SV_VIEWER_ORBIT, 24, d);
+    int below = 0, above = 0;
+    for (int i = 0; i < 24; i++) {
+        below += d[3 * i + 1] < -0.5, above += d[3 * i + 1] > 0.5;
+        for (int k = 0; k < 3; k++) s[k] += d[3 * i + k];
+        for (int j = 0; j < i; j++) {
+            double dot = d[3 * i] * d[3 * j] + d[3 * i + 1] * d[3 * j + 1] + d[3 * i + 2] * d[3 * j + 2];
+            min_angle = fmin(min_angle, acos(fmin(1.0, dot)));
+        }
+    }
+    assert_true(below >= 4 && above >= 4);
+    assert_true(sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) / 24 < 0.05);
+    assert_true(min_angle * DEG > 20.0); /* no two views nearly the same */
+    /* deterministic */
+    double d2[3 * 24];
+    sv_eval_place_views(SV_VIEWER_ORBIT, 24, d2);
+    assert_memory_equal(d, d2, sizeof d);
+}
+
+static void camera_looks_at_the_centre_along_minus_view_direction(void **state)
+{
+    (void)state;
+    const double c[3] = {1, 2, 3};
+    const double dirs[3][3] = {{0, 0, 1}, {0, 1, 0}, {0.6, -0.8, 0}};
+    for (int i = 0; i < 3; i++) {
+        sv_camera cam;
+        sv_eval_camera(c, 2.5, dirs[i], &cam);
+        double f[3];
+        sv_camera_forward(&cam, f);
+        for (int k = 0; k < 3; k++) assert_float_equal(f[k], -dirs[i][k], 1e-12);
+        double ru = cam.right[0] * cam.up[0] + cam.right[1] * cam.up[1] + cam.right[2] * cam.up[2];
+        assert_float_equal(ru, 0.0, 1e-12);
+        assert_float_equal(cam.half_width, 2.5, 0);
+        assert_true(cam.near_dist <= -2.5 && cam.far_dist >= 2.5);
+        assert_memory_equal(cam.origin, c, sizeof c);
+        if (i == 0) assert_float_equal(cam.up[1], 1.0, 1e-12); /* upright for side views */
+    }
+}
+
+static void box_filter_averages_blocks_and_preserves_total_coverage(void **state)
+{
+    (void)state;
+    sv_eval_image a, b;
+    assert_int_equal(sv_eval_image_alloc(&a, 8, 8, NULL), SV_OK);
+    /* left half covered */
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 3; x++) a.coverage[y * 8 + x] = 1, a.color[3 * (y * 8 + x)] = 0.5f;
+    assert_int_equal(sv_eval_image_downsample(&a, 2, 2, &b, NULL), SV_OK);
+    assert_float_equal(b.coverage[0], 0.75, 1e-6); /* 3 of 4 columns */
+    assert_float_equal(b.coverage[1], 0.0, 1e-6);
+    assert_float_equal(b.color[0], 0.375, 1e-6);
+    sv_eval_image_free(&b);
+    /* sizes that do not divide: area weights keep the total */
+    assert_int_equal(sv_eval_image_downsample(&a, 3, 5, &b, NULL), SV_OK);
+    double sum = 0;
+    for (int i = 0; i < 15; i++) sum += b.coverage[i];
+    assert_float_equal(sum * (64.0 / 15.0), 24.0, 1e-4);
+    assert_float_equal(b.coverage[0], 1.0, 1e-6);                 /* [0, 2.67) fully covered */
+    assert_float_equal(b.coverage[1], (3 - 8.0 / 3) / (8.0 / 3), 1e-5); /* partly */
+    sv_eval_image_free(&b);
+    sv_eval_image_free(&a);
+    sv_eval_image_free(NULL);
+}
+
+static void filtering_in_integer_steps_equals_filtering_once(void **state)
+{
+    (void)state;
+    sv_eval_image a, b, c, d;
+    leaf_image(&a, 512, 3, 0, 0);
+    assert_int_equal(sv_eval_image_downsample(&a, 128, 128, &b, NULL), SV_OK);
+    assert_int_equal(sv_eval_image_downsample(&b, 16, 16, &c, NULL), SV_OK);
+    assert_int_equal(sv_eval_image_downsample(&a, 16, 16, &d, NULL), SV_OK);
+    for (size_t i = 0; i < 256; i++) {
+        assert_float_equal(c.coverage[i], d.coverage[i], 1e-5);
+        assert_float_equal(c.color[3 * i + 1], d.color[3 * i + 1], 1e-5);
+        assert_float_equal(c.depth[i], d.depth[i], 1e-5);
+    }
+    sv_eval_image_free(&a);
+    sv_eval_image_free(&b);
+    sv_eval_image_free(&c);
+    sv_eval_image_free(&d);
+}
+
+static void identical_images_give_iou_1_and_zero_errors(void **state)
+{
+    (void)state;
+    sv_eval_image a, b;
+    leaf_image(&a, 64, 2, 0, 0);
+    leaf_image(&b, 64, 2, 0, 0);
+    sv_eval_metrics m = sv_eval_compare(&a, &b, 1.0);
+    assert_float_equal(m.iou, 1.0, 0);
+    assert_float_equal(m.color_error, 0.0, 0);
+    assert_float_equal(m.depth_error, 0.0, 0);
+    /* empty vs empty is a perfect match too */
+    sv_eval_image z1, z2;
+    assert_int_equal(sv_eval_image_alloc(&z1, 4, 4, NULL), SV_OK);
+    assert_int_equal(sv_eval_image_alloc(&z2, 4, 4, NULL), SV_OK);
+    assert_float_equal(sv_eval_compare(&z1, &z2, 1.0).iou, 1.0, 0);
+    /* empty vs leaves: nothing in common */
+    sv_eval_image z3;
+    assert_int_equal(sv_eval_image_alloc(&z3, 64, 64, NULL), SV_OK);
+    m = sv_eval_compare(&a, &z3, 1.0);
+    assert_float_equal(m.iou, 0.0, 0);
+    assert_true(m.color_error > 0.0);
+    sv_eval_image_free(&a);
+    sv_eval_image_free(&b);
+    sv_eval_image_free(&z1);
+    sv_eval_image_free(&z2);
+    sv_eval_image_free(&z3);
+}
+
+static void depth_and_colour_errors_measure_the_difference(void **state)
+{
+    (void)state;
+    sv_eval_image a, b;
+    leaf_image(&a, 32, 2, 0, 0);
+    leaf_image(&b, 32, 2, 0, 0);
+    for (size_t i = 0; i < 32 * 32; i++) {
+        b.depth[i] = b.coverage[i] * 0.75f;          /* 0.25 deeper */
+        b.color[3 * i + 1] = b.coverage[i] * 0.3f;   /* green 0.6 → 0.3 */
+    }
+    sv_eval_metrics m = sv_eval_compare(&a, &b, 2.0);
+    assert_float_equal(m.iou, 1.0, 0);
+    assert_float_equal(m.depth_error, 0.125, 1e-6); /* 0.25 / radius 2 */
+    assert_float_equal(m.color_error, 0.1, 1e-6);   /* 0.3 on one of 3 channels */
+    sv_eval_image_free(&a);
+    sv_eval_image_free(&b);
+}
+
+static void subpixel_shift_of_leaves_matters_less_at_small_sizes(void **state)
+{
+    (void)state;
+    /* 1024² supersampled leaves of 6 samples (1.5 px at 256 px), shifted by 8
+     * samples = a quarter pixel at 32 px and 2 pixels at 256 px. */
+    sv_eval_image a, b;
+    leaf_image(&a, 1024, 6, 0, 0);
+    leaf_image(&b, 1024, 6, 8, 0);
+    double iou[2];
+    const uint32_t sizes[2] = {32, 256};
+    for (int i = 0; i < 2; i++) {
+        sv_eval_image fa, fb;
+        assert_int_equal(sv_eval_image_downsample(&a, sizes[i], sizes[i], &fa, NULL), SV_OK);
+        assert_int_equal(sv_eval_image_downsample(&b, sizes[i], sizes[i], &fb, NULL), SV_OK);
+        iou[i] = sv_eval_compare(&fa, &fb, 1.0).iou;
+        sv_eval_image_free(&fa);
+        sv_eval_image_free(&fb);
+    }
+    print_message("sub-pixel shift: IoU %.3f at 32 px, %.3f at 256 px, %.3f point-sampled\n",
+                  iou[0], iou[1], sv_eval_compare(&a, &b, 1.0).iou);
+    assert_true(iou[0] > 0.9);
+    assert_true(iou[1] < iou[0] - 0.1);
+    sv_eval_image_free(&a);
+    sv_eval_image_free(&b);
+}
+
+static void accumulate_blends_with_weights(void **state)
+{
+    (void)state;
+    sv_eval_image a, b, acc;
+    leaf_image(&a, 16, 2, 0, 0);
+    leaf_image(&b, 16, 2, 3, 0);
+    assert_int_equal(sv_eval_image_alloc(&acc, 16, 16, NULL), SV_OK);
+    sv_eval_image_accumulate(&acc, &a, 0.25);
+    sv_eval_image_accumulate(&acc, &b, 0.75);
+    for (size_t i = 0; i < 256; i++) {
+        assert_float_equal(acc.coverage[i], 0.25 * a.coverage[i] + 0.75 * b.coverage[i], 1e-6);
+        assert_float_equal(acc.color[3 * i + 1], 0.25 * a.color[3 * i + 1] + 0.75 * b.color[3 * i + 1], 1e-6);
+    }
+    sv_eval_image_free(&a);
+    sv_eval_image_free(&b);
+    sv_eval_image_free(&acc);
+}
+
+static void max_pixels_interpolates_where_the_curve_crosses_the_tolerance(void **state)
+{
+    (void)state;
+    sv_eval_result r = {.size_count = 4};
+    const uint32_t px[4] = {256, 128, 64, 32};
+    const double iou[4] = {0.6, 0.8, 0.9, 0.95};
+    for (int i = 0; i < 4; i++) r.sizes[i].pixels = px[i], r.sizes[i].mean.iou = iou[i];
+    assert_float_equal(sv_eval_max_pixels(&r, 0.85), 64 * sqrt(2.0), 1e-9); /* halfway in log2 */
+    assert_float_equal(sv_eval_max_pixels(&r, 0.9), 64, 1e-9);
+    assert_float_equal(sv_eval_max_pixels(&r, 0.5), 256, 0);  /* passes everywhere */
+    assert_float_equal(sv_eval_max_pixels(&r, 0.99), 0, 0);   /* fails everywhere */
+    sv_eval_result_free(&r);
+    sv_eval_result_free(NULL);
+}
+
+/* ---- render-based tests -------------------------------------------------- */
+
+typedef struct fixture {
+    sv_renderer *r;
+} fixture;
+
+static int setup(void **state)
+{
+    fixture *f = calloc(1, sizeof *f);
+    if (!f) return -1;
+    sv_error err = {0};
+    if (sv_renderer_create(1024, &f->r, &err) != SV_OK) {
+        fprintf(stderr, "skipped: render tests, no OSMesa context: %s\n", err.message);
+        f->r = NULL;
+    }
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fixture *f = *state;
+    if (f) sv_renderer_destroy(f->r);
+    free(f);
+    return 0;
+}
+
+static sv_renderer *need_renderer(void **state)
+{
+    fixture *f = *state;
+    if (!f->r) skip();
+    return f->r;
+}
+
+static sv_gpu_mesh *upload(sv_renderer *r, const sv_mesh *m)
+{
+    sv_gpu_mesh *g = NULL;
+    sv_error err = {0};
+    if (sv_gpu_mesh_upload(r, m, &g, &err) != SV_OK) fail_msg("upload: %s", err.message);
+    return g;
+}
+
+static sv_evaluator *evaluator(sv_renderer *r, const sv_mesh *m, const sv_gpu_mesh *g,
+                               sv_viewer viewer, uint32_t views)
+{
+    sv_eval_options o = {.viewer = viewer, .view_count = views};
+    sv_evaluator *e = NULL;
+    sv_error err = {0};
+    if (sv_evaluator_create(r, m, g, &o, &e, &err) != SV_OK) fail_msg("create: %s", err.message);
+    return e;
+}
+
+static sv_eval_result run(sv_evaluator *e, const sv_gpu_mesh *g)
+{
+    sv_eval_result res;
+    sv_error err = {0};
+    if (sv_evaluate(e, g, &res, &err) != SV_OK) fail_msg("evaluate: %s", err.message);
+    return res;
+}
+
+static void original_against_itself_scores_iou_1_and_zero_error_at_every_size(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *m = tree_mesh(2000, zero);
+    sv_gpu_mesh *g = upload(r, m);
+    sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_ORBIT, 6);
+    sv_eval_result res = run(e, g);
+    assert_int_equal(res.size_count, 4);
+    assert_int_equal(res.view_count, 6);
+    const uint32_t px[4] = {256, 128, 64, 32};
+    for (uint32_t s = 0; s < 4; s++) {
+        assert_int_equal(res.sizes[s].pixels, px[s]);
+        assert_float_equal(res.sizes[s].mean.iou, 1.0, 1e-12);
+        assert_float_equal(res.sizes[s].worst.iou, 1.0, 1e-12);
+        assert_float_equal(res.sizes[s].worst.color_error, 0.0, 1e-12);
+        assert_float_equal(res.sizes[s].worst.depth_error, 0.0, 1e-12);
+    }
+    for (uint32_t i = 0; i < 6 * 4; i++) assert_float_equal(res.per_view[i].iou, 1.0, 1e-12);
+    sv_eval_result_free(&res);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_mesh_destroy(m);
+}
+
+static void result_moved_away_scores_a_clearly_worse_iou(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0}, away[3] = {0.8, 0.3, -0.5};
+    sv_mesh *m = tree_mesh(2000, zero), *moved = tree_mesh(2000, away);
+    sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
+    sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_ORBIT, 6);
+    sv_eval_result res = run(e, gm);
+    for (uint32_t s = 0; s < res.size_count; s++) {
+        print_message("moved: %3u px IoU mean %.3f worst %.3f colour %.4f depth %.4f\n",
+                      res.sizes[s].pixels, res.sizes[s].mean.iou, res.sizes[s].worst.iou,
+                      res.sizes[s].mean.color_error, res.sizes[s].mean.depth_error);
+        assert_true(res.sizes[s].mean.iou < 0.7);
+        assert_true(res.sizes[s].worst.iou <= res.sizes[s].mean.iou);
+        assert_true(res.sizes[s].mean.color_error > 0.01);
+    }
+    sv_eval_result_free(&res);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gm);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(moved);
+}
+
+static void subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *m = tree_mesh_h(8000, 0.02, zero);
+    double c[3], radius;
+    sv_mesh_sphere(m, c, &radius);
+    /* A quarter pixel at 32 px (the image spans 2·radius) = 2 px at 256 px,
+     * about half a leaf; vertical, so every ground view sees it almost in full. */
+    const double shift[3] = {0, 0.25 * 2 * radius / 32, 0};
+    sv_mesh *s = tree_mesh_h(8000, 0.02, shift);
+    sv_gpu_mesh *g = upload(r, m), *gs = upload(r, s);
+    sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_GROUND, 6);
+    sv_eval_result res = run(e, gs);
+    double i256 = res.sizes[0].mean.iou, i32 = res.sizes[3].mean.iou;
+    print_message("quarter-pixel shift: IoU %.3f at 256 px, %.3f at 32 px\n", i256, i32);
+    assert_int_equal(res.sizes[3].pixels, 32);
+    assert_true(i32 > 0.9);
+    assert_true(i256 < i32 - 0.1);
+    assert_true(res.sizes[1].mean.iou < res.sizes[2].mean.iou); /* monotone in between */
+    sv_eval_result_free(&res);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gs);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(s);
+}
+
+static void evaluator_places_ground_views_near_the_horizon(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *m = tree_mesh(20, zero);
+    sv_gpu_mesh *g = upload(r, m);
+    sv_eval_options o = {.viewer = SV_VIEWER_GROUND, .view_count = 5, .sizes = {64, 16},
+                         .size_count = 2, .supersample = 2};
+    sv_evaluator *e = NULL;
+    assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, NULL), SV_OK);
+    assert_int_equal(sv_evaluator_view_count(e), 5);
+    for (uint32_t v = 0; v < 5; v++) {
+        double d[3], el;
+        sv_evaluator_view_dir(e, v, d);
+        elevation(d, &el);
+        assert_true(el >= 0 && el <= 20);
+    }
+    sv_eval_result res = run(e, g);
+    assert_int_equal(res.sizes[0].pixels, 64);
+    assert_int_equal(res.sizes[1].pixels, 16);
+    sv_eval_result_free(&res);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_mesh_destroy(m);
+}
+
+typedef struct pick {
+    uint32_t *a, *b; /* triangle lists of the two copies */
+    uint32_t na, nb;
+    double wa;       /* weight of a */
+    int calls;
+} pick;
+
+static sv_status pick_subsets(void *user, const double dir[3],
+                              sv_eval_subset out[SV_EVAL_MAX_SUBSETS], uint32_t *count,
+                              sv_error *err)
+{
+    (void)err;
+    pick *p = user;
+    assert_float_equal(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2], 1.0, 1e-9);
+    p->calls++;
+    out[0] = (sv_eval_subset){p->a, p->na, p->wa};
+    out[1] = (sv_eval_subset){p->b, p->nb, 1.0 - p->wa};
+    *count = 2;
+    return SV_OK;
+}
+
+static void subset_callback_blends_two_renders_by_weight(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0}, away[3] = {3, 0, 0};
+    sv_mesh *m = tree_mesh(100, zero), *far = tree_mesh(100, away);
+    sv_mesh *both = concat(m, far);
+    sv_gpu_mesh *g = upload(r, m), *gb = upload(r, both);
+    sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_GROUND, 4);
+    pick p = {.na = m->triangle_count, .nb = far->triangle_count};
+    p.a = calloc(p.na, sizeof *p.a);
+    p.b = calloc(p.nb, sizeof *p.b);
+    assert_non_null(p.a);
+    assert_non_null(p.b);
+    for (uint32_t t = 0; t < p.na; t++) p.a[t] = t;
+    for (uint32_t t = 0; t < p.nb; t++) p.b[t] = p.na + t;
+    sv_eval_result res;
+    sv_error err = {0};
+    p.wa = 1.0;
+    assert_int_equal(sv_evaluate_subsets(e, gb, pick_subsets, &p, &res, &err), SV_OK);
+    assert_int_equal(p.calls, 4);
+    assert_float_equal(res.sizes[0].mean.iou, 1.0, 1e-12); /* only the original's copy */
+    sv_eval_result_free(&res);
+    p.wa = 0.5;
+    assert_int_equal(sv_evaluate_subsets(e, gb, pick_subsets, &p, &res, &err), SV_OK);
+    /* half the coverage where the original is (the far copy is out of frame
+     * in most views): IoU about 0.5 */
+    print_message("blend 0.5: IoU %.3f\n", res.sizes[3].mean.iou);
+    assert_true(res.sizes[3].mean.iou > 0.4 && res.sizes[3].mean.iou < 0.6);
+    sv_eval_result_free(&res);
+    p.wa = 1.5; /* weights 1.5 and -0.5 */
+    assert_int_equal(sv_evaluate_subsets(e, gb, pick_subsets, &p, &res, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "weights"));
+    assert_null(res.per_view);
+    free(p.a);
+    free(p.b);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gb);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(far);
+    sv_mesh_destroy(both);
+}
+
+static void preview_shows_original_result_and_heat_for_four_views(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0}, away[3] = {0.5, 0, 0};
+    sv_mesh *m = tree_mesh(200, zero), *moved = tree_mesh(200, away);
+    sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
+    sv_eval_options o = {.view_count = 8, .sizes = {64, 32}, .size_count = 2};
+    sv_evaluator *e = NULL;
+    sv_error err = {0};
+    assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, &err), SV_OK);
+    char dir[] = "/tmp/sv_eval_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[64];
+    snprintf(path, sizeof path, "%s/preview.png", dir);
+    double heat[2];
+    const sv_gpu_mesh *results[2] = {g, gm};
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(sv_evaluator_preview(e, results[k], NULL, NULL, path, &err), SV_OK);
+        FILE *f = fopen(path, "rb");
+        assert_non_null(f);
+        static uint8_t bytes[1 << 20];
+        size_t n = fread(bytes, 1, sizeof bytes, f);
+        fclose(f);
+        sv_image img = {0};
+        assert_int_equal(sv_image_decode_rgba8(bytes, n, "preview.png", 4096, &img, &err), SV_OK);
+        assert_int_equal(img.width, 3 * 64);
+        assert_int_equal(img.height, 4 * 64);
+        /* total red in the heat column; the original column is not blank */
+        double red = 0, orig_var = 0;
+        const uint8_t *p = img.data;
+        for (uint32_t y = 0; y < img.height; y++)
+            for (uint32_t x = 0; x < img.width; x++) {
+                const uint8_t *q = p + 4 * ((size_t)y * img.width + x);
+                if (x >= 128) red += q[0];
+                if (x < 64) orig_var += abs(q[1] - 128);
+            }
+        heat[k] = red;
+        assert_true(orig_var > 1000);
+        sv_image_free(&img);
+    }
+    assert_float_equal(heat[0], 0.0, 0); /* self: black */
+    assert_true(heat[1] > 1000);         /* moved: red */
+    unlink(path);
+    rmdir(dir);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gm);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(moved);
+}
+
+static void bad_options_and_empty_meshes_are_refused(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *m = tree_mesh(10, zero), *empty = sv_mesh_create(0, 0, 1, 0);
+    assert_non_null(empty);
+    sv_gpu_mesh *g = upload(r, m);
+    sv_evaluator *e = (sv_evaluator *)m;
+    sv_error err = {0};
+    sv_eval_options o = {.sizes = {64, 64}, .size_count = 2};
+    assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, &err), SV_ERR_INVALID);
+    assert_null(e);
+    assert_non_null(strstr(err.message, "distinct"));
+    o = (sv_eval_options){.sizes = {4096}, .size_count = 1};
+    assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "maximum"));
+    o = (sv_eval_options){.sizes = {32}, .size_count = 1, .view_count = 2};
+    assert_int_equal(sv_evaluator_create(r, empty, g, &o, &e, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "empty"));
+    sv_evaluator_destroy(NULL);
+    sv_gpu_mesh_free(g);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(empty);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(ground_views_stay_near_the_horizon),
+        cmocka_unit_test(aerial_views_look_from_above),
+        cmocka_unit_test(orbit_views_cover_the_whole_sphere_evenly),
+        cmocka_unit_test(camera_looks_at_the_centre_along_minus_view_direction),
+        cmocka_unit_test(box_filter_averages_blocks_and_preserves_total_coverage),
+        cmocka_unit_test(filtering_in_integer_steps_equals_filtering_once),
+        cmocka_unit_test(identical_images_give_iou_1_and_zero_errors),
+        cmocka_unit_test(depth_and_colour_errors_measure_the_difference),
+        cmocka_unit_test(subpixel_shift_of_leaves_matters_less_at_small_sizes),
+        cmocka_unit_test(accumulate_blends_with_weights),
+        cmocka_unit_test(max_pixels_interpolates_where_the_curve_crosses_the_tolerance),
+        cmocka_unit_test(original_against_itself_scores_iou_1_and_zero_error_at_every_size),
+        cmocka_unit_test(result_moved_away_scores_a_clearly_worse_iou),
+        cmocka_unit_test(subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256),
+        cmocka_unit_test(evaluator_places_ground_views_near_the_horizon),
+        cmocka_unit_test(subset_callback_blends_two_renders_by_weight),
+        cmocka_unit_test(preview_shows_original_result_and_heat_for_four_views),
+        cmocka_unit_test(bad_options_and_empty_meshes_are_refused),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

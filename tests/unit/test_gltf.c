@@ -1,0 +1,538 @@
+/* test_gltf.c — the GLB writer (gltf.h): container layout, the MSFT_lod chain,
+ * accessors, materials, image sharing, extra attributes, determinism, errors. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "gltf.h"
+
+/* ---- fixtures ---------------------------------------------------------- */
+
+/* A checker RGBA8 image whose alpha is 0 on odd cells (a leaf mask). */
+static void checker(sv_image *img, uint32_t size, uint8_t tint)
+{
+    assert_int_equal(sv_image_alloc(img, size, size, 4, 8, NULL), SV_OK);
+    uint8_t *p = img->data;
+    for (uint32_t y = 0; y < size; y++)
+        for (uint32_t x = 0; x < size; x++, p += 4) {
+            bool on = ((x / 4) + (y / 4)) % 2 == 0;
+            p[0] = tint;
+            p[1] = (uint8_t)(100 + x);
+            p[2] = (uint8_t)(50 + y);
+            p[3] = on ? 255 : 0;
+        }
+}
+
+/* `quads` unit quads side by side along x (material 0 = textured MASK leaf) plus
+ * one triangle of material 1 (opaque, untextured "bark"). Normals deliberately
+ * not unit length (the writer must renormalise). */
+static sv_mesh *leaf_mesh(uint32_t quads, uint8_t tint)
+{
+    sv_mesh *m = sv_mesh_create(4 * quads + 3, 2 * quads + 1, 2, 1);
+    assert_non_null(m);
+    for (uint32_t q = 0; q < quads; q++) {
+        static const float xy[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+        for (int i = 0; i < 4; i++) {
+            float *p = &m->positions[3 * (4 * q + i)];
+            p[0] = xy[i][0] + 1.5f * (float)q;
+            p[1] = xy[i][1] + 0.25f;
+            p[2] = -0.5f;
+            m->normals[3 * (4 * q + i) + 2] = 2.0f;
+            m->uvs[2 * (4 * q + i)] = xy[i][0];
+            m->uvs[2 * (4 * q + i) + 1] = 1.0f - xy[i][1];
+        }
+        uint32_t b = 4 * q, *t = &m->indices[6 * q];
+        t[0] = b, t[1] = b + 1, t[2] = b + 2, t[3] = b, t[4] = b + 2, t[5] = b + 3;
+    }
+    uint32_t v = 4 * quads;
+    static const float tri[3][3] = {{-1, 0, 0}, {-0.5f, 0, 0}, {-0.75f, 3, 0.125f}};
+    for (int i = 0; i < 3; i++) {
+        memcpy(&m->positions[3 * (v + i)], tri[i], sizeof tri[i]);
+        m->normals[3 * (v + i) + 2] = 1.0f;
+        m->indices[6 * quads + i] = v + i;
+    }
+    m->tri_material[2 * quads] = 1;
+    sv_material *leaf = &m->materials[0];
+    snprintf(leaf->name, sizeof leaf->name, "leaf");
+    leaf->base_texture = 0;
+    leaf->alpha_mode = SV_ALPHA_MASK;
+    leaf->alpha_cutoff = 0.3f;
+    leaf->double_sided = true;
+    leaf->base_color[1] = 0.8f;
+    snprintf(m->materials[1].name, sizeof m->materials[1].name, "bark");
+    checker(&m->images[0], 16, tint);
+    return m;
+}
+
+/* A parsed GLB: the JSON chunk and the binary chunk. */
+typedef struct glb {
+    cJSON *json;
+    const uint8_t *bin;
+    uint32_t bin_len;
+} glb;
+
+static uint32_t rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Checks the container (magic, version, lengths, chunk types, alignment) and
+ * parses the JSON chunk. */
+static glb parse_glb(const uint8_t *data, size_t size)
+{
+    glb g = {0};
+    assert_true(size >= 20);
+    assert_int_equal(rd32(data), 0x46546C67u);
+    assert_int_equal(rd32(data + 4), 2);
+    assert_int_equal(rd32(data + 8), size);
+    uint32_t jlen = rd32(data + 12);
+    assert_int_equal(jlen % 4, 0);
+    assert_int_equal(rd32(data + 16), 0x4E4F534Au);
+    assert_true(20 + (size_t)jlen <= size);
+    g.json = cJSON_ParseWithLength((const char *)data + 20, jlen);
+    assert_non_null(g.json);
+    size_t off = 20 + (size_t)jlen;
+    if (off < size) {
+        assert_true(off + 8 <= size);
+        g.bin_len = rd32(data + off);
+        assert_int_equal(rd32(data + off + 4), 0x004E4942u);
+        assert_int_equal(g.bin_len % 4, 0);
+        assert_int_equal(off + 8 + g.bin_len, size);
+        g.bin = data + off + 8;
+    }
+    return g;
+}
+
+static cJSON *get(const cJSON *o, const char *k) { return cJSON_GetObjectItemCaseSensitive(o, k); }
+static cJSON *at(const cJSON *a, int i) { return cJSON_GetArrayItem(a, i); }
+static double num(const cJSON *o, const char *k)
+{
+    cJSON *x = get(o, k);
+    assert_true(cJSON_IsNumber(x));
+    return x->valuedouble;
+}
+
+/* Pointer to accessor i's data, after checking its view lies inside the buffer. */
+static const uint8_t *accessor_data(const glb *g, int i, size_t elem_size)
+{
+    cJSON *a = at(get(g->json, "accessors"), i);
+    assert_non_null(a);
+    cJSON *v = at(get(g->json, "bufferViews"), (int)num(a, "bufferView"));
+    assert_non_null(v);
+    double off = num(v, "byteOffset"), len = num(v, "byteLength");
+    assert_int_equal((size_t)off % 4, 0);
+    assert_true(off + len <= g->bin_len);
+    assert_true(num(a, "count") * (double)elem_size <= len);
+    return g->bin + (size_t)off;
+}
+
+static glb encode(const sv_gltf_lod *lods, uint32_t n, uint8_t **buf, size_t *size)
+{
+    sv_error err = {0};
+    sv_status st = sv_gltf_encode_glb(lods, n, buf, size, &err);
+    if (st != SV_OK) fail_msg("encode failed: %s", err.message);
+    return parse_glb(*buf, *size);
+}
+
+/* ---- tests ------------------------------------------------------------- */
+
+static void glb_container_has_aligned_chunks_and_exact_lengths(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(3, 10);
+    sv_gltf_lod lod = {.name = "only", .mesh = m, .screen_coverage = 0.0};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    assert_non_null(g.bin);
+    cJSON *b = at(get(g.json, "buffers"), 0);
+    assert_int_equal((uint32_t)num(b, "byteLength"), g.bin_len);
+    assert_null(get(b, "uri"));
+    cJSON *asset = get(g.json, "asset");
+    assert_string_equal(get(asset, "version")->valuestring, "2.0");
+    assert_string_equal(get(asset, "generator")->valuestring, "sylva " SV_VERSION);
+    cJSON *v;
+    cJSON_ArrayForEach(v, get(g.json, "bufferViews"))
+    {
+        assert_int_equal((size_t)num(v, "byteOffset") % 4, 0);
+        assert_true(num(v, "byteOffset") + num(v, "byteLength") <= g.bin_len);
+    }
+    /* One LOD: no MSFT_lod. */
+    assert_null(get(g.json, "extensionsUsed"));
+    assert_null(get(at(get(g.json, "nodes"), 0), "extensions"));
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_ids(void **state)
+{
+    (void)state;
+    sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10), *m2 = leaf_mesh(1, 10);
+    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL},
+                           {"half", m1, 0.1, NULL, 0, NULL},
+                           {"cards", m2, 0.01, NULL, 0, NULL}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 3, &buf, &size);
+    cJSON *used = get(g.json, "extensionsUsed");
+    assert_int_equal(cJSON_GetArraySize(used), 1);
+    assert_string_equal(at(used, 0)->valuestring, "MSFT_lod");
+    assert_null(get(g.json, "extensionsRequired"));
+    cJSON *nodes = get(g.json, "nodes");
+    assert_int_equal(cJSON_GetArraySize(nodes), 3);
+    cJSON *scene_nodes = get(at(get(g.json, "scenes"), (int)num(g.json, "scene")), "nodes");
+    assert_int_equal(cJSON_GetArraySize(scene_nodes), 1);
+    assert_int_equal(at(scene_nodes, 0)->valueint, 0);
+    cJSON *n0 = at(nodes, 0);
+    assert_string_equal(get(n0, "name")->valuestring, "full");
+    cJSON *ids = get(get(get(n0, "extensions"), "MSFT_lod"), "ids");
+    assert_int_equal(cJSON_GetArraySize(ids), 2);
+    assert_int_equal(at(ids, 0)->valueint, 1);
+    assert_int_equal(at(ids, 1)->valueint, 2);
+    assert_string_equal(get(at(nodes, 2), "name")->valuestring, "cards");
+    cJSON *cov = get(get(n0, "extras"), "MSFT_screencoverage");
+    assert_int_equal(cJSON_GetArraySize(cov), 3);
+    assert_float_equal(at(cov, 0)->valuedouble, 0.4, 1e-12);
+    assert_float_equal(at(cov, 1)->valuedouble, 0.1, 1e-12);
+    assert_float_equal(at(cov, 2)->valuedouble, 0.01, 1e-12);
+    /* Each LOD node has its own mesh, with its own triangle count. */
+    for (int i = 0; i < 3; i++) {
+        cJSON *mesh = at(get(g.json, "meshes"), (int)num(at(nodes, i), "mesh"));
+        cJSON *p = at(get(mesh, "primitives"), 0);
+        cJSON *idx = at(get(g.json, "accessors"), (int)num(p, "indices"));
+        assert_int_equal((int)num(idx, "count"), 6 * (4 >> (i == 0 ? 0 : i == 1 ? 1 : 2)));
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m0);
+    sv_mesh_destroy(m1);
+    sv_mesh_destroy(m2);
+}
+
+static void position_accessor_has_exact_min_max_and_counts(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(3, 10);
+    m->positions[3 * 5 + 2] = 0.1f; /* a value that is not exact in decimal */
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *prim = at(get(at(get(g.json, "meshes"), 0), "primitives"), 0);
+    int pa = (int)num(get(prim, "attributes"), "POSITION");
+    cJSON *acc = at(get(g.json, "accessors"), pa);
+    assert_int_equal((int)num(acc, "count"), (int)m->vertex_count);
+    assert_int_equal((int)num(acc, "componentType"), 5126);
+    assert_string_equal(get(acc, "type")->valuestring, "VEC3");
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        for (int k = 0; k < 3; k++) {
+            mn[k] = fmin(mn[k], m->positions[3 * v + k]);
+            mx[k] = fmax(mx[k], m->positions[3 * v + k]);
+        }
+    for (int k = 0; k < 3; k++) {
+        /* Exact: the JSON number must read back as the same float. */
+        assert_true((float)at(get(acc, "min"), k)->valuedouble == (float)mn[k]);
+        assert_true((float)at(get(acc, "max"), k)->valuedouble == (float)mx[k]);
+    }
+    const float *p = (const float *)accessor_data(&g, pa, 12);
+    assert_memory_equal(p, m->positions, 12 * m->vertex_count);
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void each_used_material_gets_one_primitive_with_its_triangles(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(3, 10);
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *prims = get(at(get(g.json, "meshes"), 0), "primitives");
+    assert_int_equal(cJSON_GetArraySize(prims), 2);
+    int counts[2];
+    for (int i = 0; i < 2; i++) {
+        cJSON *p = at(prims, i);
+        cJSON *idx = at(get(g.json, "accessors"), (int)num(p, "indices"));
+        counts[i] = (int)num(idx, "count");
+        assert_int_equal((int)num(idx, "componentType"), 5123); /* uint16 for few vertices */
+        assert_string_equal(get(idx, "type")->valuestring, "SCALAR");
+    }
+    assert_int_equal(counts[0], 18);
+    assert_int_equal(counts[1], 3);
+    /* The bark primitive's indices are the triangle's vertices. */
+    const uint16_t *ix =
+        (const uint16_t *)accessor_data(&g, (int)num(at(prims, 1), "indices"), 2);
+    assert_int_equal(ix[0], 12);
+    assert_int_equal(ix[2], 14);
+    /* A material no triangle uses is not written. */
+    cJSON_Delete(g.json);
+    free(buf);
+    m->tri_material[6] = 0;
+    glb g2 = encode(&lod, 1, &buf, &size);
+    assert_int_equal(cJSON_GetArraySize(get(g2.json, "materials")), 1);
+    assert_int_equal(cJSON_GetArraySize(get(at(get(g2.json, "meshes"), 0), "primitives")), 1);
+    cJSON_Delete(g2.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void mask_material_has_cutoff_texture_and_pbr_defaults(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(1, 10);
+    m->materials[1].alpha_mode = SV_ALPHA_BLEND;
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *mats = get(g.json, "materials");
+    cJSON *leaf = at(mats, 0), *bark = at(mats, 1);
+    assert_string_equal(get(leaf, "name")->valuestring, "leaf");
+    assert_string_equal(get(leaf, "alphaMode")->valuestring, "MASK");
+    assert_float_equal(num(leaf, "alphaCutoff"), 0.3, 1e-7);
+    assert_true(cJSON_IsTrue(get(leaf, "doubleSided")));
+    cJSON *pbr = get(leaf, "pbrMetallicRoughness");
+    assert_float_equal(num(pbr, "metallicFactor"), 0.0, 0);
+    assert_float_equal(num(pbr, "roughnessFactor"), 1.0, 0);
+    assert_float_equal(at(get(pbr, "baseColorFactor"), 1)->valuedouble, 0.8, 1e-7);
+    int tex = (int)num(get(pbr, "baseColorTexture"), "index");
+    cJSON *t = at(get(g.json, "textures"), tex);
+    cJSON *img = at(get(g.json, "images"), (int)num(t, "source"));
+    assert_string_equal(get(img, "mimeType")->valuestring, "image/png");
+    assert_non_null(at(get(g.json, "samplers"), (int)num(t, "sampler")));
+    /* The embedded bytes are a PNG. */
+    cJSON *view = at(get(g.json, "bufferViews"), (int)num(img, "bufferView"));
+    assert_memory_equal(g.bin + (size_t)num(view, "byteOffset"), "\x89PNG\r\n\x1a\n", 8);
+    assert_string_equal(get(bark, "alphaMode")->valuestring, "BLEND");
+    assert_null(get(bark, "alphaCutoff"));
+    assert_null(get(bark, "doubleSided"));
+    assert_null(get(get(bark, "pbrMetallicRoughness"), "baseColorTexture"));
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void identical_images_are_stored_once_across_lods(void **state)
+{
+    (void)state;
+    sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10), *c = leaf_mesh(1, 99);
+    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL},
+                           {"b", b, 0.2, NULL, 0, NULL},
+                           {"c", c, 0.0, NULL, 0, NULL}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "images")), 1);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "textures")), 1);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "materials")), 2); /* shared too */
+    cJSON_Delete(g.json);
+    free(buf);
+    /* Different pixels are different images. */
+    g = encode(lods, 3, &buf, &size);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "images")), 2);
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+    sv_mesh_destroy(c);
+}
+
+static void normals_are_written_unit_length(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(2, 10);
+    m->normals[0] = m->normals[1] = m->normals[2] = 0.0f; /* degenerate */
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *attrs = get(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "attributes");
+    const float *n = (const float *)accessor_data(&g, (int)num(attrs, "NORMAL"), 12);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        double len = sqrt((double)n[3 * v] * n[3 * v] + (double)n[3 * v + 1] * n[3 * v + 1] +
+                          (double)n[3 * v + 2] * n[3 * v + 2]);
+        assert_float_equal(len, 1.0, 1e-6);
+    }
+    assert_float_equal(n[5], 1.0, 1e-7); /* 2·z renormalised */
+    assert_float_equal(n[1], 1.0, 1e-7); /* zero → +Y */
+    assert_non_null(get(attrs, "TEXCOORD_0"));
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void extra_vertex_attributes_are_written_under_their_names(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(2, 10);
+    float *order = calloc(m->vertex_count, sizeof *order);
+    float *centre = calloc(m->vertex_count * 3, sizeof *centre);
+    assert_non_null(order);
+    assert_non_null(centre);
+    for (uint32_t v = 0; v < m->vertex_count; v++) order[v] = (float)(v / 4);
+    sv_gltf_attribute attrs[2] = {{"_ORDER", order, 1}, {"_LEAF_CENTRE", centre, 3}};
+    cJSON *extras = cJSON_CreateObject();
+    cJSON_AddNumberToObject(extras, "fade_start", 12.5);
+    sv_gltf_lod lod = {.mesh = m, .attributes = attrs, .attribute_count = 2, .extras = extras};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *ja = get(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "attributes");
+    int ia = (int)num(ja, "_ORDER");
+    cJSON *acc = at(get(g.json, "accessors"), ia);
+    assert_string_equal(get(acc, "type")->valuestring, "SCALAR");
+    assert_int_equal((int)num(acc, "count"), (int)m->vertex_count);
+    assert_memory_equal(accessor_data(&g, ia, 4), order, 4 * m->vertex_count);
+    acc = at(get(g.json, "accessors"), (int)num(ja, "_LEAF_CENTRE"));
+    assert_string_equal(get(acc, "type")->valuestring, "VEC3");
+    assert_float_equal(num(get(at(get(g.json, "nodes"), 0), "extras"), "fade_start"), 12.5, 0);
+    cJSON_Delete(g.json);
+    free(buf);
+    /* A name without the application prefix is refused. */
+    attrs[0].name = "ORDER";
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_encode_glb(&lod, 1, &buf, &size, &err), SV_ERR_INVALID);
+    assert_null(buf);
+    assert_non_null(strstr(err.message, "attribute"));
+    cJSON_Delete(extras);
+    free(order);
+    free(centre);
+    sv_mesh_destroy(m);
+}
+
+static void large_meshes_use_uint32_indices(void **state)
+{
+    (void)state;
+    sv_mesh *m = sv_mesh_create(70000, 1, 1, 0);
+    assert_non_null(m);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        m->positions[3 * v] = (float)v * 1e-3f;
+        m->positions[3 * v + 1] = (float)(v % 7);
+    }
+    m->indices[0] = 0, m->indices[1] = 65535, m->indices[2] = 69999;
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    int ii = (int)num(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "indices");
+    assert_int_equal((int)num(at(get(g.json, "accessors"), ii), "componentType"), 5125);
+    const uint32_t *ix = (const uint32_t *)accessor_data(&g, ii, 4);
+    assert_int_equal(ix[1], 65535);
+    assert_int_equal(ix[2], 69999);
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+static void two_writes_of_the_same_lods_are_byte_identical(void **state)
+{
+    (void)state;
+    sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL}, {"b", m1, 0.05, NULL, 0, NULL}};
+    char dir[] = "/tmp/sv_gltf_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char p1[64], p2[64];
+    snprintf(p1, sizeof p1, "%s/1.glb", dir);
+    snprintf(p2, sizeof p2, "%s/2.glb", dir);
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_write_glb(p1, lods, 2, &err), SV_OK);
+    assert_int_equal(sv_gltf_write_glb(p2, lods, 2, &err), SV_OK);
+    uint8_t *mem;
+    size_t size;
+    assert_int_equal(sv_gltf_encode_glb(lods, 2, &mem, &size, &err), SV_OK);
+    uint8_t *f[2] = {NULL, NULL};
+    const char *paths[2] = {p1, p2};
+    for (int i = 0; i < 2; i++) {
+        FILE *fp = fopen(paths[i], "rb");
+        assert_non_null(fp);
+        f[i] = malloc(size + 1);
+        assert_int_equal(fread(f[i], 1, size + 1, fp), size);
+        fclose(fp);
+        assert_memory_equal(f[i], mem, size);
+        unlink(paths[i]);
+        free(f[i]);
+    }
+    rmdir(dir);
+    free(mem);
+    sv_mesh_destroy(m0);
+    sv_mesh_destroy(m1);
+}
+
+static void out_of_range_index_is_refused_with_a_message(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(1, 10);
+    m->indices[4] = 99;
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf = (uint8_t *)&lod;
+    size_t size = 1;
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_encode_glb(&lod, 1, &buf, &size, &err), SV_ERR_INVALID);
+    assert_null(buf);
+    assert_int_equal(size, 0);
+    assert_non_null(strstr(err.message, "vertex 99"));
+    m->indices[4] = 2;
+    m->positions[1] = NAN;
+    assert_int_equal(sv_gltf_encode_glb(&lod, 1, &buf, &size, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "non-finite"));
+    m->positions[1] = 0;
+    m->materials[0].base_texture = 3;
+    assert_int_equal(sv_gltf_encode_glb(&lod, 1, &buf, &size, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "image 3"));
+    assert_int_equal(sv_gltf_encode_glb(&lod, 0, &buf, &size, &err), SV_ERR_INVALID);
+    assert_int_equal(sv_gltf_write_glb("/nonexistent-dir/x.glb", &lod, 1, &err), SV_ERR_INVALID);
+    m->materials[0].base_texture = 0;
+    assert_int_equal(sv_gltf_write_glb("/nonexistent-dir/x.glb", &lod, 1, &err), SV_ERR_IO);
+    assert_non_null(strstr(err.message, "/nonexistent-dir/x.glb"));
+    sv_mesh_destroy(m);
+}
+
+static void empty_lod_becomes_a_node_without_a_mesh(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
+    assert_non_null(e);
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL}, {"culled", e, 0.0, NULL, 0, NULL}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    cJSON *n1 = at(get(g.json, "nodes"), 1);
+    assert_string_equal(get(n1, "name")->valuestring, "culled");
+    assert_null(get(n1, "mesh"));
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "meshes")), 1);
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(e);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(glb_container_has_aligned_chunks_and_exact_lengths),
+        cmocka_unit_test(only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_ids),
+        cmocka_unit_test(position_accessor_has_exact_min_max_and_counts),
+        cmocka_unit_test(each_used_material_gets_one_primitive_with_its_triangles),
+        cmocka_unit_test(mask_material_has_cutoff_texture_and_pbr_defaults),
+        cmocka_unit_test(identical_images_are_stored_once_across_lods),
+        cmocka_unit_test(normals_are_written_unit_length),
+        cmocka_unit_test(extra_vertex_attributes_are_written_under_their_names),
+        cmocka_unit_test(large_meshes_use_uint32_indices),
+        cmocka_unit_test(two_writes_of_the_same_lods_are_byte_identical),
+        cmocka_unit_test(out_of_range_index_is_refused_with_a_message),
+        cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

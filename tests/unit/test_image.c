@@ -1,0 +1,285 @@
+/* test_image.c — images in memory and the OpenImageIO shim (core/image.c,
+ * core/image_oiio.cpp). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "image.h"
+
+static void fill_pattern(sv_image *img)
+{
+    size_t n = (size_t)img->width * img->height * img->channels;
+    if (img->bits == 8) {
+        uint8_t *p = img->data;
+        for (size_t i = 0; i < n; i++) p[i] = (uint8_t)(i * 37 + 11);
+    } else {
+        uint16_t *p = img->data;
+        for (size_t i = 0; i < n; i++) p[i] = (uint16_t)(i * 4099 + 7);
+    }
+}
+
+static void alloc_sizes_the_buffer_and_free_zeroes_the_struct(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 5, 3, 3, 16, NULL), SV_OK);
+    assert_int_equal(sv_image_stride(&img), 5 * 3 * 2);
+    assert_non_null(img.data);
+    uint16_t *p = img.data;
+    assert_int_equal(p[5 * 3 * 3 - 1], 0); /* zeroed, and the last element is in bounds */
+    sv_image_free(&img);
+    assert_null(img.data);
+    assert_int_equal(img.width, 0);
+    sv_image_free(NULL);
+    sv_image_free(&img); /* twice is fine */
+}
+
+static void alloc_refuses_overflow_and_bad_formats(void **state)
+{
+    (void)state;
+    sv_image img;
+    sv_error err = {0};
+    if (sizeof(size_t) == 8) {
+        /* 2^32-1 squared × 4 × 2 bytes overflows 64 bits */
+        assert_int_equal(sv_image_alloc(&img, UINT32_MAX, UINT32_MAX, 4, 16, &err), SV_ERR_NOMEM);
+        assert_non_null(strstr(err.message, "overflow"));
+    }
+    assert_int_equal(sv_image_alloc(&img, 4, 4, 5, 8, &err), SV_ERR_INTERNAL);
+    assert_int_equal(sv_image_alloc(&img, 4, 4, 4, 12, &err), SV_ERR_INTERNAL);
+    assert_null(img.data);
+}
+
+static uint8_t *encode(const sv_image *img, size_t *n)
+{
+    uint8_t *out = NULL;
+    sv_error err = {0};
+    sv_status st = sv_image_encode_png(img, &out, n, &err);
+    if (st != SV_OK) print_error("%s\n", err.message);
+    assert_int_equal(st, SV_OK);
+    assert_true(*n > 8);
+    assert_memory_equal(out, "\x89PNG\r\n\x1a\n", 8);
+    return out;
+}
+
+static void png_round_trip_keeps_rgba8_exactly_with_straight_alpha(void **state)
+{
+    (void)state;
+    sv_image img, back;
+    assert_int_equal(sv_image_alloc(&img, 7, 5, 4, 8, NULL), SV_OK);
+    fill_pattern(&img);
+    uint8_t *p = img.data;
+    /* a half-transparent texel keeps its colour (no premultiplication) and a fully
+     * transparent one keeps its colour too (leaf cards rely on dilated colour) */
+    p[0] = 200, p[1] = 100, p[2] = 50, p[3] = 128;
+    p[4] = 90, p[5] = 180, p[6] = 20, p[7] = 0;
+    size_t n;
+    uint8_t *png = encode(&img, &n);
+    sv_error err = {0};
+    assert_int_equal(sv_image_decode_rgba8(png, n, "x.png", 0, &back, &err), SV_OK);
+    assert_int_equal(back.width, 7);
+    assert_int_equal(back.height, 5);
+    assert_int_equal(back.channels, 4);
+    assert_int_equal(back.bits, 8);
+    assert_memory_equal(back.data, img.data, 7 * 5 * 4);
+    sv_image_free(&img);
+    sv_image_free(&back);
+    free(png);
+}
+
+static void png_encoding_is_deterministic_and_write_matches_encode(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 33, 17, 3, 8, NULL), SV_OK);
+    fill_pattern(&img);
+    size_t n1, n2;
+    uint8_t *a = encode(&img, &n1), *b = encode(&img, &n2);
+    assert_int_equal(n1, n2);
+    assert_memory_equal(a, b, n1);
+    char path[] = "/tmp/sylva-test-image-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    sv_error err = {0};
+    assert_int_equal(sv_image_write_png(&img, path, &err), SV_OK);
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    uint8_t *c = malloc(n1 + 16);
+    size_t got = fread(c, 1, n1 + 16, f);
+    fclose(f);
+    unlink(path);
+    assert_int_equal(got, n1);
+    assert_memory_equal(c, a, n1);
+    free(a);
+    free(b);
+    free(c);
+    sv_image_free(&img);
+}
+
+static void png_16_bit_round_trips_to_the_nearest_8_bit_value(void **state)
+{
+    (void)state;
+    sv_image img, back;
+    assert_int_equal(sv_image_alloc(&img, 6, 4, 4, 16, NULL), SV_OK);
+    fill_pattern(&img);
+    size_t n;
+    uint8_t *png = encode(&img, &n);
+    /* bit depth 16 in IHDR (byte 24) */
+    assert_int_equal(png[24], 16);
+    assert_int_equal(sv_image_decode_rgba8(png, n, "deep.png", 0, &back, NULL), SV_OK);
+    const uint16_t *s = img.data;
+    const uint8_t *d = back.data;
+    for (size_t i = 0; i < 6 * 4 * 4; i++) {
+        int want = (s[i] + 128) / 257;
+        assert_true(abs((int)d[i] - want) <= 1);
+    }
+    sv_image_free(&img);
+    sv_image_free(&back);
+    free(png);
+}
+
+static void gray_and_rgb_images_expand_to_opaque_rgba(void **state)
+{
+    (void)state;
+    sv_image g, back;
+    assert_int_equal(sv_image_alloc(&g, 3, 2, 1, 8, NULL), SV_OK);
+    fill_pattern(&g);
+    size_t n;
+    uint8_t *png = encode(&g, &n);
+    assert_int_equal(sv_image_decode_rgba8(png, n, "g.png", 0, &back, NULL), SV_OK);
+    const uint8_t *s = g.data, *d = back.data;
+    for (size_t i = 0; i < 6; i++) {
+        assert_int_equal(d[4 * i], s[i]);
+        assert_int_equal(d[4 * i + 1], s[i]);
+        assert_int_equal(d[4 * i + 2], s[i]);
+        assert_int_equal(d[4 * i + 3], 255);
+    }
+    sv_image_free(&g);
+    sv_image_free(&back);
+    free(png);
+}
+
+static void tga_without_magic_decodes_by_its_name(void **state)
+{
+    (void)state;
+    /* uncompressed 2×2 true-colour TGA, 32 bpp, top-left origin, BGRA */
+    uint8_t tga[18 + 16] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 32, 0x28};
+    const uint8_t px[16] = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128, 10, 20, 30, 0};
+    memcpy(tga + 18, px, 16);
+    sv_image img;
+    sv_error err = {0};
+    sv_status st = sv_image_decode_rgba8(tga, sizeof tga, "leaf.TGA", 0, &img, &err);
+    if (st != SV_OK) print_error("%s\n", err.message);
+    assert_int_equal(st, SV_OK);
+    assert_int_equal(img.width, 2);
+    const uint8_t *d = img.data;
+    assert_int_equal(d[0], 0); /* first texel blue in BGRA → RGBA (0,0,255,255) */
+    assert_int_equal(d[2], 255);
+    assert_int_equal(d[3], 255);
+    assert_int_equal(d[8], 255); /* third texel red, alpha 128 */
+    assert_int_equal(d[11], 128);
+    sv_image_free(&img);
+    /* the same bytes under a name that does not say TGA: no magic, refused */
+    assert_int_equal(sv_image_decode_rgba8(tga, sizeof tga, "leaf.bin", 0, &img, &err), SV_ERR_FORMAT);
+}
+
+static void jpeg_from_the_data_set_decodes(void **state)
+{
+    (void)state;
+    const char *data = getenv("SYLVA_DATA");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scopia_bonsai-tree/bark.jpg", data ? data : "");
+    FILE *f = data ? fopen(path, "rb") : NULL;
+    if (!f) {
+        printf("skipped: SYLVA_DATA not set or bark.jpg missing (JPEG decode)\n");
+        return;
+    }
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = malloc((size_t)n);
+    assert_int_equal(fread(b, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    sv_image img;
+    sv_error err = {0};
+    assert_int_equal(sv_image_decode_rgba8(b, (size_t)n, "bark.jpg", 0, &img, &err), SV_OK);
+    assert_true(img.width > 0 && img.height > 0);
+    assert_int_equal(((uint8_t *)img.data)[3], 255);
+    sv_image_free(&img);
+    /* limit */
+    assert_int_equal(sv_image_decode_rgba8(b, (size_t)n, "bark.jpg", 8, &img, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "bark.jpg"));
+    free(b);
+}
+
+static void garbage_truncated_and_oversized_images_are_refused(void **state)
+{
+    (void)state;
+    sv_image img, src;
+    sv_error err = {0};
+    assert_int_equal(sv_image_decode_rgba8("hello", 5, "x.png", 0, &img, &err), SV_ERR_FORMAT);
+    assert_non_null(strstr(err.message, "x.png"));
+    assert_int_equal(sv_image_decode_rgba8("", 0, "e.png", 0, &img, &err), SV_ERR_PARSE);
+    assert_int_equal(sv_image_alloc(&src, 40, 30, 4, 8, NULL), SV_OK);
+    fill_pattern(&src);
+    size_t n;
+    uint8_t *png = encode(&src, &n);
+    const size_t cuts[] = {8, 20, 33, n / 2, n - 13};
+    for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
+        sv_status st = sv_image_decode_rgba8(png, cuts[i], "cut.png", 0, &img, &err);
+        assert_int_not_equal(st, SV_OK);
+        assert_null(img.data);
+        assert_non_null(strstr(err.message, "cut.png"));
+    }
+    assert_int_equal(sv_image_decode_rgba8(png, n, "big.png", 32, &img, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "40x30"));
+    /* the name is only a hint: a hostile name never makes the shim open a file */
+    assert_int_equal(sv_image_decode_rgba8(png, n, "../../etc/passwd.png", 0, &img, &err), SV_OK);
+    assert_int_equal(img.width, 40);
+    sv_image_free(&img);
+    sv_image_free(&src);
+    free(png);
+}
+
+static void encoding_an_empty_image_fails_cleanly(void **state)
+{
+    (void)state;
+    sv_image empty = {0};
+    uint8_t *out = (uint8_t *)1;
+    size_t n = 5;
+    sv_error err = {0};
+    assert_int_not_equal(sv_image_encode_png(&empty, &out, &n, &err), SV_OK);
+    assert_null(out);
+    assert_int_equal(n, 0);
+    assert_int_not_equal(sv_image_write_png(&empty, "/tmp/never-written.png", &err), SV_OK);
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 2, 2, 4, 8, NULL), SV_OK);
+    assert_int_equal(sv_image_write_png(&img, "/nonexistent-dir/x.png", &err), SV_ERR_IO);
+    assert_non_null(strstr(err.message, "/nonexistent-dir/x.png"));
+    sv_image_free(&img);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(alloc_sizes_the_buffer_and_free_zeroes_the_struct),
+        cmocka_unit_test(alloc_refuses_overflow_and_bad_formats),
+        cmocka_unit_test(png_round_trip_keeps_rgba8_exactly_with_straight_alpha),
+        cmocka_unit_test(png_encoding_is_deterministic_and_write_matches_encode),
+        cmocka_unit_test(png_16_bit_round_trips_to_the_nearest_8_bit_value),
+        cmocka_unit_test(gray_and_rgb_images_expand_to_opaque_rgba),
+        cmocka_unit_test(tga_without_magic_decodes_by_its_name),
+        cmocka_unit_test(jpeg_from_the_data_set_decodes),
+        cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
+        cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

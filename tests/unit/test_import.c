@@ -1,0 +1,1047 @@
+/* test_import.c — format sniffing, upload name resolution, the glTF precheck and
+ * mesh import (core/sniff.c, core/gltf_precheck.c, core/import.c).
+ *
+ * Bad inputs are generated here; the real trees come from $SYLVA_DATA (skipped
+ * with a message when it is not set). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "import.h"
+#include "validate.h"
+
+/* ---------- helpers ---------- */
+
+typedef struct upload {
+    sv_file files[32];
+    char *names[32];
+    uint8_t *bufs[32];
+    size_t count;
+} upload;
+
+static void upload_add(upload *u, const char *name, const void *data, size_t size)
+{
+    assert_true(u->count < 32);
+    u->names[u->count] = strdup(name);
+    u->bufs[u->count] = malloc(size ? size : 1);
+    assert_non_null(u->bufs[u->count]);
+    if (size) memcpy(u->bufs[u->count], data, size);
+    u->files[u->count] = (sv_file){u->names[u->count], u->bufs[u->count], size};
+    u->count++;
+}
+
+static void upload_add_str(upload *u, const char *name, const char *text)
+{
+    upload_add(u, name, text, strlen(text));
+}
+
+static void upload_free(upload *u)
+{
+    for (size_t i = 0; i < u->count; i++) {
+        free(u->names[i]);
+        free(u->bufs[i]);
+    }
+    memset(u, 0, sizeof *u);
+}
+
+static uint8_t *read_file(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
+    size_t got = fread(b, 1, (size_t)n, f);
+    fclose(f);
+    assert_int_equal(got, (size_t)n);
+    *size = (size_t)n;
+    return b;
+}
+
+/* Loads dir/main first, then every other regular file of dir. */
+static bool upload_dir(upload *u, const char *dir, const char *main)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, main);
+    size_t n;
+    uint8_t *b = read_file(path, &n);
+    if (!b) return false;
+    upload_add(u, main, b, n);
+    free(b);
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    struct dirent *e;
+    /* sorted order is not needed: lookup is by name */
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.' || strcmp(e->d_name, main) == 0) continue;
+        const char *ext = strrchr(e->d_name, '.');
+        /* the other mesh file of the folder (obj next to glb) is not a companion */
+        if (ext && (strcmp(ext, ".glb") == 0 || strcmp(ext, ".obj") == 0)) continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        b = read_file(path, &n);
+        if (!b) continue;
+        upload_add(u, e->d_name, b, n);
+        free(b);
+    }
+    closedir(d);
+    return true;
+}
+
+static const char *data_dir(void)
+{
+    const char *d = getenv("SYLVA_DATA");
+    if (!d || !d[0]) return NULL;
+    struct stat st;
+    if (stat(d, &st) != 0 || !S_ISDIR(st.st_mode)) return NULL;
+    return d;
+}
+
+static sv_status import_upload(upload *u, const sv_import_options *opt, sv_mesh **m,
+                               sv_import_info *info, sv_error *err)
+{
+    return sv_import(u->files, u->count, opt, m, info, err);
+}
+
+/* Imports a single in-memory file and expects failure with `want`, the message
+ * containing `needle`. */
+static void expect_import_fails(const char *name, const void *data, size_t size, sv_status want,
+                                const char *needle)
+{
+    upload u = {0};
+    upload_add(&u, name, data, size);
+    sv_mesh *m = (sv_mesh *)1;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, NULL, &err);
+    if (st != want || !strstr(err.message, needle))
+        print_error("got status %s '%s', wanted %s containing '%s'\n", sv_status_code(st),
+                    err.message, sv_status_code(want), needle);
+    assert_int_equal(st, want);
+    assert_null(m);
+    assert_non_null(strstr(err.message, needle));
+    upload_free(&u);
+}
+
+/* A GLB with one triangle (3 vertices, uint16 indices). `index2` is the third
+ * index, so a value >= 3 makes it point beyond the vertices. */
+static uint8_t *make_glb(uint16_t index2, size_t *size)
+{
+    const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const uint16_t idx[4] = {0, 1, index2, 0}; /* padded to 8 bytes */
+    char json[1024];
+    int jn = snprintf(json, sizeof json,
+                      "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+                      "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                      "{\"POSITION\":0},\"indices\":1}]}],\"accessors\":["
+                      "{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+                      "\"min\":[0,0,0],\"max\":[1,1,0]},"
+                      "{\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}],"
+                      "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},"
+                      "{\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],"
+                      "\"buffers\":[{\"byteLength\":44}]}");
+    while (jn % 4) json[jn++] = ' ';
+    size_t bin = 44, total = 12 + 8 + (size_t)jn + 8 + bin;
+    uint8_t *b = calloc(1, total);
+    uint32_t h[3] = {0x46546C67u, 2, (uint32_t)total};
+    memcpy(b, h, 12);
+    uint32_t c0[2] = {(uint32_t)jn, 0x4E4F534Au};
+    memcpy(b + 12, c0, 8);
+    memcpy(b + 20, json, (size_t)jn);
+    uint32_t c1[2] = {(uint32_t)bin, 0x004E4942u};
+    memcpy(b + 20 + jn, c1, 8);
+    memcpy(b + 28 + jn, pos, 36);
+    memcpy(b + 28 + jn + 36, idx, 8);
+    *size = total;
+    return b;
+}
+
+/* A .gltf whose only buffer has the given uri (geometry irrelevant: the
+ * precheck refuses the reference before anything else). */
+static void expect_buffer_uri_refused(const char *uri, const char *needle)
+{
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"%s\",\"byteLength\":12}]}",
+             uri);
+    expect_import_fails("scene.gltf", json, strlen(json), SV_ERR_REFUSED, needle);
+}
+
+static const char *tri_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/* ---------- sniffing ---------- */
+
+static void sniff_recognises_each_accepted_format_by_its_bytes(void **state)
+{
+    (void)state;
+    static const struct { const char *bytes; sv_format want; } cases[] = {
+        {"glTF\x02\0\0\0", SV_FORMAT_GLB},
+        {"  {\"asset\":{\"version\":\"2.0\"}}", SV_FORMAT_GLTF},
+        {"# exported\nmtllib a.mtl\nv 0 0 0\n", SV_FORMAT_OBJ},
+        {"ply\nformat ascii 1.0\nelement vertex 3\n", SV_FORMAT_PLY},
+        {"Kaydara FBX Binary  \0\x1a", SV_FORMAT_FBX},
+        {"; FBX 7.4.0 project file\n", SV_FORMAT_FBX},
+        {"<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"x\">", SV_FORMAT_COLLADA},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        size_t n = strlen(cases[i].bytes);
+        if (cases[i].want == SV_FORMAT_FBX && cases[i].bytes[0] == 'K') n = 22;
+        assert_int_equal(sv_sniff_format((const uint8_t *)cases[i].bytes, n), cases[i].want);
+    }
+    assert_string_equal(sv_format_name(SV_FORMAT_GLB), "glb");
+    assert_string_equal(sv_format_name(SV_FORMAT_COLLADA), "dae");
+}
+
+static void sniff_rejects_other_formats_and_noise(void **state)
+{
+    (void)state;
+    const char *texts[] = {"", "x", "{\"not\":\"gltf\"}", "<html><body></body></html>",
+                           "hello world\nthis is text\n", "\x89PNG\r\n\x1a\n",
+                           "solid cube\nfacet normal 0 0 1\n" /* STL: not accepted */};
+    for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++)
+        assert_int_equal(sv_sniff_format((const uint8_t *)texts[i], strlen(texts[i])),
+                         SV_FORMAT_UNKNOWN);
+    uint8_t noise[4096];
+    uint64_t s = 12345;
+    for (int trial = 0; trial < 50; trial++) {
+        for (size_t i = 0; i < sizeof noise; i++) {
+            s = s * 6364136223846793005ull + 1442695040888963407ull;
+            noise[i] = (uint8_t)(s >> 56);
+        }
+        sv_format f = sv_sniff_format(noise, sizeof noise);
+        assert_int_equal(f, SV_FORMAT_UNKNOWN);
+    }
+}
+
+/* ---------- upload name resolution ---------- */
+
+static void upload_find_refuses_names_that_leave_the_upload(void **state)
+{
+    (void)state;
+    sv_file files[] = {{"secret.png", (const uint8_t *)"x", 1}, {"passwd", (const uint8_t *)"x", 1}};
+    const char *bad[] = {"/etc/passwd", "../secret.png", "a/../../secret.png", "..\\secret.png",
+                         "tex\\..\\..\\secret.png", "\\\\server\\share\\secret.png",
+                         "file:secret.png", "file:///etc/passwd", "http://example.com/secret.png",
+                         "C:\\textures\\secret.png", "c:secret.png", "..", "",
+                         "%2e%2e/secret.png", "%2Fetc%2Fpasswd", "a/%2E%2E%5C%2E%2E%5Csecret.png"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        size_t idx = 99;
+        sv_error err = {0};
+        assert_int_equal(sv_upload_find(files, 2, bad[i], &idx, &err), SV_ERR_REFUSED);
+        assert_int_equal(idx, 99);
+        if (bad[i][0]) assert_non_null(strstr(err.message, "refused"));
+    }
+}
+
+static void upload_find_matches_exact_then_base_name_then_case(void **state)
+{
+    (void)state;
+    sv_file files[] = {{"tree.obj", NULL, 0}, {"textures/leaf.png", NULL, 0}, {"Bark.JPG", NULL, 0}};
+    size_t idx = 0;
+    assert_int_equal(sv_upload_find(files, 3, "textures/leaf.png", &idx, NULL), SV_OK);
+    assert_int_equal(idx, 1);
+    assert_int_equal(sv_upload_find(files, 3, "maps\\leaf.png", &idx, NULL), SV_OK);
+    assert_int_equal(idx, 1);
+    assert_int_equal(sv_upload_find(files, 3, "./bark.jpg", &idx, NULL), SV_OK);
+    assert_int_equal(idx, 2);
+    sv_error err = {0};
+    assert_int_equal(sv_upload_find(files, 3, "missing.png", &idx, &err), SV_ERR_IO);
+    assert_non_null(strstr(err.message, "missing.png"));
+}
+
+/* ---------- glTF precheck ---------- */
+
+static void precheck_accepts_a_minimal_glb(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *glb = make_glb(2, &n);
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_precheck(glb, n, true, NULL, 0, NULL, &err), SV_OK);
+    free(glb);
+}
+
+static void glb_truncated_at_several_lengths_is_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *glb = make_glb(2, &n);
+    const size_t cuts[] = {4, 11, 12, 16, 19, 20, 60, n / 2, n - 44, n - 9, n - 1};
+    for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
+        sv_error err = {0};
+        assert_int_equal(sv_gltf_precheck(glb, cuts[i], true, NULL, 0, NULL, &err), SV_ERR_PARSE);
+        assert_non_null(strstr(err.message, "truncated"));
+        expect_import_fails("tree.glb", glb, cuts[i], SV_ERR_PARSE, "truncated");
+    }
+    /* shorter than the magic: not recognisable as anything */
+    expect_import_fails("tree.glb", glb, 3, SV_ERR_FORMAT, "not a mesh format");
+    free(glb);
+}
+
+static void glb_whose_header_length_lies_is_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *glb = make_glb(2, &n);
+    uint32_t len = (uint32_t)n - 8; /* says shorter than it is */
+    memcpy(glb + 8, &len, 4);
+    expect_import_fails("tree.glb", glb, n, SV_ERR_PARSE, "header length lies");
+    len = (uint32_t)n + 1000; /* says longer: looks truncated */
+    memcpy(glb + 8, &len, 4);
+    expect_import_fails("tree.glb", glb, n, SV_ERR_PARSE, "header says");
+    len = (uint32_t)n;
+    memcpy(glb + 8, &len, 4);
+    uint32_t chunk = 0x7fffffff; /* JSON chunk length lies */
+    memcpy(glb + 12, &chunk, 4);
+    expect_import_fails("tree.glb", glb, n, SV_ERR_PARSE, "chunk 0 says");
+    free(glb);
+}
+
+static void glb_index_beyond_vertex_count_is_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *glb = make_glb(7, &n);
+    expect_import_fails("tree.glb", glb, n, SV_ERR_INVALID, "triangle 0 refers to vertex 7 of 3");
+    free(glb);
+}
+
+static void gltf_buffer_uri_outside_the_upload_is_refused(void **state)
+{
+    (void)state;
+    expect_buffer_uri_refused("/etc/passwd", "/etc/passwd");
+    expect_buffer_uri_refused("../tree.bin", "../tree.bin");
+    expect_buffer_uri_refused("sub/../../tree.bin", "..");
+    expect_buffer_uri_refused("file:///etc/passwd", "file:///etc/passwd");
+    expect_buffer_uri_refused("file:tree.bin", "file:tree.bin");
+    expect_buffer_uri_refused("%2e%2e/tree.bin", "../tree.bin");
+    expect_buffer_uri_refused("%2Fetc%2Fpasswd", "/etc/passwd");
+    expect_buffer_uri_refused("https://example.com/tree.bin", "https:");
+    expect_buffer_uri_refused("..\\\\tree.bin", "..");
+    expect_buffer_uri_refused("not-uploaded.bin", "not among the uploaded files");
+}
+
+static void gltf_with_deep_node_chain_is_refused_before_assimp(void **state)
+{
+    (void)state;
+    const int depth = 20000;
+    size_t cap = (size_t)depth * 24 + 256, len = 0;
+    char *j = malloc(cap);
+    len += (size_t)snprintf(j + len, cap - len,
+                            "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
+    for (int i = 0; i < depth; i++) {
+        if (i + 1 < depth)
+            len += (size_t)snprintf(j + len, cap - len, "{\"children\":[%d]},", i + 1);
+        else
+            len += (size_t)snprintf(j + len, cap - len, "{}");
+    }
+    len += (size_t)snprintf(j + len, cap - len, "]}");
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_precheck((uint8_t *)j, len, false, NULL, 0, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "deeper than 256 levels"));
+    /* Through the importer: assimp 5.2.5 would overflow its stack on this. */
+    expect_import_fails("deep.gltf", j, len, SV_ERR_LIMIT, "deeper than 256 levels");
+    free(j);
+}
+
+static void gltf_node_cycles_and_shared_children_are_refused(void **state)
+{
+    (void)state;
+    const char *cycle = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[1]},"
+                        "{\"children\":[2]},{\"children\":[1]}]}";
+    const char *self = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[0]}]}";
+    const char *two_parents = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[2]},"
+                              "{\"children\":[2]},{}]}";
+    const char *bad_child = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[5]}]}";
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)cycle, strlen(cycle), false, NULL, 0, NULL, &err),
+                     SV_ERR_PARSE);
+    assert_non_null(strstr(err.message, "child of both"));
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)self, strlen(self), false, NULL, 0, NULL, &err),
+                     SV_ERR_PARSE);
+    assert_non_null(strstr(err.message, "cycle through node 0"));
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)two_parents, strlen(two_parents), false, NULL,
+                                      0, NULL, &err),
+                     SV_ERR_PARSE);
+    assert_non_null(strstr(err.message, "node 2 is a child of both"));
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)bad_child, strlen(bad_child), false, NULL, 0,
+                                      NULL, &err),
+                     SV_ERR_PARSE);
+    assert_non_null(strstr(err.message, "not a node index"));
+}
+
+static void gltf_declared_counts_over_limits_are_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *glb = make_glb(2, &n);
+    sv_limits lim = {.max_triangles = 0, .max_nodes = 0};
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_precheck(glb, n, true, NULL, 0, &lim, &err), SV_OK);
+    /* one node instancing one triangle: a limit of zero triangles is "default";
+     * instead ask for fewer nodes than there are */
+    const char *nodes = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{},{},{}]}";
+    lim.max_nodes = 2;
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)nodes, strlen(nodes), false, NULL, 0, &lim, &err),
+                     SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "3 nodes (limit 2)"));
+    /* an accessor whose count × stride overruns its bufferView */
+    char *j = malloc(n);
+    memcpy(j, glb, n);
+    char *c = strstr(j + 20, "\"count\":3,\"type\":\"VEC3\"");
+    assert_non_null(c);
+    memcpy(c, "\"count\":9", 9);
+    sv_error e2 = {0};
+    assert_int_equal(sv_gltf_precheck((uint8_t *)j, n, true, NULL, 0, NULL, &e2), SV_ERR_PARSE);
+    assert_non_null(strstr(e2.message, "accessor 0 needs"));
+    free(j);
+    free(glb);
+}
+
+static void gltf_version_1_and_bad_json_are_refused(void **state)
+{
+    (void)state;
+    const char *v1 = "{\"asset\":{\"version\":\"1.0\"}}";
+    expect_import_fails("old.gltf", v1, strlen(v1), SV_ERR_FORMAT, "version '1.0'");
+    const char *bad = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{]}";
+    expect_import_fails("bad.gltf", bad, strlen(bad), SV_ERR_PARSE, "JSON syntax error");
+}
+
+
+/* The JSON and BIN chunk of make_glb, as a .gltf with the buffer given by `uri`
+ * ("%s" is replaced by nothing: the caller supplies the whole uri). */
+static char *gltf_from_glb(const char *uri, uint8_t bin[44])
+{
+    size_t n;
+    uint8_t *glb = make_glb(2, &n);
+    uint32_t jn;
+    memcpy(&jn, glb + 12, 4);
+    memcpy(bin, glb + 28 + jn, 44);
+    char *json = malloc(jn + 1);
+    memcpy(json, glb + 20, jn);
+    json[jn] = 0;
+    const char *from = "\"buffers\":[{\"byteLength\":44}]";
+    char *at = strstr(json, from);
+    assert_non_null(at);
+    size_t cap = jn + strlen(uri) + 64;
+    char *out = malloc(cap);
+    snprintf(out, cap, "%.*s\"buffers\":[{\"uri\":\"%s\",\"byteLength\":44}]%s", (int)(at - json), json,
+             uri, at + strlen(from));
+    free(json);
+    free(glb);
+    return out;
+}
+
+static void gltf_with_uploaded_bin_or_data_uri_imports(void **state)
+{
+    (void)state;
+    uint8_t bin[44];
+    char *json = gltf_from_glb("tri%20data.bin", bin);
+    upload u = {0};
+    upload_add_str(&u, "scene.gltf", json);
+    upload_add(&u, "tri data.bin", bin, sizeof bin);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, &info, &err);
+    if (st != SV_OK) print_error("%s\n", err.message);
+    assert_int_equal(st, SV_OK);
+    assert_int_equal(info.format, SV_FORMAT_GLTF);
+    assert_int_equal(m->triangle_count, 1);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(json);
+    /* the same bytes inline */
+    static const char b64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    char uri[200] = "data:application/octet-stream;base64,";
+    size_t o = strlen(uri);
+    for (size_t i = 0; i < 44; i += 3) {
+        uint32_t v = (uint32_t)bin[i] << 16 | (i + 1 < 44 ? (uint32_t)bin[i + 1] << 8 : 0) |
+                     (i + 2 < 44 ? bin[i + 2] : 0);
+        uri[o++] = b64[v >> 18 & 63];
+        uri[o++] = b64[v >> 12 & 63];
+        uri[o++] = i + 1 < 44 ? b64[v >> 6 & 63] : '=';
+        uri[o++] = i + 2 < 44 ? b64[v & 63] : '=';
+    }
+    uri[o] = 0;
+    json = gltf_from_glb(uri, bin);
+    upload_add_str(&u, "inline.gltf", json);
+    st = import_upload(&u, NULL, &m, &info, &err);
+    if (st != SV_OK) print_error("%s\n", err.message);
+    assert_int_equal(st, SV_OK);
+    assert_int_equal(m->triangle_count, 1);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(json);
+}
+
+/* ---------- import: bad inputs ---------- */
+
+static void empty_one_byte_and_random_files_are_refused(void **state)
+{
+    (void)state;
+    expect_import_fails("tree.obj", "", 0, SV_ERR_PARSE, "is empty");
+    expect_import_fails("tree.glb", "g", 1, SV_ERR_FORMAT, "not a mesh format");
+    uint64_t s = 99;
+    for (int trial = 0; trial < 20; trial++) {
+        size_t n = 1 + (size_t)(trial * 977) % 5000;
+        uint8_t *b = malloc(n);
+        for (size_t i = 0; i < n; i++) {
+            s = s * 6364136223846793005ull + 1442695040888963407ull;
+            b[i] = (uint8_t)(s >> 56);
+        }
+        expect_import_fails(trial % 2 ? "tree.glb" : "tree.obj", b, n, SV_ERR_FORMAT,
+                            "not a mesh format");
+        free(b);
+    }
+}
+
+static void obj_with_nan_or_inf_vertex_is_refused_naming_the_vertex(void **state)
+{
+    (void)state;
+    const char *nan_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nf 1 2 3\nf 2 3 4\n";
+    expect_import_fails("nan.obj", nan_obj, strlen(nan_obj), SV_ERR_INVALID,
+                        "has a NaN coordinate");
+    const char *inf_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 inf 0\nf 1 2 3\nf 2 3 4\n";
+    expect_import_fails("inf.obj", inf_obj, strlen(inf_obj), SV_ERR_INVALID,
+                        "has an infinite coordinate");
+    /* finite in the file, infinite once scaled to metres */
+    upload u = {0};
+    upload_add_str(&u, "big.obj", "v 0 0 0\nv 3e38 0 0\nv 0 1 0\nf 1 2 3\n");
+    sv_import_options opt = {.unit_scale = 100};
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "vertex 1 has an infinite coordinate"));
+    upload_free(&u);
+}
+
+static void obj_face_referencing_a_missing_vertex_is_refused(void **state)
+{
+    (void)state;
+    const char *obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
+    upload u = {0};
+    upload_add_str(&u, "bad.obj", obj);
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, NULL, &err);
+    assert_null(m);
+    assert_true(st == SV_ERR_PARSE || st == SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "bad.obj"));
+    assert_non_null(strstr(err.message, "index"));
+    upload_free(&u);
+}
+
+static void ply_renamed_glb_is_imported_as_ply(void **state)
+{
+    (void)state;
+    /* Sniffing decides, not the name: PLY is an accepted format, so the file is
+     * imported as PLY (assimp is told "tree.ply"). */
+    const char *ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                      "property float y\nproperty float z\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n"
+                      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    upload u = {0};
+    upload_add_str(&u, "tree.glb", ply);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_OK);
+    assert_int_equal(info.format, SV_FORMAT_PLY);
+    assert_int_equal(m->triangle_count, 1);
+    assert_int_equal(m->vertex_count, 3);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+static void limits_are_enforced_before_assimp_allocates(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+    sv_import_options opt = {.limits = {.max_triangles = 1}};
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "2 triangles (limit 1)"));
+    opt = (sv_import_options){.limits = {.max_file_bytes = 10}};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "quad.obj"));
+    assert_null(m);
+    upload_free(&u);
+}
+
+static void bad_units_or_axis_options_are_refused(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "t.obj", tri_obj);
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    sv_import_options opt = {.up_axis = 'X'};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_SPEC);
+    opt = (sv_import_options){.unit_scale = -1};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_SPEC);
+    upload_free(&u);
+}
+
+/* ---------- import: references and textures ---------- */
+
+static uint8_t *png_bytes(uint32_t w, uint32_t h, uint8_t alpha, size_t *size)
+{
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, w, h, 4, 8, NULL), SV_OK);
+    uint8_t *p = img.data;
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        p[4 * i] = 10;
+        p[4 * i + 1] = 200;
+        p[4 * i + 2] = 30;
+        p[4 * i + 3] = i == 0 ? alpha : 255;
+    }
+    uint8_t *out = NULL;
+    assert_int_equal(sv_image_encode_png(&img, &out, size, NULL), SV_OK);
+    sv_image_free(&img);
+    return out;
+}
+
+static const char *uv_obj = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                            "usemtl leafy\nf 1/1 2/2 3/3\n";
+
+/* The canary: a texture named ../secret.png or by an absolute path must never be
+ * read, even though a file called secret.png is in the upload and one exists on
+ * disk at the absolute path. */
+static void texture_outside_the_upload_is_never_read(void **state)
+{
+    (void)state;
+    size_t pn;
+    uint8_t *png = png_bytes(4, 4, 255, &pn);
+    char dir[] = "/tmp/sylva-canary-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char abs_path[256];
+    snprintf(abs_path, sizeof abs_path, "%s/secret.png", dir);
+    FILE *f = fopen(abs_path, "wb");
+    assert_non_null(f);
+    fwrite(png, 1, pn, f);
+    fclose(f);
+    char mtl[512];
+    const char *refs[] = {"../secret.png", abs_path, "..\\secret.png", "file:secret.png"};
+    for (size_t i = 0; i < sizeof refs / sizeof refs[0]; i++) {
+        snprintf(mtl, sizeof mtl, "newmtl leafy\nKd 1 1 1\nmap_Kd %s\n", refs[i]);
+        upload u = {0};
+        upload_add_str(&u, "t.obj", uv_obj);
+        upload_add_str(&u, "t.mtl", mtl);
+        upload_add(&u, "secret.png", png, pn);
+        sv_mesh *m = NULL;
+        sv_import_info info;
+        sv_error err = {0};
+        assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_REFUSED);
+        assert_null(m);
+        assert_int_equal(info.textures_decoded, 0);
+        assert_non_null(strstr(err.message, "refused"));
+        upload_free(&u);
+    }
+    /* same through a glTF image uri */
+    char json[512];
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"%s\"}]}", abs_path);
+    expect_import_fails("t.gltf", json, strlen(json), SV_ERR_REFUSED, abs_path);
+    const char *rel = "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"../secret.png\"}]}";
+    expect_import_fails("t.gltf", rel, strlen(rel), SV_ERR_REFUSED, "../secret.png");
+    unlink(abs_path);
+    rmdir(dir);
+    free(png);
+}
+
+static void mtllib_outside_the_upload_is_refused(void **state)
+{
+    (void)state;
+    const char *obj = "mtllib ../../etc/t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", "newmtl a\nKd 1 0 0\n");
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, NULL, &err), SV_ERR_REFUSED);
+    assert_non_null(strstr(err.message, "../../etc/t.mtl"));
+    upload_free(&u);
+}
+
+static void missing_texture_is_a_warning_not_an_error(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "t.obj", uv_obj);
+    upload_add_str(&u, "t.mtl", "newmtl leafy\nKd 0.5 0.5 0.5\nmap_Kd leaf.png\n");
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_OK);
+    assert_int_equal(info.textures_missing, 1);
+    assert_int_equal(info.textures_decoded, 0);
+    assert_non_null(strstr(info.warnings, "leaf.png"));
+    assert_int_equal(m->materials[m->tri_material[0]].base_texture, -1);
+    assert_float_equal(m->materials[m->tri_material[0]].base_color[0], 0.5, 1e-6);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+static const sv_material *material_named(const sv_mesh *m, const char *name)
+{
+    for (uint32_t i = 0; i < m->material_count; i++)
+        if (strcmp(m->materials[i].name, name) == 0) return &m->materials[i];
+    return NULL;
+}
+
+static void obj_alpha_rules_give_mask_blend_and_double_sided(void **state)
+{
+    (void)state;
+    size_t opaque_n, cut_n;
+    uint8_t *opaque = png_bytes(4, 4, 255, &opaque_n);
+    uint8_t *cut = png_bytes(4, 4, 0, &cut_n);
+    const char *obj = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 0 0\nv 2 1 0\n"
+                      "v 3 0 0\nv 3 1 0\nvt 0 0\n"
+                      "usemtl mapd\nf 1/1 2/1 3/1\nusemtl rgba\nf 2/1 4/1 3/1\n"
+                      "usemtl glass\nf 2/1 5/1 4/1\nusemtl bark\nf 5/1 6/1 4/1\n"
+                      "usemtl plain\nf 5/1 7/1 6/1\n";
+    const char *mtl = "newmtl mapd\nmap_Kd opaque.png\nmap_d opaque.png\n"
+                      "newmtl rgba\nmap_Kd cut.png\n"
+                      "newmtl glass\nKd 0.2 0.3 0.4\nd 0.5\n"
+                      "newmtl bark\nKd 0.1 0.1 0.1\nmap_Kd opaque.png\n"
+                      "newmtl plain\nKd 0.2 0.3 0.4\n";
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", mtl);
+    upload_add(&u, "opaque.png", opaque, opaque_n);
+    upload_add(&u, "cut.png", cut, cut_n);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_OK);
+    const sv_material *mapd = material_named(m, "mapd"), *rgba = material_named(m, "rgba");
+    const sv_material *glass = material_named(m, "glass"), *bark = material_named(m, "bark");
+    const sv_material *plain = material_named(m, "plain");
+    assert_non_null(mapd);
+    assert_non_null(rgba);
+    assert_non_null(glass);
+    assert_non_null(bark);
+    assert_non_null(plain);
+    assert_int_equal(mapd->alpha_mode, SV_ALPHA_MASK);
+    assert_float_equal(mapd->alpha_cutoff, 0.5, 1e-6);
+    assert_true(mapd->double_sided);
+    assert_int_equal(rgba->alpha_mode, SV_ALPHA_MASK);
+    assert_true(rgba->double_sided);
+    assert_int_equal(glass->alpha_mode, SV_ALPHA_BLEND);
+    assert_float_equal(glass->base_color[3], 0.5, 1e-6);
+    assert_int_equal(bark->alpha_mode, SV_ALPHA_OPAQUE);
+    assert_false(bark->double_sided);
+    assert_int_equal(plain->alpha_mode, SV_ALPHA_OPAQUE);
+    assert_float_equal(plain->base_color[2], 0.4, 1e-6);
+    /* mapd and bark share opaque.png: decoded once */
+    assert_int_equal(info.textures_decoded, 2);
+    assert_int_equal(m->image_count, 2);
+    assert_int_equal(mapd->base_texture, bark->base_texture);
+    assert_string_equal(bark->texture_uri, "opaque.png");
+    const sv_image *img = &m->images[rgba->base_texture];
+    assert_int_equal(img->width, 4);
+    assert_int_equal(((uint8_t *)img->data)[3], 0);
+    assert_int_equal(((uint8_t *)img->data)[1], 200);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(opaque);
+    free(cut);
+}
+
+static void texture_over_the_size_limit_is_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *png = png_bytes(64, 8, 255, &n);
+    upload u = {0};
+    upload_add_str(&u, "t.obj", uv_obj);
+    upload_add_str(&u, "t.mtl", "newmtl leafy\nmap_Kd big.png\n");
+    upload_add(&u, "big.png", png, n);
+    sv_import_options opt = {.limits = {.max_texture_size = 32}};
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "64x8"));
+    upload_free(&u);
+    free(png);
+}
+
+static void units_and_z_up_are_converted_to_metres_y_up(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "t.obj", "v 0 0 0\nv 100 0 0\nv 0 0 300\nf 1 2 3\n");
+    sv_import_options opt = {.unit_scale = 0.01, .up_axis = 'Z'};
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
+    assert_float_equal(info.unit_scale, 0.01, 1e-12);
+    assert_int_equal(info.up_axis, 'Z'); /* what was converted from */
+    double mn[3], mx[3];
+    assert_true(sv_mesh_bounds(m, mn, mx));
+    assert_float_equal(mx[0], 1.0, 1e-6);
+    assert_float_equal(mx[1], 3.0, 1e-6); /* source +Z is now +Y */
+    assert_float_equal(mx[2] - mn[2], 0.0, 1e-6);
+    /* normals were generated (none in the file) and rotated consistently */
+    float ny = m->normals[1], nz = m->normals[2];
+    assert_float_equal(ny, 0.0, 1e-6);
+    assert_float_equal(fabs(nz), 1.0, 1e-6);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+static void glb_materials_and_transforms_come_through(void **state)
+{
+    (void)state;
+    /* A node with a translation and a MASK, double-sided material. */
+    size_t n;
+    uint8_t *base = make_glb(2, &n);
+    const char *from = "\"nodes\":[{\"mesh\":0}]";
+    const char *to = "\"nodes\":[{\"mesh\":0,\"translation\":[0,5,0]}]";
+    const char *mat_from = "\"indices\":1}]}]";
+    const char *mat_to = "\"indices\":1,\"material\":0}]}],\"materials\":[{\"name\":\"leaf\","
+                         "\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,\"doubleSided\":true,"
+                         "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.2,0.4,0.6,1]}}]";
+    uint32_t jn;
+    memcpy(&jn, base + 12, 4);
+    char json[2048];
+    memcpy(json, base + 20, jn);
+    json[jn] = 0;
+    char *a = strstr(json, from), *b;
+    assert_non_null(a);
+    char out[2048];
+    snprintf(out, sizeof out, "%.*s%s%s", (int)(a - json), json, to, a + strlen(from));
+    b = strstr(out, mat_from);
+    assert_non_null(b);
+    snprintf(json, sizeof json, "%.*s%s%s", (int)(b - out), out, mat_to, b + strlen(mat_from));
+    size_t jl = strlen(json);
+    while (jl % 4) json[jl++] = ' ';
+    size_t total = 12 + 8 + jl + 8 + 44;
+    uint8_t *glb = calloc(1, total);
+    uint32_t h[5] = {0x46546C67u, 2, (uint32_t)total, (uint32_t)jl, 0x4E4F534Au};
+    memcpy(glb, h, 20);
+    memcpy(glb + 20, json, jl);
+    memcpy(glb + 20 + jl, base + 20 + jn, 8 + 44);
+    upload u = {0};
+    upload_add(&u, "t.glb", glb, total);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, &info, &err); /* glTF default: metres, Y up */
+    if (st != SV_OK) print_error("%s\n", err.message);
+    assert_int_equal(st, SV_OK);
+    assert_float_equal(info.unit_scale, 1.0, 0);
+    double mn[3], mx[3];
+    sv_mesh_bounds(m, mn, mx);
+    assert_float_equal(mn[1], 5.0, 1e-6);
+    assert_float_equal(mx[1], 6.0, 1e-6);
+    const sv_material *leaf = material_named(m, "leaf");
+    assert_non_null(leaf);
+    assert_int_equal(leaf->alpha_mode, SV_ALPHA_MASK);
+    assert_float_equal(leaf->alpha_cutoff, 0.3, 1e-6);
+    assert_true(leaf->double_sided);
+    assert_float_equal(leaf->base_color[1], 0.4, 1e-6);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(glb);
+    free(base);
+}
+
+/* ---------- the real trees ---------- */
+
+typedef struct tree_case {
+    const char *dir, *file;
+    double unit_scale;
+    uint32_t readme_triangles;
+    uint32_t textures; /* base-colour textures expected decoded */
+    const char *mat1;
+    uint32_t mat1_triangles; /* README's count for that material */
+    sv_alpha_mode mat1_alpha;
+} tree_case;
+
+static const tree_case trees[] = {
+    {"scopia_ficusTree", "ficusTree.obj", 0.01, 118876, 1, "Leaves", 112000, SV_ALPHA_OPAQUE},
+    {"scopia_ficusTree", "ficusTree.glb", 0.01, 118876, 1, "Leaves", 112000, SV_ALPHA_OPAQUE},
+    {"scopia_acacia", "acacia.obj", 0.01, 103164, 1, "Leaves", 99600, SV_ALPHA_OPAQUE},
+    {"scopia_bush", "bush.obj", 0.01, 40292, 2, "leaves", 36948, SV_ALPHA_MASK},
+    {"scopia_palm", "palm.obj", 0.01, 43323, 1, "Leaves", 41745, SV_ALPHA_OPAQUE},
+    {"scopia_bonsai-tree", "bonsai-tree.obj", 0.01, 8128, 3, "branch1", 6720, SV_ALPHA_MASK},
+    {"blendswap_cc0_decorativePlant", "decorativePlant.obj", 0.01, 63428, 0, "Leaves", 38380, SV_ALPHA_OPAQUE},
+    {"eztree_oak_large", "oak_large.obj", 0, 22566, 2, "leaves", 10560, SV_ALPHA_MASK},
+    {"eztree_oak_large", "oak_large.glb", 0, 22566, 2, "leaves", 10560, SV_ALPHA_BLEND},
+    {"eztree_ash_medium", "ash_medium.obj", 0, 20000, 2, "leaves", 10880, SV_ALPHA_MASK},
+    {"eztree_aspen_small", "aspen_small.obj", 0, 3616, 2, "leaves", 1120, SV_ALPHA_MASK},
+    {"sapling_small_maple", "sapling_small_maple_rect.obj", 0, 153618, 0, "leaves", 36290, SV_ALPHA_OPAQUE},
+};
+
+static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
+{
+    (void)state;
+    const char *data = data_dir();
+    if (!data) {
+        printf("skipped: SYLVA_DATA is not set or not a directory (real-tree import)\n");
+        return;
+    }
+    for (size_t i = 0; i < sizeof trees / sizeof trees[0]; i++) {
+        const tree_case *tc = &trees[i];
+        char dir[1024];
+        snprintf(dir, sizeof dir, "%s/%s", data, tc->dir);
+        upload u = {0};
+        if (!upload_dir(&u, dir, tc->file)) {
+            print_error("missing %s/%s\n", dir, tc->file);
+            fail();
+        }
+        sv_import_options opt = {.unit_scale = tc->unit_scale};
+        sv_mesh *m = NULL;
+        sv_import_info info;
+        sv_error err = {0};
+        double t0 = sv_now();
+        clock_t c0 = clock();
+        sv_status st = import_upload(&u, &opt, &m, &info, &err);
+        double cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+        double t1 = sv_now();
+        if (st != SV_OK) print_error("%s: %s\n", tc->file, err.message);
+        assert_int_equal(st, SV_OK);
+        uint32_t imported = m->triangle_count;
+        sv_validate_report rep;
+        st = sv_validate(m, NULL, &rep, &err);
+        if (st != SV_OK) print_error("%s: %s\n", tc->file, err.message);
+        assert_int_equal(st, SV_OK);
+        uint32_t mat1 = 0;
+        for (uint32_t t = 0; t < m->triangle_count; t++)
+            if (strcmp(m->materials[m->tri_material[t]].name, tc->mat1) == 0) mat1++;
+        double mn[3], mx[3];
+        sv_mesh_bounds(m, mn, mx);
+        printf("%-30s %s: imported %u triangles (README %u), after validate %u "
+               "(-%u zero-area, -%u duplicate), %u vertices, %u materials, %s %u triangles, "
+               "%u textures (%u missing), height %.2f m, import %.3f s wall, %.3f s CPU\n",
+               tc->file, sv_format_name(info.format), imported, tc->readme_triangles,
+               m->triangle_count, rep.removed_degenerate, rep.removed_duplicate, m->vertex_count,
+               m->material_count, tc->mat1, mat1, info.textures_decoded, info.textures_missing,
+               mx[1] - mn[1], t1 - t0, cpu);
+        assert_int_equal(imported, tc->readme_triangles);
+        assert_int_equal(m->triangle_count + rep.removed_degenerate + rep.removed_duplicate,
+                         tc->readme_triangles);
+        /* repairs are a small fraction of a real tree */
+        assert_true(rep.removed_degenerate + rep.removed_duplicate <= tc->readme_triangles / 100);
+        assert_true(mat1 <= tc->mat1_triangles && mat1 + tc->mat1_triangles / 100 >= tc->mat1_triangles);
+        assert_int_equal(info.textures_decoded, tc->textures);
+        /* alpha: map_d (bush, ez-tree OBJ), an RGBA texture without map_d
+         * (bonsai), glTF's own alphaMode (oak GLB: BLEND) */
+        for (uint32_t k = 0; k < m->material_count; k++)
+            if (strcmp(m->materials[k].name, tc->mat1) == 0) {
+                assert_int_equal(m->materials[k].alpha_mode, tc->mat1_alpha);
+                if (tc->mat1_alpha != SV_ALPHA_OPAQUE) assert_true(m->materials[k].double_sided);
+            }
+        assert_int_equal(info.textures_missing, 0);
+        /* plausible tree heights in metres: the cm trees were scaled */
+        assert_true(mx[1] - mn[1] > 0.2 && mx[1] - mn[1] < 150.0);
+        sv_mesh_destroy(m);
+        upload_free(&u);
+    }
+}
+
+static void scopia_trees_are_in_centimetres_unless_scaled(void **state)
+{
+    (void)state;
+    const char *data = data_dir();
+    if (!data) {
+        printf("skipped: SYLVA_DATA is not set (Scopia units)\n");
+        return;
+    }
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/scopia_bonsai-tree", data);
+    upload u = {0};
+    assert_true(upload_dir(&u, dir, "bonsai-tree.obj"));
+    double h[2];
+    for (int k = 0; k < 2; k++) {
+        sv_import_options opt = {.unit_scale = k ? 0.01 : 0};
+        sv_mesh *m = NULL;
+        assert_int_equal(import_upload(&u, &opt, &m, NULL, NULL), SV_OK);
+        double mn[3], mx[3];
+        sv_mesh_bounds(m, mn, mx);
+        h[k] = mx[1] - mn[1];
+        sv_mesh_destroy(m);
+    }
+    assert_float_equal(h[0] * 0.01, h[1], 1e-4 * h[0]);
+    upload_free(&u);
+}
+
+static void import_is_deterministic(void **state)
+{
+    (void)state;
+    const char *data = data_dir();
+    if (!data) {
+        printf("skipped: SYLVA_DATA is not set (determinism)\n");
+        return;
+    }
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/eztree_aspen_small", data);
+    upload u = {0};
+    assert_true(upload_dir(&u, dir, "aspen_small.obj"));
+    sv_mesh *a = NULL, *b = NULL;
+    assert_int_equal(import_upload(&u, NULL, &a, NULL, NULL), SV_OK);
+    assert_int_equal(import_upload(&u, NULL, &b, NULL, NULL), SV_OK);
+    assert_int_equal(a->vertex_count, b->vertex_count);
+    assert_int_equal(a->triangle_count, b->triangle_count);
+    assert_memory_equal(a->positions, b->positions, 3 * sizeof(float) * a->vertex_count);
+    assert_memory_equal(a->indices, b->indices, 3 * sizeof(uint32_t) * a->triangle_count);
+    assert_memory_equal(a->uvs, b->uvs, 2 * sizeof(float) * a->vertex_count);
+    for (uint32_t i = 0; i < a->image_count; i++)
+        assert_memory_equal(a->images[i].data, b->images[i].data,
+                            sv_image_stride(&a->images[i]) * a->images[i].height);
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+    upload_free(&u);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(sniff_recognises_each_accepted_format_by_its_bytes),
+        cmocka_unit_test(sniff_rejects_other_formats_and_noise),
+        cmocka_unit_test(upload_find_refuses_names_that_leave_the_upload),
+        cmocka_unit_test(upload_find_matches_exact_then_base_name_then_case),
+        cmocka_unit_test(precheck_accepts_a_minimal_glb),
+        cmocka_unit_test(glb_truncated_at_several_lengths_is_refused),
+        cmocka_unit_test(glb_whose_header_length_lies_is_refused),
+        cmocka_unit_test(glb_index_beyond_vertex_count_is_refused),
+        cmocka_unit_test(gltf_buffer_uri_outside_the_upload_is_refused),
+        cmocka_unit_test(gltf_with_deep_node_chain_is_refused_before_assimp),
+        cmocka_unit_test(gltf_node_cycles_and_shared_children_are_refused),
+        cmocka_unit_test(gltf_declared_counts_over_limits_are_refused),
+        cmocka_unit_test(gltf_version_1_and_bad_json_are_refused),
+        cmocka_unit_test(gltf_with_uploaded_bin_or_data_uri_imports),
+        cmocka_unit_test(empty_one_byte_and_random_files_are_refused),
+        cmocka_unit_test(obj_with_nan_or_inf_vertex_is_refused_naming_the_vertex),
+        cmocka_unit_test(obj_face_referencing_a_missing_vertex_is_refused),
+        cmocka_unit_test(ply_renamed_glb_is_imported_as_ply),
+        cmocka_unit_test(limits_are_enforced_before_assimp_allocates),
+        cmocka_unit_test(bad_units_or_axis_options_are_refused),
+        cmocka_unit_test(texture_outside_the_upload_is_never_read),
+        cmocka_unit_test(mtllib_outside_the_upload_is_refused),
+        cmocka_unit_test(missing_texture_is_a_warning_not_an_error),
+        cmocka_unit_test(obj_alpha_rules_give_mask_blend_and_double_sided),
+        cmocka_unit_test(texture_over_the_size_limit_is_refused),
+        cmocka_unit_test(units_and_z_up_are_converted_to_metres_y_up),
+        cmocka_unit_test(glb_materials_and_transforms_come_through),
+        cmocka_unit_test(imports_every_tree_in_the_data_set_with_readme_counts),
+        cmocka_unit_test(scopia_trees_are_in_centimetres_unless_scaled),
+        cmocka_unit_test(import_is_deterministic),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,455 @@
+/* test_leaf_clusters.c — the leaf_clusters method (core/leaf_clusters.c):
+ * settings, the stand-in it builds on a hand-made tree, and a real tree
+ * (ficus, through sv_import + sv_classify + sv_leaves_build) when SYLVA_DATA
+ * is set. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cluster.h"
+#include "import.h"
+#include "method.h"
+
+extern const sv_method sv_method_leaf_clusters;
+
+/* ---- a hand-made tree: square leaves (2 triangles) + a trunk ---- */
+
+typedef struct toy {
+    sv_mesh *mesh;
+    sv_classification cls;
+    sv_leaves leaves;
+    sv_method_input in;
+    sv_scene scene;
+} toy;
+
+static uint64_t rng_next(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+static double urand(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0; }
+
+static double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static void normalize(double v[3])
+{
+    double l = sqrt(dot(v, v));
+    for (int j = 0; j < 3; j++) v[j] /= l;
+}
+
+/* nleaves leaves of side 0.1 in a crown around (0, 2, 0), each on one of four
+ * tilted layers, plus 4 trunk triangles; leaf i uses triangles 2i, 2i+1. */
+static void toy_make(toy *t, uint32_t nleaves, uint64_t seed)
+{
+    memset(t, 0, sizeof *t);
+    uint32_t ntri = 2 * nleaves + 4, nvert = 4 * nleaves + 6;
+    t->mesh = sv_mesh_create(nvert, ntri, 2, 0);
+    assert_non_null(t->mesh);
+    t->cls.tri_part = calloc(ntri, 1);
+    t->leaves.leaves = calloc(nleaves, sizeof(sv_leaf));
+    t->leaves.tris = calloc(2 * nleaves, sizeof(uint32_t));
+    t->leaves.count = nleaves;
+    t->leaves.tri_count = 2 * nleaves;
+    uint64_t s = seed;
+    float *P = t->mesh->positions;
+    uint32_t *I = t->mesh->indices;
+    for (uint32_t i = 0; i < nleaves; i++) {
+        int layer = (int)(i % 4);
+        double n[3] = {0.3 * (layer - 1.5), 1, 0.2 * (layer % 2)}, u[3], v[3];
+        normalize(n);
+        double a[3] = {1, 0, 0};
+        u[0] = n[1] * a[2] - n[2] * a[1], u[1] = n[2] * a[0] - n[0] * a[2], u[2] = n[0] * a[1] - n[1] * a[0];
+        normalize(u);
+        v[0] = n[1] * u[2] - n[2] * u[1], v[1] = n[2] * u[0] - n[0] * u[2], v[2] = n[0] * u[1] - n[1] * u[0];
+        /* the leaf lies in its layer's plane (through (0, 1.5 + 0.6·layer, 0),
+         * normal n), within ±0.01 */
+        double a0 = 0.8 * urand(&s), b0 = 0.8 * urand(&s), off = 0.01 * urand(&s), c[3];
+        for (int j = 0; j < 3; j++) c[j] = a0 * u[j] + b0 * v[j] + off * n[j];
+        c[1] += 1.5 + 0.6 * layer;
+        const double cu[4] = {-0.05, 0.05, 0.05, -0.05}, cv[4] = {-0.05, -0.05, 0.05, 0.05};
+        for (int k = 0; k < 4; k++)
+            for (int j = 0; j < 3; j++) P[3 * (4 * i + k) + j] = (float)(c[j] + cu[k] * u[j] + cv[k] * v[j]);
+        uint32_t b = 4 * i;
+        uint32_t q[6] = {b, b + 1, b + 2, b, b + 2, b + 3};
+        memcpy(&I[6 * i], q, sizeof q);
+        t->cls.tri_part[2 * i] = t->cls.tri_part[2 * i + 1] = SV_PART_FOLIAGE;
+        t->mesh->tri_material[2 * i] = t->mesh->tri_material[2 * i + 1] = 0;
+        sv_leaf *l = &t->leaves.leaves[i];
+        /* centre and normal from the float vertices, as classify would */
+        for (int j = 0; j < 3; j++) {
+            l->centre[j] = 0;
+            for (int k = 0; k < 4; k++) l->centre[j] += 0.25 * P[3 * (4 * i + k) + j];
+            l->normal[j] = n[j];
+        }
+        l->area = 0.01;
+        l->radius = 0.0708;
+        l->first = 2 * i;
+        l->count = 2;
+        t->leaves.tris[2 * i] = 2 * i;
+        t->leaves.tris[2 * i + 1] = 2 * i + 1;
+    }
+    /* trunk: a thin vertical fin from y=0 to y=1.5 */
+    uint32_t b = 4 * nleaves;
+    const float tv[6][3] = {{-0.05f, 0, 0}, {0.05f, 0, 0}, {0.05f, 1.5f, 0}, {-0.05f, 1.5f, 0}, {0, 0, -0.05f}, {0, 1.5f, 0.05f}};
+    for (int k = 0; k < 6; k++)
+        for (int j = 0; j < 3; j++) P[3 * (b + k) + j] = tv[k][j];
+    uint32_t tt[12] = {b, b + 1, b + 2, b, b + 2, b + 3, b + 4, b + 1, b + 5, b + 4, b + 5, b + 3};
+    memcpy(&I[6 * nleaves], tt, sizeof tt);
+    for (int k = 0; k < 4; k++) t->mesh->tri_material[2 * nleaves + k] = 1;
+    sv_mesh_sphere(t->mesh, t->in.centre, &t->in.radius);
+    sv_scene_defaults(&t->scene);
+    t->in.mesh = t->mesh;
+    t->in.cls = &t->cls;
+    t->in.leaves = &t->leaves;
+    t->in.scene = &t->scene;
+    t->in.seed = 1;
+}
+
+static void toy_free(toy *t)
+{
+    sv_mesh_destroy(t->mesh);
+    free(t->cls.tri_part);
+    free(t->leaves.leaves);
+    free(t->leaves.tris);
+}
+
+static cJSON *json(const char *text)
+{
+    cJSON *j = cJSON_Parse(text);
+    assert_non_null(j);
+    return j;
+}
+
+/* Every structural promise of the stand-in, checked on any tree. */
+static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *in,
+                                  const uint32_t *levels, uint32_t nlev)
+{
+    const sv_mesh *m = in->mesh;
+    const sv_leaves *lv = in->leaves;
+    assert_string_equal(s->method, "leaf_clusters");
+    assert_int_equal(s->lod_count, nlev);
+    uint8_t *seen = calloc(m->triangle_count, 1);
+    for (uint32_t l = 0; l < nlev; l++) {
+        const sv_lod_plan *lod = &s->lods[l];
+        char name[32];
+        snprintf(name, sizeof name, "clusters%u", levels[l]);
+        assert_string_equal(lod->name, name);
+        assert_int_equal(lod->trunk, SV_TRUNK_SIMPLIFIED);
+        assert_true(lod->trunk_ratio > 0 && lod->trunk_ratio <= 1);
+        if (l > 0) assert_true(lod->trunk_ratio <= s->lods[l - 1].trunk_ratio);
+        assert_true(lod->quad_count >= 1 && lod->quad_count <= levels[l]);
+        assert_null(lod->geometry);
+        memset(seen, 0, m->triangle_count);
+        uint32_t covered = 0;
+        for (uint32_t k = 0; k < lod->quad_count; k++) {
+            const sv_quad *q = &lod->quads[k];
+            assert_true(fabs(dot(q->normal, q->normal) - 1) < 1e-12);
+            assert_true(isfinite(q->d) && isfinite(q->half_u) && isfinite(q->half_v) && isfinite(q->slab));
+            /* the tree centre is behind the plane: normal points outward */
+            assert_true(dot(q->normal, in->centre) + q->d <= 1e-9 * in->radius);
+            assert_int_equal(q->parts, SV_PARTS_FOLIAGE);
+            assert_false(q->clip);
+            assert_int_equal(q->group, (int32_t)l);
+            if (l + 1 < nlev) assert_true(q->parent >= 0 && (uint32_t)q->parent < s->lods[l + 1].quad_count);
+            else assert_int_equal(q->parent, -1);
+            assert_int_equal(q->face_count, q->bake_face_count);
+            assert_memory_equal(q->faces, q->bake_faces, q->face_count * sizeof(uint32_t));
+            double slab = 0, area = 0;
+            for (uint32_t f = 0; f < q->face_count; f++) {
+                uint32_t t = q->faces[f];
+                assert_true(t < m->triangle_count);
+                assert_int_equal(seen[t], 0);
+                seen[t] = 1;
+                covered++;
+                area += sv_tri_area(m, t);
+                for (int v = 0; v < 3; v++) {
+                    const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)t + v]];
+                    double x[3] = {p[0], p[1], p[2]}, r[3];
+                    double dist = dot(q->normal, x) + q->d;
+                    if (fabs(dist) > slab) slab = fabs(dist);
+                    for (int j = 0; j < 3; j++) r[j] = x[j] - q->centre[j];
+                    assert_true(fabs(dot(r, q->axis_u)) <= q->half_u * (1 + 1e-9) + 1e-9 * in->radius);
+                    assert_true(fabs(dot(r, q->axis_v)) <= q->half_v * (1 + 1e-9) + 1e-9 * in->radius);
+                }
+            }
+            assert_true(fabs(slab - q->slab) <= 1e-12 * in->radius);
+            assert_true(fabs(area - q->face_area) <= 1e-9 * area);
+            /* a coarse quad holds exactly the faces of its children */
+            if (l > 0) {
+                uint32_t child = 0;
+                for (uint32_t c = 0; c < s->lods[l - 1].quad_count; c++)
+                    if (s->lods[l - 1].quads[c].parent == (int32_t)k) child += s->lods[l - 1].quads[c].face_count;
+                assert_int_equal(child, q->face_count);
+            }
+        }
+        /* every leaf triangle appears exactly once per level, nothing else */
+        assert_int_equal(covered, lv->tri_count);
+        for (uint32_t i = 0; i < lv->tri_count; i++) assert_int_equal(seen[lv->tris[i]], 1);
+    }
+    free(seen);
+}
+
+/* ---- behaviours ---- */
+
+static void default_settings_are_accepted(void **state)
+{
+    (void)state;
+    assert_int_equal(sv_method_leaf_clusters.check(NULL, NULL), SV_OK);
+    cJSON *j = json("{\"clusters\":[64,16,4,1],\"alpha_rel\":0.05,\"area_weighted\":false,"
+                    "\"iterations\":10,\"seed_tries\":1,\"trunk_ratio\":[1,0.5,0.2,0.1]}");
+    assert_int_equal(sv_method_leaf_clusters.check(j, NULL), SV_OK);
+    cJSON_Delete(j);
+    assert_string_equal(sv_method_leaf_clusters.name, "leaf_clusters");
+    assert_ptr_equal(sv_method_find("leaf_clusters"), &sv_method_leaf_clusters);
+}
+
+static void bad_settings_fail_naming_the_key(void **state)
+{
+    (void)state;
+    const char *cases[][2] = {
+        {"{\"clusterz\":[8]}", "leaf_clusters.clusterz"},
+        {"{\"clusters\":[8,8]}", "leaf_clusters.clusters[1]"},
+        {"{\"clusters\":[8,16]}", "leaf_clusters.clusters[1]"},
+        {"{\"clusters\":[]}", "leaf_clusters.clusters"},
+        {"{\"clusters\":32}", "leaf_clusters.clusters"},
+        {"{\"clusters\":[0]}", "leaf_clusters.clusters[0]"},
+        {"{\"clusters\":[2.5]}", "leaf_clusters.clusters[0]"},
+        {"{\"clusters\":[5000]}", "leaf_clusters.clusters[0]"},
+        {"{\"alpha_rel\":-0.1}", "leaf_clusters.alpha_rel"},
+        {"{\"alpha_rel\":\"big\"}", "leaf_clusters.alpha_rel"},
+        {"{\"area_weighted\":1}", "leaf_clusters.area_weighted"},
+        {"{\"iterations\":0}", "leaf_clusters.iterations"},
+        {"{\"seed_tries\":100}", "leaf_clusters.seed_tries"},
+        {"{\"trunk_ratio\":[0.5,0.2]}", "leaf_clusters.trunk_ratio"},
+        {"{\"trunk_ratio\":[0.5,0,0.1]}", "leaf_clusters.trunk_ratio[1]"},
+        {"[1]", "leaf_clusters"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        cJSON *j = json(cases[i][0]);
+        sv_error e = {0};
+        assert_int_equal(sv_method_leaf_clusters.check(j, &e), SV_ERR_SPEC);
+        if (!strstr(e.message, cases[i][1])) print_error("%s -> %s\n", cases[i][0], e.message);
+        assert_non_null(strstr(e.message, cases[i][1]));
+        cJSON_Delete(j);
+    }
+}
+
+static void toy_tree_gives_one_lod_per_level_with_sound_quads(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 200, 3);
+    sv_stand_in s = {0};
+    sv_error e = {0};
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_OK);
+    const uint32_t levels[] = {32, 16, 8};
+    assert_stand_in_sound(&s, &t.in, levels, 3);
+    assert_int_equal(s.lods[0].quad_count, 32);
+    assert_true(s.lods[0].trunk_ratio == 0.5 && s.lods[1].trunk_ratio == 0.25 && s.lods[2].trunk_ratio == 0.1);
+    sv_stand_in_free(&s);
+
+    cJSON *j = json("{\"clusters\":[4,2,1],\"trunk_ratio\":[0.9,0.6,0.3]}");
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_OK);
+    const uint32_t small[] = {4, 2, 1};
+    assert_stand_in_sound(&s, &t.in, small, 3);
+    assert_true(s.lods[2].trunk_ratio == 0.3);
+    /* four leaf layers, four clusters: each layer is one quad */
+    for (uint32_t k = 0; k < s.lods[0].quad_count; k++) {
+        const sv_quad *q = &s.lods[0].quads[k];
+        uint32_t layer = (q->faces[0] / 2) % 4;
+        for (uint32_t f = 0; f < q->face_count; f++) assert_int_equal((q->faces[f] / 2) % 4, layer);
+    }
+    cJSON_Delete(j);
+    sv_stand_in_free(&s);
+    toy_free(&t);
+}
+
+static void quads_are_planes_of_their_leaves(void **state)
+{
+    (void)state;
+    /* with 4 layers and 4 clusters, each quad's plane is its layer's plane:
+     * slabs are small against the tree */
+    toy t;
+    toy_make(&t, 120, 9);
+    cJSON *j = json("{\"clusters\":[4]}");
+    sv_stand_in s = {0};
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, NULL), SV_OK);
+    assert_int_equal(s.lods[0].quad_count, 4);
+    for (uint32_t k = 0; k < 4; k++) assert_true(s.lods[0].quads[k].slab < 0.03);
+    cJSON_Delete(j);
+    sv_stand_in_free(&s);
+    toy_free(&t);
+}
+
+static void same_seed_gives_identical_stand_in_and_seed_matters(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 300, 5);
+    sv_stand_in a = {0}, b = {0}, c = {0};
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &a, NULL), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &b, NULL), SV_OK);
+    for (uint32_t l = 0; l < a.lod_count; l++) {
+        assert_int_equal(a.lods[l].quad_count, b.lods[l].quad_count);
+        for (uint32_t k = 0; k < a.lods[l].quad_count; k++) {
+            sv_quad qa = a.lods[l].quads[k], qb = b.lods[l].quads[k];
+            assert_int_equal(qa.face_count, qb.face_count);
+            assert_memory_equal(qa.faces, qb.faces, qa.face_count * sizeof(uint32_t));
+            qa.faces = qb.faces = qa.bake_faces = qb.bake_faces = NULL;
+            assert_memory_equal(&qa, &qb, sizeof qa);
+        }
+    }
+    t.in.seed = 2;
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &c, NULL), SV_OK);
+    bool differs = false;
+    for (uint32_t k = 0; k < a.lods[0].quad_count && !differs; k++)
+        differs = memcmp(a.lods[0].quads[k].normal, c.lods[0].quads[k].normal, sizeof(double[3])) != 0;
+    assert_true(differs);
+    sv_stand_in_free(&a);
+    sv_stand_in_free(&b);
+    sv_stand_in_free(&c);
+    toy_free(&t);
+}
+
+static void tree_without_leaves_is_unbakeable(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 10, 1);
+    t.leaves.count = 0;
+    sv_stand_in s = {0};
+    sv_error e = {0};
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
+    assert_non_null(strstr(e.message, "leaf"));
+    assert_int_equal(s.lod_count, 0);
+    t.in.leaves = NULL;
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
+    t.leaves.count = 10;
+    toy_free(&t);
+}
+
+static void bad_settings_make_run_fail_too(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 10, 1);
+    cJSON *j = json("{\"alpha_rel\":1000}");
+    sv_stand_in s = {0};
+    sv_error e = {0};
+    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_ERR_SPEC);
+    assert_int_equal(s.lod_count, 0);
+    cJSON_Delete(j);
+    toy_free(&t);
+}
+
+/* ---- a real tree ---- */
+
+static uint8_t *read_all(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
+    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    *size = (size_t)n;
+    return b;
+}
+
+static void ficus_clusters_into_32_16_8_quads(void **state)
+{
+    (void)state;
+    const char *data = getenv("SYLVA_DATA");
+    char obj[1024], mtl[1024];
+    if (!data) {
+        print_message("skipped: SYLVA_DATA is not set (real-tree test)\n");
+        return;
+    }
+    snprintf(obj, sizeof obj, "%s/scopia_ficusTree/ficusTree.obj", data);
+    snprintf(mtl, sizeof mtl, "%s/scopia_ficusTree/ficusTree.mtl", data);
+    size_t n_obj = 0, n_mtl = 0;
+    uint8_t *b_obj = read_all(obj, &n_obj), *b_mtl = read_all(mtl, &n_mtl);
+    if (!b_obj) {
+        print_message("skipped: %s not readable\n", obj);
+        free(b_mtl);
+        return;
+    }
+    sv_file files[2] = {{"ficusTree.obj", b_obj, n_obj}, {"ficusTree.mtl", b_mtl, n_mtl}};
+    sv_import_options io = {.unit_scale = 0.01};
+    sv_mesh *m = NULL;
+    sv_error e = {0};
+    sv_status st = sv_import(files, b_mtl ? 2 : 1, &io, &m, NULL, &e);
+    if (st != SV_OK) print_error("import: %s\n", e.message);
+    assert_int_equal(st, SV_OK);
+    sv_classification cls;
+    assert_int_equal(sv_classify(m, NULL, &cls, &e), SV_OK);
+    sv_leaves lv;
+    assert_int_equal(sv_leaves_build(m, &cls, &lv, &e), SV_OK);
+    print_message("ficus: %u leaf elements (%u split)\n", lv.count, lv.split);
+    assert_true(lv.count >= 1000);
+    sv_scene sc;
+    sv_scene_defaults(&sc);
+    sv_method_input in = {.mesh = m, .cls = &cls, .leaves = &lv, .scene = &sc, .seed = 1};
+    sv_mesh_sphere(m, in.centre, &in.radius);
+
+    /* clustering alone (reported, not asserted: timing is not a behaviour) */
+    sv_cluster_options co = {.alpha = 0.003 * in.radius * in.radius, .area_weighted = true, .seed = 1,
+                             .centre = in.centre};
+    sv_clusters cl;
+    double t0 = sv_now();
+    assert_int_equal(sv_cluster_build(lv.leaves, lv.count, &co, &cl, &e), SV_OK);
+    double t1 = sv_now();
+    print_message("ficus: %u leaves -> 32/16/8 planes in %.1f ms (%u k-means iterations); "
+                  "normalised error %.3g / %.3g / %.3g\n",
+                  lv.count, 1e3 * (t1 - t0), cl.iterations,
+                  cl.levels[0].error / (cl.weight * in.radius * in.radius),
+                  cl.levels[1].error / (cl.weight * in.radius * in.radius),
+                  cl.levels[2].error / (cl.weight * in.radius * in.radius));
+    assert_int_equal(cl.levels[0].count, 32);
+    sv_clusters_free(&cl);
+
+    sv_stand_in s = {0};
+    t0 = sv_now();
+    assert_int_equal(sv_method_leaf_clusters.run(&in, NULL, &s, &e), SV_OK);
+    print_message("ficus: leaf_clusters method (clustering + quads) %.1f ms\n", 1e3 * (sv_now() - t0));
+    const uint32_t levels[] = {32, 16, 8};
+    assert_stand_in_sound(&s, &in, levels, 3);
+    assert_int_equal(s.lods[0].quad_count, 32);
+    assert_int_equal(s.lods[1].quad_count, 16);
+    assert_int_equal(s.lods[2].quad_count, 8);
+    sv_stand_in_free(&s);
+    sv_leaves_free(&lv);
+    sv_classification_free(&cls);
+    sv_mesh_destroy(m);
+    free(b_obj);
+    free(b_mtl);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(default_settings_are_accepted),
+        cmocka_unit_test(bad_settings_fail_naming_the_key),
+        cmocka_unit_test(toy_tree_gives_one_lod_per_level_with_sound_quads),
+        cmocka_unit_test(quads_are_planes_of_their_leaves),
+        cmocka_unit_test(same_seed_gives_identical_stand_in_and_seed_matters),
+        cmocka_unit_test(tree_without_leaves_is_unbakeable),
+        cmocka_unit_test(bad_settings_make_run_fail_too),
+        cmocka_unit_test(ficus_clusters_into_32_16_8_quads),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

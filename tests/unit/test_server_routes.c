@@ -1,0 +1,166 @@
+/* Unit tests: server/routes.c and server/config.c (pure parts of sylvad). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "config.h"
+#include "routes.h"
+
+#define KEY "1230599077439815640abf9dfe42b62c109efb4e38938921408ddac29212793c"
+
+static void routes_map_the_v1_api(void **state)
+{
+    (void)state;
+    svd_route_match m;
+    svd_route_find("GET", "/v1/health", &m);
+    assert_int_equal(m.route, SVD_R_HEALTH);
+    svd_route_find("GET", "/v1/metrics", &m);
+    assert_int_equal(m.route, SVD_R_METRICS);
+    svd_route_find("HEAD", "/v1/info", &m);
+    assert_int_equal(m.route, SVD_R_INFO);
+    svd_route_find("POST", "/v1/bakes", &m);
+    assert_int_equal(m.route, SVD_R_SUBMIT);
+    svd_route_find("PUT", "/v1/bakes/" KEY, &m);
+    assert_int_equal(m.route, SVD_R_PUT);
+    assert_string_equal(m.key, KEY);
+    svd_route_find("GET", "/v1/bakes/" KEY, &m);
+    assert_int_equal(m.route, SVD_R_STATUS);
+    svd_route_find("DELETE", "/v1/bakes/" KEY, &m);
+    assert_int_equal(m.route, SVD_R_DELETE);
+    svd_route_find("GET", "/v1/bakes/" KEY "/artifacts/model.glb", &m);
+    assert_int_equal(m.route, SVD_R_ARTIFACT);
+    assert_string_equal(m.name, "model.glb");
+}
+
+static void routes_refuse_wrong_methods_with_allow(void **state)
+{
+    (void)state;
+    svd_route_match m;
+    svd_route_find("POST", "/v1/health", &m);
+    assert_int_equal(m.status, 405);
+    assert_string_equal(m.allow, "GET, HEAD");
+    svd_route_find("GET", "/v1/bakes", &m);
+    assert_int_equal(m.status, 405);
+    svd_route_find("PATCH", "/v1/bakes/" KEY, &m);
+    assert_int_equal(m.status, 405);
+}
+
+static void routes_refuse_bad_keys_and_traversal(void **state)
+{
+    (void)state;
+    svd_route_match m;
+    svd_route_find("GET", "/v1/bakes/abc", &m);
+    assert_int_equal(m.status, 400);
+    svd_route_find("GET", "/v1/bakes/" "1230599077439815640ABF9dfe42b62c109efb4e38938921408ddac29212793c", &m);
+    assert_int_equal(m.status, 400);
+    svd_route_find("GET", "/v1/bakes/" KEY "/artifacts/../inputs.json", &m);
+    assert_int_equal(m.status, 404);
+    svd_route_find("GET", "/v1/bakes/" KEY "/artifacts/..", &m);
+    assert_int_equal(m.status, 404);
+    svd_route_find("GET", "/v1/bakes/" KEY "/in/tree.obj", &m);
+    assert_int_equal(m.status, 404);
+    svd_route_find("GET", "/etc/passwd", &m);
+    assert_int_equal(m.status, 404);
+}
+
+static void config_defaults_listen_on_loopback_8080(void **state)
+{
+    (void)state;
+    svd_config c;
+    svd_config_defaults(&c);
+    assert_string_equal(c.listen_host, "127.0.0.1");
+    assert_int_equal(c.port, 8080);
+    assert_true(svd_config_is_loopback(&c));
+    assert_int_equal(c.attempts, 3);
+}
+
+static void config_flags_override_file(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/svcfgXXXXXX";
+    int fd = mkstemp(path);
+    const char *text = "# sylvad\nlisten = 0.0.0.0:9000\nworkers = 3   # comment\n\nmax_upload_bytes = 2M\nlog_level = debug\n";
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    char *argv[] = {"sylvad", "--config", path, "--workers", "5", "--max-wait=7", NULL};
+    svd_config c;
+    sv_error e = {0};
+    assert_int_equal(svd_config_from_args(&c, 6, argv, &e), SV_OK);
+    assert_string_equal(c.listen_host, "0.0.0.0");
+    assert_int_equal(c.port, 9000);
+    assert_false(svd_config_is_loopback(&c));
+    assert_int_equal(c.workers, 5);
+    assert_int_equal(c.max_wait, 7);
+    assert_int_equal(c.max_upload_bytes, 2u << 20);
+    assert_int_equal(c.log_level, SVD_LOG_DEBUG);
+    unlink(path);
+}
+
+static void config_names_the_bad_line(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/svcfgXXXXXX";
+    int fd = mkstemp(path);
+    const char *text = "workers = 2\nno_such_thing = 1\n";
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    svd_config c;
+    svd_config_defaults(&c);
+    sv_error e = {0};
+    assert_int_equal(svd_config_load_file(&c, path, &e), SV_ERR_SPEC);
+    assert_non_null(strstr(e.message, ":2:"));
+    assert_non_null(strstr(e.message, "no_such_thing"));
+    unlink(path);
+}
+
+static void config_refuses_bad_values(void **state)
+{
+    (void)state;
+    svd_config c;
+    svd_config_defaults(&c);
+    sv_error e = {0};
+    assert_int_equal(svd_config_set(&c, "listen", "localhost", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "listen", "127.0.0.1:70000", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "workers", "-1", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "max_upload_bytes", "99999999999G", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "log_level", "loud", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "listen", "[::1]:0", &e), SV_OK);
+    assert_string_equal(c.listen_host, "::1");
+    assert_int_equal(c.port, 0);
+    assert_true(svd_config_is_loopback(&c));
+}
+
+static void sizes_accept_binary_suffixes(void **state)
+{
+    (void)state;
+    uint64_t v;
+    assert_true(svd_parse_size("512", &v));
+    assert_int_equal(v, 512);
+    assert_true(svd_parse_size("4K", &v));
+    assert_int_equal(v, 4096);
+    assert_true(svd_parse_size("3G", &v));
+    assert_int_equal(v, 3ull << 30);
+    assert_false(svd_parse_size("3X", &v));
+    assert_false(svd_parse_size("", &v));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(routes_map_the_v1_api),
+        cmocka_unit_test(routes_refuse_wrong_methods_with_allow),
+        cmocka_unit_test(routes_refuse_bad_keys_and_traversal),
+        cmocka_unit_test(config_defaults_listen_on_loopback_8080),
+        cmocka_unit_test(config_flags_override_file),
+        cmocka_unit_test(config_names_the_bad_line),
+        cmocka_unit_test(config_refuses_bad_values),
+        cmocka_unit_test(sizes_accept_binary_suffixes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

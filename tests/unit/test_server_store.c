@@ -1,0 +1,421 @@
+/* Unit tests: server/store.c and server/jobs.c without a socket or a worker
+ * process: commit, idempotence, verification and quarantine, recovery after a
+ * simulated crash, retries, eviction, the fair queue and status documents. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+#include <cjson/cJSON.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "jobs.h"
+#include "store.h"
+
+typedef struct fx {
+    char dir[32];
+    char root[64];
+    svd_config cfg;
+    svd_log *log;
+    svd_metrics *metrics;
+    svd_store *store;
+    svd_jobs *jobs;
+} fx;
+
+static void open_all(fx *f)
+{
+    sv_error e = {0};
+    f->store = svd_store_open(f->root, &e);
+    assert_non_null(f->store);
+    f->jobs = svd_jobs_create(&f->cfg, f->store, f->log, f->metrics, &e);
+    assert_non_null(f->jobs);
+    assert_int_equal(svd_jobs_recover(f->jobs, &e), SV_OK);
+}
+
+static void close_all(fx *f)
+{
+    svd_jobs_destroy(f->jobs);
+    svd_store_close(f->store);
+    f->jobs = NULL;
+    f->store = NULL;
+}
+
+static int setup(void **state)
+{
+    fx *f = calloc(1, sizeof *f);
+    strcpy(f->dir, "/tmp/svstXXXXXX");
+    assert_non_null(mkdtemp(f->dir));
+    snprintf(f->root, sizeof f->root, "%s/store", f->dir);
+    svd_config_defaults(&f->cfg);
+    char lp[96];
+    snprintf(lp, sizeof lp, "%s/log", f->dir);
+    f->log = svd_log_open(lp, SVD_LOG_DEBUG);
+    f->metrics = svd_metrics_create();
+    open_all(f);
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fx *f = *state;
+    close_all(f);
+    svd_metrics_destroy(f->metrics);
+    svd_log_close(f->log);
+    svd_rm_rf(f->dir);
+    free(f);
+    return 0;
+}
+
+/* Builds an upload directory the way http.c does; returns its key. */
+static void make_upload(fx *f, const char *content, const char *client, svd_upload *up, char *tmp)
+{
+    sv_error e = {0};
+    assert_int_equal(svd_store_mktemp(f->store, "up", tmp, &e), SV_OK);
+    char in[SVD_STORE_PATH + 8];
+    snprintf(in, sizeof in, "%s/in", tmp);
+    mkdir(in, 0700);
+    assert_int_equal(svd_store_write_file(in, "tree.obj", content, strlen(content), &e), SV_OK);
+    char h[SVD_KEY_HEX];
+    svd_sha256_hex(content, strlen(content), h);
+    char inputs[512];
+    snprintf(inputs, sizeof inputs,
+             "{\"mesh\":\"tree.obj\",\"files\":[],\"objects\":{\"tree.obj\":{\"size\":%zu,\"sha256\":\"%s\"}}}",
+             strlen(content), h);
+    assert_int_equal(svd_store_write_file(tmp, "inputs.json", inputs, strlen(inputs), &e), SV_OK);
+    assert_int_equal(svd_store_write_file(tmp, "spec.json", "{}", 2, &e), SV_OK);
+    svd_key_part m = {.name = "tree.obj", .data = (const uint8_t *)content, .size = strlen(content)};
+    memset(up, 0, sizeof *up);
+    assert_int_equal(svd_key_compute(NULL, &m, NULL, 0, up->key, &e), SV_OK);
+    up->tmpdir = tmp;
+    up->client = client;
+    up->bytes = svd_dir_bytes(tmp);
+}
+
+static int submit(fx *f, const char *content, const char *client, char key[SVD_KEY_HEX])
+{
+    svd_upload up;
+    char tmp[SVD_STORE_PATH];
+    make_upload(f, content, client, &up, tmp);
+    char *body = NULL;
+    int st = svd_jobs_submit(f->jobs, &up, &body);
+    free(body);
+    if (key) memcpy(key, up.key, SVD_KEY_HEX);
+    return st;
+}
+
+static char *state_of(fx *f, const char *key)
+{
+    char *body = NULL;
+    if (svd_jobs_status(f->jobs, key, &body) != 200) {
+        free(body);
+        return strdup("missing");
+    }
+    cJSON *j = cJSON_Parse(body);
+    free(body);
+    char *s = strdup(cJSON_GetStringValue(cJSON_GetObjectItem(j, "state")));
+    cJSON_Delete(j);
+    return s;
+}
+
+static void assert_state(fx *f, const char *key, const char *want)
+{
+    char *s = state_of(f, key);
+    assert_string_equal(s, want);
+    free(s);
+}
+
+/* Plays a worker that succeeds: writes a result directory and finishes. */
+static void fake_done(fx *f, svd_ticket *t, const char *artifact)
+{
+    sv_error e = {0};
+    char out[SVD_STORE_PATH];
+    assert_int_equal(svd_store_mktemp(f->store, "out", out, &e), SV_OK);
+    assert_int_equal(svd_store_write_file(out, "model.glb", artifact, strlen(artifact), &e), SV_OK);
+    char h[SVD_KEY_HEX], manifest[512];
+    svd_sha256_hex(artifact, strlen(artifact), h);
+    snprintf(manifest, sizeof manifest,
+             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%s\"}]}",
+             t->key, strlen(artifact), h);
+    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e), SV_OK);
+    assert_int_equal(svd_store_install(f->store, out, t->key, "result", &e), SV_OK);
+    svd_jobs_finish(f->jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
+}
+
+static void submit_accepts_new_work_and_answers_known_key_at_once(void **state)
+{
+    fx *f = *state;
+    char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 0 0 0\n", "addr:a", k1), 202);
+    assert_int_equal(submit(f, "v 0 0 0\n", "addr:b", k2), 200);
+    assert_string_equal(k1, k2);
+    assert_state(f, k1, "queued");
+    svd_gauges g;
+    svd_jobs_gauges(f->jobs, &g);
+    assert_int_equal(g.jobs, 1);
+    assert_int_equal(g.queued, 1);
+    /* the duplicate's temp directory is gone */
+    char tmpdir[SVD_STORE_PATH];
+    snprintf(tmpdir, sizeof tmpdir, "%s/tmp", f->root);
+    assert_int_equal(svd_dir_bytes(tmpdir), 0);
+}
+
+static void accepted_jobs_survive_a_crash_and_are_requeued(void **state)
+{
+    fx *f = *state;
+    char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX], k3[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), 202);
+    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), 202);
+    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "GLB1");
+    assert_true(svd_jobs_take(f->jobs, &t)); /* running when the "crash" happens */
+    close_all(f);                            /* no finish: as if killed */
+    open_all(f);
+    assert_state(f, k1, "done");
+    assert_state(f, k2, "queued");
+    assert_state(f, k3, "queued");
+    /* FIFO order survives: k2 then k3 */
+    assert_true(svd_jobs_take(f->jobs, &t));
+    assert_string_equal(t.key, k2);
+    svd_jobs_finish(f->jobs, &t, SVD_OUT_REQUEUE, NULL, NULL, NULL);
+}
+
+static void crashing_job_fails_after_three_attempts_with_reason(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "# poison\n", "addr:a", k), 202);
+    svd_ticket t;
+    for (int i = 1; i <= 3; i++) {
+        assert_true(svd_jobs_take(f->jobs, &t));
+        assert_int_equal(t.attempt, (unsigned)i);
+        svd_jobs_finish(f->jobs, &t, SVD_OUT_RETRY, NULL, "worker killed by signal 11", NULL);
+    }
+    char *body = NULL;
+    assert_int_equal(svd_jobs_status(f->jobs, k, &body), 200);
+    assert_non_null(strstr(body, "\"state\":\"failed\""));
+    assert_non_null(strstr(body, "worker killed by signal 11 on 3 attempts"));
+    free(body);
+    /* the failure is durable */
+    close_all(f);
+    open_all(f);
+    assert_state(f, k, "failed");
+}
+
+static void delete_cancels_queued_and_removes_finished(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), 202);
+    char *body = NULL;
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 200);
+    free(body);
+    assert_state(f, k, "cancelled");
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 200);
+    free(body);
+    assert_state(f, k, "missing");
+    char jd[SVD_STORE_PATH];
+    svd_store_job_path(f->store, k, NULL, jd);
+    struct stat sb;
+    assert_int_not_equal(stat(jd, &sb), 0);
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 404);
+    free(body);
+}
+
+static void corrupt_artifact_is_quarantined_and_job_requeued(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "GLBDATA");
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size;
+    assert_int_equal(svd_jobs_artifact(f->jobs, k, "model.glb", path, &size, sha), 200);
+    assert_int_equal(svd_store_verify(f->store, path, size, sha, NULL), SV_OK);
+    assert_int_equal(svd_jobs_artifact(f->jobs, k, "../inputs.json", path, &size, sha), 404);
+    /* flip a byte (new mtime defeats the verify cache) */
+    usleep(10000);
+    int fd = open(path, O_RDWR);
+    assert_int_equal(pwrite(fd, "X", 1, 0), 1);
+    close(fd);
+    assert_int_equal(svd_store_verify(f->store, path, size, sha, NULL), SV_ERR_INVALID);
+    svd_jobs_result_corrupt(f->jobs, k, path);
+    assert_state(f, k, "queued");
+    char q[SVD_STORE_PATH];
+    snprintf(q, sizeof q, "%s/quarantine", f->root);
+    assert_true(svd_dir_bytes(q) > 0);
+    struct stat sb;
+    assert_int_not_equal(stat(path, &sb), 0);
+}
+
+static void eviction_drops_least_recent_finished_job_never_a_queued_one(void **state)
+{
+    fx *f = *state;
+    char ka[SVD_KEY_HEX], kb[SVD_KEY_HEX], kc[SVD_KEY_HEX], kd[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 1 1 1\n", "addr:a", ka), 202);
+    assert_int_equal(submit(f, "v 2 2 2\n", "addr:a", kb), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "A");
+    svd_gauges g;
+    svd_jobs_gauges(f->jobs, &g);
+    /* limit: what is there now plus a little; the next upload does not fit */
+    f->cfg.store_max_bytes = g.store_bytes + 50;
+    assert_int_equal(submit(f, "v 3 3 3\n", "addr:a", kc), 202); /* evicts the done job */
+    assert_state(f, ka, "missing");
+    assert_state(f, kb, "queued");
+    /* only queued jobs left: nothing can be evicted */
+    f->cfg.store_max_bytes = 10;
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", kd), 507);
+    assert_state(f, kb, "queued");
+    assert_state(f, kc, "queued");
+}
+
+/* A result that has just been installed is a use: when it takes the store
+ * over the limit, an older finished job is evicted, not the new result (whose
+ * last use was its upload, before the others). */
+static void fresh_result_is_not_the_eviction_victim(void **state)
+{
+    fx *f = *state;
+    char ka[SVD_KEY_HEX], kb[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", ka), 202); /* long bake, uploaded first */
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", kb), 202);
+    svd_ticket ta, tb;
+    assert_true(svd_jobs_take(f->jobs, &ta));
+    assert_string_equal(ta.key, ka);
+    assert_true(svd_jobs_take(f->jobs, &tb));
+    fake_done(f, &tb, "B");
+    assert_state(f, kb, "done"); /* B was used after A's upload */
+    svd_gauges g;
+    svd_jobs_gauges(f->jobs, &g);
+    f->cfg.store_max_bytes = g.store_bytes + 10; /* A's result does not fit */
+    char big[101];
+    memset(big, 'A', 100);
+    big[100] = '\0';
+    fake_done(f, &ta, big);
+    svd_jobs_gauges(f->jobs, &g);
+    assert_true(g.store_bytes <= f->cfg.store_max_bytes);
+    assert_state(f, kb, "missing"); /* the older result made room */
+    assert_state(f, ka, "done");    /* the fresh one is served */
+}
+
+static void per_client_cap_answers_429_and_queue_cap_503(void **state)
+{
+    fx *f = *state;
+    f->cfg.queue_per_client = 2;
+    f->cfg.queue_max = 3;
+    assert_int_equal(submit(f, "v 1 0 1\n", "addr:farm", NULL), 202);
+    assert_int_equal(submit(f, "v 1 0 2\n", "addr:farm", NULL), 202);
+    assert_int_equal(submit(f, "v 1 0 3\n", "addr:farm", NULL), 429);
+    assert_int_equal(submit(f, "v 1 0 4\n", "addr:editor", NULL), 202);
+    assert_int_equal(submit(f, "v 1 0 5\n", "addr:editor2", NULL), 503);
+}
+
+static void fair_queue_prefers_client_with_fewer_running_jobs(void **state)
+{
+    fx *f = *state;
+    char f1[SVD_KEY_HEX], f2[SVD_KEY_HEX], e1[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 7 0 1\n", "addr:farm", f1), 202);
+    assert_int_equal(submit(f, "v 7 0 2\n", "addr:farm", f2), 202);
+    assert_int_equal(submit(f, "v 7 0 3\n", "addr:editor", e1), 202);
+    svd_ticket t1, t2;
+    assert_true(svd_jobs_take(f->jobs, &t1));
+    assert_string_equal(t1.key, f1); /* oldest first */
+    assert_true(svd_jobs_take(f->jobs, &t2));
+    assert_string_equal(t2.key, e1); /* the farm already runs one: the editor goes next */
+    svd_jobs_finish(f->jobs, &t1, SVD_OUT_REQUEUE, NULL, NULL, NULL);
+    svd_jobs_finish(f->jobs, &t2, SVD_OUT_REQUEUE, NULL, NULL, NULL);
+}
+
+static void status_reports_stage_progress_and_manifest(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 8 8 8\n", "addr:a", k), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    svd_jobs_progress(f->jobs, &t, "import", 0.0);
+    svd_jobs_progress(f->jobs, &t, "bake", 0.5);
+    char *body = NULL;
+    svd_jobs_status(f->jobs, k, &body);
+    cJSON *j = cJSON_Parse(body);
+    free(body);
+    assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "state")), "running");
+    assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "stage")), "bake");
+    assert_true(cJSON_GetObjectItem(j, "progress")->valuedouble == 0.5);
+    assert_non_null(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "times"), "import"));
+    cJSON_Delete(j);
+    fake_done(f, &t, "X");
+    svd_jobs_status(f->jobs, k, &body);
+    j = cJSON_Parse(body);
+    free(body);
+    cJSON *a = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "manifest"), "artifacts"), 0);
+    assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(a, "name")), "model.glb");
+    assert_int_equal((int)cJSON_GetObjectItem(a, "size")->valuedouble, 1);
+    cJSON_Delete(j);
+}
+
+static void on_wake(void *arg) { (*(int *)arg)++; }
+
+static void waiter_wakes_on_state_change_and_on_deadline(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), 202);
+    int woken = 0;
+    svd_waiter w = {.wake = on_wake, .arg = &woken, .deadline = sv_now() + 100};
+    assert_true(svd_jobs_wait(f->jobs, k, &w));
+    svd_jobs_sweep(f->jobs, sv_now(), false);
+    assert_int_equal(woken, 0);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t)); /* queued -> running */
+    assert_int_equal(woken, 1);
+    svd_waiter w2 = {.wake = on_wake, .arg = &woken, .deadline = sv_now() - 1};
+    assert_true(svd_jobs_wait(f->jobs, k, &w2));
+    svd_jobs_sweep(f->jobs, sv_now(), false);
+    assert_int_equal(woken, 2);
+    fake_done(f, &t, "Y");
+    svd_waiter w3 = {.wake = on_wake, .arg = &woken, .deadline = sv_now() + 100};
+    assert_false(svd_jobs_wait(f->jobs, k, &w3)); /* final: nothing to wait for */
+}
+
+static void orphan_job_directory_without_journal_record_is_removed(void **state)
+{
+    fx *f = *state;
+    char orphan[SVD_STORE_PATH];
+    snprintf(orphan, sizeof orphan, "%s/jobs/%064d", f->root, 0);
+    mkdir(orphan, 0700);
+    close_all(f);
+    open_all(f);
+    struct stat sb;
+    assert_int_not_equal(stat(orphan, &sb), 0);
+}
+
+int main(void)
+{
+#define T(fn) cmocka_unit_test_setup_teardown(fn, setup, teardown)
+    const struct CMUnitTest tests[] = {
+        T(submit_accepts_new_work_and_answers_known_key_at_once),
+        T(accepted_jobs_survive_a_crash_and_are_requeued),
+        T(crashing_job_fails_after_three_attempts_with_reason),
+        T(delete_cancels_queued_and_removes_finished),
+        T(corrupt_artifact_is_quarantined_and_job_requeued),
+        T(eviction_drops_least_recent_finished_job_never_a_queued_one),
+        T(fresh_result_is_not_the_eviction_victim),
+        T(per_client_cap_answers_429_and_queue_cap_503),
+        T(fair_queue_prefers_client_with_fewer_running_jobs),
+        T(status_reports_stage_progress_and_manifest),
+        T(waiter_wakes_on_state_change_and_on_deadline),
+        T(orphan_job_directory_without_journal_record_is_removed),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,148 @@
+/* test_spec.c — strict bake-spec parsing (core/spec.c) and scene conversions (core/scene.c). */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "spec.h"
+
+static sv_status parse(const char *json, sv_spec *s, sv_error *e)
+{
+    memset(e, 0, sizeof *e);
+    return sv_spec_parse(json, strlen(json), s, e);
+}
+
+static void empty_spec_gives_every_default(void **state)
+{
+    (void)state;
+    sv_spec s;
+    sv_error e;
+    assert_int_equal(parse("{}", &s, &e), SV_OK);
+    assert_string_equal(s.method, SV_DEFAULT_METHOD);
+    assert_int_equal(s.max_atlas, 2048);
+    assert_true(fabs(s.alpha_threshold - 0.3) < 1e-12);
+    assert_int_equal(s.eval_views, 24);
+    assert_int_equal(s.eval_size_count, 4);
+    assert_int_equal(s.eval_sizes[0], 256);
+    assert_int_equal(s.scene.viewer, SV_VIEWER_ORBIT);
+    assert_int_equal(s.scene.lighting, SV_LIGHTING_STATIC);
+    assert_int_equal(s.seed, 1);
+    sv_spec_free(&s);
+    /* a zero-length spec part means {} */
+    assert_int_equal(sv_spec_parse("", 0, &s, &e), SV_OK);
+    sv_spec_free(&s);
+}
+
+static void full_spec_sets_every_section(void **state)
+{
+    (void)state;
+    sv_spec s;
+    sv_error e;
+    const char *j =
+        "{\"method\":\"crossed_quads\",\"crossed_quads\":{\"planes\":3},"
+        "\"scene\":{\"lighting\":\"dynamic\",\"viewer\":\"ground\",\"distance\":[5,50],"
+        "\"shadows\":true,\"ambient_occlusion\":true,\"light_dir\":[0,2,0],\"fov_deg\":45,"
+        "\"screen_height\":720,\"camera_speed\":3},"
+        "\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
+        "\"classify\":{\"foliage\":[\"Leaf*\"],\"trunk\":[\"Bark\",\"Pot\"]},"
+        "\"bake\":{\"max_atlas\":1024,\"alpha_threshold\":0.5},"
+        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2},\"seed\":7}";
+    assert_int_equal(parse(j, &s, &e), SV_OK);
+    assert_string_equal(s.method, "crossed_quads");
+    assert_non_null(s.settings);
+    assert_int_equal(s.scene.lighting, SV_LIGHTING_DYNAMIC);
+    assert_int_equal(s.scene.viewer, SV_VIEWER_GROUND);
+    assert_true(s.scene.shadows && s.scene.ambient_occlusion);
+    assert_true(fabs(s.scene.light_dir[1] - 1.0) < 1e-12); /* normalised */
+    assert_true(fabs(s.unit_scale - 0.01) < 1e-12);
+    assert_int_equal(s.up_axis, 'Z');
+    assert_int_equal(s.foliage_count, 1);
+    assert_int_equal(s.trunk_count, 2);
+    assert_string_equal(s.trunk[1], "Pot");
+    assert_int_equal(s.max_atlas, 1024);
+    assert_int_equal(s.eval_size_count, 2);
+    assert_int_equal(s.eval_sizes[0], 128); /* sorted largest first */
+    assert_int_equal(s.seed, 7);
+    sv_spec_free(&s);
+}
+
+static void expect_error(const char *json, const char *needle)
+{
+    sv_spec s;
+    sv_error e;
+    assert_int_equal(parse(json, &s, &e), SV_ERR_SPEC);
+    if (!strstr(e.message, needle)) fail_msg("message '%s' lacks '%s'", e.message, needle);
+    sv_spec_free(&s); /* safe after failure */
+}
+
+static void bad_specs_are_refused_naming_the_key(void **state)
+{
+    (void)state;
+    expect_error("{", "invalid JSON");
+    expect_error("[]", "expected a JSON object");
+    expect_error("{\"colour\":1}", "unknown key 'colour'");
+    expect_error("{\"method\":\"nope\"}", "unknown method 'nope'");
+    expect_error("{\"method\":3}", "method");
+    expect_error("{\"scene\":{\"viewer\":\"underwater\"}}", "scene.viewer");
+    expect_error("{\"scene\":{\"lighting\":1}}", "scene.lighting");
+    expect_error("{\"scene\":{\"distance\":[10,5]}}", "scene.distance");
+    expect_error("{\"scene\":{\"light_dir\":[0,0,0]}}", "scene.light_dir");
+    expect_error("{\"scene\":{\"ambient_occlusion\":true}}", "scene.ambient_occlusion");
+    expect_error("{\"scene\":{\"fov_deg\":1e308}}", "scene.fov_deg");
+    expect_error("{\"scene\":{\"sky\":1}}", "sky");
+    expect_error("{\"scene\":3}", "scene: expected an object");
+    expect_error("{\"import\":{\"units\":\"furlong\"}}", "import.units");
+    expect_error("{\"bake\":{\"max_atlas\":1000}}", "power of two");
+    expect_error("{\"bake\":{\"max_atlas\":1e30}}", "bake.max_atlas");
+    expect_error("{\"bake\":{\"alpha_threshold\":\"high\"}}", "bake.alpha_threshold");
+    expect_error("{\"evaluate\":{\"sizes\":[]}}", "evaluate.sizes");
+    expect_error("{\"evaluate\":{\"sizes\":[12.5]}}", "evaluate.sizes[0]");
+    expect_error("{\"classify\":{\"foliage\":\"leaf\"}}", "classify.foliage");
+    expect_error("{\"classify\":{\"foliage\":[\"\"]}}", "classify.foliage[0]");
+    expect_error("{\"seed\":-1}", "seed");
+    expect_error("{\"seed\":1.5}", "seed");
+    expect_error("{\"method\":\"crossed_quads\",\"crossed_quads\":{\"planes\":9}}",
+                 "crossed_quads.planes");
+    expect_error("{\"method\":\"crossed_quads\",\"crossed_quads\":{\"zzz\":1}}", "zzz");
+}
+
+static void deeply_nested_json_is_refused_without_crashing(void **state)
+{
+    (void)state;
+    static char deep[200002];
+    for (int i = 0; i < 100000; i++) {
+        deep[i] = '[';
+        deep[100000 + i] = ']';
+    }
+    sv_spec s;
+    sv_error e = {0};
+    assert_int_equal(sv_spec_parse(deep, 200000, &s, &e), SV_ERR_SPEC);
+    sv_spec_free(&s);
+}
+
+static void scene_pixels_and_distance_are_inverse(void **state)
+{
+    (void)state;
+    sv_scene sc;
+    sv_scene_defaults(&sc);
+    double d = sv_scene_distance_for_pixels(&sc, 10.0, 64);
+    assert_true(fabs(sv_scene_pixels(&sc, 10.0, d) - 64) < 1e-9);
+    /* 60° fov, 1080 px: a 10 m tree at 10 m spans 10/(2·10·tan30°)·1080 px */
+    assert_true(fabs(sv_scene_pixels(&sc, 10, 10) - 1080 / (2 * tan(M_PI / 6))) < 1e-6);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(empty_spec_gives_every_default),
+        cmocka_unit_test(full_spec_sets_every_section),
+        cmocka_unit_test(bad_specs_are_refused_naming_the_key),
+        cmocka_unit_test(deeply_nested_json_is_refused_without_crashing),
+        cmocka_unit_test(scene_pixels_and_distance_are_inverse),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,526 @@
+/* test_stochastic.c — stochastic simplification (core/stochastic.c): the
+ * formulas of Fichtner / Cook et al. against hand-computed values and limits,
+ * the leaf order, levels built on a hand-made tree, and on a real tree (the
+ * oak from SYLVA_DATA) the visible area of each level measured by rendering. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "evaluate.h"
+#include "import.h"
+#include "render.h"
+#include "stochastic.h"
+
+#define CLOSE(a, b, tol) assert_true(fabs((a) - (b)) <= (tol))
+
+/* ---- formulas ---- */
+
+static void lambda_matches_hand_computed_values(void **state)
+{
+    (void)state;
+    CLOSE(sv_stochastic_b(10, 20), 0.25, 1e-15);
+    assert_true(sv_stochastic_b(10, 5) == 1.0);  /* nearer than d0: full detail */
+    CLOSE(sv_stochastic_lambda(0.25, 0.5), 0.25, 1e-12); /* h = 1/2: λ = b */
+    CLOSE(sv_stochastic_lambda(0.25, 0.25), 0.5, 1e-12); /* b = h: half the leaves */
+    CLOSE(sv_stochastic_lambda(0.09, 0.3), 0.25, 1e-12); /* 0.09 = 0.3²: λ = 0.5² */
+    /* h = 0.7: λ = 0.04^(ln 0.5 / ln 0.7) = 0.04^1.94335 */
+    CLOSE(sv_stochastic_lambda(0.04, 0.7), exp(log(0.04) * log(0.5) / log(0.7)), 1e-12);
+    assert_true(sv_stochastic_lambda(1.0, 0.5) == 1.0);
+    assert_true(sv_stochastic_lambda(7.0, 0.5) == 1.0);
+    assert_true(sv_stochastic_lambda(0.0, 0.5) == 0.0);
+    assert_true(sv_stochastic_motion_b(0) == 1.0);
+    CLOSE(sv_stochastic_motion_b(3), 0.25, 1e-15);
+}
+
+static void motion_term_applies_only_with_camera_motion(void **state)
+{
+    (void)state;
+    sv_stochastic_settings s;
+    assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
+    sv_scene sc;
+    sv_scene_defaults(&sc);
+    double still = sv_stochastic_lambda_at(&s, &sc, 20);
+    CLOSE(still, 0.25, 1e-12); /* d0 = distance_min = 10, h = 0.5 */
+    sc.camera_speed = 10;
+    double moving = sv_stochastic_lambda_at(&s, &sc, 20);
+    double m = 10 * (1.0 / 60) * sv_scene_pixels(&sc, 1.0, 20);
+    CLOSE(moving, 0.25 / (1 + m), 1e-12);
+    /* the inverse: the distance where λ falls to 0.25 with no motion is 20 m */
+    sc.camera_speed = 0;
+    CLOSE(sv_stochastic_distance_for_lambda(&s, &sc, 0.25), 20, 1e-6);
+    assert_true(sv_stochastic_distance_for_lambda(&s, &sc, 1.0) == 0);
+}
+
+static void area_scale_matches_hand_values(void **state)
+{
+    (void)state;
+    CLOSE(sv_stochastic_area_scale(0.5, 0.5), 1.5, 1e-12);      /* (1 − 0.25)/0.5 */
+    CLOSE(sv_stochastic_area_scale(0.2, 0.25), (1 - pow(0.8, 4)) / 0.2, 1e-12);
+    CLOSE(sv_stochastic_area_scale(1e-4, 0.1), (1 - pow(1 - 1e-4, 10)) / 1e-4, 1e-9);
+}
+
+static void area_scale_is_one_at_full_detail_and_bounded_when_small(void **state)
+{
+    (void)state;
+    const double rs[] = {0, 1e-300, 1e-12, 1e-4, 0.5, 1 - 1e-16, 1, 2};
+    const double ls[] = {0, 1e-300, 1e-9, 1e-3, 0.1, 0.5, 0.999999, 1, 1.5};
+    for (size_t i = 0; i < sizeof rs / sizeof rs[0]; i++)
+        for (size_t j = 0; j < sizeof ls / sizeof ls[0]; j++) {
+            double s = sv_stochastic_area_scale(rs[i], ls[j]);
+            assert_true(isfinite(s));
+            assert_true(s >= 1.0);
+            double l = ls[j] > 1e-9 ? fmin(ls[j], 1.0) : 1e-9;
+            if (rs[i] > 0) assert_true(s <= fmin(1.0 / l, 1.0 / fmin(rs[i], 1)) * (1 + 1e-12));
+            if (ls[j] >= 1) assert_true(s == 1.0);
+        }
+    /* λ → 1: s → 1 continuously */
+    CLOSE(sv_stochastic_area_scale(1e-3, 1 - 1e-9), 1.0, 1e-6);
+    /* r → 0: s → 1/λ (no overlap to compensate) */
+    CLOSE(sv_stochastic_area_scale(1e-300, 0.1), 10.0, 1e-9);
+    /* λ → 0: s → 1/r */
+    CLOSE(sv_stochastic_area_scale(0.01, 1e-6), 100.0, 1e-6);
+    /* r = 1: one leaf covers everything, no scaling */
+    assert_true(sv_stochastic_area_scale(1.0, 0.1) == 1.0);
+}
+
+static void contrast_moves_colour_towards_the_mean_by_sqrt_lambda(void **state)
+{
+    (void)state;
+    CLOSE(sv_stochastic_contrast(0.8, 0.5, 0.25), 0.65, 1e-15);
+    CLOSE(sv_stochastic_contrast(0.2, 0.5, 0.04), 0.44, 1e-15);
+    assert_true(sv_stochastic_contrast(0.8, 0.5, 1.0) == 0.8);
+    assert_true(sv_stochastic_contrast(0.8, 0.5, 0.0) == 0.5);
+    assert_true(sv_stochastic_contrast(0.8, 0.5, 2.0) == 0.8);
+}
+
+static void fade_window_is_centred_on_lambda_and_closed_at_one(void **state)
+{
+    (void)state;
+    double lo, hi;
+    sv_stochastic_fade(0.5, 0.1, &lo, &hi);
+    CLOSE(lo, 0.4, 1e-15);
+    CLOSE(hi, 0.6, 1e-15);
+    sv_stochastic_fade(0.95, 0.1, &lo, &hi);
+    CLOSE(lo, 0.9, 1e-12);
+    CLOSE(hi, 1.0, 1e-12);
+    sv_stochastic_fade(1.0, 0.1, &lo, &hi);
+    assert_true(lo == 1.0 && hi == 1.0);
+    sv_stochastic_fade(0.05, 0.1, &lo, &hi);
+    assert_true(lo == 0.0);
+}
+
+static void ratio_from_coverage_inverts_cooks_model(void **state)
+{
+    (void)state;
+    const double rs[] = {1e-5, 1e-4, 1e-3, 0.2};
+    const uint32_t ns_[] = {500, 500, 500, 2}, n_[] = {5000, 5000, 5000, 20};
+    for (size_t i = 0; i < 4; i++) {
+        double r = rs[i];
+        uint32_t n = n_[i], ns = ns_[i];
+        double q = (1 - pow(1 - r, ns)) / (1 - pow(1 - r, n));
+        double got = sv_stochastic_ratio_from_coverage(q, ns, n);
+        assert_true(fabs(got - r) <= 1e-3 * r);
+    }
+    assert_true(sv_stochastic_ratio_from_coverage(0.05, 10, 100) == 0.0); /* q <= n_sub/n */
+    assert_true(sv_stochastic_ratio_from_coverage(1.0, 10, 100) == 1.0);
+    assert_true(sv_stochastic_ratio_from_coverage(NAN, 10, 100) == 0.0);
+    assert_true(sv_stochastic_count(0.1, 5280) == 528);
+    assert_true(sv_stochastic_count(0.001, 10) == 1);
+    assert_true(sv_stochastic_count(1, 10) == 10);
+}
+
+/* ---- a hand-made tree ---- */
+
+typedef struct toy {
+    sv_mesh *mesh;
+    sv_classification cls;
+    sv_leaves leaves;
+    sv_scene scene;
+    sv_method_input in;
+} toy;
+
+/* n square leaves (2 triangles, 4 vertices each) on a grid; leaves with odd
+ * index use material 1 (dark), even material 0 (bright); untextured. */
+static void toy_make(toy *t, uint32_t n)
+{
+    memset(t, 0, sizeof *t);
+    t->mesh = sv_mesh_create(4 * n, 2 * n, 2, 0);
+    assert_non_null(t->mesh);
+    sv_mesh *m = t->mesh;
+    m->materials[0].base_color[0] = 0.8f;
+    m->materials[0].base_color[1] = 0.8f;
+    m->materials[0].base_color[2] = 0.8f;
+    m->materials[1].base_color[0] = 0.2f;
+    m->materials[1].base_color[1] = 0.2f;
+    m->materials[1].base_color[2] = 0.2f;
+    t->cls.tri_part = calloc(2 * n, 1);
+    t->leaves.leaves = calloc(n, sizeof(sv_leaf));
+    t->leaves.tris = calloc(2 * n, sizeof(uint32_t));
+    t->leaves.count = n;
+    t->leaves.tri_count = 2 * n;
+    for (uint32_t i = 0; i < n; i++) {
+        double cx = (double)(i % 10), cy = (double)(i / 10), cz = 0.1 * (i % 3);
+        const double du[4] = {-0.2, 0.2, 0.2, -0.2}, dv[4] = {-0.2, -0.2, 0.2, 0.2};
+        for (int k = 0; k < 4; k++) {
+            m->positions[3 * (4 * i + k)] = (float)(cx + du[k]);
+            m->positions[3 * (4 * i + k) + 1] = (float)(cy + dv[k]);
+            m->positions[3 * (4 * i + k) + 2] = (float)cz;
+            m->normals[3 * (4 * i + k) + 2] = 1;
+        }
+        const uint32_t ix[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++) m->indices[6 * i + k] = 4 * i + ix[k];
+        m->tri_material[2 * i] = m->tri_material[2 * i + 1] = i % 2;
+        t->cls.tri_part[2 * i] = t->cls.tri_part[2 * i + 1] = SV_PART_FOLIAGE;
+        sv_leaf *l = &t->leaves.leaves[i];
+        l->centre[0] = cx;
+        l->centre[1] = cy;
+        l->centre[2] = cz;
+        l->normal[2] = 1;
+        l->area = 0.16;
+        l->radius = 0.2 * sqrt(2);
+        l->first = 2 * i;
+        l->count = 2;
+        t->leaves.tris[2 * i] = 2 * i;
+        t->leaves.tris[2 * i + 1] = 2 * i + 1;
+    }
+    t->cls.foliage_triangles = 2 * n;
+    sv_scene_defaults(&t->scene);
+    t->in.mesh = m;
+    t->in.cls = &t->cls;
+    t->in.leaves = &t->leaves;
+    sv_mesh_sphere(m, t->in.centre, &t->in.radius);
+    t->in.scene = &t->scene;
+    t->in.seed = 7;
+}
+
+static void toy_free(toy *t)
+{
+    sv_mesh_destroy(t->mesh);
+    free(t->cls.tri_part);
+    free(t->leaves.leaves);
+    free(t->leaves.tris);
+}
+
+static void order_is_a_deterministic_permutation_for_a_seed(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 200);
+    uint32_t a[200], b[200], c[200], d[200];
+    for (int mode = 0; mode < 2; mode++) {
+        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, a, NULL), SV_OK);
+        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, b, NULL), SV_OK);
+        assert_int_equal(sv_stochastic_order(&t.leaves, 8, (sv_stoch_order_mode)mode, c, NULL), SV_OK);
+        assert_memory_equal(a, b, sizeof a);
+        assert_memory_not_equal(a, c, sizeof a);
+        memset(d, 0, sizeof d);
+        for (int i = 0; i < 200; i++) {
+            assert_true(a[i] < 200);
+            d[a[i]]++;
+        }
+        for (int i = 0; i < 200; i++) assert_int_equal(d[i], 1);
+        /* not the identity: the order is shuffled */
+        int fixed = 0;
+        for (int i = 0; i < 200; i++) fixed += a[i] == (uint32_t)i;
+        assert_true(fixed < 20);
+    }
+    toy_free(&t);
+}
+
+static void area_order_puts_larger_leaves_first_on_average(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 200);
+    for (uint32_t i = 0; i < 200; i++) t.leaves.leaves[i].area = i < 100 ? 1.0 : 0.01;
+    uint32_t o[200];
+    assert_int_equal(sv_stochastic_order(&t.leaves, 3, SV_STOCH_ORDER_AREA, o, NULL), SV_OK);
+    int big_first = 0;
+    for (int i = 0; i < 50; i++) big_first += o[i] < 100;
+    assert_true(big_first >= 45);
+    toy_free(&t);
+}
+
+static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 100);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.25, 0.1, 0.01]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    sv_stoch_result res;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &res, &err), SV_OK);
+    assert_int_equal(res.level_count, 5);
+    for (uint32_t k = 0; k < res.level_count; k++) {
+        const sv_stoch_level *L = &res.levels[k];
+        const sv_mesh *g = L->geometry;
+        assert_int_equal(L->leaves, sv_stochastic_count(L->lambda, 100));
+        assert_int_equal(g->triangle_count, 2 * L->leaves);
+        assert_int_equal(g->vertex_count, 4 * L->leaves);
+        for (uint32_t i = 0; i < 3 * g->triangle_count; i++) assert_true(g->indices[i] < g->vertex_count);
+        for (uint32_t i = 0; i < g->triangle_count; i++) assert_true(g->tri_material[i] < g->material_count);
+        CLOSE(L->area_scale, sv_stochastic_area_scale(0.01, L->lambda), 1e-12);
+        double g2 = sqrt(L->area_scale);
+        for (uint32_t v = 0; v < g->vertex_count; v++) {
+            /* each vertex lies √s × its original offset from its leaf centre */
+            uint32_t leaf = res.order[v / 4];
+            const double *c = t.leaves.leaves[leaf].centre;
+            const float *p = &g->positions[3 * v], *c2 = &L->leaf_centre[3 * v];
+            double dd = 0;
+            for (int a = 0; a < 3; a++) {
+                assert_true(fabs(c2[a] - c[a]) < 1e-5);
+                dd += (p[a] - c[a]) * (p[a] - c[a]);
+            }
+            CLOSE(sqrt(dd), g2 * 0.2 * sqrt(2), 1e-4);
+            CLOSE(L->leaf_order[v], ((v / 4) + 0.5) / 100.0, 1e-6);
+        }
+        /* the prefix follows the order */
+        for (uint32_t i = 0; i < L->leaves; i++) CLOSE(g->positions[12 * i] - t.leaves.leaves[res.order[i]].centre[0], -0.2 * g2, 1e-4);
+    }
+    /* λ = 1 is the full reordered mesh: unchanged leaves, no contrast copies */
+    assert_true(res.levels[0].area_scale == 1.0);
+    assert_int_equal(res.levels[0].contrast_materials, 0);
+    sv_stoch_result_free(&res);
+    sv_stoch_result_free(NULL);
+    toy_free(&t);
+}
+
+static double lum(const float *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+
+static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 100);
+    /* darken both so brightening the dark leaves has headroom */
+    for (int m = 0; m < 2; m++)
+        for (int c = 0; c < 3; c++) t.mesh->materials[m].base_color[c] *= 0.5f;
+    sv_stochastic_settings s;
+    assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
+    sv_stoch_result res;
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &res, NULL), SV_OK);
+    double mean = 0.5 * (0.4 + 0.1); /* equal areas */
+    CLOSE(res.mean_color[0], mean, 1e-6);
+    const sv_stoch_level *L = &res.levels[2]; /* λ = 0.25 */
+    assert_true(L->contrast_materials >= 2);
+    for (uint32_t i = 0; i < L->geometry->triangle_count; i++) {
+        const sv_material *m = &L->geometry->materials[L->geometry->tri_material[i]];
+        double y0 = lum(t.mesh->materials[i / 2 < L->leaves ? res.order[i / 2] % 2 : 0].base_color);
+        double want = sv_stochastic_contrast(y0, mean, 0.25);
+        /* quantised in steps of 2^(1/16): within half a step */
+        assert_true(fabs(log2(lum(m->base_color) / want)) <= 1.0 / 32 + 1e-6);
+    }
+    /* switched off: the source materials only */
+    s.contrast_preservation = false;
+    sv_stoch_result r2;
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &r2, NULL), SV_OK);
+    assert_int_equal(r2.levels[2].contrast_materials, 0);
+    sv_stoch_result_free(&r2);
+    sv_stoch_result_free(&res);
+    toy_free(&t);
+}
+
+static void settings_are_strict_and_the_method_needs_r(void **state)
+{
+    (void)state;
+    sv_stochastic_settings s;
+    sv_error err = {0};
+    const char *bad[] = {"{\"levels\": [0.5, 0.7]}", "{\"levels\": [0]}", "{\"h\": 1}",
+                         "{\"order\": \"best\"}", "{\"bogus\": 1}", "{\"levels\": []}"};
+    const char *key[] = {"levels[1]", "levels[0]", "stochastic.h", "stochastic.order", "bogus",
+                         "stochastic.levels"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        cJSON *j = cJSON_Parse(bad[i]);
+        assert_int_equal(sv_stochastic_parse(j, &s, &err), SV_ERR_SPEC);
+        assert_non_null(strstr(err.message, key[i]));
+        cJSON_Delete(j);
+    }
+    assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
+    assert_int_equal(s.level_count, 4);
+    assert_true(s.levels[0] == 1 && s.levels[3] == 0.1 && s.h == 0.5);
+
+    toy t;
+    toy_make(&t, 40);
+    const sv_method *m = sv_method_find("stochastic");
+    assert_non_null(m);
+    sv_stand_in si = {0};
+    assert_int_equal(m->run(&t.in, NULL, &si, &err), SV_ERR_INVALID);
+    assert_non_null(strstr(err.message, "visible_ratio"));
+    cJSON *j = cJSON_Parse("{\"visible_ratio\": 0.01}");
+    assert_int_equal(m->run(&t.in, j, &si, &err), SV_OK);
+    cJSON_Delete(j);
+    assert_int_equal(si.lod_count, 4);
+    assert_string_equal(si.lods[0].name, "full");
+    assert_string_equal(si.lods[1].name, "stochastic50");
+    assert_int_equal(si.lods[0].trunk, SV_TRUNK_MESH);
+    assert_int_equal(si.lods[3].trunk, SV_TRUNK_SIMPLIFIED);
+    assert_int_equal(si.lods[3].geometry->triangle_count, 2 * 4);
+    assert_int_equal(si.lods[0].quad_count, 0);
+    sv_stand_in_free(&si);
+    toy_free(&t);
+}
+
+/* ---- a real tree: visible area by rendering ---- */
+
+typedef struct cover {
+    sv_renderer *ren;
+    sv_gpu_mesh *g;
+    double centre[3], radius;
+} cover;
+
+#define VIEWS 6
+#define SIZE 384
+
+static sv_status count_pixels(void *user, const uint32_t *tris, uint32_t n, double *covered,
+                              sv_error *err)
+{
+    cover *c = user;
+    double dirs[3 * VIEWS];
+    sv_eval_place_views(SV_VIEWER_ORBIT, VIEWS, dirs);
+    *covered = 0;
+    for (int v = 0; v < VIEWS; v++) {
+        sv_camera cam;
+        sv_eval_camera(c->centre, c->radius, &dirs[3 * v], &cam);
+        sv_render_options ro = {0};
+        sv_image img = {0};
+        sv_status st = sv_render(c->ren, c->g, tris, n, &cam, &ro, SIZE, SIZE, &img, NULL, err);
+        if (st) return st;
+        for (size_t i = 0; i < (size_t)SIZE * SIZE; i++) *covered += ((uint8_t *)img.data)[4 * i + 3] >= 128;
+        sv_image_free(&img);
+    }
+    return SV_OK;
+}
+
+static uint8_t *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long sz = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = sz > 0 ? malloc((size_t)sz) : NULL;
+    if (b && fread(b, 1, (size_t)sz, f) != (size_t)sz) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    *n = (size_t)sz;
+    return b;
+}
+
+/* Visible (covered) area of each level's geometry relative to the full
+ * tree's foliage, with and without area preservation. */
+static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state)
+{
+    (void)state;
+    const char *dir = getenv("SYLVA_DATA");
+    if (!dir) {
+        print_message("skipped: SYLVA_DATA not set (real-tree visible area)\n");
+        return;
+    }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", dir);
+    size_t n = 0;
+    uint8_t *data = slurp(path, &n);
+    if (!data) {
+        print_message("skipped: %s not readable\n", path);
+        return;
+    }
+    sv_file f = {"oak_large.glb", data, n};
+    sv_error err = {0};
+    sv_mesh *m = NULL;
+    assert_int_equal(sv_import(&f, 1, NULL, &m, NULL, &err), SV_OK);
+    sv_classification cls;
+    sv_leaves lv;
+    assert_int_equal(sv_classify(m, NULL, &cls, &err), SV_OK);
+    assert_int_equal(sv_leaves_build(m, &cls, &lv, &err), SV_OK);
+    sv_renderer *ren = NULL;
+    if (sv_renderer_create(SIZE, &ren, &err) != SV_OK) {
+        print_message("skipped: no OSMesa context: %s\n", err.message);
+        goto done;
+    }
+    cover c = {ren, NULL, {0, 0, 0}, 0};
+    sv_mesh_sphere(m, c.centre, &c.radius);
+    assert_int_equal(sv_gpu_mesh_upload(ren, m, &c.g, &err), SV_OK);
+    sv_scene sc;
+    sv_scene_defaults(&sc);
+    sv_method_input in = {m, &cls, &lv, {c.centre[0], c.centre[1], c.centre[2]}, c.radius, &sc, 1};
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.25, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    uint32_t *order = calloc(lv.count, sizeof *order);
+    assert_int_equal(sv_stochastic_order(&lv, 1, s.order, order, NULL), SV_OK);
+    sv_stoch_ratio ratio;
+    assert_int_equal(sv_stochastic_measure_ratio(&lv, order, 0.1, count_pixels, &c, &ratio, &err), SV_OK);
+    free(order);
+    assert_true(ratio.r > 0 && ratio.r < 0.05);
+    double rel[2][4];
+    for (int pres = 1; pres >= 0; pres--) {
+        s.area_preservation = pres;
+        sv_stoch_result res;
+        assert_int_equal(sv_stochastic_build(&in, &s, ratio.r, &res, &err), SV_OK);
+        double full = 0;
+        for (uint32_t k = 0; k < res.level_count; k++) {
+            sv_gpu_mesh *gg = NULL;
+            assert_int_equal(sv_gpu_mesh_upload(ren, res.levels[k].geometry, &gg, &err), SV_OK);
+            cover cl = c;
+            cl.g = gg;
+            double a = 0;
+            assert_int_equal(count_pixels(&cl, NULL, 0, &a, &err), SV_OK);
+            sv_gpu_mesh_free(gg);
+            if (k == 0) full = a;
+            rel[pres][k] = a / full;
+        }
+        sv_stoch_result_free(&res);
+    }
+    print_message("oak: r = %.3g; visible area / full at λ = 1, .5, .25, .1: preserved %.3f %.3f %.3f "
+                  "%.3f, not preserved %.3f %.3f %.3f %.3f\n",
+                  ratio.r, rel[1][0], rel[1][1], rel[1][2], rel[1][3], rel[0][0], rel[0][1],
+                  rel[0][2], rel[0][3]);
+    /* Stated tolerance: within 30% of the full tree's visible area at every
+     * level down to λ = 0.1 (measured: +6%, +13%, +25% — √s-scaled leaves at
+     * the crown's edge widen the silhouette, which Cook's fixed-region model
+     * ignores), and at every λ < 1 less than half the error without it. */
+    for (int k = 0; k < 4; k++) assert_true(fabs(rel[1][k] - 1.0) <= 0.30);
+    for (int k = 1; k < 4; k++) assert_true(fabs(rel[1][k] - 1.0) < 0.5 * fabs(rel[0][k] - 1.0));
+    /* without area preservation λ = 0.1 loses far more than the tolerance */
+    assert_true(rel[0][3] < 0.6);
+    sv_gpu_mesh_free(c.g);
+done:
+    sv_renderer_destroy(ren);
+    sv_leaves_free(&lv);
+    sv_classification_free(&cls);
+    sv_mesh_destroy(m);
+    free(data);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(lambda_matches_hand_computed_values),
+        cmocka_unit_test(motion_term_applies_only_with_camera_motion),
+        cmocka_unit_test(area_scale_matches_hand_values),
+        cmocka_unit_test(area_scale_is_one_at_full_detail_and_bounded_when_small),
+        cmocka_unit_test(contrast_moves_colour_towards_the_mean_by_sqrt_lambda),
+        cmocka_unit_test(fade_window_is_centred_on_lambda_and_closed_at_one),
+        cmocka_unit_test(ratio_from_coverage_inverts_cooks_model),
+        cmocka_unit_test(order_is_a_deterministic_permutation_for_a_seed),
+        cmocka_unit_test(area_order_puts_larger_leaves_first_on_average),
+        cmocka_unit_test(every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres),
+        cmocka_unit_test(contrast_bins_pull_leaf_luminance_towards_the_mean),
+        cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
+        cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
