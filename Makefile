@@ -7,18 +7,21 @@ CC       ?= cc
 CXX      ?= c++
 PKGS     := assimp OpenImageIO osmesa libcjson libmicrohttpd libcurl libcrypto cmocka libseccomp
 # Foreign headers as -isystem so -Werror applies to our code only.
-PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null | sed 's/-I/-isystem /g')
-PKG_LIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lmeshoptimizer
+# Evaluated lazily, once, at the first recipe that uses them: on a fresh
+# machine the packages (and their .pc files) only exist after $(DEPS_STAMP)
+# has run, which is after this Makefile was read.
+PKG_CFLAGS = $(eval PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null | sed 's/-I/-isystem /g'))$(PKG_CFLAGS)
+PKG_LIBS   = $(eval PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lmeshoptimizer)$(PKG_LIBS)
 
 ifeq ($(SANITIZE),1)
 SAN_FLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 endif
 OPT      ?= -O2 -g
 WARN     := -Wall -Wextra -Werror
-CPPFLAGS_SV := -Icore/include -Iserver -Iclient -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+CPPFLAGS_SV = -Icore/include -Iserver -Iclient -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
 SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(SAN_FLAGS)
 SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
-LDLIBS_SV   := $(PKG_LIBS) -lpthread -lm
+LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
 
 
 CORE_C   := $(wildcard core/*.c)

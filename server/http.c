@@ -37,7 +37,9 @@ struct svd_http {
     uint16_t port;
 };
 
-enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT };
+/* REQ_DRAIN: a PUT of a key already held, its body read and dropped before
+ * the answer so the connection stays open (see upload_begin). */
+enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT, REQ_DRAIN };
 
 typedef struct upload {
     svd_multipart *mp;
@@ -65,6 +67,7 @@ typedef struct req {
     svd_route_match m;
     char client[96];
     upload *up;
+    uint64_t drained;            /* REQ_DRAIN: body bytes read and dropped */
     /* long-poll */
     pthread_mutex_t mu;
     svd_waiter waiter;
@@ -256,8 +259,22 @@ static enum MHD_Result upload_begin(req *q, int *answered)
             return send_error(h, c, q->m.route, 413, "too_large", msg);
         }
     }
-    /* A PUT of a key we already hold answers at once: the body is not needed. */
+    /* A PUT of a key we already hold does not need its body. With
+     * "Expect: 100-continue" the client has not sent it yet: answer at once
+     * (the body never comes). Without, the body is already on its way, and an
+     * answer now makes libmicrohttpd close the connection with body bytes
+     * unread: the kernel resets it, and the peer can lose the answer or fail
+     * its next write. Behind nginx (which never forwards Expect) that reads
+     * as a failed node: nginx marks a healthy node down for fail_timeout and
+     * sends its keys to another node, which bakes them again. So the body is
+     * read and dropped first (REQ_DRAIN), then answered on a live connection. */
     if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key)) {
+        const char *ex = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_EXPECT);
+        if (!ex || strcasecmp(ex, "100-continue") != 0) {
+            q->kind = REQ_DRAIN;
+            *answered = 0;
+            return MHD_YES;
+        }
         char *body = NULL;
         int st = svd_jobs_status(h->jobs, q->m.key, &body);
         return send_json(h, c, q->m.route, (unsigned)st, body);
@@ -637,6 +654,21 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             return MHD_YES;
         }
         return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+    }
+    if (q->kind == REQ_DRAIN) {
+        if (*upload_data_size) {
+            q->drained += *upload_data_size;
+            *upload_data_size = 0;
+            /* only a chunked body can get here: Content-Length was checked */
+            if (q->drained > h->cfg->max_upload_bytes) {
+                svd_metrics_request(h->metrics, q->m.route, 413);
+                return MHD_NO;
+            }
+            return MHD_YES;
+        }
+        char *body = NULL;
+        int st = svd_jobs_status(h->jobs, q->m.key, &body);
+        return send_json(h, c, q->m.route, (unsigned)st, body);
     }
     if (q->kind == REQ_UPLOAD) {
         upload *u = q->up;

@@ -919,13 +919,15 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
     j->stage = out == SVD_OUT_DONE ? j->stage : -1;
     j->cancel = false;
     if (final) svd_metrics_job_final(jobs->metrics, final, now - j->t_started);
+    /* Logged before anyone can see the new state: a reader of the log that
+     * finds no job_finished line knows no client has seen the job finish. */
+    svd_log_kv(jobs->log, out == SVD_OUT_FAILED ? SVD_LOG_WARN : SVD_LOG_INFO, "job_finished",
+               "key", t->key, "state", final ? final : "queued", "msg", msg[0] ? msg : NULL,
+               (const char *)NULL);
     wake_all(j);
     pthread_cond_broadcast(&jobs->cv);
     if (j->state == SVD_JOB_DONE) make_room(jobs, 0);
     pthread_mutex_unlock(&jobs->mu);
-    svd_log_kv(jobs->log, out == SVD_OUT_FAILED ? SVD_LOG_WARN : SVD_LOG_INFO, "job_finished",
-               "key", t->key, "state", final ? final : "queued", "msg", msg[0] ? msg : NULL,
-               (const char *)NULL);
     t->job = NULL;
 }
 

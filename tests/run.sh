@@ -24,6 +24,8 @@ run_one() {
         fail=$((fail + 1))
         failed_list="$failed_list $name"
         echo "FAIL $name (log: $BUILD/test-logs/$name.log)"
+        # the checks that failed first (a test's own tail may be its diagnostics)
+        grep -E '^(FAIL|not ok)' "$BUILD/test-logs/$name.log" | head -n 20 | sed 's/^/    /'
         tail -n 30 "$BUILD/test-logs/$name.log" | sed 's/^/    /'
     fi
 }

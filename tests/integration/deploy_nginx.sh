@@ -56,7 +56,8 @@ check() { if [ "$2" = "$3" ]; then ok "$1"; else bad "$1 (want '$2', got '$3')";
 die() {
     echo "FAIL - $*"
     for i in 1 2 3; do echo "--- node $i log:"; tail -n 15 "$T/n$i/log" 2>/dev/null; done
-    echo "--- nginx error log:"; tail -n 20 "$T/nginx/error.log" 2>/dev/null
+    echo "--- nginx error log (upstream errors and warnings):"
+    grep -v -e 'closed keepalive connection' -e '\[notice\]' "$T/nginx/error.log" 2>/dev/null | tail -n 20
     exit 1
 }
 
