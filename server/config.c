@@ -40,6 +40,7 @@ void svd_config_defaults(svd_config *c)
     c->worker_nofile = 256;
     c->worker_fsize_bytes = (uint64_t)4 << 30;
     c->worker_sandbox = true;
+    c->worker_nice = 10;
 }
 
 bool svd_parse_bool(const char *s, bool *out)
@@ -113,6 +114,7 @@ static const struct setting {
     S("worker_nofile", K_U32, worker_nofile),
     S("worker_fsize_bytes", K_SIZE, worker_fsize_bytes),
     S("worker_sandbox", K_BOOL, worker_sandbox),
+    S("worker_nice", K_U32, worker_nice),
 #undef S
 };
 
@@ -154,6 +156,8 @@ sv_status svd_config_set(svd_config *c, const char *key, const char *value, sv_e
         case K_U32:
             if (!parse_u32(value, (uint32_t *)(void *)field))
                 return sv_fail(err, SV_ERR_SPEC, "%s: expected a non-negative integer, got '%s'", k, value);
+            if (field == (char *)&c->worker_nice && c->worker_nice > 19)
+                return sv_fail(err, SV_ERR_SPEC, "worker_nice: expected 0..19, got '%s'", value);
             return SV_OK;
         case K_SIZE:
             if (!svd_parse_size(value, (uint64_t *)(void *)field))

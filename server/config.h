@@ -48,6 +48,7 @@ typedef struct svd_config {
     uint32_t worker_nofile;       /* RLIMIT_NOFILE, default 256 */
     uint64_t worker_fsize_bytes;  /* RLIMIT_FSIZE, default 4G */
     bool worker_sandbox;          /* pass --sandbox (seccomp filter) to workers, default on */
+    uint32_t worker_nice;         /* nice value of workers (0..19), default 10 */
 } svd_config;
 
 /* Fills cfg with the defaults above. */

@@ -146,6 +146,11 @@ static void run_process(svd_workers *w, svd_ticket *t, char **argv, const char *
         return;
     }
     if (!c->prlimit[0]) apply_rlimits(pid, c);
+    /* Bakes yield the cores to the HTTP threads: health and status stay fast
+     * while every worker renders. Set before the worker starts its render
+     * threads (they inherit it); a failure (EPERM cannot happen when raising
+     * the value) only costs latency. */
+    if (c->worker_nice) setpriority(PRIO_PROCESS, (id_t)pid, (int)c->worker_nice);
     char logbuf[32];
     snprintf(logbuf, sizeof logbuf, "%d", (int)pid);
     svd_log_kv(svd_jobs_log(jobs), SVD_LOG_DEBUG, "worker_started", "key", t->key, "pid", logbuf,

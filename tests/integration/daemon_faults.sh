@@ -37,6 +37,8 @@ start_daemon --workers 1 --job-timeout 60
 c=$(mesh cancel.obj sleep)
 kc=$(post "$c" | json_str key)
 wait_state "$kc" running 10 && ok "sleeping job runs" || bad "sleeping job not running"
+wpid=$(sed -n 's/^cancel.obj \([0-9]*\)$/\1/p' "$FAKE_WORKER_LOG" | tail -n 1)
+check "the worker runs at worker_nice (10, the default)" 10 "$(ps -o ni= -p "${wpid:-0}" | tr -d ' ')"
 check "DELETE of a running job is 202" 202 "$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/bakes/$kc")"
 wait_state "$kc" cancelled 10 && ok "job is cancelled" || bad "job not cancelled"
 sleep 0.3

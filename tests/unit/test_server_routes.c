@@ -130,6 +130,11 @@ static void config_refuses_bad_values(void **state)
     assert_int_equal(svd_config_set(&c, "workers", "-1", &e), SV_ERR_SPEC);
     assert_int_equal(svd_config_set(&c, "max_upload_bytes", "99999999999G", &e), SV_ERR_SPEC);
     assert_int_equal(svd_config_set(&c, "log_level", "loud", &e), SV_ERR_SPEC);
+    assert_int_equal(c.worker_nice, 10);
+    assert_int_equal(svd_config_set(&c, "worker_nice", "20", &e), SV_ERR_SPEC);
+    assert_non_null(strstr(e.message, "0..19"));
+    assert_int_equal(svd_config_set(&c, "worker-nice", "19", &e), SV_OK);
+    assert_int_equal(c.worker_nice, 19);
     assert_int_equal(svd_config_set(&c, "listen", "[::1]:0", &e), SV_OK);
     assert_string_equal(c.listen_host, "::1");
     assert_int_equal(c.port, 0);
