@@ -238,6 +238,24 @@ static void upload_free(upload *u)
 
 static const svd_multipart_callbacks mp_cb = {on_part_begin, on_part_data, on_part_end};
 
+/* Answers a PUT of a key already held: its status, as GET would. */
+static enum MHD_Result answer_known(req *q)
+{
+    char *body = NULL;
+    int st = svd_jobs_status(q->h->jobs, q->m.key, &body);
+    return send_json(q->h, q->conn, q->m.route, (unsigned)st, body);
+}
+
+/* A chunked body grew over max_upload_bytes: libmicrohttpd cannot answer in
+ * mid-body, so the connection is closed (cut off), logged and counted 413. */
+static enum MHD_Result cut_off(req *q)
+{
+    svd_log_kv(q->h->log, SVD_LOG_WARN, "upload_cut_off", "client", q->client, "msg",
+               "chunked upload over max_upload_bytes", (const char *)NULL);
+    svd_metrics_request(q->h->metrics, q->m.route, 413);
+    return MHD_NO;
+}
+
 /* First call of an upload: checks before any body byte is read. Returns 0 to
  * go on reading, or an HTTP status already answered. */
 static enum MHD_Result upload_begin(req *q, int *answered)
@@ -275,9 +293,7 @@ static enum MHD_Result upload_begin(req *q, int *answered)
             *answered = 0;
             return MHD_YES;
         }
-        char *body = NULL;
-        int st = svd_jobs_status(h->jobs, q->m.key, &body);
-        return send_json(h, c, q->m.route, (unsigned)st, body);
+        return answer_known(q);
     }
     const char *ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     char boundary[71];
@@ -660,15 +676,9 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             q->drained += *upload_data_size;
             *upload_data_size = 0;
             /* only a chunked body can get here: Content-Length was checked */
-            if (q->drained > h->cfg->max_upload_bytes) {
-                svd_metrics_request(h->metrics, q->m.route, 413);
-                return MHD_NO;
-            }
-            return MHD_YES;
+            return q->drained > h->cfg->max_upload_bytes ? cut_off(q) : MHD_YES;
         }
-        char *body = NULL;
-        int st = svd_jobs_status(h->jobs, q->m.key, &body);
-        return send_json(h, c, q->m.route, (unsigned)st, body);
+        return answer_known(q);
     }
     if (q->kind == REQ_UPLOAD) {
         upload *u = q->up;
@@ -676,14 +686,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             size_t n = *upload_data_size;
             *upload_data_size = 0;
             u->total += n;
-            if (u->total > h->cfg->max_upload_bytes) {
-                /* chunked body over the limit: libmicrohttpd cannot answer in
-                 * mid-body, so the connection is closed (cut off). */
-                svd_log_kv(h->log, SVD_LOG_WARN, "upload_cut_off", "client", q->client, "msg",
-                           "chunked upload over max_upload_bytes", (const char *)NULL);
-                svd_metrics_request(h->metrics, q->m.route, 413);
-                return MHD_NO;
-            }
+            if (u->total > h->cfg->max_upload_bytes) return cut_off(q);
             if (!u->err_status) {
                 sv_error e = {0};
                 if (svd_multipart_feed(u->mp, (const uint8_t *)upload_data, n, &e) != SV_OK)

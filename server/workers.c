@@ -148,8 +148,8 @@ static void run_process(svd_workers *w, svd_ticket *t, char **argv, const char *
     if (!c->prlimit[0]) apply_rlimits(pid, c);
     /* Bakes yield the cores to the HTTP threads: health and status stay fast
      * while every worker renders. Set before the worker starts its render
-     * threads (they inherit it); a failure (EPERM cannot happen when raising
-     * the value) only costs latency. */
+     * threads (they inherit it). It fails (EPERM) only when worker_nice is
+     * below the daemon's own nice; the worker then keeps the daemon's. */
     if (c->worker_nice) setpriority(PRIO_PROCESS, (id_t)pid, (int)c->worker_nice);
     char logbuf[32];
     snprintf(logbuf, sizeof logbuf, "%d", (int)pid);
