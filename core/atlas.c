@@ -253,6 +253,7 @@ static uint32_t needed(double thr, uint32_t s)
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double thr, uint8_t *dst)
 {
+    bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
     uint32_t need = needed(thr, s);
     size_t sw = (size_t)w * s;
     uint8_t ch[4][256];
@@ -288,7 +289,12 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
             }
             for (int k = 0; k < 3; k++)
                 o[k] = select_u8(big ? big + (size_t)k * s * s : buf[k], c, (c - 1) / 2);
-            o[3] = 255;
+            if (cover) {
+                uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;
+                o[3] = (uint8_t)(a < 1 ? 1 : a);
+            } else {
+                o[3] = 255;
+            }
         }
     free(big);
 }

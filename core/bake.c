@@ -531,6 +531,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     if (n && !(texel > 0) &&
         (st = sv_atlas_choose_texel(half, n, opt.padding, opt.max_atlas, &texel, err)) != SV_OK)
         goto out;
+    if (!(opt.texel_size > 0) && opt.texel_floor > texel)
+        texel = opt.texel_floor;
     if (!(texel > 0))
         texel = 1.0;
     uint32_t aw = 1, ah = 1;
@@ -557,6 +559,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     if ((st = face_size_p5(src, jobs, n, &p5, err)) != SV_OK)
         goto out;
     double sf = p5 > 0 ? ceil(texel / p5 - 1e-9) : 1;
+    if (opt.coverage_alpha && sf < 4)
+        sf = 4; /* coverage needs a few levels between empty and full */
     uint32_t s = sf < 1 ? 1 : sf > opt.max_supersample ? opt.max_supersample : (uint32_t)sf;
     if (s > sv_renderer_max_size(r))
         s = sv_renderer_max_size(r);
@@ -580,7 +584,7 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                 goto out;
             have_ao = true;
         }
-        bake_ctx b = {r, gsrc, &opt, s, opt.alpha_threshold, aw, ah, mask, out,
+        bake_ctx b = {r, gsrc, &opt, s, opt.coverage_alpha ? 0 : opt.alpha_threshold, aw, ah, mask, out,
                       have_ao ? &ao : NULL, SV_AO_RES < sv_renderer_max_size(r)
                                                ? SV_AO_RES : sv_renderer_max_size(r)};
         for (uint32_t i = 0; i < n; i++)

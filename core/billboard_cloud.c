@@ -19,6 +19,14 @@
  *   "cardboard":   {"enabled": false, "coverage": 0.8}
  *   "tweak": true, "weld": true, "threads": 2 (1..16, same result for any),
  *   "miss_penalty": 0.5, "max_angle_deg": 75
+ *   "refine":      k-planes iterations after the greedy selection (16; 0 = the
+ *                  papers' planes as selected). Refined planes bake exactly the
+ *                  leaves assigned to them (each leaf drawn once; see
+ *                  bbcloud_kplanes.c and docs/methods/billboard_cloud.md)
+ *   "trunk":       "mesh" (default: trunk and branches kept as geometry,
+ *                  simplified to at most trunk_max_triangles) or "planes" (the
+ *                  papers' separate trunk pass of billboards)
+ *   "trunk_max_triangles": 200, or an array with one per LOD
  */
 #include "method.h"
 
@@ -36,7 +44,8 @@
 
 static const char *const bc_keys[] = {"epsilon", "max_planes", "lods", "grid",
                                       "horizontal_penalty", "cardboard", "tweak", "weld",
-                                      "threads", "miss_penalty", "max_angle_deg", NULL};
+                                      "threads", "miss_penalty", "max_angle_deg", "refine",
+                                      "trunk", "trunk_max_triangles", NULL};
 
 typedef struct bc_lod {
     double epsilon;  /* fraction of R; 0 = from the previous LOD / the default */
@@ -56,6 +65,9 @@ typedef struct bc_settings {
     bool tweak, weld;
     long threads;
     double miss_penalty, max_angle;
+    long refine;
+    bool trunk_mesh;
+    long trunk_max[BC_MAX_LODS];
 } bc_settings;
 
 static sv_status parse_lods(const cJSON *arr, bc_settings *o, bool *given, sv_error *err)
@@ -115,6 +127,9 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
     o->threads = 2;
     o->miss_penalty = 0.5;
     o->max_angle = 75;
+    o->refine = 16;
+    o->trunk_mesh = true;
+    for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = 200;
     sv_status st;
     if ((st = sv_setting_only(s, BC_NAME, bc_keys, err))) return st;
     if ((st = sv_setting_number(s, BC_NAME, "epsilon", 1e-6, 2.0, &o->epsilon, err))) return st;
@@ -124,6 +139,32 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
     if ((st = sv_setting_int(s, BC_NAME, "threads", 1, 16, &o->threads, err))) return st;
     if ((st = sv_setting_number(s, BC_NAME, "miss_penalty", 0, 10, &o->miss_penalty, err))) return st;
     if ((st = sv_setting_number(s, BC_NAME, "max_angle_deg", 1, 90, &o->max_angle, err))) return st;
+    if ((st = sv_setting_int(s, BC_NAME, "refine", 0, 1000, &o->refine, err))) return st;
+    const cJSON *tr = s ? cJSON_GetObjectItemCaseSensitive(s, "trunk") : NULL;
+    if (tr) {
+        if (!cJSON_IsString(tr) || (strcmp(tr->valuestring, "mesh") && strcmp(tr->valuestring, "planes")))
+            return sv_fail(err, SV_ERR_SPEC, BC_NAME ".trunk: expected \"mesh\" or \"planes\"");
+        o->trunk_mesh = !strcmp(tr->valuestring, "mesh");
+    }
+    const cJSON *tm = s ? cJSON_GetObjectItemCaseSensitive(s, "trunk_max_triangles") : NULL;
+    if (cJSON_IsArray(tm)) {
+        int n = cJSON_GetArraySize(tm), i = 0;
+        if (n < 1 || n > BC_MAX_LODS)
+            return sv_fail(err, SV_ERR_SPEC, BC_NAME ".trunk_max_triangles: expected 1 to %d numbers",
+                           BC_MAX_LODS);
+        for (const cJSON *it = tm->child; it; it = it->next, i++) {
+            double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
+            if (!isfinite(v) || v != floor(v) || v < 1 || v > 10000000)
+                return sv_fail(err, SV_ERR_SPEC,
+                               BC_NAME ".trunk_max_triangles[%d]: expected an integer in [1, 10000000]", i);
+            o->trunk_max[i] = (long)v;
+        }
+        for (; i < BC_MAX_LODS; i++) o->trunk_max[i] = o->trunk_max[i - 1];
+    } else if (tm) {
+        long v = 200;
+        if ((st = sv_setting_int(s, BC_NAME, "trunk_max_triangles", 1, 10000000, &v, err))) return st;
+        for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = v;
+    }
 
     const cJSON *g = s ? cJSON_GetObjectItemCaseSensitive(s, "grid") : NULL;
     if (g) {
@@ -202,8 +243,10 @@ static void bc_input_free(bc_input *b)
     free(b->epart);
 }
 
-/* One element per leaf (sv_leaves), one per other triangle. */
-static sv_status build_elements(const sv_method_input *in, bc_input *b, sv_error *err)
+/* One element per leaf (sv_leaves), one per other triangle; trunk triangles
+ * are left out when skip_trunk (the trunk is kept as geometry). */
+static sv_status build_elements(const sv_method_input *in, bool skip_trunk, bc_input *b,
+                                sv_error *err)
 {
     const sv_mesh *m = in->mesh;
     uint32_t nt = m->triangle_count;
@@ -239,7 +282,7 @@ static sv_status build_elements(const sv_method_input *in, bc_input *b, sv_error
         }
     }
     for (uint32_t t = 0; t < nt; t++) {
-        if (used[t]) continue;
+        if (used[t] || (skip_trunk && part && part[t] == SV_PART_TRUNK)) continue;
         b->efirst[ne] = k;
         b->epart[ne++] = part && part[t] == SV_PART_TRUNK ? SV_PART_TRUNK : SV_PART_FOLIAGE;
         b->etris[k++] = t;
@@ -264,8 +307,8 @@ static bool grow_points(double **pts, size_t *cap, size_t n)
 }
 
 /* Quads of one LOD from a selection result. mark: vertex_count zeroed entries. */
-static sv_status add_quads(const sv_method_input *in, const sv_bbc_result *r, sv_lod_plan *lod,
-                           uint32_t *mark, sv_error *err)
+static sv_status add_quads(const sv_method_input *in, const sv_bbc_result *r, bool refined,
+                           sv_lod_plan *lod, uint32_t *mark, sv_error *err)
 {
     const sv_mesh *m = in->mesh;
     double *pts = NULL;
@@ -287,7 +330,9 @@ static sv_status add_quads(const sv_method_input *in, const sv_bbc_result *r, sv
             st = sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory (quad points)");
             break;
         }
-        double slab = r->stats.epsilon;
+        /* refined planes hold their leaves wherever k-planes put them: the
+         * slab is what they need, not ε */
+        double slab = refined ? 0 : r->stats.epsilon;
         for (uint32_t i = 0; i < p->count; i++) {
             uint32_t t = r->tris[p->first + i];
             for (int v = 0; v < 3; v++) {
@@ -314,6 +359,16 @@ static sv_status add_quads(const sv_method_input *in, const sv_bbc_result *r, sv
         if (p->cardboard_of < 0) {
             q.faces = list;
             q.face_count = p->count;
+            if (refined) { /* each leaf drawn by its own plane only */
+                q.bake_faces = sv_calloc(p->count ? p->count : 1, sizeof *list);
+                if (!q.bake_faces) {
+                    free(list);
+                    st = sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory (quad faces)");
+                    break;
+                }
+                memcpy(q.bake_faces, list, (size_t)p->count * sizeof *list);
+                q.bake_face_count = p->count;
+            }
         } else {
             q.bake_faces = list; /* a cardboard plane shows its primary's faces, simplifies none */
             q.bake_face_count = p->count;
@@ -377,7 +432,7 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
         return sv_fail(err, SV_ERR_UNBAKEABLE, BC_NAME ": bounding radius %g is not positive",
                        in->radius);
     bc_input b;
-    if ((st = build_elements(in, &b, err))) {
+    if ((st = build_elements(in, s.trunk_mesh, &b, err))) {
         bc_input_free(&b);
         return st;
     }
@@ -446,6 +501,8 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
         o.max_planes = (uint32_t)l->max_planes;
         o.weld = s.weld && L == 0; /* coarser LODs start from projected faces: nothing shared */
         if ((st = sv_bbc_select(&lin, &o, &cur, err))) break;
+        bool refined = s.refine > 0 && !s.cb_enabled;
+        if (refined && (st = sv_bbc_kplanes(&bi, (uint32_t)s.refine, &cur, err))) break;
         char name[32];
         snprintf(name, sizeof name, "lod%d", L);
         sv_lod_plan *lod = sv_stand_in_add_lod(out, name);
@@ -453,7 +510,12 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
             st = sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory (LOD)");
             break;
         }
-        if ((st = add_quads(in, &cur, lod, mark, err))) break;
+        if (s.trunk_mesh) {
+            lod->trunk = SV_TRUNK_SIMPLIFIED;
+            lod->trunk_ratio = 1;
+            lod->trunk_max_triangles = (uint32_t)s.trunk_max[L];
+        }
+        if ((st = add_quads(in, &cur, refined, lod, mark, err))) break;
         if (L > 0 && (st = link_parents(m, &prev, &cur, &out->lods[L - 1], err))) break;
         prev_eps = cur.stats.epsilon;
         sv_bbc_result_free(&prev);

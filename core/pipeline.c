@@ -573,7 +573,85 @@ typedef struct lod_out {
     double coverage;        /* MSFT_screencoverage threshold below which the next LOD is used */
     bool meets_tolerance;
     char maps[4][64];       /* atlas file names: albedo, normal, ao, depth */
+    double alpha_cutoff;    /* calibrated atlas cutoff (0 = not calibrated) */
+    double calib_iou;       /* mean IoU at SV_CALIB_PIXELS with that cutoff */
 } lod_out;
+
+/* Alpha calibration (issue 18; Behrendt et al. §3.3.7 threshold the baked
+ * coverage "to keep the look of density", but a fixed threshold inflates or
+ * thins the crown depending on leaf size, texel size and how far leaves were
+ * flattened). The atlas keeps each texel's covered fraction as alpha; the
+ * cutoff of the atlas material is chosen per level as the one whose alpha-
+ * tested render best matches the original's coverage (mean soft IoU) at
+ * SV_CALIB_PIXELS over SV_CALIB_VIEWS views placed by scene.viewer: first on a
+ * grid of SV_CALIB_STEP, then refined twice around the best. */
+#define SV_CALIB_PIXELS 64u
+#define SV_CALIB_VIEWS 12u
+#define SV_CALIB_STEP 0.05
+
+static sv_status calib_try(sv_evaluator *ev, const sv_gpu_mesh *g, sv_material *mat, double t,
+                           double *iou, sv_error *err)
+{
+    mat->alpha_cutoff = (float)t;
+    sv_eval_result er;
+    sv_status st = sv_evaluate(ev, g, &er, err);
+    if (st) return st;
+    *iou = er.sizes[0].mean.iou;
+    sv_eval_result_free(&er);
+    return SV_OK;
+}
+
+/* Sets the atlas material's cutoff of every quad level baked with coverage
+ * alpha (levels drawn view-dependently keep 0.5). */
+static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                                   const sv_stand_in *si, lod_out *lods, sv_error *err)
+{
+    const sv_spec *spec = &r->spec;
+    bool any = false;
+    for (uint32_t i = 0; i < si->lod_count; i++)
+        any |= si->lods[i].quad_count > 0 && !si->lods[i].select;
+    if (!any) return SV_OK;
+    sv_eval_options eo;
+    memset(&eo, 0, sizeof eo);
+    eo.viewer = spec->scene.viewer;
+    eo.view_count = SV_CALIB_VIEWS;
+    eo.sizes[0] = SV_CALIB_PIXELS;
+    eo.size_count = 1;
+    eo.supersample = 4;
+    sv_evaluator *ev = NULL;
+    sv_status st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &ev, err);
+    if (st) return st;
+    for (uint32_t i = 0; i < si->lod_count && !st; i++) {
+        const sv_lod_plan *lp = &si->lods[i];
+        sv_mesh *m = lods[i].baked.mesh;
+        if (!lp->quad_count || lp->select || !m || !m->triangle_count) continue;
+        sv_material *mat = &m->materials[m->tri_material[0]];
+        if (mat->alpha_mode != SV_ALPHA_MASK) continue;
+        sv_gpu_mesh *g = NULL;
+        if ((st = sv_gpu_mesh_upload(ren, m, &g, err))) break;
+        double best_t = 0.5, best = -1, iou;
+        for (int k = 1; k * SV_CALIB_STEP < 1 - 1e-9 && !st; k++) {
+            double t = k * SV_CALIB_STEP;
+            if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
+            if (iou > best + 1e-12) best = iou, best_t = t;
+        }
+        for (double h = SV_CALIB_STEP / 2; h > SV_CALIB_STEP / 5 && !st; h /= 2) {
+            double c = best_t;
+            for (int sgn = -1; sgn <= 1 && !st; sgn += 2) {
+                double t = c + sgn * h;
+                if (t <= 0 || t >= 1) continue;
+                if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
+                if (iou > best + 1e-12) best = iou, best_t = t;
+            }
+        }
+        mat->alpha_cutoff = (float)best_t;
+        lods[i].alpha_cutoff = best_t;
+        lods[i].calib_iou = best;
+        sv_gpu_mesh_free(g);
+    }
+    sv_evaluator_destroy(ev);
+    return st;
+}
 
 static const char *const map_names[4] = {"albedo", "normal", "ao", "depth"};
 
@@ -924,7 +1002,9 @@ static sv_status bake_all(run *r, sv_error *err)
     bo.max_atlas = spec->max_atlas;
     bo.max_supersample = spec->max_supersample;
     bo.texel_size = spec->texel_size;
-    bo.alpha_threshold = spec->alpha_threshold;
+    bo.alpha_threshold = spec->alpha_threshold > 0 ? spec->alpha_threshold : 0.3;
+    bo.coverage_alpha = !(spec->alpha_threshold > 0);
+    bo.texel_floor = spec->texel_pixels ? 2.0 * p->radius / spec->texel_pixels : 0;
     bo.padding = spec->padding;
     bo.dilate = spec->dilate;
     bo.lit = spec->scene.lighting == SV_LIGHTING_STATIC;
@@ -945,8 +1025,8 @@ static sv_status bake_all(run *r, sv_error *err)
         sv_mesh *keep = NULL;
         if (lp->trunk != SV_TRUNK_NONE) {
             double ratio = lp->trunk == SV_TRUNK_MESH ? 1.0 : lp->trunk_ratio;
-            if ((st = sv_trunk_mesh(p->mesh, p->cls.tri_part, ratio, ch.info[i].trunk_error, &keep,
-                                    err)))
+            if ((st = sv_trunk_mesh_budget(p->mesh, p->cls.tri_part, ratio, lp->trunk_max_triangles,
+                                           ch.info[i].trunk_error, &keep, err)))
                 goto out;
         }
         if (lp->geometry) {
@@ -963,6 +1043,8 @@ static sv_status bake_all(run *r, sv_error *err)
         r->times[ST_PACK] += lods[i].baked.seconds_pack;
         r->times[ST_BAKE] -= lods[i].baked.seconds_pack;
     }
+
+    if (bo.coverage_alpha && (st = calibrate_cutoffs(r, ren, gsrc, &si, lods, err))) goto out;
 
     if ((st = progress(r, ST_EVALUATE, 0))) goto cancelled;
     if (spec->evaluate) {
@@ -1167,6 +1249,10 @@ static sv_status bake_all(run *r, sv_error *err)
         cJSON_AddNumberToObject(o, "texels", (double)b->albedo.width * b->albedo.height);
         cJSON_AddNumberToObject(o, "texel_size", b->texel_size);
         cJSON_AddNumberToObject(o, "supersample", b->supersample);
+        if (lods[i].alpha_cutoff > 0) {
+            cJSON_AddNumberToObject(o, "alpha_cutoff", lods[i].alpha_cutoff);
+            cJSON_AddNumberToObject(o, "alpha_calibration_iou", lods[i].calib_iou);
+        }
         cJSON_AddNumberToObject(o, "switch_pixels", lods[i].switch_pixels);
         cJSON_AddNumberToObject(o, "switch_distance",
                                 sv_scene_distance_for_pixels(&spec->scene, tree_h,

@@ -175,7 +175,8 @@ static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
 static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 {
     static const char *const keys[] = {"max_atlas", "max_supersample", "texel_size",
-                                       "alpha_threshold", "padding", "dilate", NULL};
+                                       "alpha_threshold", "texel_pixels", "padding", "dilate",
+                                       NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "bake", keys, err))) return st;
     if ((st = parse_u32(o, "bake", "max_atlas", 64, 16384, &s->max_atlas, err))) return st;
@@ -185,9 +186,17 @@ static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
         return st;
     if ((st = sv_setting_number(o, "bake", "texel_size", 0, 1e6, &s->texel_size, err)))
         return st;
-    if ((st = sv_setting_number(o, "bake", "alpha_threshold", 0.01, 0.99, &s->alpha_threshold,
-                                err)))
+    const cJSON *at = o ? cJSON_GetObjectItemCaseSensitive(o, "alpha_threshold") : NULL;
+    if (cJSON_IsString(at)) {
+        if (strcmp(at->valuestring, "calibrated"))
+            return sv_fail(err, SV_ERR_SPEC,
+                           "bake.alpha_threshold: expected \"calibrated\" or a number in [0.01, 0.99]");
+        s->alpha_threshold = 0;
+    } else if ((st = sv_setting_number(o, "bake", "alpha_threshold", 0.01, 0.99,
+                                       &s->alpha_threshold, err))) {
         return st;
+    }
+    if ((st = parse_u32(o, "bake", "texel_pixels", 0, 8192, &s->texel_pixels, err))) return st;
     if ((st = parse_u32(o, "bake", "padding", 0, 64, &s->padding, err))) return st;
     return parse_u32(o, "bake", "dilate", 0, 64, &s->dilate, err);
 }
@@ -238,7 +247,8 @@ static void spec_defaults(sv_spec *s)
     s->up_axis = 'Y';
     s->max_atlas = 2048;
     s->max_supersample = 8;
-    s->alpha_threshold = 0.3;
+    s->alpha_threshold = 0; /* calibrated */
+    s->texel_pixels = 256;
     s->padding = 4;
     s->dilate = 8;
     s->evaluate = true;

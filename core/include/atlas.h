@@ -47,7 +47,11 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
  * (alpha 255) when the fraction of covered samples in its s×s block is
  * >= alpha_threshold, and then each colour channel is the median of that
  * channel over the covered samples (the lower median for even counts);
- * otherwise the texel is (0,0,0,0). Binary alpha: no sorting needed to draw. */
+ * otherwise the texel is (0,0,0,0). Binary alpha: no sorting needed to draw.
+ * alpha_threshold <= 0 selects coverage alpha instead: every texel with at
+ * least one covered sample gets the median colour and alpha = the covered
+ * fraction (rounded to 8 bits, at least 1), for a renderer's alpha test at a
+ * cutoff chosen by calibration (pipeline.c). */
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double alpha_threshold, uint8_t *dst);
 

@@ -19,7 +19,12 @@ typedef struct sv_bake_options {
     uint32_t max_atlas;       /* max atlas side in texels, default 2048 */
     uint32_t max_supersample; /* cap on the supersampling factor, default 8 */
     double texel_size;        /* world units per texel; 0 = the finest that fits max_atlas */
-    double alpha_threshold;   /* default 0.3 */
+    double alpha_threshold;   /* default 0.3 (binary alpha) */
+    bool coverage_alpha;      /* alpha = covered fraction of the texel instead of binary;
+                                 supersampling at least 4; the atlas material's cutoff
+                                 is left at 0.5 for the caller to calibrate */
+    double texel_floor;       /* with texel_size 0: the texel is never finer than this
+                                 (world units; 0 = no floor) */
     uint32_t padding;         /* texels between charts, default 4 */
     uint32_t dilate;          /* texels of colour dilation, default 8 */
     bool normal_map;          /* scene: dynamic lighting */

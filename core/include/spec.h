@@ -37,7 +37,10 @@ typedef struct sv_spec {
     uint32_t max_atlas;           /* default 2048 */
     uint32_t max_supersample;     /* default 8 */
     double texel_size;            /* 0 = auto */
-    double alpha_threshold;       /* default 0.3 */
+    double alpha_threshold;       /* 0 = "calibrated" (the default): coverage alpha, cutoff
+                                     calibrated per level; else a binary threshold */
+    uint32_t texel_pixels;        /* default 256: texels are at least 2·radius / texel_pixels
+                                     (0 = no floor: the finest that fits max_atlas) */
     uint32_t padding;             /* default 4 */
     uint32_t dilate;              /* default 8 */
     /* evaluate */

@@ -63,6 +63,9 @@ typedef struct sv_lod_plan {
     sv_mesh *geometry;        /* optional explicit mesh drawn as is (stochastic levels); owned */
     sv_trunk_mode trunk;
     double trunk_ratio;       /* SV_TRUNK_SIMPLIFIED: target fraction of trunk triangles */
+    uint32_t trunk_max_triangles; /* SV_TRUNK_SIMPLIFIED: hard cap on the kept trunk's
+                                 triangles (0 = none): simplified within the error
+                                 bound first, then meshopt_simplifySloppy to the cap */
     sv_view_select_fn select; /* optional: view-dependent drawing (see above); the kept
                                  geometry is always drawn */
     void *select_data;        /* for select's use (owned by the method; freed with

@@ -12,4 +12,14 @@
 sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
                         double max_error, sv_mesh **out, sv_error *err);
 
+/* sv_trunk_mesh held to a triangle budget: simplified with meshopt_simplify
+ * to max_triangles within max_error; when the error bound (or the topology)
+ * stops it above the budget, meshopt_simplifySloppy takes the result down to
+ * at most max_triangles (a budget below what shape-preserving simplification
+ * can hold wins over the bound). max_triangles 0 = no cap (sv_trunk_mesh with
+ * `ratio`). *out is NULL when the mesh has no trunk or nothing survives. */
+sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                               uint32_t max_triangles, double max_error, sv_mesh **out,
+                               sv_error *err);
+
 #endif

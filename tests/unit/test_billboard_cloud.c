@@ -160,7 +160,10 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
     assert_non_null(cnt);
     for (uint32_t L = 0; L < s->lod_count; L++) {
         const sv_lod_plan *l = &s->lods[L];
-        assert_int_equal(l->trunk, SV_TRUNK_NONE);
+        /* trunk kept as geometry (the default, capped) or on planes ("trunk": "planes") */
+        bool trunk_mesh = l->trunk == SV_TRUNK_SIMPLIFIED;
+        if (trunk_mesh) assert_true(l->trunk_max_triangles > 0);
+        else assert_int_equal(l->trunk, SV_TRUNK_NONE);
         memset(cnt, 0, m->triangle_count * sizeof *cnt);
         for (uint32_t k = 0; k < l->quad_count; k++) {
             const sv_quad *q = &l->quads[k];
@@ -173,7 +176,11 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
             }
             const uint32_t *f = q->faces ? q->faces : q->bake_faces;
             uint32_t nf = q->faces ? q->face_count : q->bake_face_count;
-            if (q->faces) assert_null(q->bake_faces);
+            /* refined planes bake exactly the faces they simplify */
+            if (q->faces && q->bake_faces) {
+                assert_int_equal(q->bake_face_count, q->face_count);
+                assert_memory_equal(q->bake_faces, q->faces, q->face_count * sizeof *q->faces);
+            }
             for (uint32_t i = 0; i < nf; i++) {
                 uint32_t t = f[i];
                 assert_true(t < m->triangle_count);
@@ -191,7 +198,8 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
                 }
             }
         }
-        for (uint32_t t = 0; t < m->triangle_count; t++) assert_int_equal(cnt[t], 1);
+        for (uint32_t t = 0; t < m->triangle_count; t++)
+            assert_int_equal(cnt[t], trunk_mesh && part[t] == SV_PART_TRUNK ? 0 : 1);
     }
     free(cnt);
 }
@@ -239,6 +247,10 @@ static void settings_errors_name_the_key(void **state)
         {"{\"cardboard\": {\"coverage\": -1}}", "billboard_cloud.cardboard.coverage"},
         {"{\"threads\": 0}", "billboard_cloud.threads"},
         {"{\"tweak\": \"yes\"}", "billboard_cloud.tweak"},
+        {"{\"refine\": -1}", "billboard_cloud.refine"},
+        {"{\"trunk\": \"cards\"}", "billboard_cloud.trunk"},
+        {"{\"trunk_max_triangles\": 0}", "billboard_cloud.trunk_max_triangles"},
+        {"{\"trunk_max_triangles\": [200, 0]}", "billboard_cloud.trunk_max_triangles[1]"},
         {"[1]", "billboard_cloud"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
@@ -373,7 +385,7 @@ static void cardboard_planes_show_faces_but_simplify_none(void **state)
     (void)state;
     tree t;
     tree_make(&t, 300, 4, false);
-    cJSON *j = json("{\"lods\": [{\"epsilon\": 0.1}], \"max_angle_deg\": 90,"
+    cJSON *j = json("{\"lods\": [{\"epsilon\": 0.1}], \"max_angle_deg\": 90, \"trunk\": \"planes\","
                     " \"cardboard\": {\"enabled\": true, \"coverage\": 0.5}}");
     sv_stand_in s;
     assert_int_equal(BC->run(&t.in, j, &s, NULL), SV_OK);
@@ -393,6 +405,70 @@ static void cardboard_planes_show_faces_but_simplify_none(void **state)
     check_stand_in(t.mesh, t.cls.tri_part, &s);
     sv_stand_in_free(&s);
     cJSON_Delete(j);
+    tree_free(&t);
+}
+
+/* Area-weighted mean squared distance of the foliage vertices from the plane
+ * of the quad that simplifies them (what a viewer sees as leaves off their place). */
+static double flattening_error(const sv_mesh *m, const sv_lod_plan *l)
+{
+    double sum = 0, w = 0;
+    for (uint32_t k = 0; k < l->quad_count; k++) {
+        const sv_quad *q = &l->quads[k];
+        if (q->parts != SV_PARTS_FOLIAGE) continue;
+        for (uint32_t i = 0; i < q->face_count; i++) {
+            uint32_t t = q->faces[i];
+            double a = sv_tri_area(m, t);
+            for (int v = 0; v < 3; v++) {
+                const float *x = &m->positions[3 * m->indices[3 * t + v]];
+                double d = x[0] * q->normal[0] + x[1] * q->normal[1] + x[2] * q->normal[2] + q->d;
+                sum += a * d * d;
+                w += a;
+            }
+        }
+    }
+    return w > 0 ? sum / w : 0;
+}
+
+/* k-planes refinement (bbcloud_kplanes.c): at the same plane budget the leaves
+ * end up nearer their planes than with the greedy selection alone, each leaf
+ * is baked by its own plane only, and the trunk is kept as capped geometry. */
+static void refinement_brings_leaves_nearer_their_planes(void **state)
+{
+    (void)state;
+    tree t;
+    tree_make(&t, 400, 9, false);
+    cJSON *plain = json("{\"lods\": [8], \"refine\": 0}");
+    cJSON *refined = json("{\"lods\": [8], \"trunk_max_triangles\": 3}");
+    sv_stand_in a, b;
+    assert_int_equal(BC->run(&t.in, plain, &a, NULL), SV_OK);
+    assert_int_equal(BC->run(&t.in, refined, &b, NULL), SV_OK);
+    check_stand_in(t.mesh, t.cls.tri_part, &a);
+    check_stand_in(t.mesh, t.cls.tri_part, &b);
+    double ea = flattening_error(t.mesh, &a.lods[0]), eb = flattening_error(t.mesh, &b.lods[0]);
+    assert_true(ea > 0);
+    assert_true(eb < 0.8 * ea);
+    assert_true(b.lods[0].quad_count <= 8);
+    assert_int_equal(b.lods[0].trunk, SV_TRUNK_SIMPLIFIED);
+    assert_int_equal(b.lods[0].trunk_max_triangles, 3);
+    for (uint32_t k = 0; k < b.lods[0].quad_count; k++) {
+        const sv_quad *q = &b.lods[0].quads[k];
+        assert_non_null(q->bake_faces); /* assigned faces only */
+        for (uint32_t k2 = 0; k2 < a.lods[0].quad_count; k2++) assert_null(a.lods[0].quads[k2].bake_faces);
+    }
+    /* deterministic */
+    sv_stand_in c;
+    assert_int_equal(BC->run(&t.in, refined, &c, NULL), SV_OK);
+    assert_int_equal(c.lods[0].quad_count, b.lods[0].quad_count);
+    for (uint32_t k = 0; k < c.lods[0].quad_count; k++) {
+        assert_memory_equal(c.lods[0].quads[k].normal, b.lods[0].quads[k].normal, sizeof(double) * 3);
+        assert_int_equal(c.lods[0].quads[k].face_count, b.lods[0].quads[k].face_count);
+    }
+    sv_stand_in_free(&a);
+    sv_stand_in_free(&b);
+    sv_stand_in_free(&c);
+    cJSON_Delete(plain);
+    cJSON_Delete(refined);
     tree_free(&t);
 }
 
@@ -518,6 +594,7 @@ int main(void)
         cmocka_unit_test(ground_viewer_turns_the_horizontal_penalty_on),
         cmocka_unit_test(runs_are_byte_identical_with_one_or_two_threads),
         cmocka_unit_test(cardboard_planes_show_faces_but_simplify_none),
+        cmocka_unit_test(refinement_brings_leaves_nearer_their_planes),
         cmocka_unit_test(mesh_without_leaves_or_classification_still_runs),
         cmocka_unit_test(real_oak_bakes_within_the_plane_limits),
         cmocka_unit_test(real_ficus_bakes_within_the_plane_limits),

@@ -24,7 +24,8 @@ static void empty_spec_gives_every_default(void **state)
     assert_int_equal(parse("{}", &s, &e), SV_OK);
     assert_string_equal(s.method, SV_DEFAULT_METHOD);
     assert_int_equal(s.max_atlas, 2048);
-    assert_true(fabs(s.alpha_threshold - 0.3) < 1e-12);
+    assert_true(s.alpha_threshold == 0); /* calibrated */
+    assert_int_equal(s.texel_pixels, 256);
     assert_int_equal(s.eval_views, 24);
     assert_int_equal(s.eval_size_count, 4);
     assert_int_equal(s.eval_sizes[0], 256);

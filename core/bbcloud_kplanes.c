@@ -1,0 +1,239 @@
+/* bbcloud_kplanes.c — k-planes refinement of a billboard cloud's foliage planes.
+ *
+ * Décoret et al.'s greedy selection (bbcloud.c, papers/billboard-cloud-forests.txt
+ * §3.2) picks the densest planes for a validity distance ε; when a plane budget
+ * forces ε up to a large fraction of the crown, the planes it picks are dense
+ * but each leaf may sit far from the plane that draws it, and the flattened
+ * crown no longer covers the screen where the tree does. This pass keeps the
+ * greedy planes as a start and runs Lloyd's iteration for k planes (Bradley &
+ * Mangasarian, "k-Plane Clustering", J. Global Optimization 16, 2000): every
+ * foliage element (a leaf) goes to the plane nearest to it in the mean squared
+ * distance of its area-weighted vertices, then every plane is refitted to its
+ * leaves by total least squares (normal = eigenvector of the smallest eigenvalue
+ * of their covariance). Each step lowers the total squared flattening distance,
+ * which is what a viewer at any angle sees as leaves drawn off their place.
+ * An emptied plane is reseeded on the leaf farthest from its plane.
+ * Trunk-pass planes and cardboard planes are left as they are. Deterministic.
+ */
+#include "bbcloud.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "classify.h"
+#include "eigen3.h"
+
+typedef struct kp_mom {
+    double w;      /* total weight (area) */
+    double m[3];   /* Σ w x */
+    double s[3][3];/* Σ w x xᵀ */
+} kp_mom;
+
+static void mom_add(kp_mom *a, const kp_mom *b)
+{
+    a->w += b->w;
+    for (int i = 0; i < 3; i++) {
+        a->m[i] += b->m[i];
+        for (int j = 0; j < 3; j++) a->s[i][j] += b->s[i][j];
+    }
+}
+
+/* Mean squared distance of the element's weighted points from n·x + d = 0. */
+static double mom_cost(const kp_mom *e, const double n[3], double d)
+{
+    if (!(e->w > 0)) return 0;
+    double q = 0, nm = 0;
+    for (int i = 0; i < 3; i++) {
+        nm += n[i] * e->m[i];
+        for (int j = 0; j < 3; j++) q += n[i] * e->s[i][j] * n[j];
+    }
+    double c = (q + 2 * d * nm + d * d * e->w) / e->w;
+    return c > 0 ? c : 0;
+}
+
+/* Total least-squares plane of the points (relative coordinates). */
+static bool mom_fit(const kp_mom *a, double n[3], double *d)
+{
+    if (!(a->w > 0)) return false;
+    double mu[3], cov[3][3];
+    for (int i = 0; i < 3; i++) mu[i] = a->m[i] / a->w;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) cov[i][j] = a->s[i][j] / a->w - mu[i] * mu[j];
+    double val[3], vec[3][3];
+    if (!sv_eigen3_symmetric((const double(*)[3])cov, val, vec)) return false;
+    memcpy(n, vec[0], 3 * sizeof(double));
+    /* a stable sign: the largest component positive (planes are two-sided) */
+    int big = 0;
+    for (int i = 1; i < 3; i++)
+        if (fabs(n[i]) > fabs(n[big])) big = i;
+    if (n[big] < 0)
+        for (int i = 0; i < 3; i++) n[i] = -n[i];
+    *d = -(n[0] * mu[0] + n[1] * mu[1] + n[2] * mu[2]);
+    return true;
+}
+
+sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, sv_bbc_result *res,
+                         sv_error *err)
+{
+    if (!res->plane_count) return SV_OK;
+    for (uint32_t k = 0; k < res->plane_count; k++)
+        if (res->planes[k].cardboard_of >= 0) return SV_OK; /* cardboards would go stale */
+    uint32_t ne = in->elem_count, np = res->plane_count;
+    uint32_t *elem_of = malloc((size_t)(in->triangle_count ? in->triangle_count : 1) * sizeof *elem_of);
+    kp_mom *em = sv_calloc(ne ? ne : 1, sizeof *em);
+    kp_mom *pm = sv_calloc(np, sizeof *pm);
+    uint32_t *asg = malloc((size_t)(ne ? ne : 1) * sizeof *asg);
+    double *pn = sv_calloc(np, 4 * sizeof(double)); /* n[3], d per plane, relative coordinates */
+    uint8_t *fol = sv_calloc(np, 1);
+    double *cost = sv_calloc(ne ? ne : 1, sizeof *cost);
+    uint32_t *tris = NULL, *first = NULL;
+    sv_status st = SV_OK;
+    if (!elem_of || !em || !pm || !asg || !pn || !fol || !cost) {
+        st = sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
+        goto out;
+    }
+    for (uint32_t t = 0; t < in->triangle_count; t++) elem_of[t] = UINT32_MAX;
+    const double *c0 = in->centre;
+    /* element moments from the original positions, relative to the centre */
+    for (uint32_t e = 0; e < ne; e++) {
+        asg[e] = UINT32_MAX;
+        if (in->elem_part && in->elem_part[e] != SV_PART_FOLIAGE) continue;
+        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++) {
+            uint32_t t = in->elem_tris[i];
+            elem_of[t] = e;
+            double p[3][3];
+            for (int v = 0; v < 3; v++)
+                for (int c = 0; c < 3; c++)
+                    p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t + v] + c] - c0[c];
+            double a[3], b[3], x[3];
+            for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
+            x[0] = a[1] * b[2] - a[2] * b[1];
+            x[1] = a[2] * b[0] - a[0] * b[2];
+            x[2] = a[0] * b[1] - a[1] * b[0];
+            double w = 0.5 * sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) / 3.0;
+            if (!(w > 0)) w = 1e-30;
+            for (int v = 0; v < 3; v++) {
+                em[e].w += w;
+                for (int i2 = 0; i2 < 3; i2++) {
+                    em[e].m[i2] += w * p[v][i2];
+                    for (int j = 0; j < 3; j++) em[e].s[i2][j] += w * p[v][i2] * p[v][j];
+                }
+            }
+        }
+    }
+    uint32_t nf = 0;
+    for (uint32_t k = 0; k < np; k++) {
+        const sv_bbc_plane *P = &res->planes[k];
+        fol[k] = P->part == SV_PART_FOLIAGE;
+        nf += fol[k];
+        memcpy(&pn[4 * k], P->normal, 3 * sizeof(double));
+        /* n·(x' + c0) + d = 0  →  n·x' + (d + n·c0) = 0 */
+        pn[4 * k + 3] = P->d + P->normal[0] * c0[0] + P->normal[1] * c0[1] + P->normal[2] * c0[2];
+    }
+    if (!nf) goto out;
+    for (uint32_t it = 0; it <= iterations; it++) {
+        /* assignment */
+        uint32_t changed = 0;
+        for (uint32_t e = 0; e < ne; e++) {
+            if (!(em[e].w > 0)) continue;
+            uint32_t best = UINT32_MAX;
+            double bc = INFINITY;
+            for (uint32_t k = 0; k < np; k++) {
+                if (!fol[k]) continue;
+                double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
+                if (c < bc) bc = c, best = k;
+            }
+            if (best != asg[e]) changed++;
+            asg[e] = best;
+            cost[e] = bc;
+        }
+        if (it == iterations || (it > 0 && !changed)) break;
+        /* refit */
+        memset(pm, 0, (size_t)np * sizeof *pm);
+        for (uint32_t e = 0; e < ne; e++)
+            if (asg[e] != UINT32_MAX) mom_add(&pm[asg[e]], &em[e]);
+        for (uint32_t k = 0; k < np; k++) {
+            if (!fol[k]) continue;
+            if (mom_fit(&pm[k], &pn[4 * k], &pn[4 * k + 3])) continue;
+            /* empty: reseed on the leaf drawn farthest from its plane */
+            uint32_t far = UINT32_MAX;
+            for (uint32_t e = 0; e < ne; e++)
+                if (asg[e] != UINT32_MAX && (far == UINT32_MAX || cost[e] > cost[far])) far = e;
+            if (far == UINT32_MAX || !mom_fit(&em[far], &pn[4 * k], &pn[4 * k + 3])) continue;
+            cost[far] = 0;
+        }
+    }
+    /* rebuild the face lists: trunk planes keep theirs, foliage planes get their leaves */
+    tris = malloc((size_t)(res->tri_count ? res->tri_count : 1) * sizeof *tris);
+    first = sv_calloc((size_t)np + 1, sizeof *first);
+    uint32_t *cnt = sv_calloc(np, sizeof *cnt);
+    if (!tris || !first || !cnt) {
+        free(cnt);
+        st = sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
+        goto out;
+    }
+    uint32_t *tri_plane = elem_of; /* reuse: plane of each triangle */
+    for (uint32_t k = 0; k < np; k++) {
+        const sv_bbc_plane *P = &res->planes[k];
+        for (uint32_t i = 0; i < P->count; i++) {
+            uint32_t t = res->tris[P->first + i];
+            uint32_t e = elem_of[t];
+            uint32_t to = fol[k] && e != UINT32_MAX && asg[e] != UINT32_MAX ? asg[e] : k;
+            tri_plane[t] = to; /* each triangle is in exactly one primary plane */
+            cnt[to]++;
+        }
+    }
+    for (uint32_t k = 0; k < np; k++) first[k + 1] = first[k] + cnt[k];
+    memset(cnt, 0, (size_t)np * sizeof *cnt);
+    for (uint32_t k = 0; k < np; k++) {
+        const sv_bbc_plane *P = &res->planes[k];
+        for (uint32_t i = 0; i < P->count; i++) {
+            uint32_t t = res->tris[P->first + i];
+            uint32_t to = tri_plane[t];
+            tris[first[to] + cnt[to]++] = t;
+        }
+    }
+    free(cnt);
+    /* planes in the original order, empty ones dropped */
+    uint32_t w = 0;
+    for (uint32_t k = 0; k < np; k++) {
+        sv_bbc_plane P = res->planes[k];
+        P.first = first[k];
+        P.count = first[k + 1] - first[k];
+        if (!P.count) continue;
+        if (fol[k]) {
+            memcpy(P.normal, &pn[4 * k], 3 * sizeof(double));
+            P.d = pn[4 * k + 3] - (P.normal[0] * c0[0] + P.normal[1] * c0[1] + P.normal[2] * c0[2]);
+            P.area = 0;
+            for (uint32_t i = 0; i < P.count; i++) {
+                uint32_t t = tris[P.first + i];
+                double p[3][3];
+                for (int v = 0; v < 3; v++)
+                    for (int c = 0; c < 3; c++)
+                        p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t + v] + c];
+                double a[3], b[3];
+                for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
+                double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
+                       z = a[0] * b[1] - a[1] * b[0];
+                P.area += 0.5 * sqrt(x * x + y * y + z * z);
+            }
+        }
+        res->planes[w++] = P;
+    }
+    res->plane_count = w;
+    free(res->tris);
+    res->tris = tris;
+    tris = NULL;
+out:
+    free(tris);
+    free(first);
+    free(elem_of);
+    free(em);
+    free(pm);
+    free(asg);
+    free(pn);
+    free(fol);
+    free(cost);
+    return st;
+}
