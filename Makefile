@@ -82,9 +82,9 @@ $(LIBSYLVA): $(CLIENT_OBJ)
 
 # The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
 $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
-	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lpthread -lm
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lmeshoptimizer -lpthread -lm
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBSYLVA) $(LIBCORE)
-	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lpthread -lm
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lmeshoptimizer -lpthread -lm
 $(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(LIBCORE)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 

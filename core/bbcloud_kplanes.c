@@ -73,19 +73,27 @@ static bool mom_fit(const kp_mom *a, double n[3], double *d)
     return true;
 }
 
-sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, sv_bbc_result *res,
-                         sv_error *err)
+sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t target_planes,
+                         sv_bbc_result *res, sv_error *err)
 {
     if (!res->plane_count) return SV_OK;
     for (uint32_t k = 0; k < res->plane_count; k++)
         if (res->planes[k].cardboard_of >= 0) return SV_OK; /* cardboards would go stale */
     uint32_t ne = in->elem_count, np = res->plane_count;
+    /* room for the planes added to reach the budget */
+    uint32_t grow = target_planes > np ? target_planes - np : 0;
+    if (grow > ne) grow = ne;
+    if (grow) {
+        sv_bbc_plane *P = realloc(res->planes, (size_t)(np + grow) * sizeof *P);
+        if (!P) return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
+        res->planes = P;
+    }
     uint32_t *elem_of = malloc((size_t)(in->triangle_count ? in->triangle_count : 1) * sizeof *elem_of);
     kp_mom *em = sv_calloc(ne ? ne : 1, sizeof *em);
-    kp_mom *pm = sv_calloc(np, sizeof *pm);
+    kp_mom *pm = sv_calloc(np + grow, sizeof *pm);
     uint32_t *asg = malloc((size_t)(ne ? ne : 1) * sizeof *asg);
-    double *pn = sv_calloc(np, 4 * sizeof(double)); /* n[3], d per plane, relative coordinates */
-    uint8_t *fol = sv_calloc(np, 1);
+    double *pn = sv_calloc(np + grow, 4 * sizeof(double)); /* n[3], d per plane, relative coords */
+    uint8_t *fol = sv_calloc(np + grow, 1);
     double *cost = sv_calloc(ne ? ne : 1, sizeof *cost);
     uint32_t *tris = NULL, *first = NULL;
     sv_status st = SV_OK;
@@ -132,6 +140,44 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, sv_bbc_res
         pn[4 * k + 3] = P->d + P->normal[0] * c0[0] + P->normal[1] * c0[1] + P->normal[2] * c0[2];
     }
     if (!nf) goto out;
+    /* Up to the plane budget: split the slab that draws a leaf worst, a new
+     * plane parallel to that leaf's plane through the leaf (farthest-point
+     * seeding, deterministic), one at a time with a reassignment between. */
+    for (uint32_t added = 0; added <= grow; added++) {
+        for (uint32_t e = 0; e < ne; e++) {
+            if (!(em[e].w > 0)) continue;
+            uint32_t best = UINT32_MAX;
+            double bc = INFINITY;
+            for (uint32_t k = 0; k < np; k++) {
+                if (!fol[k]) continue;
+                double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
+                if (c < bc) bc = c, best = k;
+            }
+            asg[e] = best;
+            cost[e] = bc;
+        }
+        if (added == grow) break;
+        uint32_t far = UINT32_MAX;
+        for (uint32_t e = 0; e < ne; e++)
+            if (asg[e] != UINT32_MAX &&
+                (far == UINT32_MAX || cost[e] * em[e].w > cost[far] * em[far].w))
+                far = e;
+        if (far == UINT32_MAX || !(cost[far] > 0)) break;
+        const double *n = &pn[4 * asg[far]];
+        double *q = &pn[4 * np];
+        memcpy(q, n, 3 * sizeof(double));
+        q[3] = -(n[0] * em[far].m[0] + n[1] * em[far].m[1] + n[2] * em[far].m[2]) / em[far].w;
+        sv_bbc_plane *P = &res->planes[np];
+        memset(P, 0, sizeof *P);
+        P->part = SV_PART_FOLIAGE;
+        P->origin = SV_BBC_REFINED;
+        P->cardboard_of = -1;
+        P->coverage = 1;
+        fol[np] = 1;
+        np++;
+        nf++;
+    }
+    for (uint32_t e = 0; e < ne; e++) asg[e] = UINT32_MAX; /* the loop below counts moves */
     for (uint32_t it = 0; it <= iterations; it++) {
         /* assignment */
         uint32_t changed = 0;
@@ -222,6 +268,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, sv_bbc_res
         res->planes[w++] = P;
     }
     res->plane_count = w;
+    res->stats.primary_planes = w; /* no cardboard planes here */
     free(res->tris);
     res->tris = tris;
     tris = NULL;

@@ -36,6 +36,7 @@
 #include <string.h>
 
 #include "bbcloud.h"
+#include "trunk.h"
 
 #define BC_NAME "billboard_cloud"
 #define BC_MAX_LODS 8
@@ -243,9 +244,10 @@ static void bc_input_free(bc_input *b)
     free(b->epart);
 }
 
-/* One element per leaf (sv_leaves), one per other triangle; trunk triangles
- * are left out when skip_trunk (the trunk is kept as geometry). */
-static sv_status build_elements(const sv_method_input *in, bool skip_trunk, bc_input *b,
+/* One element per leaf (sv_leaves), one per other triangle. skip (may be
+ * NULL): triangles to leave out (trunk triangles the kept trunk mesh already
+ * draws); when given, the trunk triangles not skipped become foliage elements. */
+static sv_status build_elements(const sv_method_input *in, const uint8_t *skip, bc_input *b,
                                 sv_error *err)
 {
     const sv_mesh *m = in->mesh;
@@ -282,9 +284,11 @@ static sv_status build_elements(const sv_method_input *in, bool skip_trunk, bc_i
         }
     }
     for (uint32_t t = 0; t < nt; t++) {
-        if (used[t] || (skip_trunk && part && part[t] == SV_PART_TRUNK)) continue;
+        if (used[t] || (skip && skip[t])) continue;
         b->efirst[ne] = k;
-        b->epart[ne++] = part && part[t] == SV_PART_TRUNK ? SV_PART_TRUNK : SV_PART_FOLIAGE;
+        /* with the trunk kept as geometry, the branches it cannot hold are
+         * drawn by the foliage planes like leaves */
+        b->epart[ne++] = part && part[t] == SV_PART_TRUNK && !skip ? SV_PART_TRUNK : SV_PART_FOLIAGE;
         b->etris[k++] = t;
     }
     b->efirst[ne] = k;
@@ -419,6 +423,84 @@ static sv_status link_parents(const sv_mesh *m, const sv_bbc_result *rf, const s
     return SV_OK;
 }
 
+/* ---------------------------------------------------------------- kept trunk */
+
+/* Squared distance from p to triangle abc (Ericson, Real-Time Collision
+ * Detection §5.1.5, closest point by Voronoi regions). */
+static double point_tri_dist2(const double p[3], const double a[3], const double b[3],
+                              const double c[3])
+{
+    double ab[3], ac[3], ap[3], q[3];
+    for (int i = 0; i < 3; i++) ab[i] = b[i] - a[i], ac[i] = c[i] - a[i], ap[i] = p[i] - a[i];
+#define D3(x, y) ((x)[0] * (y)[0] + (x)[1] * (y)[1] + (x)[2] * (y)[2])
+    double d1 = D3(ab, ap), d2 = D3(ac, ap);
+    if (d1 <= 0 && d2 <= 0) {
+        memcpy(q, a, sizeof q);
+    } else {
+        double bp[3], cp[3];
+        for (int i = 0; i < 3; i++) bp[i] = p[i] - b[i], cp[i] = p[i] - c[i];
+        double d3 = D3(ab, bp), d4 = D3(ac, bp), d5 = D3(ab, cp), d6 = D3(ac, cp);
+        double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+        if (d3 >= 0 && d4 <= d3) {
+            memcpy(q, b, sizeof q);
+        } else if (d6 >= 0 && d5 <= d6) {
+            memcpy(q, c, sizeof q);
+        } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+            double v = d1 / (d1 - d3);
+            for (int i = 0; i < 3; i++) q[i] = a[i] + v * ab[i];
+        } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+            double w = d2 / (d2 - d6);
+            for (int i = 0; i < 3; i++) q[i] = a[i] + w * ac[i];
+        } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+            double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            for (int i = 0; i < 3; i++) q[i] = b[i] + w * (c[i] - b[i]);
+        } else {
+            double den = va + vb + vc;
+            double v = den != 0 ? vb / den : 0, w = den != 0 ? vc / den : 0;
+            for (int i = 0; i < 3; i++) q[i] = a[i] + ab[i] * v + ac[i] * w;
+        }
+    }
+#undef D3
+    double d = 0;
+    for (int i = 0; i < 3; i++) d += (p[i] - q[i]) * (p[i] - q[i]);
+    return d;
+}
+
+/* The trunk of one level as geometry: the trunk triangles simplified with
+ * meshoptimizer to at most `budget` triangles (*tm, NULL when there is no
+ * trunk), and skip[t] = 1 for each trunk triangle that this mesh draws
+ * (its centroid within BC_KEPT_FRAC × radius of the kept surface). The other
+ * trunk triangles (thin branches the budget could not hold) are left for the
+ * planes, so nothing is drawn twice and no branch is lost. */
+#define BC_KEPT_FRAC 0.01
+static sv_status kept_trunk(const sv_method_input *in, uint32_t budget, sv_mesh **tm,
+                            uint8_t *skip, sv_error *err)
+{
+    const sv_mesh *m = in->mesh;
+    const uint8_t *part = in->cls ? in->cls->tri_part : NULL;
+    memset(skip, 0, m->triangle_count);
+    *tm = NULL;
+    if (!part) return SV_OK;
+    sv_status st = sv_trunk_mesh_budget(m, part, 1.0, budget, 0, tm, err);
+    if (st || !*tm) return st;
+    const sv_mesh *k = *tm;
+    double lim = BC_KEPT_FRAC * in->radius;
+    lim *= lim;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (part[t] != SV_PART_TRUNK) continue;
+        double c[3] = {0, 0, 0};
+        for (int v = 0; v < 3; v++)
+            for (int i = 0; i < 3; i++) c[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+        for (uint32_t u = 0; u < k->triangle_count && !skip[t]; u++) {
+            double p[3][3];
+            for (int v = 0; v < 3; v++)
+                for (int i = 0; i < 3; i++) p[v][i] = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
+            if (point_tri_dist2(c, p[0], p[1], p[2]) <= lim) skip[t] = 1;
+        }
+    }
+    return SV_OK;
+}
+
 static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
                         sv_error *err)
 {
@@ -432,8 +514,20 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
         return sv_fail(err, SV_ERR_UNBAKEABLE, BC_NAME ": bounding radius %g is not positive",
                        in->radius);
     bc_input b;
-    if ((st = build_elements(in, s.trunk_mesh, &b, err))) {
+    uint8_t *skip = NULL;
+    sv_mesh *tm = NULL;
+    if (s.trunk_mesh) {
+        if (!(skip = sv_calloc(m->triangle_count, 1)))
+            return sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory");
+        if ((st = kept_trunk(in, (uint32_t)s.trunk_max[0], &tm, skip, err))) {
+            free(skip);
+            return st;
+        }
+    }
+    if ((st = build_elements(in, skip, &b, err))) {
         bc_input_free(&b);
+        sv_mesh_destroy(tm);
+        free(skip);
         return st;
     }
     sv_bbc_input bi;
@@ -497,12 +591,33 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
             lin.indices = pidx;
             lin.vertex_count = nv;
         }
+        if (L > 0 && s.trunk_mesh) {
+            /* this level's own trunk budget: elements anew (the positions stay
+             * the previous level's projections) */
+            bc_input nb;
+            if ((st = kept_trunk(in, (uint32_t)s.trunk_max[L], &tm, skip, err))) break;
+            if ((st = build_elements(in, skip, &nb, err))) {
+                bc_input_free(&nb);
+                break;
+            }
+            free(b.etris), free(b.efirst), free(b.epart);
+            b.etris = nb.etris, b.efirst = nb.efirst, b.epart = nb.epart, b.ne = nb.ne;
+            free(nb.pos);
+            bi.elem_tris = lin.elem_tris = b.etris;
+            bi.elem_first = lin.elem_first = b.efirst;
+            bi.elem_part = lin.elem_part = b.epart;
+            bi.elem_count = lin.elem_count = b.ne;
+        }
         o.epsilon = eps;
         o.max_planes = (uint32_t)l->max_planes;
         o.weld = s.weld && L == 0; /* coarser LODs start from projected faces: nothing shared */
         if ((st = sv_bbc_select(&lin, &o, &cur, err))) break;
         bool refined = s.refine > 0 && !s.cb_enabled;
-        if (refined && (st = sv_bbc_kplanes(&bi, (uint32_t)s.refine, &cur, err))) break;
+        /* the plane budget is a target once refined: the greedy pass may stop
+         * short of it at its ε, and more planes flatten less */
+        if (refined &&
+            (st = sv_bbc_kplanes(&bi, (uint32_t)s.refine, (uint32_t)l->max_planes, &cur, err)))
+            break;
         char name[32];
         snprintf(name, sizeof name, "lod%d", L);
         sv_lod_plan *lod = sv_stand_in_add_lod(out, name);
@@ -510,10 +625,10 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
             st = sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory (LOD)");
             break;
         }
-        if (s.trunk_mesh) {
-            lod->trunk = SV_TRUNK_SIMPLIFIED;
-            lod->trunk_ratio = 1;
-            lod->trunk_max_triangles = (uint32_t)s.trunk_max[L];
+        if (s.trunk_mesh) { /* drawn as is; the pipeline adds no trunk of its own */
+            lod->trunk = SV_TRUNK_NONE;
+            lod->geometry = tm;
+            tm = NULL;
         }
         if ((st = add_quads(in, &cur, refined, lod, mark, err))) break;
         if (L > 0 && (st = link_parents(m, &prev, &cur, &out->lods[L - 1], err))) break;
@@ -528,6 +643,8 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
     free(pidx);
     free(mark);
     bc_input_free(&b);
+    sv_mesh_destroy(tm);
+    free(skip);
     if (st) sv_stand_in_free(out);
     return st;
 }

@@ -39,6 +39,18 @@ void sv_eval_place_views(sv_viewer viewer, uint32_t n, double *dirs)
 {
     const double golden = M_PI * (3.0 - sqrt(5.0));
     double y_lo = -1.0, y_hi = 1.0;
+    if (viewer == SV_VIEWER_SIDE) {
+        /* ../shared/tools/sveval's helix: azimuth 360°·i/n, elevation from
+         * -10° to 40° with both ends included */
+        for (uint32_t i = 0; i < n; i++) {
+            double a = 2.0 * M_PI * i / n;
+            double el = (n > 1 ? -10.0 + 50.0 * i / (n - 1) : 15.0) * M_PI / 180.0;
+            dirs[3 * i] = cos(el) * sin(a);
+            dirs[3 * i + 1] = sin(el);
+            dirs[3 * i + 2] = cos(el) * cos(a);
+        }
+        return;
+    }
     if (viewer == SV_VIEWER_GROUND) y_lo = 0.0, y_hi = sin(20.0 * M_PI / 180.0);
     else if (viewer == SV_VIEWER_AERIAL) y_lo = sin(40.0 * M_PI / 180.0), y_hi = 1.0;
     for (uint32_t i = 0; i < n; i++) {
@@ -79,8 +91,10 @@ void sv_eval_camera(const double centre[3], double radius, const double dir[3], 
     normalize3(cam->up);
     memcpy(cam->origin, centre, sizeof cam->origin);
     cam->half_width = cam->half_height = radius;
-    cam->near_dist = -1.01 * radius;
-    cam->far_dist = 1.01 * radius;
+    /* a stand-in may stick out of the original's sphere towards or away
+     * from the camera (quad corners): keep it, as sveval does (2r) */
+    cam->near_dist = -2.0 * radius;
+    cam->far_dist = 2.0 * radius;
 }
 
 /* ---- image planes -------------------------------------------------------- */
@@ -384,7 +398,7 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
     if (!e) return sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
     e->r = r;
     e->g = g;
-    sv_mesh_sphere(original, e->centre, &e->radius);
+    sv_mesh_frame_sphere(original, e->centre, &e->radius);
     if (!(e->radius > 0)) e->radius = 1.0; /* a single point: any frame will do */
     e->view_count = o.view_count;
     e->size_count = o.size_count;

@@ -376,7 +376,8 @@ static sv_status convert_material(importer *im, const struct aiScene *scene,
         copy_str(m->texture_uri, sizeof m->texture_uri, s.data);
         sv_status st = load_texture(im, scene, s.data, m->name, &m->base_texture);
         if (st != SV_OK) return st;
-        if (!gltf && m->base_texture >= 0) m->base_color[0] = m->base_color[1] = m->base_color[2] = 1.0f;
+        /* OBJ/MTL: the diffuse colour Kd multiplies map_Kd (as Blender, three.js's
+         * MTLLoader and ../shared/tools/sveval draw it), like glTF's factor. */
     }
 
     int two = 0;

@@ -99,6 +99,25 @@ void sv_mesh_sphere(const sv_mesh *m, double c[3], double *r)
     *r = 0.5 * sqrt(s);
 }
 
+void sv_mesh_frame_sphere(const sv_mesh *m, double c[3], double *r)
+{
+    double mn[3], mx[3];
+    *r = 0;
+    if (!sv_mesh_bounds(m, mn, mx)) {
+        c[0] = c[1] = c[2] = 0;
+        return;
+    }
+    for (int k = 0; k < 3; k++) c[k] = 0.5 * (mn[k] + mx[k]);
+    double best = 0;
+    for (size_t i = 0; i < (size_t)m->triangle_count * 3; i++) {
+        const float *p = &m->positions[3 * (size_t)m->indices[i]];
+        double d = 0;
+        for (int k = 0; k < 3; k++) d += (p[k] - c[k]) * (p[k] - c[k]);
+        if (d > best) best = d;
+    }
+    *r = sqrt(best);
+}
+
 static void tri_cross(const sv_mesh *m, uint32_t t, double n[3])
 {
     const uint32_t *ix = &m->indices[3 * (size_t)t];

@@ -676,10 +676,12 @@ static cJSON *effects_json(const sv_spec *s, const sv_bake_options *bo)
         {"albedo", true, "always baked"},
         {"lit_albedo", bo->lit,
          bo->lit ? "scene.lighting is static: light baked into the albedo"
-                 : "scene.lighting is dynamic: the engine lights the normal map"},
+         : bo->normal_map ? "scene.lighting is dynamic: the engine lights the normal map"
+                          : "scene.lighting is unlit: the albedo keeps the material's own brightness"},
         {"normal_map", bo->normal_map,
          bo->normal_map ? "scene.lighting is dynamic"
-                        : "scene.lighting is static: no normal map needed"},
+                        : bo->lit ? "scene.lighting is static: no normal map needed"
+                                  : "scene.lighting is unlit: no normal map needed"},
         {"ambient_occlusion", bo->ao_map,
          bo->ao_map ? "scene.ambient_occlusion is true"
                     : "scene.ambient_occlusion is false"},
@@ -1091,7 +1093,10 @@ static sv_status bake_all(run *r, sv_error *err)
         st = SV_OK;
         goto out;
     }
-    double tree_h = 2.0 * p->radius; /* screen sizes are bounding-sphere diameters */
+    /* screen sizes are diameters of the evaluator's framing sphere */
+    double fc[3], fr = 0;
+    sv_mesh_frame_sphere(p->mesh, fc, &fr);
+    double tree_h = 2.0 * (fr > 0 ? fr : p->radius);
     plan_switches(r, &ch, lods, si.lod_count, tree_h);
     if (spec->evaluate && si.lod_count > 1) {
         bool *drop = sv_calloc(si.lod_count, sizeof *drop);

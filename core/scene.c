@@ -6,7 +6,7 @@
 
 void sv_scene_defaults(sv_scene *s)
 {
-    s->lighting = SV_LIGHTING_STATIC;
+    s->lighting = SV_LIGHTING_UNLIT;
     /* From above and in front, normalised (0.3, 0.8, 0.5). */
     double l = sqrt(0.3 * 0.3 + 0.8 * 0.8 + 0.5 * 0.5);
     s->light_dir[0] = 0.3 / l;
@@ -14,7 +14,7 @@ void sv_scene_defaults(sv_scene *s)
     s->light_dir[2] = 0.5 / l;
     s->shadows = false;
     s->ambient_occlusion = false;
-    s->viewer = SV_VIEWER_ORBIT;
+    s->viewer = SV_VIEWER_SIDE;
     s->distance_min = 10.0;
     s->distance_max = 200.0;
     s->screen_height = 1080;

@@ -99,8 +99,8 @@ static sv_status parse_scene(const cJSON *o, sv_spec *s, sv_error *err)
     static const char *const keys[] = {"lighting", "light_dir", "shadows", "ambient_occlusion",
                                        "viewer", "distance", "screen_height", "fov_deg",
                                        "camera_speed", NULL};
-    static const char *const lightings[] = {"static", "dynamic", NULL};
-    static const char *const viewers[] = {"orbit", "ground", "aerial", NULL};
+    static const char *const lightings[] = {"static", "dynamic", "unlit", NULL};
+    static const char *const viewers[] = {"orbit", "ground", "aerial", "side", NULL};
     sv_scene *sc = &s->scene;
     sv_status st;
     int e;

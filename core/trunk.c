@@ -126,6 +126,58 @@ sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double rat
     return st;
 }
 
+/* One simplification pass over m held to max_triangles: vertices welded by
+ * position only (UV seams would lock the borders that must collapse; at the
+ * distance a capped trunk is drawn a texture seam is not visible), then
+ * meshopt_simplify with relative error `rel`, or meshopt_simplifySloppy when
+ * `sloppy` (its error limit raised until the budget is met). On success m's
+ * triangles are replaced in place (vertices keep their original attributes;
+ * each triangle takes the material of the first original triangle using its
+ * first vertex) and *done is true; otherwise m is unchanged. */
+static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, bool sloppy,
+                                 bool *done, sv_error *err)
+{
+    *done = false;
+    size_t ni = (size_t)m->triangle_count * 3;
+    unsigned int *weld = malloc((size_t)m->vertex_count * sizeof *weld);
+    unsigned int *src = malloc(ni * sizeof *src), *dst = malloc(ni * sizeof *dst);
+    float *cpos = malloc((size_t)m->vertex_count * 3 * sizeof *cpos);
+    unsigned int *rep = malloc((size_t)m->vertex_count * sizeof *rep);
+    uint32_t *vmat = malloc((size_t)m->vertex_count * sizeof *vmat);
+    sv_status st = SV_OK;
+    if (!weld || !src || !dst || !cpos || !rep || !vmat) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
+    }
+    size_t unique = meshopt_generateVertexRemap(weld, m->indices, ni, m->positions,
+                                                m->vertex_count, 3 * sizeof(float));
+    meshopt_remapVertexBuffer(cpos, m->positions, m->vertex_count, 3 * sizeof(float), weld);
+    for (size_t i = 0; i < ni; i++) src[i] = weld[m->indices[i]];
+    for (uint32_t v = m->vertex_count; v-- > 0;) rep[weld[v]] = v;
+    for (uint32_t t = m->triangle_count; t-- > 0;)
+        for (int c = 0; c < 3; c++) vmat[m->indices[3 * (size_t)t + c]] = m->tri_material[t];
+    size_t target = (size_t)max_triangles * 3, got = ni;
+    if (!sloppy) {
+        got = meshopt_simplify(dst, src, ni, cpos, unique, 3 * sizeof(float), target, rel, 0, NULL);
+    } else {
+        float lim = rel > 0 ? rel : 1e-3f;
+        for (int k = 0; k < 16 && got > target; k++, lim *= 2)
+            got = meshopt_simplifySloppy(dst, src, ni, cpos, unique, 3 * sizeof(float), target, lim,
+                                         NULL);
+    }
+    uint32_t nt = (uint32_t)(got / 3);
+    if (nt == 0 || nt > max_triangles) goto out;
+    for (uint32_t t = 0; t < nt; t++) {
+        for (int c = 0; c < 3; c++) m->indices[3 * (size_t)t + c] = rep[dst[3 * (size_t)t + c]];
+        m->tri_material[t] = vmat[m->indices[3 * (size_t)t]];
+    }
+    m->triangle_count = nt;
+    *done = true;
+out:
+    free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat);
+    return st;
+}
+
 sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
                                uint32_t max_triangles, double max_error, sv_mesh **out,
                                sv_error *err)
@@ -137,68 +189,29 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     if (!n) return SV_OK;
     double r = (double)max_triangles / n;
     if (r > ratio) r = ratio;
+    /* 1: within the error bound, material by material (sv_trunk_mesh) */
     sv_mesh *m = NULL;
     sv_status st = sv_trunk_mesh(mesh, tri_part, r, max_error, &m, err);
     if (st || !m || m->triangle_count <= max_triangles) {
         *out = m;
         return st;
     }
-    /* Sloppy on the welded positions of what is left (one index buffer: it
-     * ignores topology, so material borders cannot be kept; each triangle
-     * keeps the material of the nearest original one by vertex). */
-    size_t ni = (size_t)m->triangle_count * 3;
-    unsigned int *weld = malloc((size_t)m->vertex_count * sizeof *weld);
-    unsigned int *src = malloc(ni * sizeof *src), *dst = malloc(ni * sizeof *dst);
-    float *cpos = malloc((size_t)m->vertex_count * 3 * sizeof *cpos);
-    if (!weld || !src || !dst || !cpos) {
-        free(weld), free(src), free(dst), free(cpos);
-        sv_mesh_destroy(m);
-        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    }
-    size_t unique = meshopt_generateVertexRemap(weld, m->indices, ni, m->positions,
-                                                m->vertex_count, 3 * sizeof(float));
-    meshopt_remapVertexBuffer(cpos, m->positions, m->vertex_count, 3 * sizeof(float), weld);
-    for (size_t i = 0; i < ni; i++) src[i] = weld[m->indices[i]];
-    /* a representative original vertex (lowest index) of each welded one */
-    unsigned int *rep = malloc((unique ? unique : 1) * sizeof *rep);
-    if (!rep) {
-        free(weld), free(src), free(dst), free(cpos);
-        sv_mesh_destroy(m);
-        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    }
-    for (uint32_t v = m->vertex_count; v-- > 0;) rep[weld[v]] = v;
-    size_t target = (size_t)max_triangles * 3, got = ni;
-    float lim = 1e-3f;
-    /* the sloppy simplifier may stop above the target for small limits: raise it */
-    for (int k = 0; k < 12 && got > target; k++, lim *= 2)
-        got = meshopt_simplifySloppy(dst, src, ni, cpos, unique, 3 * sizeof(float), target, lim, NULL);
-    uint32_t nt = (uint32_t)(got / 3);
-    if (nt > max_triangles) nt = 0; /* could not: no trunk rather than over budget */
-    /* vertex of the welded index -> original vertex; material from the
-     * original triangle that used that vertex first */
-    uint32_t *vmat = malloc((size_t)m->vertex_count * sizeof *vmat);
-    uint32_t *keep = malloc((size_t)(nt ? nt : 1) * sizeof *keep);
+    /* 2: the budget wins over the bound: shape-preserving collapse without a
+     * bound; 3: only then the sloppy clustering (it can cut thin parts) */
+    bool done = false;
+    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, &done, err)) && !done)
+        st = simplify_welded(m, max_triangles, 0, true, &done, err);
     sv_mesh *o = NULL;
-    if (vmat && keep) {
-        for (uint32_t v = 0; v < m->vertex_count; v++) vmat[v] = 0;
-        for (uint32_t t = m->triangle_count; t-- > 0;)
-            for (int c = 0; c < 3; c++) vmat[m->indices[3 * (size_t)t + c]] = m->tri_material[t];
-    }
-    if (!vmat || !keep) {
-        free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat), free(keep);
-        sv_mesh_destroy(m);
-        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    }
-    if (nt) {
-        for (uint32_t t = 0; t < nt; t++) {
-            for (int c = 0; c < 3; c++) m->indices[3 * (size_t)t + c] = rep[dst[3 * (size_t)t + c]];
-            m->tri_material[t] = vmat[m->indices[3 * (size_t)t]];
-            keep[t] = t;
+    if (!st && done) {
+        uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
+        if (!all) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        } else {
+            for (uint32_t t = 0; t < m->triangle_count; t++) all[t] = t;
+            st = sv_mesh_subset(m, all, m->triangle_count, &o, err); /* compacts the vertices */
+            free(all);
         }
-        m->triangle_count = nt;
-        st = sv_mesh_subset(m, keep, nt, &o, err); /* compacts the vertices */
     }
-    free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat), free(keep);
     sv_mesh_destroy(m);
     *out = st ? NULL : o;
     return st;

@@ -135,14 +135,17 @@ sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res,
                          double **positions_out, uint32_t **indices_out,
                          uint32_t *vertex_count_out, sv_error *err);
 
-/* k-planes refinement (bbcloud_kplanes.c): moves the foliage planes of res to
- * the total-least-squares planes of their leaves and reassigns each foliage
- * element of `in` (original positions; res's triangle ids index in's
- * triangles) to its nearest plane, for at most `iterations` Lloyd steps or
- * until no element moves. Trunk and cardboard planes are kept (with
- * cardboard planes present nothing is changed); emptied planes are dropped.
- * Every triangle stays in exactly one primary plane. Deterministic. */
-sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, sv_bbc_result *res,
-                         sv_error *err);
+/* k-planes refinement (bbcloud_kplanes.c): first adds foliage planes until
+ * res has target_planes planes in all (0 or fewer = none added; each seeded
+ * parallel to the plane of the leaf drawn farthest from it, through that
+ * leaf), then moves the foliage planes to the total-least-squares planes of
+ * their leaves and reassigns each foliage element of `in` (original
+ * positions; res's triangle ids index in's triangles) to its nearest plane,
+ * for at most `iterations` Lloyd steps or until no element moves. Trunk and
+ * cardboard planes are kept (with cardboard planes present nothing is
+ * changed); emptied planes are dropped. Every triangle stays in exactly one
+ * primary plane. Deterministic. */
+sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t target_planes,
+                         sv_bbc_result *res, sv_error *err);
 
 #endif

@@ -79,6 +79,12 @@ void sv_tri_normal(const sv_mesh *mesh, uint32_t t, double n[3]);
 /* New mesh holding triangles tris[0..count) of src (in that order), with only
  * the vertices they use, and copies of src's materials and images (so material
  * and image indices are unchanged). Returns SV_ERR_NOMEM on failure. */
+/* The framing sphere of the evaluator (and of ../shared/tools/sveval):
+ * centre = centre of the bounding box, radius = distance to the farthest
+ * vertex used by a triangle (<= sv_mesh_sphere's half diagonal). Zeroes for
+ * an empty mesh. */
+void sv_mesh_frame_sphere(const sv_mesh *m, double c[3], double *r);
+
 sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count,
                          sv_mesh **out, sv_error *err);
 

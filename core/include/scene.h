@@ -9,8 +9,14 @@
 
 #include "sv.h"
 
-typedef enum sv_lighting { SV_LIGHTING_STATIC = 0, SV_LIGHTING_DYNAMIC } sv_lighting;
-typedef enum sv_viewer { SV_VIEWER_ORBIT = 0, SV_VIEWER_GROUND, SV_VIEWER_AERIAL } sv_viewer;
+/* STATIC: light baked into the albedo; DYNAMIC: unlit albedo + normal map;
+ * UNLIT (the default): albedo as the material shows it, no light, no normal map
+ * (what an engine lights itself, and what does not pop at a LOD switch). */
+typedef enum sv_lighting { SV_LIGHTING_STATIC = 0, SV_LIGHTING_DYNAMIC, SV_LIGHTING_UNLIT } sv_lighting;
+/* SIDE (the default): a helix of views from -10° to 40° elevation, the views
+ * trees are seen from and the ones ../shared/tools/sveval judges by;
+ * ORBIT: the whole sphere; GROUND: 0..20°; AERIAL: 40..90°. */
+typedef enum sv_viewer { SV_VIEWER_ORBIT = 0, SV_VIEWER_GROUND, SV_VIEWER_AERIAL, SV_VIEWER_SIDE } sv_viewer;
 
 typedef struct sv_scene {
     sv_lighting lighting;

@@ -744,6 +744,9 @@ static void obj_alpha_rules_give_mask_blend_and_double_sided(void **state)
     assert_float_equal(glass->base_color[3], 0.5, 1e-6);
     assert_int_equal(bark->alpha_mode, SV_ALPHA_OPAQUE);
     assert_false(bark->double_sided);
+    /* MTL: Kd multiplies map_Kd (the textured bark keeps its dark Kd) */
+    assert_float_equal(bark->base_color[0], 0.1, 1e-6);
+    assert_true(bark->base_texture >= 0);
     assert_int_equal(plain->alpha_mode, SV_ALPHA_OPAQUE);
     assert_float_equal(plain->base_color[2], 0.4, 1e-6);
     /* mapd and bark share opaque.png: decoded once */
