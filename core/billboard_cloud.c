@@ -147,25 +147,9 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
             return sv_fail(err, SV_ERR_SPEC, BC_NAME ".trunk: expected \"mesh\" or \"planes\"");
         o->trunk_mesh = !strcmp(tr->valuestring, "mesh");
     }
-    const cJSON *tm = s ? cJSON_GetObjectItemCaseSensitive(s, "trunk_max_triangles") : NULL;
-    if (cJSON_IsArray(tm)) {
-        int n = cJSON_GetArraySize(tm), i = 0;
-        if (n < 1 || n > BC_MAX_LODS)
-            return sv_fail(err, SV_ERR_SPEC, BC_NAME ".trunk_max_triangles: expected 1 to %d numbers",
-                           BC_MAX_LODS);
-        for (const cJSON *it = tm->child; it; it = it->next, i++) {
-            double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
-            if (!isfinite(v) || v != floor(v) || v < 1 || v > 10000000)
-                return sv_fail(err, SV_ERR_SPEC,
-                               BC_NAME ".trunk_max_triangles[%d]: expected an integer in [1, 10000000]", i);
-            o->trunk_max[i] = (long)v;
-        }
-        for (; i < BC_MAX_LODS; i++) o->trunk_max[i] = o->trunk_max[i - 1];
-    } else if (tm) {
-        long v = 200;
-        if ((st = sv_setting_int(s, BC_NAME, "trunk_max_triangles", 1, 10000000, &v, err))) return st;
-        for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = v;
-    }
+    if ((st = sv_setting_int_per_level(s, BC_NAME, "trunk_max_triangles", 1, 10000000, o->trunk_max,
+                                       BC_MAX_LODS, err)))
+        return st;
 
     const cJSON *g = s ? cJSON_GetObjectItemCaseSensitive(s, "grid") : NULL;
     if (g) {

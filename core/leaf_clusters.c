@@ -36,6 +36,10 @@
  *   "iterations":    integer in [1, 1000] (default 50): k-means iterations;
  *   "seed_tries":    integer in [1, 64] (default 4): k-means++ candidates per seed;
  *   "trunk_ratio":   array of numbers in (0, 1], one per level.
+ *   "trunk_max_triangles": number or array (one per level), default 200: the
+ *                    kept trunk is capped at this many triangles
+ *                    (sv_trunk_mesh_budget), so a level's cost is its quads
+ *                    plus at most this (issue 18: 32 clusters within 264).
  */
 #include "method.h"
 
@@ -51,7 +55,8 @@
 #define LC_MAX_CLUSTERS 1024
 
 static const char *const lc_keys[] = {"clusters", "alpha_rel", "area_weighted", "iterations",
-                                      "seed_tries", "trunk_ratio", NULL};
+                                      "seed_tries", "trunk_ratio",
+                                      "trunk_max_triangles", NULL};
 
 typedef struct lc_settings {
     uint32_t levels[LC_MAX_LEVELS];
@@ -61,6 +66,7 @@ typedef struct lc_settings {
     long iterations;
     long seed_tries;
     double trunk_ratio[LC_MAX_LEVELS];
+    long trunk_max[LC_MAX_LEVELS];
 } lc_settings;
 
 static double default_trunk_ratio(uint32_t level)
@@ -122,6 +128,7 @@ static sv_status lc_parse(const cJSON *s, lc_settings *o, sv_error *err)
     o->area_weighted = true;
     o->iterations = 50;
     o->seed_tries = 4;
+    for (int i = 0; i < LC_MAX_LEVELS; i++) o->trunk_max[i] = 200;
     sv_status st;
     if ((st = sv_setting_only(s, LC_NAME, lc_keys, err))) return st;
     if ((st = parse_levels(s, o, err))) return st;
@@ -129,6 +136,9 @@ static sv_status lc_parse(const cJSON *s, lc_settings *o, sv_error *err)
     if ((st = sv_setting_bool(s, LC_NAME, "area_weighted", &o->area_weighted, err))) return st;
     if ((st = sv_setting_int(s, LC_NAME, "iterations", 1, 1000, &o->iterations, err))) return st;
     if ((st = sv_setting_int(s, LC_NAME, "seed_tries", 1, 64, &o->seed_tries, err))) return st;
+    if ((st = sv_setting_int_per_level(s, LC_NAME, "trunk_max_triangles", 1, 10000000, o->trunk_max,
+                                       LC_MAX_LEVELS, err)))
+        return st;
     return parse_trunk(s, o, err);
 }
 
@@ -253,6 +263,7 @@ static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_s
         }
         lod->trunk = SV_TRUNK_SIMPLIFIED;
         lod->trunk_ratio = s.trunk_ratio[l];
+        lod->trunk_max_triangles = (uint32_t)s.trunk_max[l];
         /* triangles per cluster, and room for the largest cluster's vertices */
         free(tris);
         tris = sv_calloc(level->count, sizeof *tris);

@@ -76,3 +76,29 @@ sv_status sv_setting_only(const cJSON *obj, const char *method, const char *cons
     }
     return SV_OK;
 }
+
+sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const char *key, long lo,
+                                   long hi, long *out, int n, sv_error *err)
+{
+    const cJSON *a = item_of(obj, key);
+    if (!a) return SV_OK;
+    if (!cJSON_IsArray(a)) {
+        long v = out[0];
+        sv_status st = sv_setting_int(obj, method, key, lo, hi, &v, err);
+        if (st) return st;
+        for (int i = 0; i < n; i++) out[i] = v;
+        return SV_OK;
+    }
+    int count = cJSON_GetArraySize(a), i = 0;
+    if (count < 1 || count > n)
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected a number or 1 to %d numbers", method, key, n);
+    for (const cJSON *it = a->child; it; it = it->next, i++) {
+        double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
+        if (!isfinite(v) || v != floor(v) || v < (double)lo || v > (double)hi)
+            return sv_fail(err, SV_ERR_SPEC, "%s.%s[%d]: expected an integer in [%ld, %ld]", method,
+                           key, i, lo, hi);
+        out[i] = (long)v;
+    }
+    for (; i < n; i++) out[i] = out[i - 1];
+    return SV_OK;
+}

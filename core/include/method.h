@@ -50,6 +50,10 @@ sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key,
                          long lo, long hi, long *out, sv_error *err);
 sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key,
                           bool *out, sv_error *err);
+/* A per-level integer: a number (every level) or an array of 1..n numbers
+ * (level i; the last repeats). out has n entries; missing key: unchanged. */
+sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const char *key, long lo,
+                                   long hi, long *out, int n, sv_error *err);
 /* Fails naming the first key of obj not in the NULL-terminated list `known`
  * (also fails when obj is not an object). NULL obj is fine. */
 sv_status sv_setting_only(const cJSON *obj, const char *method, const char *const *known,

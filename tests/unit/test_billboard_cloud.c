@@ -160,10 +160,10 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
     assert_non_null(cnt);
     for (uint32_t L = 0; L < s->lod_count; L++) {
         const sv_lod_plan *l = &s->lods[L];
-        /* trunk kept as geometry (the default, capped) or on planes ("trunk": "planes") */
-        bool trunk_mesh = l->trunk == SV_TRUNK_SIMPLIFIED;
-        if (trunk_mesh) assert_true(l->trunk_max_triangles > 0);
-        else assert_int_equal(l->trunk, SV_TRUNK_NONE);
+        /* the trunk kept as the level's geometry (the default, capped) or on
+         * planes ("trunk": "planes"); the pipeline adds no trunk of its own */
+        assert_int_equal(l->trunk, SV_TRUNK_NONE);
+        bool trunk_mesh = l->geometry != NULL;
         memset(cnt, 0, m->triangle_count * sizeof *cnt);
         for (uint32_t k = 0; k < l->quad_count; k++) {
             const sv_quad *q = &l->quads[k];
@@ -185,7 +185,9 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
                 uint32_t t = f[i];
                 assert_true(t < m->triangle_count);
                 if (q->faces) cnt[t]++;
-                assert_int_equal(q->parts, part[t] == SV_PART_TRUNK ? SV_PARTS_TRUNK : SV_PARTS_FOLIAGE);
+                /* with a kept trunk, the branches it cannot hold are foliage elements */
+                if (!trunk_mesh)
+                    assert_int_equal(q->parts, part[t] == SV_PART_TRUNK ? SV_PARTS_TRUNK : SV_PARTS_FOLIAGE);
                 for (int v = 0; v < 3; v++) {
                     const float *x = &m->positions[3 * m->indices[3 * t + v]];
                     double p[3] = {x[0] - q->centre[0], x[1] - q->centre[1], x[2] - q->centre[2]};
@@ -198,8 +200,11 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
                 }
             }
         }
+        /* every leaf on exactly one plane; a trunk triangle on one plane, or
+         * on none when the kept trunk draws it */
         for (uint32_t t = 0; t < m->triangle_count; t++)
-            assert_int_equal(cnt[t], trunk_mesh && part[t] == SV_PART_TRUNK ? 0 : 1);
+            if (trunk_mesh && part[t] == SV_PART_TRUNK) assert_true(cnt[t] <= 1);
+            else assert_int_equal(cnt[t], 1);
     }
     free(cnt);
 }
@@ -449,8 +454,8 @@ static void refinement_brings_leaves_nearer_their_planes(void **state)
     assert_true(ea > 0);
     assert_true(eb < 0.8 * ea);
     assert_true(b.lods[0].quad_count <= 8);
-    assert_int_equal(b.lods[0].trunk, SV_TRUNK_SIMPLIFIED);
-    assert_int_equal(b.lods[0].trunk_max_triangles, 3);
+    assert_non_null(b.lods[0].geometry); /* the trunk, capped */
+    assert_true(b.lods[0].geometry->triangle_count <= 3);
     for (uint32_t k = 0; k < b.lods[0].quad_count; k++) {
         const sv_quad *q = &b.lods[0].quads[k];
         assert_non_null(q->bake_faces); /* assigned faces only */
