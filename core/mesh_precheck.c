@@ -222,7 +222,7 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
                        shown, lineno, (int)(tl[0] < 40 ? tl[0] : 40), tok[0]);
     }
     if (!ended) {
-        if (n > SV_PLY_MAX_HEADER && i >= lim - 1)
+        if (n > SV_PLY_MAX_HEADER)
             return sv_fail(err, SV_ERR_PARSE,
                            "'%s': PLY header has no end_header line within its first %u bytes",
                            shown, SV_PLY_MAX_HEADER);
