@@ -16,9 +16,10 @@
  *  - OBJ: text (no NUL byte anywhere), no line longer than SV_OBJ_MAX_LINE.
  *  - FBX binary: the node-record tree is walked: every end offset, property
  *    list and array inside the file and consistent, nesting at most
- *    SV_FBX_MAX_DEPTH, the top-level list closed by its null record. FBX ascii:
- *    no NUL byte, strings closed, braces balanced (depth at most
- *    SV_FBX_MAX_DEPTH).
+ *    SV_FBX_MAX_DEPTH. FBX ascii: no NUL byte, strings closed, braces balanced
+ *    (depth at most SV_FBX_MAX_DEPTH), only "Key: ... {...}" at the top level.
+ *    Both: the FBXHeaderExtension, Objects and Connections sections assimp
+ *    requires are there (its parser leaks when it fails on their absence).
  *  - COLLADA: no NUL byte, a <COLLADA root and the closing </COLLADA> tag.
  * Counts the mesh declares (OBJ v/f lines, PLY vertex/face elements) are also
  * held against the import limits here, before assimp allocates for them.
@@ -420,6 +421,28 @@ typedef struct fbx_walk {
     sv_error *err;
 } fbx_walk;
 
+/* The top-level sections assimp's FBX reader requires (it fails without them,
+ * and its parser leaks what it has read when it fails). */
+static const char *const fbx_required[] = {"FBXHeaderExtension", "Objects", "Connections"};
+#define FBX_NREQUIRED 3u
+
+/* Marks name[0..len) in *seen (bit i for fbx_required[i]). */
+static void fbx_note_section(const uint8_t *name, size_t len, unsigned *seen)
+{
+    for (unsigned k = 0; k < FBX_NREQUIRED; k++)
+        if (strlen(fbx_required[k]) == len && memcmp(fbx_required[k], name, len) == 0)
+            *seen |= 1u << k;
+}
+
+static sv_status fbx_missing_section(unsigned seen, const char *shown, sv_error *err)
+{
+    for (unsigned k = 0; k < FBX_NREQUIRED; k++)
+        if (!(seen & (1u << k)))
+            return sv_fail(err, SV_ERR_PARSE, "'%s': FBX file has no top-level %s section", shown,
+                           fbx_required[k]);
+    return SV_OK;
+}
+
 static sv_status fbx_fail(const fbx_walk *w, size_t at, const char *what)
 {
     return sv_fail(w->err, SV_ERR_PARSE, "'%s': FBX record at offset %zu: %s", w->shown, at, what);
@@ -485,9 +508,10 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
     size_t stack[SV_FBX_MAX_DEPTH + 1]; /* end offsets of the open records */
     unsigned depth = 0;
     size_t pos = 27, limit = n;
+    unsigned seen = 0;
     for (;;) {
         if (pos == limit) { /* a list that fills its parent (or the file) exactly */
-            if (depth == 0) return SV_OK;
+            if (depth == 0) return fbx_missing_section(seen, shown, err);
             limit = depth >= 2 ? stack[depth - 2] : n;
             depth--;
             continue;
@@ -501,7 +525,8 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
             for (size_t k = 0; k < hdr; k++)
                 if (d[pos + k]) return fbx_fail(&w, pos, "null record is not all zero");
             pos += hdr;
-            if (depth == 0) return SV_OK; /* the footer follows; assimp stops here */
+            if (depth == 0) /* the footer follows; assimp stops here */
+                return fbx_missing_section(seen, shown, err);
             if (pos != stack[depth - 1])
                 return fbx_fail(&w, pos, "nested list ends before its record does");
             limit = depth >= 2 ? stack[depth - 2] : n;
@@ -512,6 +537,7 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
             return fbx_fail(&w, pos, "end offset is outside its parent or the file");
         size_t end = (size_t)endo, p = pos + hdr;
         if (end - p < namelen) return fbx_fail(&w, pos, "name runs past the record");
+        if (depth == 0) fbx_note_section(d + p, namelen, &seen);
         p += namelen;
         if (end - p < plen) return fbx_fail(&w, pos, "property list runs past the record");
         sv_status st = fbx_props(&w, pos, p, p + (size_t)plen, nprops);
@@ -530,18 +556,42 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
     }
 }
 
+/* Ascii FBX: no NUL, strings closed, braces balanced, and at the top level
+ * only "Key: values {...}" elements (assimp's parser leaks every element it
+ * has read when it meets a top-level element without its block, or stray
+ * text, at the end of the file; real files have nothing else at top level). */
 static sv_status fbx_ascii_check(const uint8_t *d, size_t n, const char *shown, sv_error *err)
 {
     if (memchr(d, 0, n))
         return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text holds a NUL byte", shown);
-    unsigned depth = 0;
-    size_t line = 1;
+    unsigned depth = 0, elements = 0, seen = 0;
+    bool in_values = false; /* top level: after "Key:", before its '{' */
+    size_t line = 1, key_line = 0;
     for (size_t i = 0; i < n; i++) {
         uint8_t c = d[i];
-        if (c == '\n') line++;
-        else if (c == ';') { /* comment to the line end */
+        if (c == '\n') {
+            line++;
+            continue;
+        }
+        if (c == ';') { /* comment to the line end */
             while (i + 1 < n && d[i + 1] != '\n') i++;
-        } else if (c == '"') {
+            continue;
+        }
+        if (depth == 0 && !in_values) {
+            if (isspace(c)) continue;
+            size_t s = i;
+            while (i < n && (isalnum(d[i]) || d[i] == '_' || d[i] == '|' || d[i] == '-')) i++;
+            if (i == s || i >= n || d[i] != ':')
+                return sv_fail(err, SV_ERR_PARSE,
+                               "'%s': FBX line %zu: expected 'Key: ... {' at the top level", shown,
+                               line);
+            in_values = true;
+            key_line = line;
+            elements++;
+            fbx_note_section(d + s, i - s, &seen);
+            continue;
+        }
+        if (c == '"') {
             size_t s = i++;
             while (i < n && d[i] != '"') {
                 if (d[i] == '\n') line++;
@@ -554,6 +604,7 @@ static sv_status fbx_ascii_check(const uint8_t *d, size_t n, const char *shown, 
             if (++depth > SV_FBX_MAX_DEPTH)
                 return sv_fail(err, SV_ERR_PARSE, "'%s': FBX braces nest deeper than %u (line %zu)",
                                shown, SV_FBX_MAX_DEPTH, line);
+            in_values = false;
         } else if (c == '}') {
             if (depth == 0)
                 return sv_fail(err, SV_ERR_PARSE, "'%s': FBX '}' without '{' on line %zu", shown,
@@ -563,7 +614,12 @@ static sv_status fbx_ascii_check(const uint8_t *d, size_t n, const char *shown, 
     }
     if (depth)
         return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text ends with %u braces open", shown, depth);
-    return SV_OK;
+    if (in_values)
+        return sv_fail(err, SV_ERR_PARSE,
+                       "'%s': FBX top-level element on line %zu has no {...} block", shown,
+                       key_line);
+    if (!elements) return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text holds no element", shown);
+    return fbx_missing_section(seen, shown, err);
 }
 
 /* ------------------------------------------------------------ COLLADA ---- */
