@@ -618,7 +618,11 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
     if (is_gltf(fmt)) {
         sv_status st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB,
                                         files, count, &lim, err);
-        if (st != SV_OK) return st;
+        if (st != SV_OK) { /* name the file, as sv_mesh_precheck does */
+            char msg[sizeof err->message];
+            copy_str(msg, sizeof msg, err ? err->message : "");
+            return sv_fail(err, st, "'%s': %s", shown, msg);
+        }
     } else {
         sv_status st = sv_mesh_precheck(fmt, files[0].data, files[0].size, shown, &lim, err);
         if (st != SV_OK) return st;
