@@ -16,7 +16,7 @@
  *  - OBJ: text (no NUL byte anywhere), no line longer than SV_OBJ_MAX_LINE.
  *  - FBX binary: the node-record tree is walked: every end offset, property
  *    list and array inside the file and consistent, nesting at most
- *    SV_FBX_MAX_DEPTH. FBX ascii: no NUL byte, strings closed, braces balanced
+ *    SV_FBX_MAX_DEPTH. FBX ascii: no control byte, strings closed, braces balanced
  *    (depth at most SV_FBX_MAX_DEPTH), only "Key: ... {...}" at the top level.
  *    Both: the FBXHeaderExtension, Objects and Connections sections assimp
  *    requires are there (its parser leaks when it fails on their absence).
@@ -562,8 +562,10 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
  * text, at the end of the file; real files have nothing else at top level). */
 static sv_status fbx_ascii_check(const uint8_t *d, size_t n, const char *shown, sv_error *err)
 {
-    if (memchr(d, 0, n))
-        return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text holds a NUL byte", shown);
+    for (size_t i = 0; i < n; i++)
+        if ((d[i] < 0x20 && d[i] != '\t' && d[i] != '\n' && d[i] != '\r') || d[i] == 0x7f)
+            return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text holds control byte 0x%02x at offset %zu",
+                           shown, d[i], i);
     unsigned depth = 0, elements = 0, seen = 0;
     bool in_values = false; /* top level: after "Key:", before its '{' */
     size_t line = 1, key_line = 0;
