@@ -38,6 +38,7 @@
 #include <assimp/GltfMaterial.h>
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>
+#include <assimp/commonMetaData.h>
 #include <assimp/config.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -175,52 +176,35 @@ static void add_warning(sv_import_info *info, const char *fmt, ...)
     va_end(ap);
 }
 
-/* Rough counts from the text before assimp allocates anything: OBJ `v` lines and
- * triangles of `f` lines (n-gon = n-2). */
-static void obj_precount(const uint8_t *d, size_t n, uint64_t *verts, uint64_t *tris)
+/* The reader assimp used, from the scene's SourceAsset_Format (assimp records
+ * the importer's name there); "" when absent. */
+static const char *source_reader(const struct aiScene *scene)
 {
-    *verts = *tris = 0;
-    size_t i = 0;
-    while (i < n) {
-        while (i < n && (d[i] == ' ' || d[i] == '\t')) i++;
-        size_t eol = i;
-        const uint8_t *nl = memchr(d + i, '\n', n - i);
-        eol = nl ? (size_t)(nl - d) : n;
-        if (eol - i >= 2 && d[i] == 'v' && (d[i + 1] == ' ' || d[i + 1] == '\t')) {
-            (*verts)++;
-        } else if (eol - i >= 2 && d[i] == 'f' && (d[i + 1] == ' ' || d[i + 1] == '\t')) {
-            uint64_t tokens = 0;
-            bool in = false;
-            for (size_t k = i + 1; k < eol; k++) {
-                bool sp = isspace(d[k]) != 0;
-                if (!sp && !in) tokens++;
-                in = !sp;
-            }
-            if (tokens >= 3) *tris += tokens - 2;
-        }
-        i = eol + 1;
-    }
+    const struct aiMetadata *m = scene->mMetaData;
+    if (!m) return "";
+    for (unsigned i = 0; i < m->mNumProperties; i++)
+        if (strcmp(m->mKeys[i].data, AI_METADATA_SOURCE_FORMAT) == 0 &&
+            m->mValues[i].mType == AI_AISTRING && m->mValues[i].mData)
+            return ((const struct aiString *)m->mValues[i].mData)->data;
+    return "";
 }
 
-/* PLY header: "element vertex N" and "element face N" (each face at least one
- * triangle). */
-static void ply_precount(const uint8_t *d, size_t n, uint64_t *verts, uint64_t *tris)
+/* A word of the name of the assimp reader that must read each sniffed format.
+ * With a name ending in .obj, .ply, .fbx or .dae exactly one reader claims the
+ * file; .gltf/.glb are claimed by glTF (1.0) and glTF2, and when both decline,
+ * assimp 5.2.5 asks every other reader: the check below catches that. */
+static const char *expected_reader(sv_format f)
 {
-    *verts = *tris = 0;
-    size_t lim = n < 65536 ? n : 65536, i = 0;
-    while (i < lim) {
-        size_t eol = i;
-        while (eol < lim && d[eol] != '\n') eol++;
-        char line[128];
-        size_t len = eol - i < sizeof line - 1 ? eol - i : sizeof line - 1;
-        memcpy(line, d + i, len);
-        line[len] = 0;
-        unsigned long long c = 0;
-        if (sscanf(line, "element vertex %llu", &c) == 1) *verts = c;
-        else if (sscanf(line, "element face %llu", &c) == 1) *tris = c;
-        if (strncmp(line, "end_header", 10) == 0) break;
-        i = eol + 1;
+    switch (f) {
+    case SV_FORMAT_GLB:
+    case SV_FORMAT_GLTF: return "glTF2 ";
+    case SV_FORMAT_OBJ: return "Wavefront Object";
+    case SV_FORMAT_PLY: return "(PLY)";
+    case SV_FORMAT_FBX: return "Autodesk FBX";
+    case SV_FORMAT_COLLADA: return "Collada";
+    case SV_FORMAT_UNKNOWN: break;
     }
+    return "?";
 }
 
 static bool is_gltf(sv_format f) { return f == SV_FORMAT_GLB || f == SV_FORMAT_GLTF; }
@@ -635,17 +619,14 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
     if (is_gltf(fmt)) {
         sv_status st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB,
                                         files, count, &lim, err);
+        if (st != SV_OK) { /* name the file, as sv_mesh_precheck does */
+            char msg[sizeof err->message];
+            copy_str(msg, sizeof msg, err ? err->message : "");
+            return sv_fail(err, st, "'%s': %s", shown, msg);
+        }
+    } else {
+        sv_status st = sv_mesh_precheck(fmt, files[0].data, files[0].size, shown, &lim, err);
         if (st != SV_OK) return st;
-    } else if (fmt == SV_FORMAT_OBJ || fmt == SV_FORMAT_PLY) {
-        uint64_t v, t;
-        if (fmt == SV_FORMAT_OBJ) obj_precount(files[0].data, files[0].size, &v, &t);
-        else ply_precount(files[0].data, files[0].size, &v, &t);
-        if (t > lim.max_triangles)
-            return sv_fail(err, SV_ERR_LIMIT, "'%s' declares %llu triangles (limit %llu)", shown,
-                           (unsigned long long)t, (unsigned long long)lim.max_triangles);
-        if (v > lim.max_vertices)
-            return sv_fail(err, SV_ERR_LIMIT, "'%s' declares %llu vertices (limit %llu)", shown,
-                           (unsigned long long)v, (unsigned long long)lim.max_vertices);
     }
 
     char name[160];
@@ -674,6 +655,11 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
             if (*c == '\n' || *c == '\r') *c = ' ';
         st = sv_fail(err, SV_ERR_PARSE, "cannot read '%s' as %s: %s", shown, sv_format_name(fmt),
                      msg[0] ? msg : "assimp gave no reason");
+    } else if (!strstr(source_reader(scene), expected_reader(fmt))) {
+        char reader[120];
+        copy_str(reader, sizeof reader, source_reader(scene));
+        st = sv_fail(err, SV_ERR_FORMAT, "'%s' sniffs as %s but assimp read it with '%s'", shown,
+                     sv_format_name(fmt), reader[0] ? reader : "an unnamed reader");
     } else {
         if (ctx.missing[0]) add_warning(info, "%s", ctx.missing);
         importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,

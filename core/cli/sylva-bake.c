@@ -1,20 +1,33 @@
 /* sylva-bake — the offline baker and the daemon's worker.
  *
- *   sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json]
+ *   sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json] [--cpu-limit S]
  *   sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N] [--sandbox]
+ *                   [--cpu-limit S]
  *   sylva-bake check-spec SPEC.json
  *   sylva-bake sandbox-selftest [socket|exec]     (testing: see cmd_sandbox_selftest)
  *
  * Exit status: 0 success; 1 the input was refused or the bake failed (one line
  * on stderr; with bake, DIR/error.json holds {"error":{"code","message"}});
  * 2 usage. Anything else (a signal) is a crash.
+ *
+ * CPU-time guard (issue 25): every info and bake runs under RLIMIT_CPU, so a
+ * file that makes a reader spin cannot keep a core busy forever. The limit is
+ * --cpu-limit S; without it, the RLIMIT_CPU the process inherited (ulimit -t,
+ * sylvad's worker_cpu_seconds through prlimit) when there is one, else
+ * SV_DEFAULT_CPU_LIMIT; --cpu-limit 0 sets none of its own. A limit is never
+ * raised above the inherited hard limit. The soft limit sits a little below
+ * the hard one, so SIGXCPU comes first: its handler writes one line on stderr
+ * (and, for bake, DIR/error.json with code "limit") and exits 1, which sylvad
+ * records as a permanent failure instead of retrying the same spin.
  */
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/personality.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -26,11 +39,12 @@
 #include "spec.h"
 
 #define MAX_FILES 256
+#define SV_DEFAULT_CPU_LIMIT 600 /* seconds of CPU time */
 
 static const char usage[] =
-    "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json]\n"
+    "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json] [--cpu-limit S]\n"
     "       sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N]\n"
-    "                       [--sandbox]\n"
+    "                       [--sandbox] [--cpu-limit S]\n"
     "       sylva-bake check-spec SPEC.json\n"
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
@@ -40,7 +54,14 @@ static const char usage[] =
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
     "           and network, exec and ptrace calls kill the process with SIGSYS\n"
-    "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n";
+    "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n"
+    "\n"
+    "--cpu-limit S  stop after S seconds of CPU time (RLIMIT_CPU): one line on stderr,\n"
+    "           with bake DIR/error.json (code \"limit\"), exit 1. Default: the\n"
+    "           inherited RLIMIT_CPU (ulimit -t; sylvad's worker_cpu_seconds) if\n"
+    "           any, else 600. 0: no limit of its own. Never above the inherited\n"
+    "           hard limit; the soft limit sits up to 5 s below a finite hard one\n"
+    "           so the message comes before the kernel's SIGKILL.\n";
 
 typedef struct loaded {
     sv_file files[MAX_FILES];
@@ -131,6 +152,105 @@ static void write_error_json(const char *dir, const sv_error *e)
     cJSON_Delete(root);
 }
 
+/* ---- the CPU-time guard (see the top of this file) ---- */
+
+static char g_xcpu_line[1200];
+static size_t g_xcpu_line_len;
+static char g_xcpu_json_path[4200];
+static char g_xcpu_json[1400];
+static size_t g_xcpu_json_len;
+
+/* SIGXCPU: async-signal-safe only (write, open, close, _exit), from buffers
+ * prepared by cpu_guard. */
+static void on_xcpu(int sig)
+{
+    (void)sig;
+    if (g_xcpu_json_path[0]) {
+        int fd = open(g_xcpu_json_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+            if (write(fd, g_xcpu_json, g_xcpu_json_len) < 0) { /* nothing more to do */
+            }
+            close(fd);
+        }
+    }
+    if (write(2, g_xcpu_line, g_xcpu_line_len) < 0) { /* nothing more to do */
+    }
+    _exit(1);
+}
+
+/* Parses --cpu-limit's value: whole seconds, 0 .. 10^7. */
+static bool parse_cpu_limit(const char *s, long *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < 0 || v > 10000000) {
+        fprintf(stderr, "sylva-bake: --cpu-limit: expected whole seconds (0 = none), not '%s'\n", s);
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+/* Sets RLIMIT_CPU and the SIGXCPU handler. requested: seconds from
+ * --cpu-limit, -1 when not given. mesh names the input in the message;
+ * out_dir (bake) gets error.json. */
+static void cpu_guard(long requested, const char *mesh, const char *out_dir)
+{
+    if (requested == 0) return;
+    struct rlimit r;
+    if (getrlimit(RLIMIT_CPU, &r) != 0) return;
+    rlim_t limit;
+    const char *why;
+    if (requested > 0) {
+        limit = (rlim_t)requested;
+        why = "--cpu-limit";
+    } else if (r.rlim_cur != RLIM_INFINITY) {
+        limit = r.rlim_cur;
+        why = "the inherited RLIMIT_CPU";
+    } else {
+        limit = SV_DEFAULT_CPU_LIMIT;
+        why = "sylva-bake's default --cpu-limit";
+    }
+    if (r.rlim_max != RLIM_INFINITY && limit > r.rlim_max) limit = r.rlim_max;
+    struct rlimit n = {limit, r.rlim_max};
+    if (r.rlim_max == RLIM_INFINITY) {
+        n.rlim_max = limit + 5; /* SIGKILL if the handler cannot finish */
+    } else if (n.rlim_cur >= r.rlim_max && r.rlim_max >= 2) {
+        rlim_t grace = r.rlim_max >= 50 ? 5 : 1; /* soft = hard gives SIGKILL, no message */
+        n.rlim_cur = r.rlim_max - grace;
+    }
+    const char *base = strrchr(mesh, '/') ? strrchr(mesh, '/') + 1 : mesh;
+    char msg[700];
+    snprintf(msg, sizeof msg,
+             "'%.200s': stopped after %llu s of CPU time, the limit set by %s: the input takes "
+             "more than that to import or bake",
+             base, (unsigned long long)n.rlim_cur, why);
+    int len = snprintf(g_xcpu_line, sizeof g_xcpu_line, "sylva-bake: %.400s: %s\n", mesh, msg);
+    g_xcpu_line_len = len < 0 ? 0 : (size_t)len < sizeof g_xcpu_line ? (size_t)len : sizeof g_xcpu_line - 1;
+    g_xcpu_json_path[0] = 0;
+    if (out_dir) {
+        cJSON *root = cJSON_CreateObject(), *o = cJSON_AddObjectToObject(root, "error");
+        cJSON_AddStringToObject(o, "code", sv_status_code(SV_ERR_LIMIT));
+        cJSON_AddStringToObject(o, "message", msg);
+        char *js = cJSON_PrintUnformatted(root);
+        cJSON_Delete(root);
+        if (js && strlen(js) + 2 < sizeof g_xcpu_json &&
+            strlen(out_dir) + 16 < sizeof g_xcpu_json_path) {
+            g_xcpu_json_len = (size_t)snprintf(g_xcpu_json, sizeof g_xcpu_json, "%s\n", js);
+            snprintf(g_xcpu_json_path, sizeof g_xcpu_json_path, "%s/error.json", out_dir);
+        }
+        free(js);
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_xcpu;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGXCPU, &sa, NULL);
+    if (setrlimit(RLIMIT_CPU, &n) != 0)
+        fprintf(stderr, "sylva-bake: cannot set the CPU time limit: %s\n", strerror(errno));
+}
+
 typedef struct progress_ctx {
     int fd;
     bool tty;
@@ -156,9 +276,13 @@ static int cmd_info(int argc, char **argv)
     size_t n = 0;
     const char *spec_path = NULL;
     bool json = false;
+    long cpu_limit = -1;
     for (int i = 0; i < argc; i++) {
         if (strcmp(argv[i], "--json") == 0) json = true;
         else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
+        else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
+            if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
+        }
         else if (argv[i][0] == '-' && argv[i][1] == '-') {
             fprintf(stderr, "sylva-bake: unknown option %s\n%s", argv[i], usage);
             return 2;
@@ -168,6 +292,7 @@ static int cmd_info(int argc, char **argv)
         fputs(usage, stderr);
         return 2;
     }
+    cpu_guard(cpu_limit, paths[0], NULL);
     loaded l;
     if (load_files(paths, n, &l)) {
         free_files(&l);
@@ -252,8 +377,12 @@ static int cmd_bake(int argc, char **argv)
     const char *spec_path = NULL, *out_dir = NULL;
     int progress_fd = -1;
     bool sandbox = false;
+    long cpu_limit = -1;
     for (int i = 0; i < argc; i++) {
         if (strcmp(argv[i], "--sandbox") == 0) sandbox = true;
+        else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
+            if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
+        }
         else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
         else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
@@ -277,6 +406,8 @@ static int cmd_bake(int argc, char **argv)
         fprintf(stderr, "sylva-bake: cannot create %s: %s\n", out_dir, strerror(errno));
         return 1;
     }
+    /* Before the sandbox, which does not allow setrlimit. */
+    cpu_guard(cpu_limit, paths[0], out_dir);
     sv_error e = {0};
     /* As early as possible: before the spec and the mesh are read. Libraries
      * are linked, not dlopen'ed, so nothing later needs a forbidden call, but

@@ -5,9 +5,12 @@
  * .mtl, textures). The importer serves assimp only these files: an absolute path,
  * a `..` component, a `file:` or other URI scheme, or a name not handed in is
  * refused with SV_ERR_REFUSED naming the reference. The format is sniffed from
- * the bytes (not the name); only glTF/GLB, OBJ, PLY, FBX and COLLADA reach assimp.
- * glTF/GLB are pre-checked (structure, node depth, cycles, declared counts)
- * before assimp sees them. Textures are decoded to RGBA8 through image.h.
+ * the bytes (not the name); only glTF/GLB, OBJ, PLY, FBX and COLLADA reach assimp,
+ * under a name with the sniffed format's extension, and the import fails when
+ * assimp says it used another reader. Every format is pre-checked before assimp
+ * sees it: glTF/GLB by sv_gltf_precheck (structure, node depth, cycles, declared
+ * counts), the others by sv_mesh_precheck (complete headers, declared counts
+ * bounded by the file size). Textures are decoded to RGBA8 through image.h.
  */
 #ifndef SV_IMPORT_H
 #define SV_IMPORT_H
@@ -78,6 +81,18 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
  * Exposed for tests and fuzzing. */
 sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb,
                            const sv_file *files, size_t count,
+                           const sv_limits *limits, sv_error *err);
+
+/* Structural pre-check of an OBJ, PLY, FBX or COLLADA file (core/mesh_precheck.c)
+ * without assimp, iterative and bounded by size: a PLY header must be complete
+ * (end_header within 64 KiB) and its body must hold every instance it declares;
+ * OBJ and COLLADA must be text (no NUL), COLLADA closed by </COLLADA>; a binary
+ * FBX's record tree must lie inside the file, an ascii FBX's braces and strings
+ * must close. Declared OBJ/PLY vertex and triangle counts are held against the
+ * limits (NULL = defaults). SV_OK for glTF/GLB (see sv_gltf_precheck).
+ * Failures are SV_ERR_PARSE (SV_ERR_LIMIT for counts) with a message that
+ * names `shown` (the file's name) and the problem. Exposed for tests and fuzzing. */
+sv_status sv_mesh_precheck(sv_format fmt, const uint8_t *data, size_t size, const char *shown,
                            const sv_limits *limits, sv_error *err);
 
 #endif

@@ -4,13 +4,18 @@
 Usage: python3 tests/corpus/make_corpus.py [DIR]   (default: the directory of
 this script); python3 tests/corpus/make_corpus.py --fuzz-seeds tests/fuzz/corpus
 writes the libFuzzer seed corpora. Deterministic: the same script always writes the same bytes, so
-the committed files can be checked with `git diff` after a rerun.
+the committed files can be checked with `git diff` after a rerun; tests/unit/test_hostile.c
+reruns it into a temporary directory and compares every file byte for byte.
 
 Every file is a single mesh upload that sylva must refuse: `sylva-bake info`
 and `sylva-bake bake` exit 1 with one line on stderr (never a signal), and
 sylvad answers 4xx at upload or fails the job with a clear error code. The
 expected outcome is in the file's name prefix and in MANIFEST.tsv (name, what
 it attacks).
+
+valid/ holds one small valid file per accepted format and encoding (VALID):
+test_hostile.c imports each, then every prefix of it (cut at every byte)
+under a CPU limit: each prefix must be refused or imported, never hang.
 
 canary.mtl is the canary: several files reference it by absolute path
 (/proc/self/cwd/canary.mtl: the tests run the baker with the canary in its
@@ -152,6 +157,156 @@ def obj(text):
 
 TRI_V = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
 
+# --- small valid files, one per accepted format (and encoding): the bases of
+# the truncation sweep in tests/unit/test_hostile.c (every prefix must be
+# refused or imported within a CPU limit) and seeds of fuzz_import.
+def fbx_tree():
+    """One triangle as an FBX node tree: (name, [(type, value)], children)."""
+    L = lambda v: ("L", v)
+    return [
+        ("FBXHeaderExtension", [], [("FBXHeaderVersion", [("I", 1003)], []),
+                                    ("FBXVersion", [("I", 7400)], [])]),
+        ("Objects", [], [
+            ("Geometry", [L(1000001), ("S", "Geometry::tri"), ("S", "Mesh")], [
+                ("Vertices", [("d", [0, 0, 0, 1, 0, 0, 0, 1, 0])], []),
+                ("PolygonVertexIndex", [("i", [0, 1, -3])], []),
+            ]),
+            ("Model", [L(1000002), ("S", "Model::tri"), ("S", "Mesh")], [
+                ("Version", [("I", 232)], [])]),
+        ]),
+        ("Connections", [], [
+            ("C", [("S", "OO"), L(1000002), L(0)], []),
+            ("C", [("S", "OO"), L(1000001), L(1000002)], []),
+        ]),
+    ]
+
+
+def fbx_ascii(tree):
+    out = ["; FBX 7.4.0 project file\n"]
+
+    def val(p):
+        return '"%s"' % p[1] if p[0] == "S" else str(p[1])
+
+    def node(n, ind):
+        name, props, kids = n
+        pad = "\t" * ind
+        if len(props) == 1 and props[0][0] in "di":
+            arr = props[0][1]
+            out.append("%s%s: *%d {\n%s\ta: %s\n%s}\n" % (
+                pad, name, len(arr), pad, ",".join(str(x) for x in arr), pad))
+            return
+        line = "%s%s: %s" % (pad, name, ", ".join(val(p) for p in props))
+        if kids:
+            out.append(line + " {\n")
+            for k in kids:
+                node(k, ind + 1)
+            out.append(pad + "}\n")
+        else:
+            out.append(line + "\n")
+    for n in tree:
+        node(n, 0)
+    return "".join(out).encode()
+
+
+def fbx_binary(tree, version=7400):
+    """Binary FBX (32-bit record headers, version < 7500): each record is
+    endOffset, numProperties, propertyListLen, nameLen, name, properties,
+    nested records closed by a 13-byte null record; the top-level list too."""
+    def prop(p):
+        t, v = p
+        if t == "I":
+            return b"I" + struct.pack("<i", v)
+        if t == "L":
+            return b"L" + struct.pack("<q", v)
+        if t == "S":
+            b = v.encode()
+            return b"S" + struct.pack("<I", len(b)) + b
+        fmt = {"d": "d", "i": "i"}[t]
+        b = struct.pack("<%d%s" % (len(v), fmt), *v)
+        return t.encode() + struct.pack("<III", len(v), 0, len(b)) + b
+
+    def node(n, off):
+        name, props, kids = n
+        pb = b"".join(prop(p) for p in props)
+        cur = off + 13 + len(name) + len(pb)
+        kb = b""
+        if kids:
+            for k in kids:
+                b = node(k, cur)
+                kb += b
+                cur += len(b)
+            kb += b"\0" * 13
+            cur += 13
+        return struct.pack("<IIIB", cur, len(props), len(pb), len(name)) + name.encode() + pb + kb
+    out = b"Kaydara FBX Binary  \x00\x1a\x00" + struct.pack("<I", version)
+    for n in tree:
+        out += node(n, len(out))
+    return out + b"\0" * 13
+
+
+PLY_HEAD = ("ply\nformat %s 1.0\ncomment sylva\nelement vertex 3\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 1\n"
+            "property list uchar int vertex_indices\nend_header\n")
+
+
+def ply_binary(big=False):
+    e = ">" if big else "<"
+    return (PLY_HEAD % ("binary_big_endian" if big else "binary_little_endian")).encode() + \
+        struct.pack(e + "9f", *GOOD_POS) + struct.pack(e + "B3i", 3, 0, 1, 2)
+
+
+DAE_TRI = (
+    '<?xml version="1.0" encoding="utf-8"?>\n'
+    '<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">\n'
+    '<asset><unit meter="1"/><up_axis>Y_UP</up_axis></asset>\n'
+    '<library_geometries><geometry id="g"><mesh>\n'
+    '<source id="p"><float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array>\n'
+    '<technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/>'
+    '<param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common>'
+    '</source>\n<vertices id="v"><input semantic="POSITION" source="#p"/></vertices>\n'
+    '<triangles count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p>'
+    '</triangles>\n</mesh></geometry></library_geometries>\n'
+    '<library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/>'
+    '</node></visual_scene></library_visual_scenes>\n'
+    '<scene><instance_visual_scene url="#s"/></scene>\n</COLLADA>\n').encode()
+
+VALID = [
+    ("tri.glb", tri_glb()),
+    ("tri.gltf", data_buffer_glTF()),
+    ("tri.obj", obj("# one triangle\no tri\n" + TRI_V + "vn 0 0 1\nvt 0 0\nf 1 2 3\n")),
+    ("tri_ascii.ply", obj(PLY_HEAD % "ascii" + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")),
+    ("tri_binary_le.ply", ply_binary()),
+    ("tri_binary_be.ply", ply_binary(big=True)),
+    ("tri_ascii.fbx", fbx_ascii(fbx_tree())),
+    ("tri_binary.fbx", fbx_binary(fbx_tree())),
+    ("tri.dae", DAE_TRI),
+]
+
+FBX_BIN = fbx_binary(fbx_tree())
+
+
+def fbx_patch(data, off, value):
+    return data[:off] + struct.pack("<I", value) + data[off + 4:]
+
+
+def fbx_deep(depth):
+    """Records nested `depth` deep (each holds the next), then null records."""
+    n = ("N", [], [])
+    for _ in range(depth - 1):
+        n = ("N", [], [n])
+    return fbx_binary([n])
+
+
+def fbx_array_bomb():
+    """A 'd' array whose zlib stream is 16 bytes and claims 2^28 doubles."""
+    head = b"Kaydara FBX Binary  \x00\x1a\x00" + struct.pack("<I", 7400)
+    props = b"d" + struct.pack("<III", 2 ** 28, 1, 16) + b"\x78\x9c" + b"\0" * 14
+    name = b"Vertices"
+    rec_len = 13 + len(name) + len(props)
+    rec = struct.pack("<IIIB", len(head) + rec_len, 1, len(props), len(name)) + name + props
+    return head + rec + b"\0" * 13
+
+
 CORPUS = [
     # --- truncated and lying GLBs
     ("glb_truncated_header.glb", b"glTF\x02\x00\x00", "GLB cut inside its 12-byte header"),
@@ -250,6 +405,38 @@ CORPUS = [
      "binary body cut short"),
     ("fbx_truncated.fbx", b"Kaydara FBX Binary  \x00\x1a\x00\xe8\x1c\x00\x00" + b"\xff" * 13,
      "binary FBX cut after its header"),
+    # --- issue 25: incomplete headers, counts the body cannot hold, broken
+    # structure in every format passed to assimp (each once spun or could spin)
+    ("ply_header_no_end.ply", b"ply\nformat ascii 1.0\nelement vertex 1\n",
+     "PLY header without end_header (assimp 5.2.5 spins forever)"),
+    ("ply_header_no_end.glb", b"ply\nformat ascii 1.0\nelement vertex 1\n",
+     "the same bytes named .glb (sniffed as PLY)"),
+    ("ply_header_unbounded.ply", obj("ply\nformat ascii 1.0\n" +
+                                     ("comment " + "x" * 99 + "\n") * 700),
+     "70 KB of header lines and no end_header"),
+    ("ply_ascii_count_past_body.ply", obj((PLY_HEAD % "ascii").replace(
+        "element vertex 3", "element vertex 1000") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+     "declares 1000 vertices, body holds 4 lines"),
+    ("ply_ascii_short_list.ply", obj(PLY_HEAD % "ascii" + "0 0 0\n1 0 0\n0 1 0\n3 0 1"),
+     "face list of 3 ends after 2 indices"),
+    ("ply_binary_list_count_lies.ply", ply_binary()[:-13] + struct.pack("<B3i", 255, 0, 1, 2),
+     "binary face list claims 255 indices, holds 3"),
+    ("ply_bad_property_type.ply", obj((PLY_HEAD % "ascii").replace("property float z",
+                                                                    "property quad z") +
+                                      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+     "unknown property type"),
+    ("obj_long_line.obj", obj(TRI_V + "# " + "x" * 70000 + "\nf 1 2 3\n"),
+     "a 70 KB line"),
+    ("obj_nul_after_64k.obj", obj(TRI_V + ("# " + "x" * 98 + "\n") * 700) + b"\0f 1 2 3\n",
+     "NUL byte after the sniffer's 64 KiB"),
+    ("fbx_binary_offset_past_end.fbx", fbx_patch(FBX_BIN, 27, 0xFFFFFF00),
+     "binary FBX record end offset 4 GiB"),
+    ("fbx_binary_deep.fbx", fbx_deep(200), "binary FBX records nested 200 deep"),
+    ("fbx_binary_array_bomb.fbx", fbx_array_bomb(),
+     "zlib array of 16 bytes claims 2^28 doubles"),
+    ("fbx_binary_cut.fbx", FBX_BIN[:len(FBX_BIN) // 2], "binary FBX cut in half"),
+    ("fbx_ascii_unclosed.fbx", fbx_ascii(fbx_tree())[:200], "ascii FBX cut inside a brace"),
+    ("dae_truncated.dae", DAE_TRI[:len(DAE_TRI) // 2], "COLLADA cut in half"),
     # --- formats disguised as GLB, empty and one-byte files
     ("disguised_png.glb", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x00\x01\x00\x00\x00\x01"
      b"\x08\x06\x00\x00\x00\x1f\x15\xc4\x89", "a PNG named .glb"),
@@ -278,11 +465,16 @@ def main():
             with open(os.path.join(out, name), "wb") as f:
                 f.write(data)
             man.write("%s\t%s\n" % (name, what))
+    vdir = os.path.join(out, "valid")
+    os.makedirs(vdir, exist_ok=True)
+    for name, data in VALID:
+        with open(os.path.join(vdir, name), "wb") as f:
+            f.write(data)
     with open(os.path.join(out, "canary.mtl"), "w") as f:
         f.write(CANARY)
     with open(os.path.join(out, "CANARY_MARKER"), "w") as f:
         f.write(CANARY_MARKER + "\n")
-    print("%d hostile files in %s" % (len(CORPUS), out))
+    print("%d hostile files and %d valid ones in %s" % (len(CORPUS), len(VALID), out))
 
 
 if __name__ == "__main__" and (len(sys.argv) < 2 or sys.argv[1] != "--fuzz-seeds"):
@@ -344,6 +536,12 @@ def fuzz_seeds(root):
             struct.pack("<3I", 0, 1, 9),
         },
     }
+    # fuzz_import is seeded with the whole hostile corpus and valid/ (a link,
+    # so the seeds never drift from the corpus; libFuzzer reads it recursively).
+    link = os.path.join(root, "fuzz_import")
+    if not os.path.lexists(link):
+        os.makedirs(root, exist_ok=True)
+        os.symlink(os.path.relpath(os.path.dirname(os.path.abspath(__file__)), root), link)
     for target, files in seeds.items():
         d = os.path.join(root, target)
         os.makedirs(d, exist_ok=True)
