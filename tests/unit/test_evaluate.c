@@ -556,7 +556,9 @@ static void subset_callback_blends_two_renders_by_weight(void **state)
     p.wa = 1.0;
     assert_int_equal(sv_evaluate_subsets(e, gb, pick_subsets, &p, &res, &err), SV_OK);
     assert_int_equal(p.calls, 4);
-    assert_float_equal(res.sizes[0].mean.iou, 1.0, 1e-12); /* only the original's copy */
+    /* only the original's copy; the combined mesh is uploaded relative to its
+     * own centre, so a few edge samples may round the other way */
+    assert_float_equal(res.sizes[0].mean.iou, 1.0, 1e-4);
     sv_eval_result_free(&res);
     p.wa = 0.5;
     assert_int_equal(sv_evaluate_subsets(e, gb, pick_subsets, &p, &res, &err), SV_OK);

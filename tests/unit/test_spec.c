@@ -29,7 +29,7 @@ static void empty_spec_gives_every_default(void **state)
     assert_int_equal(s.eval_views, 24);
     assert_int_equal(s.eval_size_count, 4);
     assert_int_equal(s.eval_sizes[0], 256);
-    assert_int_equal(s.scene.viewer, SV_VIEWER_ORBIT);
+    assert_int_equal(s.scene.viewer, SV_VIEWER_SIDE);
     assert_int_equal(s.scene.lighting, SV_LIGHTING_UNLIT);
     assert_int_equal(s.seed, 1);
     sv_spec_free(&s);
