@@ -17,4 +17,6 @@ export BUILD SYLVA_DATA
 command -v python3 > /dev/null 2>&1 || { echo "bench: python3 missing (make deps)"; exit 1; }
 command -v gnuplot > /dev/null 2>&1 || echo "bench: gnuplot missing (make deps installs gnuplot-nox): no plots"
 cd "$root"
-exec python3 "$here/bench.py"
+python3 "$here/bench.py"
+# issue 18: every quad method at a budget, sveval beside our figure
+python3 "$here/fidelity.py"
