@@ -238,6 +238,7 @@ typedef struct chain {
     chain_lod *info;        /* one per si LOD */
     cJSON *skipped;         /* [{name, stage, reason}] */
     int required;           /* the spec method's last LOD (-1: none) */
+    int required_first;     /* the spec method's first LOD */
 } chain;
 
 static void chain_free(chain *c)
@@ -438,6 +439,7 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
             d_after = c->info[i].distance;
     d_after = fmin(d_after, sc->distance_max);
     c->required = -1;
+    c->required_first = 0;
     if (is_stoch) c->required = (int)si->lod_count - 1;
     for (int k = 0; k < 2; k++) {
         if (!names[k]) continue;
@@ -450,7 +452,10 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
         if ((st = append_lods(si, c, &part, names[k], err))) return st;
         for (uint32_t i = first; i < si->lod_count; i++)
             c->info[i].trunk_error = metres_per_pixel(sc, d_after);
-        if (k == 0 && si->lod_count > first) c->required = (int)si->lod_count - 1;
+        if (k == 0 && si->lod_count > first) {
+            c->required = (int)si->lod_count - 1;
+            c->required_first = (int)first;
+        }
     }
     return SV_OK;
 }
@@ -832,9 +837,22 @@ static void plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stan
     }
     for (uint32_t i = 0; i < n; i++)
         if (!drop[i]) lods[i].switch_pixels = lods[i].own_pixels;
-    /* The method the spec names always yields its coarsest LOD, at the far end
-     * of the chain when the plan left nothing of it and nothing after it. */
+    /* The method the spec names always yields a LOD, at the far end of the
+     * chain when the plan left nothing of it and nothing after it: its most
+     * accurate one (mean IoU at the smallest measured size; a coarser one
+     * only when it is as good), not blindly its coarsest, which may be
+     * dominated (issue 19). */
     int q = c->required;
+    if (q >= 0 && (uint32_t)q < n && drop[q]) {
+        bool any_kept = false;
+        for (int j = c->required_first; j <= q; j++) any_kept = any_kept || !drop[j];
+        double best = -1;
+        for (int j = c->required_first; j <= q && !any_kept; j++) {
+            const lod_out *l = &lods[j];
+            double iou = l->evaluated ? l->eval.sizes[l->eval.size_count - 1].mean.iou : 0;
+            if (iou > best + 1e-9) best = iou, q = j;
+        }
+    }
     if (q >= 0 && (uint32_t)q < n && drop[q]) {
         bool after = false, before = false;
         double prev = INFINITY;
