@@ -1085,7 +1085,10 @@ static sv_status bake_all(run *r, sv_error *err)
         for (uint32_t i = 0; i < si.lod_count; i++) {
             if ((st = progress(r, ST_EVALUATE, (double)i / si.lod_count))) goto cancelled;
             if ((st = sv_gpu_mesh_upload(ren, lods[i].baked.mesh, &lods[i].gpu, err))) goto out;
-            if (si.lods[i].select) {
+            if (ch.info[i].stochastic && ch.info[i].lambda >= 1 && !si.lods[i].quad_count) {
+                /* the full level is the original mesh: nothing to measure (issue 20) */
+                st = sv_eval_identity(ev, &lods[i].eval, err);
+            } else if (si.lods[i].select) {
                 view_sets vs;
                 if ((st = view_sets_init(&vs, &si.lods[i], &lods[i].baked, err))) goto out;
                 st = sv_evaluate_subsets(ev, lods[i].gpu, select_subsets, &vs, &lods[i].eval, err);

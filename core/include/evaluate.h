@@ -105,6 +105,10 @@ void sv_evaluator_destroy(sv_evaluator *e);
 sv_status sv_evaluate(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_result *out,
                       sv_error *err);
 
+/* The result of evaluating the original against itself (IoU 1, errors 0 at
+ * every view and size) without rendering: for a level that is the original
+ * mesh (the chain's full level). SV_ERR_NOMEM only. */
+sv_status sv_eval_identity(const sv_evaluator *e, sv_eval_result *out, sv_error *err);
 /* sv_evaluate with a per-view choice of triangles (see sv_eval_subset_fn);
  * fn NULL = every triangle. SV_ERR_INVALID when the callback's weights are
  * negative or do not sum to 1. */
