@@ -253,7 +253,7 @@ static void spec_defaults(sv_spec *s)
     s->dilate = 8;
     s->evaluate = true;
     s->eval_views = 24;
-    s->eval_supersample = 4;
+    s->eval_supersample = 2; /* 512² for 256 px: issue 20, 4x cheaper than 4 for <0.001 IoU */
     s->eval_sizes[0] = 256;
     s->eval_sizes[1] = 128;
     s->eval_sizes[2] = 64;

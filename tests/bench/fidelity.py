@@ -71,7 +71,7 @@ def main():
             scale = 0.01 if units == "cm" else 1.0
             for label, method, settings in POINTS:
                 spec = {"method": method, method: settings, "import": {"units": units},
-                        "lod": {"chain": False}, "evaluate": {"sizes": [64]}}
+                        "lod": {"chain": False}, "evaluate": {"sizes": [64], "supersample": 4}}
                 out = os.path.join(tmp, d + "-" + method + str(len(rows)))
                 sp = os.path.join(tmp, "spec.json")
                 with open(sp, "w") as f:
