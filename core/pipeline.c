@@ -1,11 +1,12 @@
 /* pipeline.c — the whole offline bake (DESIGN.md "The core pipeline"):
  * import → validate → classify → method → bake → pack → evaluate → write.
  *
- * Outputs (docs/outputs.md): model.glb, planes.json, report.json, preview.png,
+ * Outputs (docs/outputs.md): model.glb, lod<i>_<name>.glb, planes.json, report.json, preview.png,
  * atlas_<lod>_<map>.png. All but report.json's "times" are deterministic.
  */
 #include "pipeline.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -196,6 +197,26 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
 }
 
 /* ---- writing helpers ---- */
+
+/* The asset's name for node names (`<asset>_LOD<i>`, the convention Unity,
+ * Unreal and Godot importers group into LOD sets): the main file's base name
+ * without its extension, every byte outside [A-Za-z0-9_-] replaced by '_',
+ * at most cap - 1 bytes; "tree" when nothing is left. */
+static void asset_name(const char *file, char *out, size_t cap)
+{
+    const char *b = file ? file : "";
+    for (const char *c = b; *c; c++)
+        if (*c == '/' || *c == '\\') b = c + 1;
+    const char *dot = strrchr(b, '.');
+    size_t n = dot && dot != b ? (size_t)(dot - b) : strlen(b);
+    if (n > cap - 1) n = cap - 1;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char ch = (unsigned char)b[i];
+        out[i] = (isalnum(ch) || ch == '_' || ch == '-') ? (char)ch : '_';
+    }
+    out[n] = 0;
+    if (n == 0) snprintf(out, cap, "tree");
+}
 
 static sv_status write_json(const char *dir, const char *name, cJSON *j, sv_error *err)
 {
@@ -573,6 +594,8 @@ typedef struct lod_out {
     double coverage;        /* MSFT_screencoverage threshold below which the next LOD is used */
     bool meets_tolerance;
     char maps[4][64];       /* atlas file names: albedo, normal, ao, depth */
+    char file[96];          /* standalone glTF of this level: lod<i>_<name>.glb */
+    char node[96];          /* its node name (also in model.glb): <asset>_LOD<i> */
     double alpha_cutoff;    /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;       /* mean IoU at SV_CALIB_PIXELS with that cutoff */
 } lod_out;
@@ -1139,8 +1162,13 @@ static sv_status bake_all(run *r, sv_error *err)
             st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
             goto out;
         }
+        char asset[64];
+        asset_name(req->files[0].name, asset, sizeof asset);
         for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
-            gl[i].name = si.lods[i].name;
+            snprintf(lods[i].node, sizeof lods[i].node, "%s_LOD%u", asset, i);
+            snprintf(lods[i].file, sizeof lods[i].file, "lod%u_%s.glb", i, si.lods[i].name);
+            gl[i].name = lods[i].node;
+            gl[i].mesh_name = si.lods[i].name;
             gl[i].mesh = lods[i].baked.mesh;
             gl[i].screen_coverage = lods[i].coverage;
             if (ch.info[i].stochastic) st = stochastic_gltf(&ch, &ch.info[i], lods[i].baked.mesh,
@@ -1148,6 +1176,11 @@ static sv_status bake_all(run *r, sv_error *err)
         }
         snprintf(path, sizeof path, "%s/model.glb", req->out_dir);
         if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si.lod_count, err);
+        /* one standalone file per kept level, for importers that ignore MSFT_lod */
+        for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
+            snprintf(path, sizeof path, "%s/%s", req->out_dir, lods[i].file);
+            st = sv_gltf_write_level_glb(path, &gl[i], err);
+        }
         for (uint32_t i = 0; i < si.lod_count; i++) gltf_extra_free(&gx[i]);
         free(gx);
         free(gl);
@@ -1176,6 +1209,8 @@ static sv_status bake_all(run *r, sv_error *err)
         const sv_baked_lod *b = &lods[i].baked;
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", lp->name);
+        cJSON_AddStringToObject(o, "file", lods[i].file);
+        cJSON_AddStringToObject(o, "node", lods[i].node);
         cJSON_AddNumberToObject(o, "screen_coverage", lods[i].coverage);
         cJSON_AddNumberToObject(o, "switch_pixels", lods[i].switch_pixels);
         cJSON_AddNumberToObject(o, "switch_distance",
@@ -1236,6 +1271,8 @@ static sv_status bake_all(run *r, sv_error *err)
         const sv_baked_lod *b = &lods[i].baked;
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", si.lods[i].name);
+        cJSON_AddStringToObject(o, "file", lods[i].file);
+        cJSON_AddStringToObject(o, "node", lods[i].node);
         cJSON_AddStringToObject(o, "source", ch.info[i].source);
         if (ch.info[i].stochastic) {
             const sv_stoch_level *L = &ch.sres.levels[ch.info[i].level];
