@@ -17,6 +17,7 @@
 #include "evaluate.h"
 #include "gltf.h"
 #include "method.h"
+#include "plausibility.h"
 #include "render.h"
 #include "slicing.h"
 #include "spec.h"
@@ -37,6 +38,8 @@ typedef struct prepared {
     sv_validate_report repairs;
     sv_classification cls;
     sv_leaves leaves;
+    sv_up_guess up;           /* the up-axis check (plausibility.h) */
+    bool up_rotated;          /* import.up "auto" found the tree Z-up and rotated it */
     double centre[3], radius;
 } prepared;
 
@@ -90,7 +93,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     sv_status st;
     sv_import_options io = {0};
     io.unit_scale = spec->unit_scale;
-    io.up_axis = spec->up_axis;
+    io.up_axis = spec->up_axis == 'A' ? 'Y' : spec->up_axis; /* "auto": decided below */
     if (r && (st = progress(r, ST_IMPORT, 0))) return sv_fail(err, st, "cancelled");
     if ((st = sv_import(files, count, &io, &p->mesh, &p->info, err))) return st;
     if (r && (st = progress(r, ST_VALIDATE, 0))) return sv_fail(err, st, "cancelled");
@@ -98,6 +101,20 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     if (r && (st = progress(r, ST_CLASSIFY, 0))) return sv_fail(err, st, "cancelled");
     sv_classify_options co = {spec->foliage, spec->foliage_count, spec->trunk, spec->trunk_count};
     if ((st = sv_classify(p->mesh, &co, &p->cls, err))) return st;
+    /* Plausibility (issue 19): lying down or in the wrong units, said in
+     * input.warnings; import.up "auto" turns a Z-up tree upright here. */
+    sv_detect_up(p->mesh, p->cls.tri_part, &p->up);
+    if (spec->up_axis == 'A' && p->up.z_up) {
+        sv_mesh_rotate_up(p->mesh, p->up.z_up);
+        p->up_rotated = true;
+    }
+    {
+        double mn[3], mx[3];
+        sv_mesh_bounds(p->mesh, mn, mx);
+        double height = p->up.z_up && !p->up_rotated ? p->up.height : mx[1] - mn[1];
+        sv_plausibility_warnings(&p->up, height, p->up_rotated, p->info.warnings,
+                                 sizeof p->info.warnings);
+    }
     if ((st = sv_leaves_build(p->mesh, &p->cls, &p->leaves, err))) return st;
     sv_mesh_sphere(p->mesh, p->centre, &p->radius);
     if (!(p->radius > 0) || !isfinite(p->radius))
@@ -122,7 +139,11 @@ static cJSON *describe(const prepared *p)
     cJSON_AddStringToObject(j, "format", sv_format_name(p->info.format));
     cJSON_AddNumberToObject(j, "unit_scale", p->info.unit_scale);
     char up[2] = {p->info.up_axis ? p->info.up_axis : 'Y', 0};
-    cJSON_AddStringToObject(j, "up", up);
+    cJSON_AddStringToObject(j, "up", p->up_rotated ? (p->up.z_up > 0 ? "Z" : "-Z") : up);
+    cJSON *uc = cJSON_AddObjectToObject(j, "up_check");
+    cJSON_AddStringToObject(uc, "looks", p->up.z_up > 0 ? "Z" : p->up.z_up < 0 ? "-Z" : "Y");
+    cJSON_AddBoolToObject(uc, "rotated", p->up_rotated);
+    cJSON_AddStringToObject(uc, "reason", p->up.reason);
     cJSON *m = cJSON_AddObjectToObject(j, "mesh");
     cJSON_AddNumberToObject(m, "triangles", p->mesh->triangle_count);
     /* before validation removed degenerate and duplicate triangles */
