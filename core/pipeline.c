@@ -18,6 +18,7 @@
 #include "gltf.h"
 #include "method.h"
 #include "plausibility.h"
+#include "preview.h"
 #include "render.h"
 #include "slicing.h"
 #include "spec.h"
@@ -1207,15 +1208,57 @@ static sv_status bake_all(run *r, sv_error *err)
         free(gl);
         if (st) goto out;
     }
-    /* preview.png */
+    /* preview.png: every kept level beside the original (preview.h), from the
+     * first evaluation view */
     if (ev) {
         snprintf(path, sizeof path, "%s/preview.png", req->out_dir);
-        view_sets vs;
-        bool sel = si.lods[0].select != NULL;
-        if (sel && (st = view_sets_init(&vs, &si.lods[0], &lods[0].baked, err))) goto out;
-        st = sv_evaluator_preview(ev, lods[0].gpu, sel ? select_subsets : NULL, sel ? &vs : NULL,
-                                  path, err);
-        if (sel) view_sets_free(&vs);
+        sv_preview_level *pv = sv_calloc(si.lod_count, sizeof *pv);
+        view_sets *vs = sv_calloc(si.lod_count, sizeof *vs);
+        bool *vs_ok = sv_calloc(si.lod_count, sizeof *vs_ok);
+        if (!pv || !vs || !vs_ok) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
+            const sv_baked_lod *b = &lods[i].baked;
+            pv[i].gpu = lods[i].gpu;
+            if (si.lods[i].select) {
+                if ((st = view_sets_init(&vs[i], &si.lods[i], b, err))) break;
+                vs_ok[i] = true;
+                pv[i].select = select_subsets;
+                pv[i].user = &vs[i];
+            }
+            pv[i].name = si.lods[i].name;
+            pv[i].pixels = lods[i].switch_pixels;
+            pv[i].triangles = b->mesh->triangle_count;
+            pv[i].texels = (double)b->albedo.width * b->albedo.height;
+            pv[i].iou = -1;
+            double best = INFINITY, px = lods[i].switch_pixels > 0 ? lods[i].switch_pixels : 1;
+            for (uint32_t k = 0; lods[i].evaluated && k < lods[i].eval.size_count; k++) {
+                const sv_eval_size *z = &lods[i].eval.sizes[k];
+                double dist = fabs(log2((double)z->pixels / px));
+                if (dist < best) {
+                    best = dist;
+                    pv[i].iou = z->mean.iou;
+                    pv[i].iou_pixels = z->pixels;
+                }
+            }
+        }
+        if (st == SV_OK) {
+            double dir[3];
+            sv_evaluator_view_dir(ev, 0, dir);
+            sv_camera cam;
+            sv_eval_camera(fc, fr > 0 ? fr : p->radius, dir, &cam);
+            sv_render_options ro;
+            memset(&ro, 0, sizeof ro);
+            if (bo.lit) {
+                ro.shade = SV_SHADE_LIT;
+                memcpy(ro.light_dir, bo.light_dir, sizeof ro.light_dir);
+            }
+            st = sv_preview_chain(ren, gsrc, pv, si.lod_count, &cam, dir, &ro, 256, path, err);
+        }
+        for (uint32_t i = 0; vs_ok && i < si.lod_count; i++)
+            if (vs_ok[i]) view_sets_free(&vs[i]);
+        free(vs_ok);
+        free(vs);
+        free(pv);
         if (st) goto out;
     }
     /* planes.json */

@@ -36,6 +36,9 @@ strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.p
 # the report holds accuracy per size and per-stage times
 [ "$(json_get "$tmp/a/report.json" "len(j['lods'][0]['accuracy'])")" = 4 ] || fail "accuracy sizes"
 json_get "$tmp/a/report.json" "j['times']['evaluate']" > /dev/null || fail "times.evaluate"
+# preview.png: the original and one 256-px column per kept level
+w=$(python3 -c "import struct,sys; print(struct.unpack('>I', open(sys.argv[1],'rb').read()[16:20])[0])" "$tmp/a/preview.png")
+[ "$w" = "$(json_get "$tmp/a/report.json" "256 * (len(j['lods']) + 1)")" ] || fail "preview.png is $w px wide"
 
 # the glTF passes the Khronos validator
 if command -v npm > /dev/null 2>&1; then
