@@ -706,6 +706,18 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
         if (total_texels > 0)
             cJSON_AddNumberToObject(s, "atlas_texels", total_texels);
     }
+    /* Warnings: report.json's input.warnings, else the status document's. */
+    const cJSON *warn = get(get(rep, "input"), "warnings");
+    if (!cJSON_IsArray(warn))
+        warn = get(job, "warnings");
+    if (cJSON_IsArray(warn) && cJSON_GetArraySize(warn) > 0) {
+        cJSON *wl = cJSON_AddArrayToObject(s, "warnings");
+        const cJSON *w;
+        cJSON_ArrayForEach(w, warn) {
+            if (wl && cJSON_IsString(w))
+                cJSON_AddItemToArray(wl, cJSON_CreateString(w->valuestring));
+        }
+    }
     /* Per-stage times: report.json's are the worker's own; else the job's. */
     const cJSON *times = get(rep, "times");
     if (!cJSON_IsObject(times))
@@ -778,6 +790,11 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
             }
             put(&o, "\n");
         }
+    }
+    const cJSON *w;
+    cJSON_ArrayForEach(w, get(s, "warnings")) {
+        if (cJSON_IsString(w))
+            put(&o, "  warning: %s\n", w->valuestring);
     }
     const cJSON *times = get(s, "times");
     if (cJSON_IsObject(times) && cJSON_GetArraySize(times) > 0) {

@@ -114,13 +114,16 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
 /* Builds the summary of a done bake from the job's JSON and the downloaded
  * report.json and planes.json (each may be NULL): {"lods":[{"name","planes",
  * "triangles","atlas":[w,h],"accuracy":{"pixels","iou_mean","color_error_mean"}}],
- * "planes": total, "atlas_texels": total, "times": {stage: seconds}}. Never NULL
- * unless out of memory; missing sources leave fields out. */
+ * "planes": total, "atlas_texels": total, "warnings": [text] (report.json's
+ * input.warnings, else the status document's "warnings"; left out when none),
+ * "times": {stage: seconds}}. Never NULL unless out of memory; missing sources
+ * leave fields out. */
 cJSON *sylva_cli_summary(const char *job_json, const char *report_json,
                          const char *planes_json);
 
-/* Formats a summary as short human-readable lines into buf (always
- * NUL-terminated, truncated to len). Returns the length it wanted. */
+/* Formats a summary as short human-readable lines into buf (one
+ * "  warning: ..." line per warning; always NUL-terminated, truncated to len).
+ * Returns the length it wanted. */
 size_t sylva_cli_summary_format(const cJSON *summary, char *buf, size_t len);
 
 /* Formats one progress line: "label: stage  42%" with a bar when bar is true. */

@@ -539,7 +539,8 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
         cJSON_AddItemToArray(w->nodes, node);
         if (l->mesh->triangle_count) {
             int mesh_index = -1;
-            sv_status st = write_mesh(w, l, name, &mesh_index);
+            sv_status st = write_mesh(w, l, l->mesh_name && l->mesh_name[0] ? l->mesh_name : name,
+                                      &mesh_index);
             if (st != SV_OK) return st;
             if (!add_int(node, "mesh", mesh_index)) return nomem(w);
         }
@@ -678,6 +679,27 @@ out:
     return st;
 }
 
+/* Writes bytes to path through path.tmp and a rename (no partial file). */
+static sv_status write_bytes(const char *path, const uint8_t *data, size_t size, sv_error *err)
+{
+    size_t plen = strlen(path);
+    char *tmp = malloc(plen + 5);
+    if (!tmp) return sv_fail(err, SV_ERR_NOMEM, "glTF writer: out of memory");
+    memcpy(tmp, path, plen);
+    memcpy(tmp + plen, ".tmp", 5);
+    FILE *f = fopen(tmp, "wb");
+    bool ok = f && fwrite(data, 1, size, f) == size;
+    if (f && fclose(f) != 0) ok = false;
+    if (ok && rename(tmp, path) != 0) ok = false;
+    sv_status st = SV_OK;
+    if (!ok) {
+        if (f) unlink(tmp);
+        st = sv_fail(err, SV_ERR_IO, "glTF writer: cannot write %s", path);
+    }
+    free(tmp);
+    return st;
+}
+
 sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
                             sv_error *err)
 {
@@ -685,23 +707,30 @@ sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t 
     size_t size;
     sv_status st = sv_gltf_encode_glb(lods, lod_count, &data, &size, err);
     if (st != SV_OK) return st;
-    size_t plen = strlen(path);
-    char *tmp = malloc(plen + 5);
-    if (!tmp) {
-        free(data);
-        return sv_fail(err, SV_ERR_NOMEM, "glTF writer: out of memory");
-    }
-    memcpy(tmp, path, plen);
-    memcpy(tmp + plen, ".tmp", 5);
-    FILE *f = fopen(tmp, "wb");
-    bool ok = f && fwrite(data, 1, size, f) == size;
-    if (f && fclose(f) != 0) ok = false;
-    if (ok && rename(tmp, path) != 0) ok = false;
-    if (!ok) {
-        if (f) unlink(tmp);
-        st = sv_fail(err, SV_ERR_IO, "glTF writer: cannot write %s", path);
-    }
-    free(tmp);
+    st = write_bytes(path, data, size, err);
+    free(data);
+    return st;
+}
+
+sv_status sv_gltf_encode_level_glb(const sv_gltf_lod *lod, uint8_t **out, size_t *out_size,
+                                   sv_error *err)
+{
+    *out = NULL;
+    *out_size = 0;
+    if (!lod || !lod->name || !lod->name[0])
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: a standalone level needs a node name");
+    sv_gltf_lod one = *lod;
+    one.screen_coverage = 0; /* one level: nothing to switch to */
+    return sv_gltf_encode_glb(&one, 1, out, out_size, err);
+}
+
+sv_status sv_gltf_write_level_glb(const char *path, const sv_gltf_lod *lod, sv_error *err)
+{
+    uint8_t *data;
+    size_t size;
+    sv_status st = sv_gltf_encode_level_glb(lod, &data, &size, err);
+    if (st != SV_OK) return st;
+    st = write_bytes(path, data, size, err);
     free(data);
     return st;
 }

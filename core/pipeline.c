@@ -1,11 +1,12 @@
 /* pipeline.c — the whole offline bake (DESIGN.md "The core pipeline"):
  * import → validate → classify → method → bake → pack → evaluate → write.
  *
- * Outputs (docs/outputs.md): model.glb, planes.json, report.json, preview.png,
+ * Outputs (docs/outputs.md): model.glb, lod<i>_<name>.glb, planes.json, report.json, preview.png,
  * atlas_<lod>_<map>.png. All but report.json's "times" are deterministic.
  */
 #include "pipeline.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,6 +17,8 @@
 #include "evaluate.h"
 #include "gltf.h"
 #include "method.h"
+#include "plausibility.h"
+#include "preview.h"
 #include "render.h"
 #include "slicing.h"
 #include "spec.h"
@@ -36,6 +39,8 @@ typedef struct prepared {
     sv_validate_report repairs;
     sv_classification cls;
     sv_leaves leaves;
+    sv_up_guess up;           /* the up-axis check (plausibility.h) */
+    bool up_rotated;          /* import.up "auto" found the tree Z-up and rotated it */
     double centre[3], radius;
 } prepared;
 
@@ -89,7 +94,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     sv_status st;
     sv_import_options io = {0};
     io.unit_scale = spec->unit_scale;
-    io.up_axis = spec->up_axis;
+    io.up_axis = spec->up_axis == 'A' ? 'Y' : spec->up_axis; /* "auto": decided below */
     if (r && (st = progress(r, ST_IMPORT, 0))) return sv_fail(err, st, "cancelled");
     if ((st = sv_import(files, count, &io, &p->mesh, &p->info, err))) return st;
     if (r && (st = progress(r, ST_VALIDATE, 0))) return sv_fail(err, st, "cancelled");
@@ -97,6 +102,20 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     if (r && (st = progress(r, ST_CLASSIFY, 0))) return sv_fail(err, st, "cancelled");
     sv_classify_options co = {spec->foliage, spec->foliage_count, spec->trunk, spec->trunk_count};
     if ((st = sv_classify(p->mesh, &co, &p->cls, err))) return st;
+    /* Plausibility (issue 19): lying down or in the wrong units, said in
+     * input.warnings; import.up "auto" turns a Z-up tree upright here. */
+    sv_detect_up(p->mesh, p->cls.tri_part, &p->up);
+    if (spec->up_axis == 'A' && p->up.z_up) {
+        sv_mesh_rotate_up(p->mesh, p->up.z_up);
+        p->up_rotated = true;
+    }
+    {
+        double mn[3], mx[3];
+        sv_mesh_bounds(p->mesh, mn, mx);
+        double height = p->up.z_up && !p->up_rotated ? p->up.height : mx[1] - mn[1];
+        sv_plausibility_warnings(&p->up, height, p->up_rotated, p->info.warnings,
+                                 sizeof p->info.warnings);
+    }
     if ((st = sv_leaves_build(p->mesh, &p->cls, &p->leaves, err))) return st;
     sv_mesh_sphere(p->mesh, p->centre, &p->radius);
     if (!(p->radius > 0) || !isfinite(p->radius))
@@ -121,7 +140,11 @@ static cJSON *describe(const prepared *p)
     cJSON_AddStringToObject(j, "format", sv_format_name(p->info.format));
     cJSON_AddNumberToObject(j, "unit_scale", p->info.unit_scale);
     char up[2] = {p->info.up_axis ? p->info.up_axis : 'Y', 0};
-    cJSON_AddStringToObject(j, "up", up);
+    cJSON_AddStringToObject(j, "up", p->up_rotated ? (p->up.z_up > 0 ? "Z" : "-Z") : up);
+    cJSON *uc = cJSON_AddObjectToObject(j, "up_check");
+    cJSON_AddStringToObject(uc, "looks", p->up.z_up > 0 ? "Z" : p->up.z_up < 0 ? "-Z" : "Y");
+    cJSON_AddBoolToObject(uc, "rotated", p->up_rotated);
+    cJSON_AddStringToObject(uc, "reason", p->up.reason);
     cJSON *m = cJSON_AddObjectToObject(j, "mesh");
     cJSON_AddNumberToObject(m, "triangles", p->mesh->triangle_count);
     /* before validation removed degenerate and duplicate triangles */
@@ -196,6 +219,26 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
 }
 
 /* ---- writing helpers ---- */
+
+/* The asset's name for node names (`<asset>_LOD<i>`, the convention Unity,
+ * Unreal and Godot importers group into LOD sets): the main file's base name
+ * without its extension, every byte outside [A-Za-z0-9_-] replaced by '_',
+ * at most cap - 1 bytes; "tree" when nothing is left. */
+static void asset_name(const char *file, char *out, size_t cap)
+{
+    const char *b = file ? file : "";
+    for (const char *c = b; *c; c++)
+        if (*c == '/' || *c == '\\') b = c + 1;
+    const char *dot = strrchr(b, '.');
+    size_t n = dot && dot != b ? (size_t)(dot - b) : strlen(b);
+    if (n > cap - 1) n = cap - 1;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char ch = (unsigned char)b[i];
+        out[i] = (isalnum(ch) || ch == '_' || ch == '-') ? (char)ch : '_';
+    }
+    out[n] = 0;
+    if (n == 0) snprintf(out, cap, "tree");
+}
 
 static sv_status write_json(const char *dir, const char *name, cJSON *j, sv_error *err)
 {
@@ -578,6 +621,8 @@ typedef struct lod_out {
     double coverage;        /* MSFT_screencoverage threshold below which the next LOD is used */
     bool meets_tolerance;
     char maps[4][64];       /* atlas file names: albedo, normal, ao, depth */
+    char file[96];          /* standalone glTF of this level: lod<i>_<name>.glb */
+    char node[96];          /* its node name (also in model.glb): <asset>_LOD<i> */
     double alpha_cutoff;    /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;       /* mean IoU at SV_CALIB_PIXELS with that cutoff */
 } lod_out;
@@ -1160,8 +1205,13 @@ static sv_status bake_all(run *r, sv_error *err)
             st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
             goto out;
         }
+        char asset[64];
+        asset_name(req->files[0].name, asset, sizeof asset);
         for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
-            gl[i].name = si.lods[i].name;
+            snprintf(lods[i].node, sizeof lods[i].node, "%s_LOD%u", asset, i);
+            snprintf(lods[i].file, sizeof lods[i].file, "lod%u_%s.glb", i, si.lods[i].name);
+            gl[i].name = lods[i].node;
+            gl[i].mesh_name = si.lods[i].name;
             gl[i].mesh = lods[i].baked.mesh;
             gl[i].screen_coverage = lods[i].coverage;
             if (ch.info[i].stochastic) st = stochastic_gltf(&ch, &ch.info[i], lods[i].baked.mesh,
@@ -1169,20 +1219,67 @@ static sv_status bake_all(run *r, sv_error *err)
         }
         snprintf(path, sizeof path, "%s/model.glb", req->out_dir);
         if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si.lod_count, err);
+        /* one standalone file per kept level, for importers that ignore MSFT_lod */
+        for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
+            snprintf(path, sizeof path, "%s/%s", req->out_dir, lods[i].file);
+            st = sv_gltf_write_level_glb(path, &gl[i], err);
+        }
         for (uint32_t i = 0; i < si.lod_count; i++) gltf_extra_free(&gx[i]);
         free(gx);
         free(gl);
         if (st) goto out;
     }
-    /* preview.png */
+    /* preview.png: every kept level beside the original (preview.h), from the
+     * first evaluation view */
     if (ev) {
         snprintf(path, sizeof path, "%s/preview.png", req->out_dir);
-        view_sets vs;
-        bool sel = si.lods[0].select != NULL;
-        if (sel && (st = view_sets_init(&vs, &si.lods[0], &lods[0].baked, err))) goto out;
-        st = sv_evaluator_preview(ev, lods[0].gpu, sel ? select_subsets : NULL, sel ? &vs : NULL,
-                                  path, err);
-        if (sel) view_sets_free(&vs);
+        sv_preview_level *pv = sv_calloc(si.lod_count, sizeof *pv);
+        view_sets *vs = sv_calloc(si.lod_count, sizeof *vs);
+        bool *vs_ok = sv_calloc(si.lod_count, sizeof *vs_ok);
+        if (!pv || !vs || !vs_ok) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
+            const sv_baked_lod *b = &lods[i].baked;
+            pv[i].gpu = lods[i].gpu;
+            if (si.lods[i].select) {
+                if ((st = view_sets_init(&vs[i], &si.lods[i], b, err))) break;
+                vs_ok[i] = true;
+                pv[i].select = select_subsets;
+                pv[i].user = &vs[i];
+            }
+            pv[i].name = si.lods[i].name;
+            pv[i].pixels = lods[i].switch_pixels;
+            pv[i].triangles = b->mesh->triangle_count;
+            pv[i].texels = (double)b->albedo.width * b->albedo.height;
+            pv[i].iou = -1;
+            double best = INFINITY, px = lods[i].switch_pixels > 0 ? lods[i].switch_pixels : 1;
+            for (uint32_t k = 0; lods[i].evaluated && k < lods[i].eval.size_count; k++) {
+                const sv_eval_size *z = &lods[i].eval.sizes[k];
+                double dist = fabs(log2((double)z->pixels / px));
+                if (dist < best) {
+                    best = dist;
+                    pv[i].iou = z->mean.iou;
+                    pv[i].iou_pixels = z->pixels;
+                }
+            }
+        }
+        if (st == SV_OK) {
+            double dir[3];
+            sv_evaluator_view_dir(ev, 0, dir);
+            sv_camera cam;
+            sv_eval_camera(fc, fr > 0 ? fr : p->radius, dir, &cam);
+            sv_render_options ro;
+            memset(&ro, 0, sizeof ro);
+            if (bo.lit) {
+                ro.shade = SV_SHADE_LIT;
+                memcpy(ro.light_dir, bo.light_dir, sizeof ro.light_dir);
+            }
+            st = sv_preview_chain(ren, gsrc, pv, si.lod_count, &cam, dir, &ro, 256, path, err);
+        }
+        for (uint32_t i = 0; vs_ok && i < si.lod_count; i++)
+            if (vs_ok[i]) view_sets_free(&vs[i]);
+        free(vs_ok);
+        free(vs);
+        free(pv);
         if (st) goto out;
     }
     /* planes.json */
@@ -1197,6 +1294,8 @@ static sv_status bake_all(run *r, sv_error *err)
         const sv_baked_lod *b = &lods[i].baked;
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", lp->name);
+        cJSON_AddStringToObject(o, "file", lods[i].file);
+        cJSON_AddStringToObject(o, "node", lods[i].node);
         cJSON_AddNumberToObject(o, "screen_coverage", lods[i].coverage);
         cJSON_AddNumberToObject(o, "switch_pixels", lods[i].switch_pixels);
         cJSON_AddNumberToObject(o, "switch_distance",
@@ -1257,6 +1356,8 @@ static sv_status bake_all(run *r, sv_error *err)
         const sv_baked_lod *b = &lods[i].baked;
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", si.lods[i].name);
+        cJSON_AddStringToObject(o, "file", lods[i].file);
+        cJSON_AddStringToObject(o, "node", lods[i].node);
         cJSON_AddStringToObject(o, "source", ch.info[i].source);
         if (ch.info[i].stochastic) {
             const sv_stoch_level *L = &ch.sres.levels[ch.info[i].level];

@@ -141,7 +141,7 @@ static sv_status parse_scene(const cJSON *o, sv_spec *s, sv_error *err)
 static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
 {
     static const char *const keys[] = {"units", "up", NULL};
-    static const char *const ups[] = {"Y", "Z", NULL};
+    static const char *const ups[] = {"Y", "Z", "auto", NULL};
     static const struct {
         const char *name;
         double scale;
@@ -166,9 +166,9 @@ static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
                            "import.units: expected m, cm, mm, in, ft or metres per unit "
                            "(a number in [1e-6, 1e6])");
     }
-    int e = s->up_axis == 'Z';
+    int e = s->up_axis == 'Z' ? 1 : s->up_axis == 'A' ? 2 : 0;
     if ((st = parse_enum(o, "import", "up", ups, &e, err))) return st;
-    s->up_axis = e ? 'Z' : 'Y';
+    s->up_axis = e == 1 ? 'Z' : e == 2 ? 'A' : 'Y';
     return SV_OK;
 }
 

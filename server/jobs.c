@@ -433,8 +433,13 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
         cJSON_AddStringToObject(e, "code", j->code[0] ? j->code : "failed");
         cJSON_AddStringToObject(e, "message", j->message ? j->message : "");
     }
-    if (j->state == SVD_JOB_DONE && j->manifest)
+    if (j->state == SVD_JOB_DONE && j->manifest) {
+        /* every warning of the bake, at the top where a client looks first */
+        const cJSON *w = cJSON_GetObjectItemCaseSensitive(j->manifest, "warnings");
+        cJSON_AddItemToObject(r, "warnings",
+                              cJSON_IsArray(w) ? cJSON_Duplicate(w, 1) : cJSON_CreateArray());
         cJSON_AddItemToObject(r, "manifest", cJSON_Duplicate(j->manifest, 1));
+    }
     return r;
 }
 

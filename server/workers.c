@@ -265,6 +265,14 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
                 cJSON *it = cJSON_GetObjectItemCaseSensitive(rep, keep[k]);
                 if (it) cJSON_AddItemToObject(sum, keep[k], cJSON_Duplicate(it, 1));
             }
+            /* the input's warnings (missing files, Z-up, implausible size), for the
+             * status document's "warnings" (docs/api.md) */
+            cJSON *w = cJSON_GetObjectItemCaseSensitive(
+                cJSON_GetObjectItemCaseSensitive(rep, "input"), "warnings");
+            cJSON *wl = cJSON_AddArrayToObject(m, "warnings");
+            const cJSON *x;
+            cJSON_ArrayForEach(x, w)
+                if (wl && cJSON_IsString(x)) cJSON_AddItemToArray(wl, cJSON_CreateString(x->valuestring));
             cJSON_Delete(rep);
         }
     }

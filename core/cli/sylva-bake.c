@@ -370,6 +370,23 @@ static int cmd_info(int argc, char **argv)
     return 0;
 }
 
+/* Prints every input warning of a finished bake (out_dir/report.json,
+ * input.warnings) on stderr as "sylva-bake: warning: ...", so a degraded
+ * result is not silent (issue 19). Prints nothing when there is no report. */
+static void print_warnings(const char *out_dir)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/report.json", out_dir);
+    size_t len = 0;
+    char *text = read_all(path, &len);
+    cJSON *rep = text ? cJSON_ParseWithLength(text, len) : NULL;
+    const cJSON *w;
+    cJSON_ArrayForEach(w, cJSON_GetObjectItem(cJSON_GetObjectItem(rep, "input"), "warnings"))
+        if (cJSON_IsString(w)) fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
+    cJSON_Delete(rep);
+    free(text);
+}
+
 static int cmd_bake(int argc, char **argv)
 {
     char *paths[MAX_FILES];
@@ -446,6 +463,7 @@ static int cmd_bake(int argc, char **argv)
         write_error_json(out_dir, &e);
         return 1;
     }
+    print_warnings(out_dir);
     return 0;
 }
 

@@ -43,6 +43,7 @@ typedef struct sv_gltf_lod {
     uint32_t attribute_count;
     const cJSON *extras;            /* optional object merged into the node's extras
                                        (e.g. the fade window); copied, not owned */
+    const char *mesh_name;          /* mesh name; NULL = the node's name */
 } sv_gltf_lod;
 
 /* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a
@@ -57,5 +58,17 @@ sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_
  * partial file is left behind). */
 sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
                             sv_error *err);
+
+/* One level as a standalone GLB (docs/outputs.md, lod<i>_<name>.glb): one
+ * scene whose only node is this level (named lod->name, which must be
+ * non-empty), no MSFT_lod and no screen coverage, every image the level
+ * samples embedded in the binary chunk. Same encoding and errors as
+ * sv_gltf_encode_glb (SV_ERR_INVALID also for a missing name); deterministic. */
+sv_status sv_gltf_encode_level_glb(const sv_gltf_lod *lod, uint8_t **out, size_t *out_size,
+                                   sv_error *err);
+
+/* sv_gltf_encode_level_glb, then writes the bytes to path as
+ * sv_gltf_write_glb does. */
+sv_status sv_gltf_write_level_glb(const char *path, const sv_gltf_lod *lod, sv_error *err);
 
 #endif

@@ -2,7 +2,8 @@
  * bake → pack → evaluate → write (DESIGN.md "The core pipeline").
  *
  * Used by `sylva-bake bake` (standalone, or as the daemon's worker). Outputs in
- * out_dir: model.glb, planes.json, report.json, preview.png and the atlas PNGs.
+ * out_dir: model.glb, lod<i>_<name>.glb per level, planes.json, report.json,
+ * preview.png and the atlas PNGs.
  * Everything but report.json's "times" object is byte-identical for the same
  * input files and spec.
  */

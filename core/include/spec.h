@@ -27,7 +27,7 @@ typedef struct sv_spec {
     uint64_t seed;                /* default 1 */
     /* import */
     double unit_scale;            /* metres per unit; 0 = format default */
-    char up_axis;                 /* 'Y' or 'Z' */
+    char up_axis;                 /* 'Y', 'Z' or 'A' ("auto": detected, plausibility.h) */
     /* classify */
     const char **foliage;         /* pointers into root */
     size_t foliage_count;

@@ -1,6 +1,7 @@
 #!/bin/sh
 # bake_cli.sh — sylva-bake end to end on the bundled oak: info, a crossed-quads
-# bake whose outputs validate (Khronos validator) and are byte-identical across
+# bake whose outputs (model.glb and the standalone lod<i>_<name>.glb) validate
+# (Khronos validator) and are byte-identical across
 # two runs (report.json's "times" aside), and clear errors for bad input.
 set -eu
 . "$(dirname "$0")/lib.inc"
@@ -23,6 +24,7 @@ echo '{"method": "crossed_quads", "evaluate": {"views": 8}}' > "$tmp/spec.json"
 for f in model.glb planes.json report.json preview.png atlas_crossed_albedo.png; do
     [ -s "$tmp/a/$f" ] || fail "missing output $f"
 done
+ls "$tmp"/a/lod*_crossed.glb > /dev/null 2>&1 || fail "missing the standalone crossed-quads level"
 for f in "$tmp"/a/*; do
     n=$(basename "$f")
     [ "$n" = report.json ] && continue
@@ -34,11 +36,14 @@ strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.p
 # the report holds accuracy per size and per-stage times
 [ "$(json_get "$tmp/a/report.json" "len(j['lods'][0]['accuracy'])")" = 4 ] || fail "accuracy sizes"
 json_get "$tmp/a/report.json" "j['times']['evaluate']" > /dev/null || fail "times.evaluate"
+# preview.png: the original and one 256-px column per kept level
+w=$(python3 -c "import struct,sys; print(struct.unpack('>I', open(sys.argv[1],'rb').read()[16:20])[0])" "$tmp/a/preview.png")
+[ "$w" = "$(json_get "$tmp/a/report.json" "256 * (len(j['lods']) + 1)")" ] || fail "preview.png is $w px wide"
 
 # the glTF passes the Khronos validator
 if command -v npm > /dev/null 2>&1; then
     v=$(ensure_validator) || fail "cannot install gltf-validator"
-    node "$v" "$tmp/a/model.glb" || fail "model.glb does not validate"
+    node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb || fail "model.glb or a standalone level does not validate"
 else
     echo "note: npm missing, validator step skipped"
 fi

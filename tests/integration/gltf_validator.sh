@@ -2,7 +2,8 @@
 # gltf_validator.sh — the GLB writer's output passes the Khronos glTF validator
 # (npm gltf-validator) with zero errors: a 3-LOD MSFT_lod chain with textured
 # MASK leaves, normal/occlusion maps, BLEND, extra attributes; a >65535-vertex
-# mesh (uint32 indices); a chain whose coarsest LOD is empty.
+# mesh (uint32 indices); a chain whose coarsest LOD is empty; each level of the
+# chain as a standalone file (lod<i>_<name>.glb: one node, images embedded).
 # Installs the validator into tests/gltf-validator/node_modules when missing.
 # Skips (exit 0, "skipped: ...") only when node/npm are not installed.
 set -eu
@@ -28,4 +29,5 @@ fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT INT TERM
 "$tool" "$out"
-node "$vdir/validate.js" "$out"/chain3.glb "$out"/large.glb "$out"/culled.glb
+ls "$out"/lod0_*.glb "$out"/lod1_*.glb "$out"/lod2_*.glb > /dev/null
+node "$vdir/validate.js" "$out"/chain3.glb "$out"/large.glb "$out"/culled.glb "$out"/lod*_*.glb

@@ -1,7 +1,7 @@
 #!/bin/sh
 # lod_chain.sh — the LOD chain of issue 6 on every tree in ../shared/data:
 # full mesh → stochastic levels → the spec's method → crossed quads. Each bake
-# must succeed, model.glb must validate (Khronos validator), the stochastic
+# must succeed, model.glb and every standalone lod<i>_<name>.glb must validate (Khronos validator), the stochastic
 # LODs must carry _LEAF_CENTRE/_LEAF_ORDER and their fade window, switch sizes
 # must not increase along the chain, and report.json must say which λ terms
 # were used and which LODs were skipped. Skips (saying so) without the data.
@@ -28,10 +28,22 @@ rep = json.load(open(sys.argv[2]))
 nodes = g['nodes']
 names = [nd['name'] for nd in nodes]
 lods = [l['name'] for l in rep['lods']]
-assert names == lods, (names, lods)
+# nodes follow the <asset>_LOD<i> convention; meshes keep the level's name
+assert names == [l['node'] for l in rep['lods']], (names, rep['lods'])
+assert all(nd['name'].endswith('_LOD%d' % i) for i, nd in enumerate(nodes)), names
+assert [g['meshes'][nd['mesh']]['name'] for nd in nodes if 'mesh' in nd] == \
+    [l['name'] for l, nd in zip(rep['lods'], nodes) if 'mesh' in nd], names
+# one standalone file per level: its scene is that level's node alone
+import os
+for i, l in enumerate(rep['lods']):
+    assert l['file'] == 'lod%d_%s.glb' % (i, l['name']), l['file']
+    s = open(os.path.join(os.path.dirname(sys.argv[1]), l['file']), 'rb').read()
+    sg = json.loads(s[20:20 + struct.unpack_from('<I', s, 12)[0]])
+    assert len(sg['scenes']) == 1 and len(sg['nodes']) == 1, l['file']
+    assert sg['nodes'][0]['name'] == l['node'] and 'MSFT_lod' not in sg.get('extensionsUsed', [])
 stoch = [l for l in rep['lods'] if l['source'] == 'stochastic']
 for l in stoch:
-    nd = nodes[names.index(l['name'])]
+    nd = nodes[names.index(l['node'])]
     ex = nd['extras']['sylva_stochastic']
     lo, hi = ex['fade_window']
     assert 0 <= lo <= ex['lambda'] <= hi <= 1, ex
@@ -66,7 +78,8 @@ grep -v '^#' "$root/tests/data/trees.tsv" | while IFS="$(printf '\t')" read -r d
            \"evaluate\": {\"views\": 4, \"sizes\": [128, 64, 32]}}" > "$tmp/spec.json"
     out="$tmp/out-$mesh"
     "$bake" bake "$@" --spec "$tmp/spec.json" --out "$out" || fail "$mesh: chain bake failed"
-    [ -z "$v" ] || node "$v" "$out/model.glb" > /dev/null || fail "$mesh: model.glb does not validate"
+    [ -z "$v" ] || node "$v" "$out/model.glb" "$out"/lod*_*.glb > /dev/null ||
+        fail "$mesh: model.glb or a standalone level does not validate"
     res=$(glb_check "$out/model.glb" "$out/report.json") || fail "$mesh: chain structure"
     echo "ok $mesh: $res"
 done

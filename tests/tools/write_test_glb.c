@@ -9,6 +9,8 @@
  *                             a texture shared between LODs
  *        OUT_DIR/large.glb    one opaque LOD with > 65535 vertices (uint32 indices)
  *        OUT_DIR/culled.glb   2 LODs, the coarsest empty (node without a mesh)
+ *        OUT_DIR/lod<i>_<name>.glb  each level of chain3 standalone
+ *                             (sv_gltf_write_level_glb), as a bake writes them
  */
 #include <math.h>
 #include <stdio.h>
@@ -173,6 +175,23 @@ static int write(const char *dir, const char *name, const sv_gltf_lod *lods, uin
     return 0;
 }
 
+/* Writes lods[i] alone as dir/lod<i>_<mesh name or name>.glb. */
+static int write_levels(const char *dir, const sv_gltf_lod *lods, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/lod%u_%s.glb", dir, i,
+                 lods[i].mesh_name ? lods[i].mesh_name : lods[i].name);
+        sv_error err = {0};
+        if (sv_gltf_write_level_glb(path, &lods[i], &err) != SV_OK) {
+            fprintf(stderr, "write_test_glb: %s: %s\n", path, err.message);
+            return 1;
+        }
+        printf("%s\n", path);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc != 2) {
@@ -199,13 +218,13 @@ int main(int argc, char **argv)
         }
     }
     sv_gltf_attribute attrs[2] = {{"_ORDER", order, 1}, {"_LEAF_CENTRE", centre, 3}};
-    sv_gltf_lod chain[3] = {{"full", full, 0.5, attrs, 2, NULL},
-                            {"half", half, 0.2, NULL, 0, NULL},
-                            {"crossed_quads", cards, 0.02, NULL, 0, NULL}};
-    sv_gltf_lod large[1] = {{"large", big, 0.0, NULL, 0, NULL}};
-    sv_gltf_lod culled[2] = {{"cards", cards, 0.05, NULL, 0, NULL}, {"culled", empty, 0.0, NULL, 0, NULL}};
+    sv_gltf_lod chain[3] = {{"tree_LOD0", full, 0.5, attrs, 2, NULL, "full"},
+                            {"half", half, 0.2, NULL, 0, NULL, NULL},
+                            {"crossed_quads", cards, 0.02, NULL, 0, NULL, NULL}};
+    sv_gltf_lod large[1] = {{"large", big, 0.0, NULL, 0, NULL, NULL}};
+    sv_gltf_lod culled[2] = {{"cards", cards, 0.05, NULL, 0, NULL, NULL}, {"culled", empty, 0.0, NULL, 0, NULL, NULL}};
     rc = write(argv[1], "chain3.glb", chain, 3) || write(argv[1], "large.glb", large, 1) ||
-         write(argv[1], "culled.glb", culled, 2);
+         write(argv[1], "culled.glb", culled, 2) || write_levels(argv[1], chain, 3);
 out:
     if (rc && (!full || !half || !cards || !big || !empty || !order || !centre))
         fprintf(stderr, "write_test_glb: out of memory\n");

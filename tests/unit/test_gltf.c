@@ -177,9 +177,9 @@ static void only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_id
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10), *m2 = leaf_mesh(1, 10);
-    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL},
-                           {"half", m1, 0.1, NULL, 0, NULL},
-                           {"cards", m2, 0.01, NULL, 0, NULL}};
+    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL},
+                           {"half", m1, 0.1, NULL, 0, NULL, NULL},
+                           {"cards", m2, 0.01, NULL, 0, NULL, NULL}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 3, &buf, &size);
@@ -328,9 +328,9 @@ static void identical_images_are_stored_once_across_lods(void **state)
 {
     (void)state;
     sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10), *c = leaf_mesh(1, 99);
-    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL},
-                           {"b", b, 0.2, NULL, 0, NULL},
-                           {"c", c, 0.0, NULL, 0, NULL}};
+    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL},
+                           {"b", b, 0.2, NULL, 0, NULL, NULL},
+                           {"c", c, 0.0, NULL, 0, NULL, NULL}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -440,7 +440,7 @@ static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
-    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL}, {"b", m1, 0.05, NULL, 0, NULL}};
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL}, {"b", m1, 0.05, NULL, 0, NULL, NULL}};
     char dir[] = "/tmp/sv_gltf_XXXXXX";
     assert_non_null(mkdtemp(dir));
     char p1[64], p2[64];
@@ -504,7 +504,7 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     (void)state;
     sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
     assert_non_null(e);
-    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL}, {"culled", e, 0.0, NULL, 0, NULL}};
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL}, {"culled", e, 0.0, NULL, 0, NULL, NULL}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -516,6 +516,65 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     free(buf);
     sv_mesh_destroy(m);
     sv_mesh_destroy(e);
+}
+
+/* A standalone level (lod<i>_<name>.glb): one scene holding only that level's
+ * node under its <asset>_LOD<i> name, the mesh under the level's name, no
+ * MSFT_lod, and every image it samples embedded in the binary chunk. */
+static void standalone_level_is_one_named_node_with_embedded_images(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(2, 30);
+    cJSON *extras = cJSON_CreateObject();
+    cJSON_AddNumberToObject(extras, "lambda", 0.5);
+    sv_gltf_lod lod = {.name = "oak_LOD2", .mesh = m, .screen_coverage = 0.25,
+                       .extras = extras, .mesh_name = "clusters16"};
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_encode_level_glb(&lod, &buf, &size, &err), SV_OK);
+    glb g = parse_glb(buf, size);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "scenes")), 1);
+    cJSON *scene_nodes = get(at(get(g.json, "scenes"), (int)num(g.json, "scene")), "nodes");
+    assert_int_equal(cJSON_GetArraySize(scene_nodes), 1);
+    cJSON *nodes = get(g.json, "nodes");
+    assert_int_equal(cJSON_GetArraySize(nodes), 1);
+    cJSON *n0 = at(nodes, at(scene_nodes, 0)->valueint);
+    assert_string_equal(get(n0, "name")->valuestring, "oak_LOD2");
+    assert_null(get(n0, "extensions"));
+    assert_null(get(get(n0, "extras"), "MSFT_screencoverage"));
+    assert_float_equal(num(get(n0, "extras"), "lambda"), 0.5, 0);
+    assert_null(get(g.json, "extensionsUsed"));
+    cJSON *mesh = at(get(g.json, "meshes"), (int)num(n0, "mesh"));
+    assert_string_equal(get(mesh, "name")->valuestring, "clusters16");
+    /* images: every one in the binary chunk (bufferView + PNG mime), no uri */
+    cJSON *images = get(g.json, "images");
+    assert_true(cJSON_GetArraySize(images) >= 1);
+    cJSON *im;
+    cJSON_ArrayForEach(im, images)
+    {
+        assert_null(get(im, "uri"));
+        assert_string_equal(get(im, "mimeType")->valuestring, "image/png");
+        cJSON *v = at(get(g.json, "bufferViews"), (int)num(im, "bufferView"));
+        assert_non_null(v);
+        const uint8_t *png = g.bin + (size_t)num(v, "byteOffset");
+        assert_memory_equal(png, "\x89PNG", 4);
+    }
+    assert_null(get(at(get(g.json, "buffers"), 0), "uri"));
+    /* deterministic, and a nameless level is refused */
+    uint8_t *buf2 = NULL;
+    size_t size2 = 0;
+    assert_int_equal(sv_gltf_encode_level_glb(&lod, &buf2, &size2, &err), SV_OK);
+    assert_int_equal(size, size2);
+    assert_memory_equal(buf, buf2, size);
+    free(buf2);
+    lod.name = NULL;
+    assert_int_equal(sv_gltf_encode_level_glb(&lod, &buf2, &size2, &err), SV_ERR_INVALID);
+    assert_null(buf2);
+    cJSON_Delete(g.json);
+    cJSON_Delete(extras);
+    free(buf);
+    sv_mesh_destroy(m);
 }
 
 int main(void)
@@ -533,6 +592,7 @@ int main(void)
         cmocka_unit_test(two_writes_of_the_same_lods_are_byte_identical),
         cmocka_unit_test(out_of_range_index_is_refused_with_a_message),
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
+        cmocka_unit_test(standalone_level_is_one_named_node_with_embedded_images),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

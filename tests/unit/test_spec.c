@@ -71,6 +71,24 @@ static void full_spec_sets_every_section(void **state)
     sv_spec_free(&s);
 }
 
+/* import.up: "Y" (default), "Z", or "auto" (detect and rotate, plausibility.h) */
+static void import_up_accepts_auto(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *json;
+        char up;
+    } cases[] = {{"{}", 'Y'}, {"{\"import\":{\"up\":\"Y\"}}", 'Y'},
+                 {"{\"import\":{\"up\":\"Z\"}}", 'Z'}, {"{\"import\":{\"up\":\"auto\"}}", 'A'}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        sv_spec s;
+        sv_error e = {0};
+        assert_int_equal(sv_spec_parse(cases[i].json, strlen(cases[i].json), &s, &e), SV_OK);
+        assert_int_equal(s.up_axis, cases[i].up);
+        sv_spec_free(&s);
+    }
+}
+
 static void expect_error(const char *json, const char *needle)
 {
     sv_spec s;
@@ -97,6 +115,7 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"scene\":{\"sky\":1}}", "sky");
     expect_error("{\"scene\":3}", "scene: expected an object");
     expect_error("{\"import\":{\"units\":\"furlong\"}}", "import.units");
+    expect_error("{\"import\":{\"up\":\"X\"}}", "import.up: expected one of Y, Z, auto");
     expect_error("{\"bake\":{\"max_atlas\":1000}}", "power of two");
     expect_error("{\"bake\":{\"max_atlas\":1e30}}", "bake.max_atlas");
     expect_error("{\"bake\":{\"alpha_threshold\":\"high\"}}", "bake.alpha_threshold");
@@ -141,6 +160,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(empty_spec_gives_every_default),
         cmocka_unit_test(full_spec_sets_every_section),
+        cmocka_unit_test(import_up_accepts_auto),
         cmocka_unit_test(bad_specs_are_refused_naming_the_key),
         cmocka_unit_test(deeply_nested_json_is_refused_without_crashing),
         cmocka_unit_test(scene_pixels_and_distance_are_inverse),
