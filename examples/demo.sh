@@ -30,3 +30,16 @@ else
 fi
 echo "demo: outputs in $out:"
 ls -l "$out"
+# the chain as a table: level, triangles, texels, switch distance, IoU at 64 px
+python3 - "$out/report.json" <<'PY' || true
+import json, sys
+r = json.load(open(sys.argv[1]))
+print("%-16s %9s %9s %10s %8s  %s" % ("level", "triangles", "texels", "switch (m)", "IoU@64", "file"))
+for l in r["lods"]:
+    a = [x["iou_mean"] for x in l.get("accuracy", []) if x["pixels"] == 64]
+    d = l.get("switch_distance")
+    print("%-16s %9d %9d %10s %8s  %s" % (l["name"], l["triangles"], l["texels"],
+          "%.1f" % d if d else "-", "%.3f" % a[0] if a else "-", l.get("file", "")))
+for w in r["input"].get("warnings", []):
+    print("warning:", w)
+PY
