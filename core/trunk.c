@@ -216,3 +216,74 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     *out = st ? NULL : o;
     return st;
 }
+
+
+/* Squared distance from p to triangle abc (Ericson, Real-Time Collision
+ * Detection §5.1.5, closest point by Voronoi regions). */
+static double point_tri_dist2(const double p[3], const double a[3], const double b[3],
+                              const double c[3])
+{
+    double ab[3], ac[3], ap[3], q[3];
+    for (int i = 0; i < 3; i++) ab[i] = b[i] - a[i], ac[i] = c[i] - a[i], ap[i] = p[i] - a[i];
+#define D3(x, y) ((x)[0] * (y)[0] + (x)[1] * (y)[1] + (x)[2] * (y)[2])
+    double d1 = D3(ab, ap), d2 = D3(ac, ap);
+    if (d1 <= 0 && d2 <= 0) {
+        memcpy(q, a, sizeof q);
+    } else {
+        double bp[3], cp[3];
+        for (int i = 0; i < 3; i++) bp[i] = p[i] - b[i], cp[i] = p[i] - c[i];
+        double d3 = D3(ab, bp), d4 = D3(ac, bp), d5 = D3(ab, cp), d6 = D3(ac, cp);
+        double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+        if (d3 >= 0 && d4 <= d3) {
+            memcpy(q, b, sizeof q);
+        } else if (d6 >= 0 && d5 <= d6) {
+            memcpy(q, c, sizeof q);
+        } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+            double v = d1 / (d1 - d3);
+            for (int i = 0; i < 3; i++) q[i] = a[i] + v * ab[i];
+        } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+            double w = d2 / (d2 - d6);
+            for (int i = 0; i < 3; i++) q[i] = a[i] + w * ac[i];
+        } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+            double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            for (int i = 0; i < 3; i++) q[i] = b[i] + w * (c[i] - b[i]);
+        } else {
+            double den = va + vb + vc;
+            double v = den != 0 ? vb / den : 0, w = den != 0 ? vc / den : 0;
+            for (int i = 0; i < 3; i++) q[i] = a[i] + ab[i] * v + ac[i] * w;
+        }
+    }
+#undef D3
+    double d = 0;
+    for (int i = 0; i < 3; i++) d += (p[i] - q[i]) * (p[i] - q[i]);
+    return d;
+}
+
+#define SV_KEPT_FRAC 0.01
+
+sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, double ratio,
+                        uint32_t budget, sv_mesh **tm, uint8_t *skip, sv_error *err)
+{
+    memset(skip, 0, m->triangle_count);
+    *tm = NULL;
+    if (!part) return SV_OK;
+    sv_status st = sv_trunk_mesh_budget(m, part, ratio, budget, 0, tm, err);
+    if (st || !*tm) return st;
+    const sv_mesh *k = *tm;
+    double lim = SV_KEPT_FRAC * radius;
+    lim *= lim;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (part[t] != SV_PART_TRUNK) continue;
+        double c[3] = {0, 0, 0};
+        for (int v = 0; v < 3; v++)
+            for (int i = 0; i < 3; i++) c[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+        for (uint32_t u = 0; u < k->triangle_count && !skip[t]; u++) {
+            double p[3][3];
+            for (int v = 0; v < 3; v++)
+                for (int i = 0; i < 3; i++) p[v][i] = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
+            if (point_tri_dist2(c, p[0], p[1], p[2]) <= lim) skip[t] = 1;
+        }
+    }
+    return SV_OK;
+}
+

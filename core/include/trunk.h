@@ -22,4 +22,16 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
                                uint32_t max_triangles, double max_error, sv_mesh **out,
                                sv_error *err);
 
+/* The trunk of one level as geometry, and what it leaves to the quads: *tm =
+ * the trunk triangles (part[t] == SV_PART_TRUNK) simplified to about ratio ×
+ * their count and at most `budget` triangles (sv_trunk_mesh_budget, no error
+ * bound; NULL when there is
+ * no trunk or part is NULL), and skip[t] = 1 (skip: triangle_count bytes) for
+ * each trunk triangle that mesh draws — its centroid within 1 % of `radius` of
+ * the kept surface. The other trunk triangles (thin branches the budget could
+ * not hold) are for the method's quads, so nothing is drawn twice and no
+ * branch is lost (issue 18). */
+sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, double ratio,
+                        uint32_t budget, sv_mesh **tm, uint8_t *skip, sv_error *err);
+
 #endif

@@ -143,11 +143,10 @@ static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *i
         char name[32];
         snprintf(name, sizeof name, "clusters%u", levels[l]);
         assert_string_equal(lod->name, name);
-        assert_int_equal(lod->trunk, SV_TRUNK_SIMPLIFIED);
-        assert_true(lod->trunk_ratio > 0 && lod->trunk_ratio <= 1);
-        if (l > 0) assert_true(lod->trunk_ratio <= s->lods[l - 1].trunk_ratio);
+        /* the trunk is the level's own geometry, capped (default 200) */
+        assert_int_equal(lod->trunk, SV_TRUNK_NONE);
+        if (lod->geometry) assert_true(lod->geometry->triangle_count <= 200);
         assert_true(lod->quad_count >= 1 && lod->quad_count <= levels[l]);
-        assert_null(lod->geometry);
         memset(seen, 0, m->triangle_count);
         uint32_t covered = 0;
         for (uint32_t k = 0; k < lod->quad_count; k++) {
@@ -191,9 +190,20 @@ static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *i
                 assert_int_equal(child, q->face_count);
             }
         }
-        /* every leaf triangle appears exactly once per level, nothing else */
-        assert_int_equal(covered, lv->tri_count);
+        /* every leaf triangle appears exactly once per level; anything else
+         * on a quad is a trunk triangle the kept trunk does not draw */
+        assert_true(covered >= lv->tri_count);
         for (uint32_t i = 0; i < lv->tri_count; i++) assert_int_equal(seen[lv->tris[i]], 1);
+        uint32_t others = 0;
+        for (uint32_t t = 0; t < m->triangle_count; t++) {
+            bool leaf = false;
+            for (uint32_t i = 0; i < lv->tri_count && !leaf; i++) leaf = lv->tris[i] == t;
+            if (seen[t] && !leaf) {
+                assert_int_equal(in->cls->tri_part[t], SV_PART_TRUNK);
+                others++;
+            }
+        }
+        assert_int_equal(covered, lv->tri_count + others);
     }
     free(seen);
 }
@@ -241,6 +251,34 @@ static void bad_settings_fail_naming_the_key(void **state)
         assert_non_null(strstr(e.message, cases[i][1]));
         cJSON_Delete(j);
     }
+}
+
+/* "twigs": trunk triangles the capped trunk does not draw go onto the quads
+ * (each exactly once, checked by assert_stand_in_sound); without it they are
+ * only in the kept geometry. */
+static void twigs_the_trunk_cap_drops_go_onto_the_quads(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 200, 5);
+    const uint32_t levels[] = {8};
+    uint32_t on_quads[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        cJSON *j = json(k ? "{\"clusters\":[8],\"twigs\":true,\"trunk_max_triangles\":1}"
+                          : "{\"clusters\":[8],\"trunk_max_triangles\":1}");
+        sv_stand_in s = {0};
+        sv_error e = {0};
+        assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_OK);
+        assert_stand_in_sound(&s, &t.in, levels, 1);
+        for (uint32_t q = 0; q < s.lods[0].quad_count; q++)
+            for (uint32_t f = 0; f < s.lods[0].quads[q].face_count; f++)
+                on_quads[k] += t.cls.tri_part[s.lods[0].quads[q].faces[f]] == SV_PART_TRUNK;
+        sv_stand_in_free(&s);
+        cJSON_Delete(j);
+    }
+    assert_int_equal(on_quads[0], 0);
+    assert_true(on_quads[1] > 0);
+    toy_free(&t);
 }
 
 static void toy_tree_gives_one_lod_per_level_with_sound_quads(void **state)
@@ -445,6 +483,7 @@ int main(void)
         cmocka_unit_test(default_settings_are_accepted),
         cmocka_unit_test(bad_settings_fail_naming_the_key),
         cmocka_unit_test(toy_tree_gives_one_lod_per_level_with_sound_quads),
+        cmocka_unit_test(twigs_the_trunk_cap_drops_go_onto_the_quads),
         cmocka_unit_test(quads_are_planes_of_their_leaves),
         cmocka_unit_test(same_seed_gives_identical_stand_in_and_seed_matters),
         cmocka_unit_test(tree_without_leaves_is_unbakeable),
