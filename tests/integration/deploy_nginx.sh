@@ -9,8 +9,9 @@
 #     middle: every bake still completes with `sylva` exit 0 (its retries absorb
 #     the failover), the dead node's unfinished keys are baked again on exactly
 #     one survivor, keys on the survivors do not move.
-# Skips (exit 0, "skipped: ...") only when nginx is missing and cannot be
+# Skips (exit 77, "skipped: ...") only when nginx is missing and cannot be
 # installed (deploy/apt-packages.txt lists nginx-light; `make deps`).
+# sylva-test: cost=85
 set -u
 : "${SYLVA_ROOT:=$(cd "$(dirname "$0")/../.." && pwd)}"
 : "${BUILD:=build}"
@@ -19,10 +20,10 @@ SYLVAD=${SYLVAD:-$B/sylvad}
 SYLVA=${SYLVA_CLI:-$B/sylva}
 BAKE=${SYLVA_BAKE:-$B/sylva-bake}
 for x in "$SYLVAD" "$SYLVA" "$BAKE"; do
-    [ -x "$x" ] || { echo "skipped: $x not built"; exit 0; }
+    [ -x "$x" ] || { echo "skipped: $x not built"; exit 77; }
 done
 for c in curl python3; do
-    command -v $c >/dev/null || { echo "skipped: $c missing"; exit 0; }
+    command -v $c >/dev/null || { echo "skipped: $c missing"; exit 77; }
 done
 NGINX=$(command -v nginx || { [ -x /usr/sbin/nginx ] && echo /usr/sbin/nginx; })
 if [ -z "$NGINX" ]; then
@@ -32,7 +33,7 @@ if [ -z "$NGINX" ]; then
         "$SYLVA_ROOT/deploy/install-deps.sh" < /dev/null || true
     fi
     NGINX=$(command -v nginx || { [ -x /usr/sbin/nginx ] && echo /usr/sbin/nginx; })
-    [ -n "$NGINX" ] || { echo "skipped: nginx is not installed and could not be installed (apt)"; exit 0; }
+    [ -n "$NGINX" ] || { echo "skipped: nginx is not installed and could not be installed (apt)"; exit 77; }
 fi
 
 T=$(mktemp -d /tmp/sylva-deploy-nginx.XXXXXX)
