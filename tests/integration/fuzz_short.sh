@@ -3,7 +3,7 @@
 # (tests/fuzz/, clang, ASan+UBSan) and runs each for FUZZ_SECONDS (default 20;
 # four targets, so the runs stay under 2 minutes) from its seed corpus in
 # tests/fuzz/corpus/. Fails on any finding. Skipped only when clang is missing.
-# sylva-test: cost=130
+# sylva-test: no-sanitize (its targets are clang ASan+UBSan builds already) cost=130
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
 root=${SYLVA_ROOT:-$(cd "$here/../.." && pwd)}

@@ -1,3 +1,4 @@
+/* sylva-test: cost=8 (tests/run.sh starts the longest first) */
 /* test_bake.c — quad baking (billboard-cloud paper §3.3.7) on synthetic meshes,
  * and a timing run on the bundled oak when SYLVA_DATA/examples are present. */
 #include <stdarg.h>

@@ -1,3 +1,4 @@
+/* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_classify.c — foliage vs trunk and leaf elements (core/classify.c). */
 #include <stdarg.h>
 #include <stddef.h>

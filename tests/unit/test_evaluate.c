@@ -1,3 +1,4 @@
+/* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_evaluate.c — accuracy evaluation (evaluate.h): view placement, cameras,
  * the box filter, the metrics, and (with the OSMesa renderer) whole evaluations:
  * self-comparison, a moved-away result, a sub-pixel shift, subset blending and

@@ -1,3 +1,4 @@
+/* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_import.c — format sniffing, upload name resolution, the glTF precheck and
  * mesh import (core/sniff.c, core/gltf_precheck.c, core/import.c).
  *
