@@ -2,7 +2,7 @@
 # The bundled oak baked through sylvad with the real sylva-bake worker is
 # byte-identical to an offline `sylva-bake bake` run on the same input
 # (report.json differs only in its "times" and is compared without them).
-# sylva-test: cost=35
+# sylva-test: no-sanitize (offline = daemon bytes, a property of the same code; docs/testing.md) cost=35
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 MESH=$SYLVA_ROOT/examples/oak_large/oak_large.glb

@@ -11,7 +11,7 @@
 #     one survivor, keys on the survivors do not move.
 # Skips (exit 77, "skipped: ...") only when nginx is missing and cannot be
 # installed (deploy/apt-packages.txt lists nginx-light; `make deps`).
-# sylva-test: cost=85
+# sylva-test: no-sanitize (nginx configuration and three nodes; docs/testing.md) cost=85
 set -u
 : "${SYLVA_ROOT:=$(cd "$(dirname "$0")/../.." && pwd)}"
 : "${BUILD:=build}"

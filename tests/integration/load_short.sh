@@ -9,7 +9,7 @@
 # conditions. No speed or ratio is asserted (CI machines are shared and
 # noisy; the long form reports them). Results go to a temporary directory,
 # never to bench/results/. Budget: under 60 s.
-# sylva-test: serial (wrk measures throughput and latency) cost=30
+# sylva-test: serial (wrk measures throughput and latency) no-sanitize (figures only; docs/testing.md) cost=30
 : "${SYLVA_ROOT:=$(cd "$(dirname "$0")/../.." && pwd)}"
 : "${BUILD:=build}"
 command -v wrk >/dev/null || { echo "skipped: wrk missing (Debian package wrk)"; exit 77; }

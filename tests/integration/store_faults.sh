@@ -13,7 +13,7 @@
 #     HTTP thread: the upload that hits it gets 5xx (507 for ENOSPC), the
 #     daemon survives, and the next upload is accepted and completes.
 # Bounded: K_MAX per syscall set, the whole script stays within ~3 minutes.
-# sylva-test: serial (strace crash points within a time budget) cost=55
+# sylva-test: cost=55
 . "$(dirname "$0")/daemon_lib.inc"
 command -v strace > /dev/null || { echo "skipped: strace missing"; exit 77; }
 strace -f -qq -o /dev/null -e trace=none true 2> /dev/null ||
