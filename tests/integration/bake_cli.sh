@@ -18,7 +18,7 @@ grep -q "22566 triangles" "$tmp/info.txt" || fail "info text lacks the triangle 
     fail "info --json: foliage triangles"
 
 # bake twice: byte-identical outputs
-echo '{"method": "crossed_quads", "evaluate": {"views": 8}}' > "$tmp/spec.json"
+echo '{"method": "crossed_quads", "evaluate": {"views": 8}'"$atlas"'}' > "$tmp/spec.json"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/a" || fail "bake a failed"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/b" || fail "bake b failed"
 for f in model.glb planes.json report.json preview.png atlas_crossed_albedo.png; do
