@@ -144,6 +144,10 @@ reap() { # reap: waits until a running test ends, then reports it
         left=""
         done_=""
         for e in $running; do
+            # (a runner subshell that died before writing its status: a failure)
+            if [ ! -f "$tmps/${e#*:}.rc" ] && ! kill -0 "${e%%:*}" 2>/dev/null; then
+                [ -f "$tmps/${e#*:}.rc" ] || echo "1 0" > "$tmps/${e#*:}.rc"
+            fi
             if [ -z "$done_" ] && [ -f "$tmps/${e#*:}.rc" ]; then
                 wait "${e%%:*}" 2>/dev/null
                 done_=${e#*:}
