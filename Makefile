@@ -1,5 +1,7 @@
 # sylva — one non-recursive Makefile. `make` builds everything into build/,
-# `make test` runs every test, `make sanitize` runs them under ASan+UBSan.
+# `make test` runs every test, `make sanitize` the unit and functional tests
+# under ASan+UBSan (build/asan/), `make sanitize-full` every test there
+# (docs/testing.md).
 # User CFLAGS are added after the project's flags, never replacing them.
 
 BUILD    ?= build
@@ -51,7 +53,7 @@ TOOL_BINS := $(TOOL_SRC:tests/tools/%.c=$(BUILD)/tools/%)
 
 DEPS_STAMP := $(BUILD)/.deps-ok
 
-.PHONY: all deps test unit integration sanitize demo bench reliability soak clean install
+.PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench reliability soak clean install
 # keep object files of tests and tools (make would delete them as intermediates)
 .SECONDARY:
 all: $(BINS) $(UNIT_BINS) $(TOOL_BINS)
@@ -95,7 +97,9 @@ $(BUILD)/tools/%: $(BUILD)/tests/tools/%.o $(LIBSERVER) $(LIBSYLVA) $(LIBCORE)
 	@mkdir -p $(@D)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
-# Every test: unit (cmocka), then integration/render scripts. Fails on any failure.
+# Every test: unit (cmocka) and integration/render scripts, SYLVA_TEST_JOBS at
+# a time (default 2). Fails on any failure and on any skip not expected
+# (SYLVA_EXPECT_SKIP; none with CI=true). tests/run.sh, docs/testing.md.
 test: all
 	@BUILD=$(BUILD) ./tests/run.sh
 
@@ -105,8 +109,22 @@ unit: all
 integration: all
 	@BUILD=$(BUILD) ./tests/run.sh integration
 
-sanitize:
-	$(MAKE) BUILD=build/asan SANITIZE=1 OPT="-O1 -g" test
+# ASan+UBSan in build/asan/: `sanitize` runs the unit tests and the functional
+# integration tests on the small trees (tests/run.sh sanitize: every C path,
+# not every tree); `sanitize-full` runs every test on every tree (not in CI).
+SAN_MAKE = $(MAKE) BUILD=build/asan SANITIZE=1 OPT="-O1 -g"
+sanitize-build:
+	+$(SAN_MAKE) all
+
+sanitize: sanitize-build
+	@BUILD=build/asan ./tests/run.sh sanitize
+
+sanitize-full: sanitize-build
+	@BUILD=build/asan ./tests/run.sh all
+
+# CI's build step: the plain tree, the ASan tree and the fuzz targets at the
+# same time, sharing the -j slots (`make -j2 ci-build`).
+ci-build: all sanitize-build fuzz-build
 
 demo: all
 	@./examples/demo.sh $(BUILD)

@@ -3,6 +3,7 @@
 # bake whose outputs (model.glb and the standalone lod<i>_<name>.glb) validate
 # (Khronos validator) and are byte-identical across
 # two runs (report.json's "times" aside), and clear errors for bad input.
+# sylva-test: cost=20
 set -eu
 . "$(dirname "$0")/lib.inc"
 tmp=$(mktemp -d)
@@ -18,7 +19,7 @@ grep -q "22566 triangles" "$tmp/info.txt" || fail "info text lacks the triangle 
     fail "info --json: foliage triangles"
 
 # bake twice: byte-identical outputs
-echo '{"method": "crossed_quads", "evaluate": {"views": 8}}' > "$tmp/spec.json"
+echo '{"method": "crossed_quads", "evaluate": {"views": 8}'"$atlas"'}' > "$tmp/spec.json"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/a" || fail "bake a failed"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/b" || fail "bake b failed"
 for f in model.glb planes.json report.json preview.png atlas_crossed_albedo.png; do
@@ -45,7 +46,7 @@ if command -v npm > /dev/null 2>&1; then
     v=$(ensure_validator) || fail "cannot install gltf-validator"
     node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb || fail "model.glb or a standalone level does not validate"
 else
-    echo "note: npm missing, validator step skipped"
+    partial="npm missing, model.glb not validated"
 fi
 
 # bad input: one clear line, exit 1; usage: exit 2
@@ -66,4 +67,5 @@ set +e
 "$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
 set -e
 [ $rc = 2 ] || fail "missing --out: exit $rc, expected 2"
+[ -z "${partial:-}" ] || skip "$partial (the rest passed)"
 echo "ok"

@@ -4,6 +4,7 @@
 # lines without \r when stdout is not a terminal, status/fetch/cancel/health,
 # idempotent resubmission, a bake failure, a batch of two meshes.
 # Needs $BUILD/sylva, $BUILD/sylvad and $BUILD/sylva-bake (fails if missing).
+# sylva-test: cost=11
 set -u
 ROOT=${SYLVA_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 BUILD=${BUILD:-build}

@@ -8,8 +8,8 @@
 # Uses the real daemon with the fake worker (tests/integration/fake-worker).
 . "$(dirname "$0")/daemon_lib.inc"
 SYLVA=${SYLVA_CLI:-$B/sylva}
-[ -x "$SYLVA" ] || { echo "skipped: $SYLVA not built"; exit 0; }
-command -v python3 >/dev/null || { echo "skipped: python3 missing"; exit 0; }
+[ -x "$SYLVA" ] || { echo "skipped: $SYLVA not built"; exit 77; }
+command -v python3 >/dev/null || { echo "skipped: python3 missing"; exit 77; }
 start_daemon --workers 2
 python3 "$SYLVA_ROOT/tests/integration/client_refetch_proxy.py" "$URL" "$T/pport" 2>"$T/proxy.log" &
 PPID_=$!

@@ -3,6 +3,7 @@
 # while other jobs complete; a hanging one is killed by the timeout; DELETE
 # cancels a running bake; kill -9 of the daemon with jobs queued and running:
 # the restart completes all of them.
+# sylva-test: cost=12
 . "$(dirname "$0")/daemon_lib.inc"
 export FAKE_WORKER_LOG=$T/invocations
 : > "$FAKE_WORKER_LOG"

@@ -2,11 +2,12 @@
 # The bundled oak baked through sylvad with the real sylva-bake worker is
 # byte-identical to an offline `sylva-bake bake` run on the same input
 # (report.json differs only in its "times" and is compared without them).
+# sylva-test: no-sanitize (offline = daemon bytes, a property of the same code; docs/testing.md) cost=35
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 MESH=$SYLVA_ROOT/examples/oak_large/oak_large.glb
-[ -x "$BAKE" ] || { echo "skipped: $BAKE not built"; exit 0; }
-[ -f "$MESH" ] || { echo "skipped: $MESH missing"; exit 0; }
+[ -x "$BAKE" ] || { echo "skipped: $BAKE not built"; exit 77; }
+[ -f "$MESH" ] || { echo "skipped: $MESH missing"; exit 77; }
 start_daemon --workers 1 --worker "$BAKE"
 pick_spec # the first method the build registers, so offline and daemon agree
 # under sanitizers a default bake takes minutes: a cheap one proves the same path

@@ -2,7 +2,7 @@
 # deploy_unit.sh — issue 11, "one machine": `make install` (PREFIX, DESTDIR)
 # installs what it should, the installed daemon runs with the installed default
 # config, and deploy/sylvad.service passes `systemd-analyze verify` (when that
-# command exists; otherwise that part says "skipped") with the hardening the
+# command exists; otherwise the test ends with exit 77, a skip) with the hardening the
 # issue asks for. Also checks that the config, the unit and the nginx example
 # agree with each other (store path, upload limit).
 set -u
@@ -10,7 +10,7 @@ set -u
 : "${BUILD:=build}"
 case "$BUILD" in /*) B=$BUILD ;; *) B=$SYLVA_ROOT/$BUILD ;; esac
 for x in sylvad sylva sylva-bake; do
-    [ -x "$B/$x" ] || { echo "skipped: $B/$x not built"; exit 0; }
+    [ -x "$B/$x" ] || { echo "skipped: $B/$x not built"; exit 77; }
 done
 T=$(mktemp -d /tmp/sylva-deploy-unit.XXXXXX)
 DPID=""
@@ -123,14 +123,16 @@ if command -v systemd-analyze >/dev/null 2>&1; then
         [ -n "$score" ] && awk "BEGIN { exit !($score <= 2.0) }" && ok "security exposure $score <= 2.0" \
             || bad "security exposure '$score' > 2.0: $(grep '✗' "$T/sec.log" | head -5)"
     else
-        echo "skipped: systemd-analyze security --offline not supported here"
+        partial="systemd-analyze security --offline not supported here"
     fi
 else
-    echo "skipped: systemd-analyze not available (the unit is not verified)"
+    partial="systemd-analyze not available, the unit is not verified (Debian package systemd)"
 fi
 
 if [ "$fails" -ne 0 ]; then
     echo "$fails checks failed"
     exit 1
 fi
+# the rest passed, but part of the test could not run: a skip, not a pass
+[ -z "${partial:-}" ] || { echo "skipped: $partial"; exit 77; }
 exit 0

@@ -5,7 +5,7 @@
 # mesh (uint32 indices); a chain whose coarsest LOD is empty; each level of the
 # chain as a standalone file (lod<i>_<name>.glb: one node, images embedded).
 # Installs the validator into tests/gltf-validator/node_modules when missing.
-# Skips (exit 0, "skipped: ...") only when node/npm are not installed.
+# Skips (exit 77, "skipped: ...") only when node/npm are not installed.
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=${SYLVA_ROOT:-$(cd "$here/../.." && pwd)}
@@ -15,7 +15,7 @@ vdir="$root/tests/gltf-validator"
 
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
     echo "skipped: node/npm not available (Debian packages nodejs, npm)"
-    exit 0
+    exit 77
 fi
 if [ ! -f "$vdir/node_modules/gltf-validator/package.json" ]; then
     echo "installing gltf-validator into $vdir"

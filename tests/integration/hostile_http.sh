@@ -8,10 +8,11 @@
 # HTTP: malformed multipart, huge headers, an oversized chunked body, a client
 # hanging up mid-upload — each answered or cut off, nothing left in tmp/.
 # (daemon_upload.sh covers Content-Length 413, bad spec, 415, bad names.)
+# sylva-test: cost=45
 . "$(dirname "$0")/daemon_lib.inc"
 corpus=$SYLVA_ROOT/tests/corpus
 WORKER=$B/sylva-bake
-[ -x "$WORKER" ] || { echo "skipped: $WORKER not built"; exit 0; }
+[ -x "$WORKER" ] || { echo "skipped: $WORKER not built"; exit 77; }
 marker=$(cat "$corpus/CANARY_MARKER")
 mkdir -p "$T/cwd"
 cp "$corpus/canary.mtl" "$T/cwd/canary.mtl"

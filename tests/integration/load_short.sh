@@ -9,9 +9,10 @@
 # conditions. No speed or ratio is asserted (CI machines are shared and
 # noisy; the long form reports them). Results go to a temporary directory,
 # never to bench/results/. Budget: under 60 s.
+# sylva-test: serial (wrk measures throughput and latency) no-sanitize (figures only; docs/testing.md) cost=30
 : "${SYLVA_ROOT:=$(cd "$(dirname "$0")/../.." && pwd)}"
 : "${BUILD:=build}"
-command -v wrk >/dev/null || { echo "skipped: wrk missing (Debian package wrk)"; exit 0; }
+command -v wrk >/dev/null || { echo "skipped: wrk missing (Debian package wrk)"; exit 77; }
 OUTD=$(mktemp -d /tmp/sylva-load-short.XXXXXX)
 trap 'rm -rf "$OUTD"' EXIT
 fails=0
@@ -27,7 +28,7 @@ rc=$?
 took=$(($(date +%s) - start))
 if [ "$rc" -eq 77 ]; then
     echo "skipped: $(grep 'cannot run' "$OUTD/out.txt" | head -n 1)"
-    exit 0
+    exit 77
 fi
 [ "$rc" -eq 0 ] && ok "load.sh succeeded in $took s" || bad "load.sh exit $rc"
 J=$OUTD/load.json

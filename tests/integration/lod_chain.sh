@@ -4,18 +4,17 @@
 # must succeed, model.glb and every standalone lod<i>_<name>.glb must validate (Khronos validator), the stochastic
 # LODs must carry _LEAF_CENTRE/_LEAF_ORDER and their fade window, switch sizes
 # must not increase along the chain, and report.json must say which λ terms
-# were used and which LODs were skipped. Skips (saying so) without the data.
+# were used and which LODs were skipped.
+# The chain bakes come from the per-pass cache (lib.inc, tree_cache: leaf
+# clusters seen from 2 to 100 bounding radii, so the whole chain is planned),
+# shared with trees_all.sh. Exit 77 (skip) without the data.
+# sylva-test: cost=60
 set -eu
 . "$(dirname "$0")/lib.inc"
-if [ ! -d "$data" ]; then
-    echo "skipped: no tree data at $data"
-    exit 0
-fi
+[ -d "$data" ] || skip "no tree data at $data"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT INT TERM
-v=""
-command -v npm > /dev/null 2>&1 && v=$(ensure_validator)
-[ -n "$v" ] || echo "note: npm missing, model.glb not validated"
+v=$(ensure_validator) || skip "cannot install the glTF validator (npm)"
 
 # glb_check FILE: the chain's structural promises, read from the GLB's JSON chunk
 glb_check() {
@@ -62,31 +61,19 @@ print(len(lods), 'LODs:', ' '.join('%s(%d)' % (l['name'], l['triangles']) for l 
 EOF
 }
 
-grep -v '^#' "$root/tests/data/trees.tsv" | while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
-    d="$data/$dir"
-    [ -f "$d/$mesh" ] || fail "missing $d/$mesh"
-    # shellcheck disable=SC2046
-    set -- "$d/$mesh" $(companions "$d" "$mesh")
-    # A scene in which the tree is seen from 2 to 100 bounding radii (about
-    # 540 px down to 19 px tall), so the whole chain is planned; few views and
-    # small sizes keep the run short.
-    echo "{\"import\": {\"units\": \"$units\"}}" > "$tmp/units.json"
-    "$bake" info "$@" --spec "$tmp/units.json" --json > "$tmp/info.json" || fail "$mesh: info"
-    rad=$(json_get "$tmp/info.json" "j['bounds']['radius']")
-    echo "{\"import\": {\"units\": \"$units\"}, \"method\": \"leaf_clusters\",
-           \"scene\": {\"distance\": [$(python3 -c "print(2*$rad, 100*$rad)" | tr ' ' ',')]},
-           \"evaluate\": {\"views\": 4, \"sizes\": [128, 64, 32]}}" > "$tmp/spec.json"
-    out="$tmp/out-$mesh"
-    "$bake" bake "$@" --spec "$tmp/spec.json" --out "$out" || fail "$mesh: chain bake failed"
-    [ -z "$v" ] || node "$v" "$out/model.glb" "$out"/lod*_*.glb > /dev/null ||
+trees > "$tmp/trees"
+while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
+    c=$(tree_cache "$dir" "$mesh" "$units") || fail "$mesh: no chain bake"
+    node "$v" "$c/bake/model.glb" "$c/bake"/lod*_*.glb > /dev/null ||
         fail "$mesh: model.glb or a standalone level does not validate"
-    res=$(glb_check "$out/model.glb" "$out/report.json") || fail "$mesh: chain structure"
-    echo "ok $mesh: $res"
-done
+    res=$(glb_check "$c/bake/model.glb" "$c/bake/report.json") || fail "$mesh: chain structure"
+    echo "ok $mesh: $res (baked in $(cat "$c/bake_seconds") s)"
+done < "$tmp/trees"
 
 # One tree in detail: the motion term only with camera motion; chain off.
 d="$data/eztree_aspen_small"
-if [ -f "$d/aspen_small.obj" ]; then
+[ -f "$d/aspen_small.obj" ] || fail "missing $d/aspen_small.obj"
+{
     # shellcheck disable=SC2046
     set -- "$d/aspen_small.obj" $(companions "$d" aspen_small.obj)
     echo '{"method": "crossed_quads", "scene": {"camera_speed": 20},
@@ -109,4 +96,4 @@ if [ -f "$d/aspen_small.obj" ]; then
     [ "$(json_get "$tmp/far/report.json" "'full' in [s['name'] for s in j['lod_chain']['skipped']]")" = True ] ||
         fail "a scene that never comes near still has the full mesh"
     echo "ok aspen: motion term only with camera motion; chain off; far scene skips the full mesh"
-fi
+}

@@ -13,10 +13,11 @@
 #     HTTP thread: the upload that hits it gets 5xx (507 for ENOSPC), the
 #     daemon survives, and the next upload is accepted and completes.
 # Bounded: K_MAX per syscall set, the whole script stays within ~3 minutes.
+# sylva-test: cost=55
 . "$(dirname "$0")/daemon_lib.inc"
-command -v strace > /dev/null || { echo "skipped: strace missing"; exit 0; }
+command -v strace > /dev/null || { echo "skipped: strace missing"; exit 77; }
 strace -f -qq -o /dev/null -e trace=none true 2> /dev/null ||
-    { echo "skipped: strace cannot trace here (ptrace not permitted)"; exit 0; }
+    { echo "skipped: strace cannot trace here (ptrace not permitted)"; exit 77; }
 K_MAX=${K_MAX:-20}
 WRITE_KS=${WRITE_KS:-"1 2 3 4 5 6 8 10 13 17 21 27 34 44 55"}
 deadline=$(( $(date +%s) + ${STORE_FAULTS_BUDGET:-170} ))

@@ -8,8 +8,9 @@
 #  4. bad targets are refused naming the key; the same target twice gives
 #     byte-identical outputs; the daemon and `sylva` take a target end to end.
 # A small synthetic tree (a square trunk and 40 leaf quads) keeps it quick.
+# sylva-test: cost=17
 . "$(dirname "$0")/lib.inc"
-[ -x "$bake" ] || { echo "skipped: $bake not built"; exit 0; }
+[ -x "$bake" ] || { echo "skipped: $bake not built"; exit 77; }
 T=$(mktemp -d /tmp/sylva-target.XXXXXX)
 DPID=""
 cleanup() {

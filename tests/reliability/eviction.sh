@@ -24,7 +24,7 @@ set -u
 . "$(dirname "$0")/../integration/daemon_lib.inc"
 ok() { echo "ok - $1"; }
 bad() { echo "FAIL - $1"; fails=$((fails + 1)); }
-command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 0; }
+command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 77; }
 if [ "${EVICT_SHORT:-0}" = 1 ]; then
     LIMIT=${EVICT_LIMIT:-4194304} MESH_KB=${EVICT_MESH_KB:-200}
 else

@@ -18,7 +18,7 @@ set -u
 . "$(dirname "$0")/../integration/daemon_lib.inc"
 ok() { echo "ok - $1"; }
 bad() { echo "FAIL - $1"; fails=$((fails + 1)); }
-command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 0; }
+command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 77; }
 SHORT=${POISON_SHORT:-0}
 P99_MAX=${POISON_P99_MS:-50}
 BAKE=$B/sylva-bake
@@ -107,7 +107,7 @@ REAL_MESH=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/eztree_aspen_small/aspen_sma
 if [ "$ASAN" = 1 ]; then
     echo "# real-worker poison skipped: an ASan worker cannot run under RLIMIT_AS (its shadow needs terabytes)"
 elif [ ! -x "$BAKE" ] || [ ! -f "$REAL_MESH" ]; then
-    echo "# real-worker poison skipped: $BAKE or $REAL_MESH missing"
+    bad "real-worker poison: $BAKE or $REAL_MESH missing"
 else
     start_daemon --workers 1 --worker "$BAKE" --worker-as-bytes 1G --job-timeout 300
     hl_start

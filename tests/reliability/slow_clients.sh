@@ -20,9 +20,9 @@ SECS=${SLOW_SECONDS:-120}
 NH=${SLOW_HEADER:-500}
 NB=${SLOW_BODY:-50}
 for c in nginx slowhttptest wrk ip python3 curl; do
-    command -v $c >/dev/null 2>&1 || [ -x /usr/sbin/$c ] || { echo "skipped: $c missing"; exit 0; }
+    command -v $c >/dev/null 2>&1 || [ -x /usr/sbin/$c ] || { echo "skipped: $c missing"; exit 77; }
 done
-[ "$(id -u)" = 0 ] || { echo "skipped: needs root for ip netns"; exit 0; }
+[ "$(id -u)" = 0 ] || { echo "skipped: needs root for ip netns"; exit 77; }
 NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 T=$(mktemp -d /tmp/sylva-slow.XXXXXX)
 NS=sylva-slow-$$
@@ -44,8 +44,8 @@ ok() { echo "ok   - $1"; }
 bad() { echo "FAIL - $1"; fails=$((fails + 1)); }
 
 # ---- the attackers' host
-ip netns add "$NS" || { echo "skipped: ip netns add failed"; exit 0; }
-ip link add "$VH" type veth peer name "$VN" || { echo "skipped: no veth"; exit 0; }
+ip netns add "$NS" || { echo "skipped: ip netns add failed"; exit 77; }
+ip link add "$VH" type veth peer name "$VN" || { echo "skipped: no veth"; exit 77; }
 ip link set "$VN" netns "$NS"
 ip addr add "$HOSTIP/24" dev "$VH" && ip link set "$VH" up
 ip netns exec "$NS" ip addr add "$NSIP/24" dev "$VN"

@@ -27,8 +27,8 @@ METHODS=${KILL_METHODS:-"crossed_quads billboard_cloud"}
 DATA=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}
 case "$B" in *asan*) SLOW=1 ;; *) SLOW=0 ;; esac
 JOB_WAIT=$((SLOW ? 900 : 300))
-[ -x "$BAKE" ] || { echo "skipped: $BAKE not built"; exit 0; }
-command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 0; }
+[ -x "$BAKE" ] || { echo "skipped: $BAKE not built"; exit 77; }
+command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 77; }
 . "$(dirname "$0")/lib.inc"
 
 # --- the trees: "DIR MESH UNITS" lines

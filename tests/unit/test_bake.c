@@ -1,3 +1,4 @@
+/* sylva-test: cost=8 (tests/run.sh starts the longest first) */
 /* test_bake.c — quad baking (billboard-cloud paper §3.3.7) on synthetic meshes,
  * and a timing run on the bundled oak when SYLVA_DATA/examples are present. */
 #include <stdarg.h>
@@ -5,6 +6,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -452,15 +454,12 @@ static uint8_t *read_all(const char *path, size_t *size)
 static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
 {
     (void)state;
-    const char *data = getenv("SYLVA_DATA");
+    const char *data = sv_test_data("the oak timing");
     char path[1024];
-    snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", data ? data : "");
+    snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", data);
     size_t size = 0;
-    uint8_t *bytes = data ? read_all(path, &size) : NULL;
-    if (!bytes) {
-        printf("skipped: oak timing needs SYLVA_DATA with eztree_oak_large/oak_large.glb\n");
-        return;
-    }
+    uint8_t *bytes = read_all(path, &size);
+    if (!bytes) fail_msg("cannot read %s", path);
     sv_file file = {"oak_large.glb", bytes, size};
     sv_mesh *m = NULL;
     sv_error err = {0};
@@ -569,5 +568,5 @@ int main(void)
         cmocka_unit_test(bake_is_byte_identical_across_runs),
         cmocka_unit_test(oak_bakes_twenty_quads_into_binary_alpha_atlases),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

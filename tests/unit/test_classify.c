@@ -1,9 +1,11 @@
+/* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_classify.c — foliage vs trunk and leaf elements (core/classify.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -598,11 +600,7 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
 static void every_tree_in_the_data_set_classifies_as_its_readme_says(void **state)
 {
     (void)state;
-    const char *data = getenv("SYLVA_DATA");
-    if (!data || !*data) {
-        print_message("skipped: SYLVA_DATA is not set (real-tree classification)\n");
-        skip();
-    }
+    const char *data = sv_test_data("real-tree classification");
     for (size_t i = 0; i < sizeof TREES / sizeof TREES[0]; i++) {
         const tree_case *tc = &TREES[i];
         sv_mesh *m = import_tree(data, tc);
@@ -652,5 +650,5 @@ int main(void)
         cmocka_unit_test(offset_and_scale_give_the_same_elements),
         cmocka_unit_test(every_tree_in_the_data_set_classifies_as_its_readme_says),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

@@ -5,6 +5,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -194,14 +195,11 @@ static void tga_without_magic_decodes_by_its_name(void **state)
 static void jpeg_from_the_data_set_decodes(void **state)
 {
     (void)state;
-    const char *data = getenv("SYLVA_DATA");
+    const char *data = sv_test_data("the JPEG decode of bark.jpg");
     char path[1024];
-    snprintf(path, sizeof path, "%s/scopia_bonsai-tree/bark.jpg", data ? data : "");
-    FILE *f = data ? fopen(path, "rb") : NULL;
-    if (!f) {
-        printf("skipped: SYLVA_DATA not set or bark.jpg missing (JPEG decode)\n");
-        return;
-    }
+    snprintf(path, sizeof path, "%s/scopia_bonsai-tree/bark.jpg", data);
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
     fseek(f, 0, SEEK_END);
     long n = ftell(f);
     fseek(f, 0, SEEK_SET);
@@ -281,5 +279,5 @@ int main(void)
         cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
         cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

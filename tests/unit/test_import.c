@@ -1,3 +1,4 @@
+/* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_import.c — format sniffing, upload name resolution, the glTF precheck and
  * mesh import (core/sniff.c, core/gltf_precheck.c, core/import.c).
  *
@@ -8,6 +9,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -99,14 +101,6 @@ static bool upload_dir(upload *u, const char *dir, const char *main)
     return true;
 }
 
-static const char *data_dir(void)
-{
-    const char *d = getenv("SYLVA_DATA");
-    if (!d || !d[0]) return NULL;
-    struct stat st;
-    if (stat(d, &st) != 0 || !S_ISDIR(st.st_mode)) return NULL;
-    return d;
-}
 
 static sv_status import_upload(upload *u, const sv_import_options *opt, sv_mesh **m,
                                sv_import_info *info, sv_error *err)
@@ -894,11 +888,7 @@ static const tree_case trees[] = {
 static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
 {
     (void)state;
-    const char *data = data_dir();
-    if (!data) {
-        printf("skipped: SYLVA_DATA is not set or not a directory (real-tree import)\n");
-        return;
-    }
+    const char *data = sv_test_data("real-tree import");
     for (size_t i = 0; i < sizeof trees / sizeof trees[0]; i++) {
         const tree_case *tc = &trees[i];
         char dir[1024];
@@ -961,11 +951,7 @@ static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
 static void scopia_trees_are_in_centimetres_unless_scaled(void **state)
 {
     (void)state;
-    const char *data = data_dir();
-    if (!data) {
-        printf("skipped: SYLVA_DATA is not set (Scopia units)\n");
-        return;
-    }
+    const char *data = sv_test_data("the Scopia units");
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/scopia_bonsai-tree", data);
     upload u = {0};
@@ -987,11 +973,7 @@ static void scopia_trees_are_in_centimetres_unless_scaled(void **state)
 static void import_is_deterministic(void **state)
 {
     (void)state;
-    const char *data = data_dir();
-    if (!data) {
-        printf("skipped: SYLVA_DATA is not set (determinism)\n");
-        return;
-    }
+    const char *data = sv_test_data("import determinism");
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/eztree_aspen_small", data);
     upload u = {0};
@@ -1046,5 +1028,5 @@ int main(void)
         cmocka_unit_test(scopia_trees_are_in_centimetres_unless_scaled),
         cmocka_unit_test(import_is_deterministic),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

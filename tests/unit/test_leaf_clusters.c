@@ -7,6 +7,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -411,20 +412,15 @@ static uint8_t *read_all(const char *path, size_t *size)
 static void ficus_clusters_into_32_16_8_quads(void **state)
 {
     (void)state;
-    const char *data = getenv("SYLVA_DATA");
+    const char *data = sv_test_data("the ficus clustering");
     char obj[1024], mtl[1024];
-    if (!data) {
-        print_message("skipped: SYLVA_DATA is not set (real-tree test)\n");
-        return;
-    }
     snprintf(obj, sizeof obj, "%s/scopia_ficusTree/ficusTree.obj", data);
     snprintf(mtl, sizeof mtl, "%s/scopia_ficusTree/ficusTree.mtl", data);
     size_t n_obj = 0, n_mtl = 0;
     uint8_t *b_obj = read_all(obj, &n_obj), *b_mtl = read_all(mtl, &n_mtl);
     if (!b_obj) {
-        print_message("skipped: %s not readable\n", obj);
         free(b_mtl);
-        return;
+        fail_msg("cannot read %s", obj);
     }
     sv_file files[2] = {{"ficusTree.obj", b_obj, n_obj}, {"ficusTree.mtl", b_mtl, n_mtl}};
     sv_import_options io = {.unit_scale = 0.01};
@@ -490,5 +486,5 @@ int main(void)
         cmocka_unit_test(bad_settings_make_run_fail_too),
         cmocka_unit_test(ficus_clusters_into_32_16_8_quads),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

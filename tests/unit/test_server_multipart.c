@@ -16,6 +16,7 @@ typedef struct collected {
     char filenames[8][SVD_MP_FIELD_MAX];
     uint8_t *data[8];
     size_t len[8];
+    size_t cap[8];
     int ended;
     int refuse_begin;
 } collected;
@@ -29,6 +30,7 @@ static int cb_begin(void *u, const svd_part_info *info)
     snprintf(c->filenames[c->parts], SVD_MP_FIELD_MAX, "%s", info->filename);
     c->data[c->parts] = NULL;
     c->len[c->parts] = 0;
+    c->cap[c->parts] = 0;
     c->parts++;
     return 0;
 }
@@ -37,7 +39,16 @@ static int cb_data(void *u, const uint8_t *d, size_t n)
 {
     collected *c = u;
     int i = c->parts - 1;
-    c->data[i] = realloc(c->data[i], c->len[i] + n);
+    /* geometric growth: a 300 KB part fed in 7-byte chunks with a realloc
+     * per chunk took 67 s under ASan (a copy of the whole part each time) */
+    if (c->len[i] + n > c->cap[i]) {
+        size_t cap = c->cap[i] ? c->cap[i] : 64;
+        while (cap < c->len[i] + n) cap *= 2;
+        uint8_t *p = realloc(c->data[i], cap);
+        if (!p) return 1;
+        c->data[i] = p;
+        c->cap[i] = cap;
+    }
     memcpy(c->data[i] + c->len[i], d, n);
     c->len[i] += n;
     return 0;

@@ -7,6 +7,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -423,19 +424,12 @@ static uint8_t *slurp(const char *path, size_t *n)
 static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state)
 {
     (void)state;
-    const char *dir = getenv("SYLVA_DATA");
-    if (!dir) {
-        print_message("skipped: SYLVA_DATA not set (real-tree visible area)\n");
-        return;
-    }
+    const char *dir = sv_test_data("the real-tree visible area");
     char path[1024];
     snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", dir);
     size_t n = 0;
     uint8_t *data = slurp(path, &n);
-    if (!data) {
-        print_message("skipped: %s not readable\n", path);
-        return;
-    }
+    if (!data) fail_msg("cannot read %s", path);
     sv_file f = {"oak_large.glb", data, n};
     sv_error err = {0};
     sv_mesh *m = NULL;
@@ -445,10 +439,8 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     assert_int_equal(sv_classify(m, NULL, &cls, &err), SV_OK);
     assert_int_equal(sv_leaves_build(m, &cls, &lv, &err), SV_OK);
     sv_renderer *ren = NULL;
-    if (sv_renderer_create(SIZE, &ren, &err) != SV_OK) {
-        print_message("skipped: no OSMesa context: %s\n", err.message);
-        goto done;
-    }
+    if (sv_renderer_create(SIZE, &ren, &err) != SV_OK)
+        fail_msg("no OSMesa context: %s", err.message);
     cover c = {ren, NULL, {0, 0, 0}, 0};
     sv_mesh_sphere(m, c.centre, &c.radius);
     assert_int_equal(sv_gpu_mesh_upload(ren, m, &c.g, &err), SV_OK);
@@ -497,7 +489,6 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     /* without area preservation λ = 0.1 loses far more than the tolerance */
     assert_true(rel[0][3] < 0.6);
     sv_gpu_mesh_free(c.g);
-done:
     sv_renderer_destroy(ren);
     sv_leaves_free(&lv);
     sv_classification_free(&cls);
@@ -522,5 +513,5 @@ int main(void)
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
         cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

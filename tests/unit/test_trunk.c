@@ -93,6 +93,117 @@ static void trunk_simplification_reduces_unwelded_meshes(void **state)
     free(parts);
 }
 
+/* Distance from p to triangle abc (Ericson, Real-Time Collision Detection, 5.1.5). */
+static double point_triangle_distance(const double p[3], const double a[3], const double b[3],
+                                      const double c[3])
+{
+    double ab[3], ac[3], ap[3], bp[3], cp[3], q[3];
+    for (int k = 0; k < 3; k++) {
+        ab[k] = b[k] - a[k];
+        ac[k] = c[k] - a[k];
+        ap[k] = p[k] - a[k];
+        bp[k] = p[k] - b[k];
+        cp[k] = p[k] - c[k];
+    }
+#define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
+    double d1 = DOT(ab, ap), d2 = DOT(ac, ap), d3 = DOT(ab, bp), d4 = DOT(ac, bp);
+    double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
+#undef DOT
+    double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (d1 <= 0 && d2 <= 0) {
+        memcpy(q, a, sizeof q);
+    } else if (d3 >= 0 && d4 <= d3) {
+        memcpy(q, b, sizeof q);
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double v = d1 / (d1 - d3);
+        for (int k = 0; k < 3; k++) q[k] = a[k] + v * ab[k];
+    } else if (d6 >= 0 && d5 <= d6) {
+        memcpy(q, c, sizeof q);
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double w = d2 / (d2 - d6);
+        for (int k = 0; k < 3; k++) q[k] = a[k] + w * ac[k];
+    } else if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        for (int k = 0; k < 3; k++) q[k] = b[k] + w * (c[k] - b[k]);
+    } else {
+        double den = 1 / (va + vb + vc), v = vb * den, w = vc * den;
+        for (int k = 0; k < 3; k++) q[k] = a[k] + ab[k] * v + ac[k] * w;
+    }
+    return sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                (p[2] - q[2]) * (p[2] - q[2]));
+}
+
+/* How far the simplified surface strays from the original: the largest
+ * distance from an original trunk vertex to the simplified triangles (the
+ * simplifier keeps a subset of the vertices, so the other way is 0). */
+static double deviation(const sv_mesh *orig, const uint8_t *parts, const sv_mesh *simp)
+{
+    double worst = 0;
+    for (uint32_t t = 0; t < orig->triangle_count; t++) {
+        if (parts[t] != SV_PART_TRUNK) continue;
+        for (int j = 0; j < 3; j++) {
+            const float *pf = &orig->positions[3 * (size_t)orig->indices[3 * (size_t)t + j]];
+            double p[3] = {pf[0], pf[1], pf[2]}, best = INFINITY;
+            for (uint32_t s = 0; s < simp->triangle_count && best > 0; s++) {
+                double v[3][3];
+                for (int i = 0; i < 3; i++)
+                    for (int k = 0; k < 3; k++)
+                        v[i][k] = simp->positions[3 * (size_t)simp->indices[3 * (size_t)s + i] + k];
+                double d = point_triangle_distance(p, v[0], v[1], v[2]);
+                if (d < best) best = d;
+            }
+            if (best > worst) worst = best;
+        }
+    }
+    return worst;
+}
+
+/* The error bound the LOD chain relies on: asked for far fewer triangles than
+ * it can give within max_error, the simplifier stops at the bound. The 32 x 32
+ * cylinder (radius 1, height 32) loses its rings for free (they are coplanar
+ * strips) but not its roundness: a rim vertex dropped between kept ones k
+ * segments apart strays 1 - cos(k × 5.625°) from the surface.
+ * meshoptimizer's error is a quadric estimate (distance to the planes of the
+ * collapsed faces), not the distance between the surfaces, and successive
+ * collapses on a curved rim exceed it: measured here, 0.076 for a bound of
+ * 0.05 and 0.80 for 0.5. So the check is "within twice the bound" (trunk.h
+ * promises the bound itself: reported on issue 16). Without a bound, or with
+ * the bound ignored, the same request strays more than a bounded one may. */
+static void trunk_simplification_stays_within_max_error(void **state)
+{
+    (void)state;
+    uint8_t *parts;
+    sv_mesh *m = cylinder(32, 32, &parts);
+    uint32_t full = m->triangle_count - 1;
+    const double bounds[3] = {0.05, 0.5, 0}; /* tight, loose, none */
+    uint32_t tris[3];
+    double dev[3];
+    for (int i = 0; i < 3; i++) {
+        sv_mesh *t = NULL;
+        sv_error e = {0};
+        assert_int_equal(sv_trunk_mesh(m, parts, 0.001, bounds[i], &t, &e), SV_OK);
+        assert_non_null(t);
+        tris[i] = t->triangle_count;
+        dev[i] = deviation(m, parts, t);
+        print_message("max_error %.2f: %u of %u triangles, deviation %.4f\n", bounds[i], tris[i],
+                      full, dev[i]);
+        sv_mesh_destroy(t);
+    }
+    /* the tight bound: far fewer triangles, within (twice) the bound */
+    assert_true(tris[0] < full / 4);
+    assert_true(dev[0] <= 2 * bounds[0]);
+    /* a looser bound buys fewer triangles, within its own bound, and strays
+     * more than the tight one may */
+    assert_true(tris[1] < tris[0]);
+    assert_true(dev[1] <= 2 * bounds[1]);
+    assert_true(dev[1] > 2 * bounds[0]);
+    /* no bound: the ratio alone rules, and the error is not held */
+    assert_true(tris[2] <= tris[1]);
+    assert_true(dev[2] > 2 * bounds[0]);
+    sv_mesh_destroy(m);
+    free(parts);
+}
+
 static void trunk_is_null_without_trunk_triangles(void **state)
 {
     (void)state;
@@ -138,6 +249,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(trunk_keeps_only_trunk_triangles_at_ratio_one),
         cmocka_unit_test(trunk_simplification_reduces_unwelded_meshes),
+        cmocka_unit_test(trunk_simplification_stays_within_max_error),
         cmocka_unit_test(trunk_is_null_without_trunk_triangles),
         cmocka_unit_test(mesh_merge_offsets_indices_materials_and_images),
     };
