@@ -66,12 +66,7 @@ add() { # add NAME SOURCE COMMAND...
     grep -q " $name " "$list" && { echo "two tests named $name"; exit 2; }
     case "$only" in "  ") ;; *" $name "*) ;; *) return ;; esac
     if [ "$set_" = sanitize ] && [ -n "$(marker "$src" no-sanitize)" ]; then return; fi
-    # hostile_cli.sh is edited elsewhere and cannot carry the marker: under
-    # ASan hostile_http sends the same corpus through the real worker
-    if [ "$set_" = sanitize ] && [ "$name" = hostile_cli ]; then return; fi
     cost=$(cost_of "$src")
-    # hostile_cli.sh is edited elsewhere (issue 16 left it alone): its cost here
-    [ "$name" = hostile_cli ] && cost=${cost:-75}
     kind=par
     [ -n "$(marker "$src" serial)" ] && kind=ser
     printf '%s %s %s %s\n' "${cost:-5}" "$kind" "$name" "$*" >> "$list"

@@ -7,13 +7,14 @@
 # python ((x, y, z) -> (x, -z, y)). The client run also checks that the
 # standalone per-level files (lod<i>_<name>.glb) are downloaded.
 # Skips (saying so) without the shared data.
+# sylva-test: cost=15
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 SYLVA=$B/sylva
 D=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/eztree_aspen_small
-[ -x "$BAKE" ] && [ -x "$SYLVA" ] || { echo "skipped: sylva-bake or sylva not built"; exit 0; }
-[ -f "$D/aspen_small.obj" ] || { echo "skipped: $D/aspen_small.obj missing"; exit 0; }
-command -v python3 > /dev/null || { echo "skipped: python3 missing"; exit 0; }
+[ -x "$BAKE" ] && [ -x "$SYLVA" ] || { echo "FAIL: sylva-bake or sylva not built"; exit 1; }
+[ -f "$D/aspen_small.obj" ] || { echo "skipped: $D/aspen_small.obj missing"; exit 77; }
+command -v python3 > /dev/null || { echo "FAIL: python3 missing"; exit 1; }
 
 mkdir -p "$T/z"
 cp "$D/aspen_small.mtl" "$D/bark_birch_color_1k.jpg" "$D/leaves_aspen_color.png" "$T/z/"

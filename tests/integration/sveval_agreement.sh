@@ -6,6 +6,7 @@
 #  - a 20-plane billboard cloud beats crossed quads by >= 0.10 (sveval);
 #  - the calibrated cutoff beats a fixed, inflating one (alpha_threshold 0.05).
 # Fails (never skips) when the data or sveval is missing: CI installs both.
+# sylva-test: no-sanitize (an accuracy check: the C paths are the bake_cli ones) cost=45
 set -eu
 . "$(dirname "$0")/lib.inc"
 [ -d "$data" ] || fail "no tree data at $data"
