@@ -73,6 +73,29 @@ static bool mom_fit(const kp_mom *a, double n[3], double *d)
     return true;
 }
 
+/* Assigns every weighted element to its nearest foliage plane (ties: the
+ * lower index); cost[e] = its mean squared distance. Returns how many
+ * assignments changed. */
+static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
+                           uint32_t np, uint32_t *asg, double *cost)
+{
+    uint32_t changed = 0;
+    for (uint32_t e = 0; e < ne; e++) {
+        if (!(em[e].w > 0)) continue;
+        uint32_t best = UINT32_MAX;
+        double bc = INFINITY;
+        for (uint32_t k = 0; k < np; k++) {
+            if (!fol[k]) continue;
+            double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
+            if (c < bc) bc = c, best = k;
+        }
+        changed += best != asg[e];
+        asg[e] = best;
+        cost[e] = bc;
+    }
+    return changed;
+}
+
 sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t target_planes,
                          sv_bbc_result *res, sv_error *err)
 {
@@ -144,18 +167,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
      * plane parallel to that leaf's plane through the leaf (farthest-point
      * seeding, deterministic), one at a time with a reassignment between. */
     for (uint32_t added = 0; added <= grow; added++) {
-        for (uint32_t e = 0; e < ne; e++) {
-            if (!(em[e].w > 0)) continue;
-            uint32_t best = UINT32_MAX;
-            double bc = INFINITY;
-            for (uint32_t k = 0; k < np; k++) {
-                if (!fol[k]) continue;
-                double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
-                if (c < bc) bc = c, best = k;
-            }
-            asg[e] = best;
-            cost[e] = bc;
-        }
+        assign_all(em, ne, pn, fol, np, asg, cost);
         if (added == grow) break;
         uint32_t far = UINT32_MAX;
         for (uint32_t e = 0; e < ne; e++)
@@ -179,21 +191,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     }
     for (uint32_t e = 0; e < ne; e++) asg[e] = UINT32_MAX; /* the loop below counts moves */
     for (uint32_t it = 0; it <= iterations; it++) {
-        /* assignment */
-        uint32_t changed = 0;
-        for (uint32_t e = 0; e < ne; e++) {
-            if (!(em[e].w > 0)) continue;
-            uint32_t best = UINT32_MAX;
-            double bc = INFINITY;
-            for (uint32_t k = 0; k < np; k++) {
-                if (!fol[k]) continue;
-                double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
-                if (c < bc) bc = c, best = k;
-            }
-            if (best != asg[e]) changed++;
-            asg[e] = best;
-            cost[e] = bc;
-        }
+        uint32_t changed = assign_all(em, ne, pn, fol, np, asg, cost);
         if (it == iterations || (it > 0 && !changed)) break;
         /* refit */
         memset(pm, 0, (size_t)np * sizeof *pm);
