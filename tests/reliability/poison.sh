@@ -111,7 +111,7 @@ elif [ ! -x "$BAKE" ] || [ ! -f "$REAL_MESH" ]; then
 else
     start_daemon --workers 1 --worker "$BAKE" --worker-as-bytes 1G --job-timeout 300
     hl_start
-    spec='{"method":"crossed_quads","bake":{"max_atlas":16384,"max_supersample":16},"evaluate":{"enabled":false},"lod":{"chain":false,"coarsest":"none"}}'
+    spec='{"method":"crossed_quads","bake":{"max_atlas":16384,"max_supersample":16,"texel_pixels":0},"evaluate":{"enabled":false},"lod":{"chain":false,"coarsest":"none"}}'
     set -- -F "mesh=@$REAL_MESH"
     d=$(dirname "$REAL_MESH")
     for f in "$d"/*.mtl "$d"/*.png "$d"/*.jpg; do [ -f "$f" ] && set -- "$@" -F "file=@$f"; done
