@@ -8,7 +8,7 @@
 # HTTP: malformed multipart, huge headers, an oversized chunked body, a client
 # hanging up mid-upload — each answered or cut off, nothing left in tmp/.
 # (daemon_upload.sh covers Content-Length 413, bad spec, 415, bad names.)
-# sylva-test: cost=45
+# sylva-test: no-sanitize (test_hostile runs the corpus through the import path under ASan in-process; daemon_upload and daemon_faults cover the server side) cost=45
 . "$(dirname "$0")/daemon_lib.inc"
 corpus=$SYLVA_ROOT/tests/corpus
 WORKER=$B/sylva-bake

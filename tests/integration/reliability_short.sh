@@ -8,7 +8,7 @@
 # (BUILD=build/asan: generous timeouts; no RLIMIT_AS on the real ASan worker).
 # The long forms: sh tests/reliability/worker_kills.sh (100 trials),
 # poison.sh (asserts p99 < 50 ms), eviction.sh (16 MiB store).
-# sylva-test: cost=45
+# sylva-test: no-sanitize (fake workers and daemon supervision; the server code under ASan is covered by daemon_faults, daemon_upload and the server unit tests; CI time) cost=45
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
 rel=$here/../reliability

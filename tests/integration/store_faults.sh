@@ -13,7 +13,7 @@
 #     HTTP thread: the upload that hits it gets 5xx (507 for ENOSPC), the
 #     daemon survives, and the next upload is accepted and completes.
 # Bounded: K_MAX per syscall set, the whole script stays within ~3 minutes.
-# sylva-test: cost=55
+# sylva-test: no-sanitize (store and journal faults; test_server_store and test_server_journal cover that code under ASan; CI time) cost=55
 . "$(dirname "$0")/daemon_lib.inc"
 command -v strace > /dev/null || { echo "skipped: strace missing"; exit 77; }
 strace -f -qq -o /dev/null -e trace=none true 2> /dev/null ||

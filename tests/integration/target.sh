@@ -8,7 +8,7 @@
 #  4. bad targets are refused naming the key; the same target twice gives
 #     byte-identical outputs; the daemon and `sylva` take a target end to end.
 # A small synthetic tree (a square trunk and 40 leaf quads) keeps it quick.
-# sylva-test: cost=17
+# sylva-test: no-sanitize (the search runs the bake and evaluation paths bake_cli and lod_chain cover under ASan, once per try; CI time) cost=17
 . "$(dirname "$0")/lib.inc"
 [ -x "$bake" ] || { echo "skipped: $bake not built"; exit 77; }
 T=$(mktemp -d /tmp/sylva-target.XXXXXX)
