@@ -100,7 +100,7 @@ for t in range(60):
 EOF
 [ -f "$T/trees/set2/tree59/tree59.obj" ] || die "could not generate the trees"
 # the cheapest real bake: the test is about placement and failover, not quality
-printf '%s\n' '{"method":"crossed_quads","bake":{"max_atlas":64},"evaluate":{"enabled":false},"lod":{"chain":false,"coarsest":"none"}}' > "$T/spec.json"
+printf '%s\n' '{"method":"crossed_quads","bake":{"max_atlas":64,"alpha_threshold":0.5},"evaluate":{"enabled":false},"lod":{"chain":false,"coarsest":"none"}}' > "$T/spec.json"
 
 # ---- three nodes: port 0, the real port read back from --port-file.
 NODES=""
