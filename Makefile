@@ -181,12 +181,18 @@ install: $(BINS)
 # libFuzzer targets (tests/fuzz/fuzz_*.c) under ASan+UBSan, built with clang into
 # $(BUILD)/fuzz/ (the core and the multipart parser recompiled with coverage);
 # `make fuzz` runs each for FUZZ_SECONDS from tests/fuzz/corpus/<target>/ and
-# fails on any finding (crash inputs go to $(BUILD)/fuzz/artifacts/).
+# fails on any finding (crash inputs go to $(BUILD)/fuzz/artifacts/). It
+# explores: a random seed each run. FUZZ_LIMIT replaces the time limit and
+# FUZZ_WORK the directory new inputs go to: tests/integration/fuzz_short.sh
+# (CI) passes a fixed seed, a run count and a fresh directory, so CI replays
+# the same inputs every time and a finding there is reproducible.
 # Library objects get -Wall -Wextra without -Werror (clang may warn where gcc
 # does not); the fuzz targets themselves are -Werror.
 FUZZ_CC      ?= clang
 FUZZ_CXX     ?= clang++
 FUZZ_SECONDS ?= 60
+FUZZ_LIMIT   ?= -max_total_time=$(FUZZ_SECONDS)
+FUZZ_WORK    ?= $(BUILD)/fuzz/work
 FUZZ_DIR     := $(BUILD)/fuzz
 FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
 FUZZ_CFLAGS  := -std=c11 -Wall -Wextra -O1 -g -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE \
@@ -216,10 +222,10 @@ fuzz-build: $(FUZZ_BINS)
 
 fuzz: fuzz-build
 	@set -e; for f in $(FUZZ_BINS); do \
-	    t=$$(basename $$f); mkdir -p $(FUZZ_DIR)/work/$$t $(FUZZ_DIR)/artifacts; \
-	    echo "== $$t for $(FUZZ_SECONDS) s"; \
-	    $$f -max_total_time=$(FUZZ_SECONDS) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-	        -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t- $(FUZZ_DIR)/work/$$t tests/fuzz/corpus/$$t \
+	    t=$$(basename $$f); mkdir -p $(FUZZ_WORK)/$$t $(FUZZ_DIR)/artifacts; \
+	    echo "== $$t: $(FUZZ_LIMIT)"; \
+	    $$f $(FUZZ_LIMIT) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+	        -artifact_prefix=$(FUZZ_DIR)/artifacts/$$t- $(FUZZ_WORK)/$$t tests/fuzz/corpus/$$t \
 	        > $(FUZZ_DIR)/$$t.log 2>&1 || { tail -n 60 $(FUZZ_DIR)/$$t.log; echo "FUZZ FINDING: $$t"; exit 1; }; \
 	    grep -E '^stat::number_of_executed_runs|^#[0-9]+.*DONE' $(FUZZ_DIR)/$$t.log | tail -n 2; \
 	done; echo "fuzz: 0 findings"

@@ -12,7 +12,9 @@
  *    SV_PLY_MAX_HEADER bytes), every line a known keyword with known types, and
  *    the body must hold every element instance the header declares: the ascii
  *    body is walked token by token (list lengths included), the binary body
- *    record by record. So element counts are bounded by the file size.
+ *    record by record. So element counts are bounded by the file size. A
+ *    polygon list (vertex_index / vertex_indices) may not be empty: assimp's
+ *    TriangulateProcess aborts on a face with no index (found by fuzz_import).
  *  - OBJ: text (no NUL byte anywhere), no line longer than SV_OBJ_MAX_LINE.
  *  - FBX binary: the node-record tree is walked: every end offset, property
  *    list and array inside the file and consistent, nesting at most
@@ -43,6 +45,7 @@ typedef struct ply_prop {
     uint8_t size;       /* bytes of the value (binary); 0 unused */
     uint8_t count_size; /* list: bytes of the length; 0 for a scalar */
     bool count_float;   /* list length type is float/double: refused */
+    bool indices;       /* list named vertex_index(ices): a polygon, never empty */
 } ply_prop;
 
 typedef struct ply_elem {
@@ -200,6 +203,8 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
                 p->count_size = (uint8_t)ply_type_size(tok[2], tl[2], &fl);
                 p->count_float = fl;
                 p->size = (uint8_t)ply_type_size(tok[3], tl[3], NULL);
+                p->indices = tok_is(tok[4], tl[4], "vertex_indices") ||
+                             tok_is(tok[4], tl[4], "vertex_index");
                 if (!p->count_size || !p->size || fl)
                     return sv_fail(err, SV_ERR_PARSE,
                                    "'%s': PLY list property on line %u has an unknown or "
@@ -293,6 +298,7 @@ static sv_status ply_walk_body(const uint8_t *d, size_t n, const char *shown, co
                             c = c * 10 + (uint64_t)(d[s + k] - '0');
                         }
                         values = c;
+                        if (!values && p->indices) goto empty_polygon;
                     }
                     for (uint64_t v = 0; v < values; v++) {
                         if (!next_token(d, n, &pos, &s, &len)) goto short_body;
@@ -311,6 +317,7 @@ static sv_status ply_walk_body(const uint8_t *d, size_t n, const char *shown, co
                         if (c > n) goto bad_count;
                         pos += p->count_size;
                         values = c;
+                        if (!values && p->indices) goto empty_polygon;
                     }
                     if ((n - pos) / p->size < values) goto short_body;
                     pos += (size_t)(values * p->size);
@@ -325,6 +332,11 @@ static sv_status ply_walk_body(const uint8_t *d, size_t n, const char *shown, co
             bad_count:
                 return sv_fail(err, SV_ERR_PARSE,
                                "'%s': PLY element '%s' %llu has a bad list length", shown, e->name,
+                               (unsigned long long)inst);
+            empty_polygon:
+                /* assimp 5.2.5 aborts on it (TriangulateProcess asserts) */
+                return sv_fail(err, SV_ERR_PARSE,
+                               "'%s': PLY element '%s' %llu has no vertex indices", shown, e->name,
                                (unsigned long long)inst);
             }
         }

@@ -421,6 +421,11 @@ CORPUS = [
      "face list of 3 ends after 2 indices"),
     ("ply_binary_list_count_lies.ply", ply_binary()[:-13] + struct.pack("<B3i", 255, 0, 1, 2),
      "binary face list claims 255 indices, holds 3"),
+    # found by fuzz_import: assimp's TriangulateProcess aborts on an empty polygon
+    ("ply_binary_empty_face.ply", ply_binary()[:-13] + struct.pack("<B", 0),
+     "binary face with no vertex indices (assimp asserts and aborts)"),
+    ("ply_ascii_empty_face.ply", obj(PLY_HEAD % "ascii" + "0 0 0\n1 0 0\n0 1 0\n0\n"),
+     "ascii face with no vertex indices (assimp asserts and aborts)"),
     ("ply_bad_property_type.ply", obj((PLY_HEAD % "ascii").replace("property float z",
                                                                     "property quad z") +
                                       "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),

@@ -1,10 +1,13 @@
 #!/bin/sh
 # fuzz_short.sh — the CI form of `make fuzz`, a smoke: builds the libFuzzer
 # targets (tests/fuzz/, clang, ASan+UBSan; CI builds them beforehand with
-# `make ci-build`) and runs each for FUZZ_SECONDS (default 5: the seed corpus
-# of tests/fuzz/corpus/ replayed, then a few seconds of mutation) so the
-# targets and their seeds stay working. Real fuzzing is `make fuzz` (60 s per
-# target). Fails on any finding. Skipped (77) only when clang is missing.
+# `make ci-build`) and runs each on the seed corpus of tests/fuzz/corpus/ and
+# then FUZZ_RUNS (default 2000) mutations from the fixed seed FUZZ_SEED
+# (default 1), writing new inputs to a fresh directory: the same inputs every
+# run, so CI passes or fails for a reason that reproduces (a timed random run
+# failed CI once on an input nobody had seen before). Exploring is `make fuzz`
+# (random seed, 60 s per target); what it finds goes into the corpus and the
+# pre-checks. Fails on any finding. Skipped (77) only when clang is missing.
 # sylva-test: no-sanitize (its targets are clang ASan+UBSan builds already) cost=40
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
@@ -17,4 +20,7 @@ command -v clang > /dev/null 2>&1 || { echo "skipped: clang missing (deploy/apt-
 # add gcc's sanitizer flags nowhere here, but keep the environment clean).
 unset MAKEFLAGS MFLAGS SANITIZE
 cd "$root" || exit 1
-make --no-print-directory BUILD="$build" -j2 FUZZ_SECONDS="${FUZZ_SECONDS:-5}" fuzz
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT INT TERM
+make --no-print-directory BUILD="$build" -j2 FUZZ_WORK="$work" \
+    FUZZ_LIMIT="-seed=${FUZZ_SEED:-1} -runs=${FUZZ_RUNS:-2000}" fuzz
