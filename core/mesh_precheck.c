@@ -22,7 +22,9 @@
  *    (depth at most SV_FBX_MAX_DEPTH), only "Key: ... {...}" at the top level.
  *    Both: the FBXHeaderExtension, Objects and Connections sections assimp
  *    requires are there (its parser leaks when it fails on their absence).
- *  - COLLADA: no NUL byte, a <COLLADA root and the closing </COLLADA> tag.
+ *  - COLLADA: no NUL byte, a <COLLADA root and the closing </COLLADA> tag;
+ *    every *_array element has a positive count attribute (assimp 5.2.5
+ *    crashes on a missing or zero count).
  * Counts the mesh declares (OBJ v/f lines, PLY vertex/face elements) are also
  * held against the import limits here, before assimp allocates for them.
  */
@@ -650,6 +652,57 @@ static const uint8_t *find(const uint8_t *d, size_t n, const char *needle)
     return NULL;
 }
 
+/* Checks the start tag of a COLLADA *_array element at d[0] == '<' (its name
+ * ends in "_array"): it must carry count="N" with N a positive decimal. assimp
+ * 5.2.5 dereferences a null pointer when the count is missing, empty, not a
+ * number or 0 (found by fuzz_import). Malformed markup is left to assimp's XML
+ * parser, which refuses it. *end gets the offset just past the tag. */
+static sv_status dae_array_tag(const uint8_t *d, size_t n, size_t name_len, const char *shown,
+                               size_t *end, sv_error *err)
+{
+    size_t i = 1 + name_len;
+    bool counted = false;
+    for (;;) {
+        while (i < n && isspace(d[i])) i++;
+        if (i >= n || d[i] == '>' || d[i] == '/') break;
+        size_t an = i;
+        while (i < n && !isspace(d[i]) && d[i] != '=' && d[i] != '>' && d[i] != '/') i++;
+        size_t al = i - an;
+        while (i < n && isspace(d[i])) i++;
+        if (i >= n || d[i] != '=') break;
+        i++;
+        while (i < n && isspace(d[i])) i++;
+        if (i >= n || (d[i] != '"' && d[i] != '\'')) break;
+        uint8_t q = d[i++];
+        size_t vs = i;
+        while (i < n && d[i] != q) i++;
+        if (i >= n) break;
+        size_t vl = i - vs;
+        i++;
+        if (al == 5 && memcmp(d + an, "count", 5) == 0) {
+            uint64_t c = 0;
+            bool digits = vl > 0 && vl <= 10;
+            for (size_t k = 0; digits && k < vl; k++) {
+                if (!isdigit(d[vs + k])) digits = false;
+                else c = c * 10 + (uint64_t)(d[vs + k] - '0');
+            }
+            if (!digits || c == 0)
+                return sv_fail(err, SV_ERR_PARSE,
+                               "'%s': COLLADA <%.*s> has count=\"%.*s\": a positive count is "
+                               "needed",
+                               shown, (int)name_len, (const char *)d + 1, (int)(vl < 20 ? vl : 20),
+                               (const char *)d + vs);
+            counted = true;
+        }
+    }
+    while (i < n && d[i] != '>') i++;
+    *end = i;
+    if (!counted)
+        return sv_fail(err, SV_ERR_PARSE, "'%s': COLLADA <%.*s> has no count attribute", shown,
+                       (int)name_len, (const char *)d + 1);
+    return SV_OK;
+}
+
 static sv_status dae_check(const uint8_t *d, size_t n, const char *shown, sv_error *err)
 {
     if (memchr(d, 0, n))
@@ -660,6 +713,19 @@ static sv_status dae_check(const uint8_t *d, size_t n, const char *shown, sv_err
     if (!find(root, n - after, "</COLLADA>"))
         return sv_fail(err, SV_ERR_PARSE,
                        "'%s': COLLADA document is incomplete: no closing </COLLADA> tag", shown);
+    for (size_t i = 0; i < n; i++) {
+        if (d[i] != '<') continue;
+        size_t k = i + 1;
+        while (k < n && (isalnum(d[k]) || d[k] == '_' || d[k] == ':' || d[k] == '-' ||
+                         d[k] == '.'))
+            k++;
+        size_t len = k - i - 1;
+        if (len < 6 || memcmp(d + k - 6, "_array", 6) != 0) continue;
+        size_t end = k;
+        sv_status st = dae_array_tag(d + i, n - i, len, shown, &end, err);
+        if (st != SV_OK) return st;
+        i += end;
+    }
     return SV_OK;
 }
 

@@ -442,6 +442,11 @@ CORPUS = [
     ("fbx_binary_cut.fbx", FBX_BIN[:len(FBX_BIN) // 2], "binary FBX cut in half"),
     ("fbx_ascii_unclosed.fbx", fbx_ascii(fbx_tree())[:200], "ascii FBX cut inside a brace"),
     ("dae_truncated.dae", DAE_TRI[:len(DAE_TRI) // 2], "COLLADA cut in half"),
+    # found by fuzz_import: assimp 5.2.5 dereferences null on an array's count
+    ("dae_array_no_count.dae", DAE_TRI.replace(b' count="9"', b''),
+     "float_array without count (assimp segfaults)"),
+    ("dae_array_count_zero.dae", DAE_TRI.replace(b' count="9"', b' count="0"'),
+     "float_array with count 0 (assimp segfaults)"),
     # --- formats disguised as GLB, empty and one-byte files
     ("disguised_png.glb", b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x00\x01\x00\x00\x00\x01"
      b"\x08\x06\x00\x00\x00\x1f\x15\xc4\x89", "a PNG named .glb"),
