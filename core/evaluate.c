@@ -606,6 +606,52 @@ sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result,
 
 /* ---- LOD switching ------------------------------------------------------- */
 
+/* Mean coverage error at screen size px: measured values interpolated in
+ * log2(size), held constant outside the measured range. */
+static double error_at(const sv_eval_result *r, double px)
+{
+    uint32_t n = r->size_count;
+    if (px >= r->sizes[0].pixels) return 1.0 - r->sizes[0].mean.iou;
+    if (px <= r->sizes[n - 1].pixels) return 1.0 - r->sizes[n - 1].mean.iou;
+    for (uint32_t s = 0; s + 1 < n; s++) {
+        const sv_eval_size *hi = &r->sizes[s], *lo = &r->sizes[s + 1];
+        if (px < lo->pixels) continue;
+        double l0 = log2((double)lo->pixels), l1 = log2((double)hi->pixels);
+        double t = l1 > l0 ? (log2(px) - l0) / (l1 - l0) : 0;
+        return (1.0 - lo->mean.iou) + t * (lo->mean.iou - hi->mean.iou);
+    }
+    return 1.0 - r->sizes[n - 1].mean.iou;
+}
+
+double sv_eval_max_pixels_scaled(const sv_eval_result *r, double max_error, double ref_pixels)
+{
+    if (ref_pixels <= 0) return sv_eval_max_pixels(r, 1.0 - max_error);
+    if (!r || r->size_count == 0) return 0.0;
+    bool exact = true;
+    for (uint32_t s = 0; s < r->size_count; s++) exact = exact && r->sizes[s].mean.iou >= 1.0;
+    if (exact) return INFINITY;
+    double budget = max_error * ref_pixels;
+    /* the largest log2 size that passes: scan down in steps of 1/16, then
+     * bisect the step where it starts to pass */
+    const double top = 24, bottom = -8, step = 1.0 / 16;
+    double fail = top + step;
+    for (double x = top; x >= bottom; x -= step) {
+        double px = exp2(x);
+        if (error_at(r, px) * px <= budget) {
+            if (x >= top) return exp2(top);
+            double pass = x;
+            for (int k = 0; k < 40; k++) {
+                double mid = 0.5 * (pass + fail), mp = exp2(mid);
+                if (error_at(r, mp) * mp <= budget) pass = mid;
+                else fail = mid;
+            }
+            return exp2(pass);
+        }
+        fail = x;
+    }
+    return 0.0;
+}
+
 double sv_eval_max_pixels(const sv_eval_result *r, double min_iou)
 {
     if (!r || r->size_count == 0) return 0.0;

@@ -568,6 +568,7 @@ static cJSON *chain_json(const run *r, const chain *c)
     cJSON_AddBoolToObject(j, "chain", s->lod_chain);
     cJSON_AddStringToObject(j, "coarsest", s->lod_coarsest[0] ? s->lod_coarsest : "none");
     cJSON_AddNumberToObject(j, "tolerance", s->lod_tolerance);
+    cJSON_AddNumberToObject(j, "tolerance_pixels", s->lod_tolerance_pixels);
     if (c->has_stochastic) {
         cJSON *st = cJSON_AddObjectToObject(j, "stochastic");
         cJSON_AddNumberToObject(st, "leaves", c->sres.leaf_count);
@@ -757,9 +758,10 @@ static cJSON *effects_json(const sv_spec *s, const sv_bake_options *bo)
 }
 
 /* Switch sizes from measured error (issue 6). Each LOD's own limit is the
- * largest screen size (pixels, log-interpolated: sv_eval_max_pixels) at which
- * its mean coverage error is within lod.tolerance, 0 when it fails even the
- * smallest size. The full mesh is the original: it is good at any size (its
+ * largest screen size S (pixels: sv_eval_max_pixels_scaled) at which its mean
+ * coverage error is within lod.tolerance × lod.tolerance_pixels / S (issue
+ * 19: one tolerance at every size dropped every quad level of most trees), at
+ * most the largest measured size for a quad LOD, 0 when it fails everywhere. The full mesh is the original: it is good at any size (its
  * limit is the tree's size at the nearest scene distance). A stochastic level
  * that passes at every measured size is limited by Cook's schedule instead
  * (the size at the nearest distance where λ(d) <= its λ), since nothing was
@@ -780,12 +782,14 @@ static void plan_switches(const run *r, const chain *c, lod_out *lods, uint32_t 
             best = x->distance > 0 ? sv_scene_pixels(&s->scene, tree_h, x->distance) : INFINITY;
         if (l->evaluated) {
             double top = l->eval.sizes[0].pixels;
-            best = sv_eval_max_pixels(&l->eval, 1.0 - s->lod_tolerance);
+            best = sv_eval_max_pixels_scaled(&l->eval, s->lod_tolerance, s->lod_tolerance_pixels);
             l->meets_tolerance = best > 0;
             if (x->stochastic && best >= top) {
                 double sched = x->distance > 0 ? sv_scene_pixels(&s->scene, tree_h, x->distance)
                                                : INFINITY;
                 best = sched > top ? sched : top;
+            } else if (best > top) {
+                best = top; /* nothing was measured above */
             }
         }
         if (x->stochastic && x->lambda >= 1) {
@@ -822,6 +826,8 @@ static void note_lod(cJSON *note, const lod_out *l)
  * good wherever it would be). Then LODs whose interval misses the scene's
  * [pixels at distance_max, pixels at distance_min] are dropped as well. The
  * last LOD left is drawn down to 0 px. */
+#define SV_LOD_MIN_BAND 1.25
+
 static void plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stand_in *si,
                             double tree_h, bool *drop)
 {
@@ -852,6 +858,36 @@ static void plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stan
     if (!any && n > 0) { /* nothing meets the tolerance: the finest is the best there is */
         drop[0] = false;
         cJSON_DeleteItemFromArray(c->skipped, cJSON_GetArraySize(c->skipped) - 1);
+    }
+    /* Thin bands: a LOD drawn over less than a factor SV_LOD_MIN_BAND of
+     * screen sizes (its own limit over the next kept LOD's) costs a switch and
+     * a set of buffers for almost nothing; the finer LOD before it takes its
+     * band. Walked from the far end so the coarse LODs, which the far scene
+     * needs, stay; the last LOD and the last kept LOD of the spec's method are
+     * never dropped here. */
+    double next_lim = -1;
+    for (uint32_t i = n; i-- > 0;) {
+        if (drop[i]) continue;
+        if (next_lim < 0 || i == 0) {
+            next_lim = lods[i].own_pixels;
+            continue;
+        }
+        bool last_of_method = false;
+        if (c->required >= 0 && (int)i >= c->required_first && (int)i <= c->required) {
+            last_of_method = true;
+            for (int j = c->required_first; j <= c->required; j++)
+                if (j != (int)i && !drop[j]) last_of_method = false;
+        }
+        if (!last_of_method && lods[i].own_pixels < SV_LOD_MIN_BAND * next_lim) {
+            drop[i] = true;
+            note_lod(skip_note(c, si->lods[i].name, "switch",
+                               "band too thin: drawn only from %.4g to %.4g px (less than a "
+                               "factor %g); the finer LOD before it takes the band",
+                               next_lim, lods[i].own_pixels, SV_LOD_MIN_BAND),
+                     &lods[i]);
+            continue;
+        }
+        next_lim = lods[i].own_pixels;
     }
     /* the scene's range, on the LODs left */
     uint32_t kept = 0;
@@ -1396,6 +1432,7 @@ static sv_status bake_all(run *r, sv_error *err)
     cJSON_AddNumberToObject(ev_o, "views", spec->eval_views);
     cJSON_AddNumberToObject(ev_o, "supersample", spec->eval_supersample);
     cJSON_AddNumberToObject(ev_o, "lod_tolerance", spec->lod_tolerance);
+    cJSON_AddNumberToObject(ev_o, "lod_tolerance_pixels", spec->lod_tolerance_pixels);
     if (r->target_json) {
         cJSON_AddItemToObject(report, "target", r->target_json);
         r->target_json = NULL;

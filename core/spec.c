@@ -260,6 +260,7 @@ static void spec_defaults(sv_spec *s)
     s->eval_sizes[3] = 32;
     s->eval_size_count = 4;
     s->lod_tolerance = 0.1;
+    s->lod_tolerance_pixels = 64;
     s->lod_chain = true;
     snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", "crossed_quads");
 }
@@ -387,9 +388,13 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     }
     const cJSON *lod = cJSON_GetObjectItemCaseSensitive(root, "lod");
     if (lod) {
-        static const char *const keys[] = {"tolerance", "chain", "coarsest", NULL};
+        static const char *const keys[] = {"tolerance", "tolerance_pixels", "chain", "coarsest",
+                                           NULL};
         if ((st = sv_setting_only(lod, "lod", keys, err))) goto out;
         if ((st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err)))
+            goto out;
+        if ((st = sv_setting_number(lod, "lod", "tolerance_pixels", 0, 16384,
+                                    &s->lod_tolerance_pixels, err)))
             goto out;
         if ((st = sv_setting_bool(lod, "lod", "chain", &s->lod_chain, err))) goto out;
         const cJSON *co = cJSON_GetObjectItemCaseSensitive(lod, "coarsest");

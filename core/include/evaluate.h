@@ -137,6 +137,17 @@ void sv_evaluator_view_dir(const sv_evaluator *e, uint32_t view, double dir[3]);
  * even the smallest fails. */
 double sv_eval_max_pixels(const sv_eval_result *r, double min_iou);
 
+/* The largest screen size S (pixels) at which the result's mean coverage
+ * error 1 − IoU(S) is at most max_error · ref_pixels / S: the tolerance is
+ * max_error at ref_pixels and scales as 1/S, so (1 − IoU) · S — about the
+ * width in pixels of the band where the two silhouettes differ — stays within
+ * max_error · ref_pixels. Between measured sizes the error is interpolated in
+ * log2(size); outside them it is held at the nearest measured value.
+ * INFINITY when the error is 0 at every measured size; 0 when no size in
+ * [2^-8, 2^24] px passes. ref_pixels <= 0 gives sv_eval_max_pixels(r,
+ * 1 − max_error) (one tolerance at every size). */
+double sv_eval_max_pixels_scaled(const sv_eval_result *r, double max_error, double ref_pixels);
+
 /* ---- pure parts (no GL), exposed for tests ------------------------------- */
 
 /* Unit view directions (from the centre towards the viewer, +Y up) for n views:

@@ -50,7 +50,8 @@ typedef struct sv_spec {
     uint32_t eval_sizes[SV_MAX_EVAL_SIZES]; /* default 256,128,64,32 */
     uint32_t eval_size_count;
     /* lod */
-    double lod_tolerance;         /* max (1 - coverage IoU) for a LOD at its switch size, default 0.1 */
+    double lod_tolerance;         /* max (1 - coverage IoU) for a LOD at lod_tolerance_pixels, default 0.1 */
+    double lod_tolerance_pixels;  /* size where lod_tolerance holds; it scales as 1/size (default 64; 0 = one tolerance at every size) */
     bool lod_chain;               /* full mesh → stochastic levels → method → coarsest (default true) */
     char lod_coarsest[32];        /* method appended as the coarsest LOD, "" = none
                                      (default "crossed_quads"); docs/lod.md */

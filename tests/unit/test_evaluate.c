@@ -354,6 +354,35 @@ static void max_pixels_interpolates_where_the_curve_crosses_the_tolerance(void *
     sv_eval_result_free(NULL);
 }
 
+/* The tolerance scales as 1/size (issue 19): (1 − IoU) · S <= tol · ref. */
+static void scaled_max_pixels_keeps_the_error_band_in_pixels(void **state)
+{
+    (void)state;
+    sv_eval_result r = {.size_count = 4};
+    const uint32_t px[4] = {256, 128, 64, 32};
+    const double iou[4] = {0.6, 0.8, 0.9, 0.95};
+    for (int i = 0; i < 4; i++) r.sizes[i].pixels = px[i], r.sizes[i].mean.iou = iou[i];
+    /* error 0.1 at 64 px: exactly the budget 0.1 × 64 there, more above */
+    assert_float_equal(sv_eval_max_pixels_scaled(&r, 0.1, 64), 64, 1e-6);
+    /* budget 0.05 × 64 = 3.2: the error 0.05 at 32 px meets 3.2 / 32 = 0.1
+     * easily; 64 px needs 0.05 and has 0.1; between, err(S) · S = 3.2 */
+    double s = sv_eval_max_pixels_scaled(&r, 0.05, 64);
+    assert_true(s > 32 && s < 64);
+    double t = (log2(s) - 5.0), err = 0.05 + t * 0.05;
+    assert_float_equal(err * s, 3.2, 1e-6);
+    /* ref 0: one tolerance at every size, the former rule */
+    assert_float_equal(sv_eval_max_pixels_scaled(&r, 0.1, 0), sv_eval_max_pixels(&r, 0.9), 0);
+    /* a constant error: S = budget / error, also outside the measured sizes */
+    for (int i = 0; i < 4; i++) r.sizes[i].mean.iou = 0.5;
+    assert_float_equal(sv_eval_max_pixels_scaled(&r, 0.1, 64), 12.8, 1e-6);
+    for (int i = 0; i < 4; i++) r.sizes[i].mean.iou = 0.99;
+    assert_float_equal(sv_eval_max_pixels_scaled(&r, 0.1, 64), 640, 1e-6);
+    /* the original itself: good at any size */
+    for (int i = 0; i < 4; i++) r.sizes[i].mean.iou = 1.0;
+    assert_true(isinf(sv_eval_max_pixels_scaled(&r, 0.1, 64)));
+    sv_eval_result_free(&r);
+}
+
 /* ---- render-based tests -------------------------------------------------- */
 
 typedef struct fixture {
@@ -674,6 +703,7 @@ int main(void)
         cmocka_unit_test(subpixel_shift_of_leaves_matters_less_at_small_sizes),
         cmocka_unit_test(accumulate_blends_with_weights),
         cmocka_unit_test(max_pixels_interpolates_where_the_curve_crosses_the_tolerance),
+        cmocka_unit_test(scaled_max_pixels_keeps_the_error_band_in_pixels),
         cmocka_unit_test(original_against_itself_scores_iou_1_and_zero_error_at_every_size),
         cmocka_unit_test(result_moved_away_scores_a_clearly_worse_iou),
         cmocka_unit_test(subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256),

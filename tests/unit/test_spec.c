@@ -51,7 +51,7 @@ static void full_spec_sets_every_section(void **state)
         "\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
         "\"classify\":{\"foliage\":[\"Leaf*\"],\"trunk\":[\"Bark\",\"Pot\"]},"
         "\"bake\":{\"max_atlas\":1024,\"alpha_threshold\":0.5},"
-        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2},\"seed\":7}";
+        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2,\"tolerance_pixels\":0},\"seed\":7}";
     assert_int_equal(parse(j, &s, &e), SV_OK);
     assert_string_equal(s.method, "crossed_quads");
     assert_non_null(s.settings);
@@ -68,6 +68,7 @@ static void full_spec_sets_every_section(void **state)
     assert_int_equal(s.eval_size_count, 2);
     assert_int_equal(s.eval_sizes[0], 128); /* sorted largest first */
     assert_int_equal(s.seed, 7);
+    assert_true(s.lod_tolerance == 0.2 && s.lod_tolerance_pixels == 0);
     sv_spec_free(&s);
 }
 
@@ -123,6 +124,7 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"evaluate\":{\"sizes\":[12.5]}}", "evaluate.sizes[0]");
     expect_error("{\"classify\":{\"foliage\":\"leaf\"}}", "classify.foliage");
     expect_error("{\"classify\":{\"foliage\":[\"\"]}}", "classify.foliage[0]");
+    expect_error("{\"lod\":{\"tolerance_pixels\":-1}}", "lod.tolerance_pixels");
     expect_error("{\"seed\":-1}", "seed");
     expect_error("{\"seed\":1.5}", "seed");
     expect_error("{\"method\":\"crossed_quads\",\"crossed_quads\":{\"planes\":9}}",
