@@ -843,11 +843,13 @@ static void plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stan
                 lods[i].meets_tolerance
                     ? skip_note(c, si->lods[i].name, "switch",
                                 "never drawn: a cheaper LOD later in the chain meets the "
-                                "tolerance (%g) up to %.4g px, this one only up to %.4g px",
-                                r->spec.lod_tolerance, later, lods[i].own_pixels)
+                                "tolerance (%g at %g px) up to %.4g px, this one only up to "
+                                "%.4g px",
+                                r->spec.lod_tolerance, r->spec.lod_tolerance_pixels, later,
+                                lods[i].own_pixels)
                     : skip_note(c, si->lods[i].name, "switch",
-                                "fails the tolerance (%g) at every measured size",
-                                r->spec.lod_tolerance);
+                                "fails the tolerance (%g at %g px) at every size",
+                                r->spec.lod_tolerance, r->spec.lod_tolerance_pixels);
             note_lod(note, &lods[i]);
         } else {
             later = lods[i].own_pixels;
