@@ -1,6 +1,9 @@
-/* image.c — allocation of in-memory images (the decoders live in image_oiio.cpp). */
+/* image.c — allocation and box-filter reduction of in-memory images (the
+ * decoders and encoders live in image_oiio.cpp). */
 #include "image.h"
 
+#include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -39,4 +42,57 @@ void sv_image_free(sv_image *img)
 size_t sv_image_stride(const sv_image *img)
 {
     return (size_t)img->width * img->channels * (img->bits / 8);
+}
+
+/* One 2:1 reduction (a side of 1 stays 1): each output texel is the mean of
+ * the up to 2x2 input texels it covers; with 4 channels the colour is
+ * weighted by alpha, so transparent texels do not darken the edges. */
+static sv_status halve(sv_image *img, sv_error *err)
+{
+    uint32_t w = img->width > 1 ? (img->width + 1) / 2 : 1;
+    uint32_t h = img->height > 1 ? (img->height + 1) / 2 : 1;
+    sv_image out;
+    sv_status st = sv_image_alloc(&out, w, h, img->channels, img->bits, err);
+    if (st != SV_OK) return st;
+    uint32_t c = img->channels;
+    bool wide = img->bits == 16, alpha = c == 4;
+    double maxv = wide ? 65535.0 : 255.0;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            double sum[4] = {0}, wsum = 0, n = 0;
+            for (uint32_t dy = 0; dy < 2; dy++)
+                for (uint32_t dx = 0; dx < 2; dx++) {
+                    uint32_t sx = 2 * x + dx, sy = 2 * y + dy;
+                    if (sx >= img->width || sy >= img->height) continue;
+                    size_t o = ((size_t)sy * img->width + sx) * c;
+                    double v[4];
+                    for (uint32_t k = 0; k < c; k++)
+                        v[k] = wide ? ((const uint16_t *)img->data)[o + k]
+                                    : ((const uint8_t *)img->data)[o + k];
+                    double a = alpha ? v[3] / maxv : 1.0;
+                    for (uint32_t k = 0; k < c; k++) sum[k] += (alpha && k < 3) ? v[k] * a : v[k];
+                    wsum += a;
+                    n += 1;
+                }
+            size_t o = ((size_t)y * w + x) * c;
+            for (uint32_t k = 0; k < c; k++) {
+                double v = (alpha && k < 3) ? (wsum > 0 ? sum[k] / wsum : 0) : sum[k] / n;
+                v = floor(v + 0.5);
+                if (wide) ((uint16_t *)out.data)[o + k] = (uint16_t)fmin(v, maxv);
+                else ((uint8_t *)out.data)[o + k] = (uint8_t)fmin(v, maxv);
+            }
+        }
+    sv_image_free(img);
+    *img = out;
+    return SV_OK;
+}
+
+sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err)
+{
+    if (!img || !img->data || max_side == 0) return SV_OK;
+    while (img->width > max_side || img->height > max_side) {
+        sv_status st = halve(img, err);
+        if (st != SV_OK) return st;
+    }
+    return SV_OK;
 }

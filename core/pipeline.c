@@ -1141,6 +1141,21 @@ static sv_status bake_all(run *r, sv_error *err)
             keep = merged;
             if (st) goto out;
         }
+        /* A quad LOD is never drawn taller than the largest evaluated size
+         * (plan_switches caps its limit there), so the textures of the trunk
+         * it keeps need no more texels a side than the next power of two
+         * above it: the bark of the original (2048² and more) was copied
+         * into every level's file. */
+        if (keep && !ch.info[i].stochastic) {
+            uint32_t cap = 64;
+            while (cap < spec->eval_sizes[0] && cap < 16384) cap *= 2;
+            for (uint32_t k = 0; k < keep->image_count && !st; k++)
+                st = sv_image_reduce(&keep->images[k], cap, err);
+            if (st) {
+                sv_mesh_destroy(keep);
+                goto out;
+            }
+        }
         st = sv_bake_lod(ren, gsrc, p->mesh, lp, keep, &bo, &lods[i].baked, err);
         sv_mesh_destroy(keep);
         if (st) goto out;

@@ -26,6 +26,11 @@ void sv_image_free(sv_image *img);
 /* Bytes per row. */
 size_t sv_image_stride(const sv_image *img);
 
+/* Halves img (2x2 box filter; colour weighted by alpha with 4 channels) until
+ * neither side exceeds max_side; max_side 0 or a smaller image: unchanged.
+ * Deterministic. On failure img is left as it was. */
+sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
+
 /* Decodes PNG/JPEG/TGA (anything OIIO reads from memory) into RGBA8.
  * `name` is only used for messages and as a format hint. Images larger than
  * max_size on a side are refused with SV_ERR_LIMIT. */

@@ -7,6 +7,7 @@
 #include <cmocka.h>
 #include "test_skip.h"
 
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -265,6 +266,41 @@ static void encoding_an_empty_image_fails_cleanly(void **state)
     sv_image_free(&img);
 }
 
+/* sv_image_reduce: halves (odd sides rounded up) until within max_side;
+ * colour weighted by alpha, alpha averaged; smaller images untouched. */
+static void reduce_halves_with_an_alpha_weighted_box_filter(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 5, 3, 4, 8, NULL), SV_OK);
+    uint8_t *px = img.data;
+    for (uint32_t i = 0; i < 15; i++) {
+        bool odd = (i % 5) % 2; /* columns 1 and 3 transparent green */
+        uint8_t c[4] = {odd ? 0 : 200, odd ? 255 : 0, 0, odd ? 0 : 255};
+        memcpy(px + 4 * i, c, 4);
+    }
+    assert_int_equal(sv_image_reduce(&img, 8, NULL), SV_OK); /* within: unchanged */
+    assert_true(img.width == 5 && img.height == 3);
+    assert_int_equal(sv_image_reduce(&img, 2, NULL), SV_OK);
+    assert_true(img.width == 2 && img.height == 1);           /* 5x3 -> 3x2 -> 2x1 */
+    px = img.data;
+    /* the transparent green never bleeds into the colour */
+    assert_int_equal(px[0], 200);
+    assert_int_equal(px[1], 0);
+    /* alpha: texel (0,0) of 3x2 averaged columns 0-1 = 127.5 -> 128 (rows 0-1),
+     * then with (0,1) of 3x2 = row 2 columns 0-1 = 128: 128 */
+    assert_int_equal(px[3], 128);
+    sv_image_free(&img);
+    /* 16-bit grey: a plain mean */
+    assert_int_equal(sv_image_alloc(&img, 2, 2, 1, 16, NULL), SV_OK);
+    uint16_t v[4] = {0, 1000, 2000, 3001};
+    memcpy(img.data, v, sizeof v);
+    assert_int_equal(sv_image_reduce(&img, 1, NULL), SV_OK);
+    assert_true(img.width == 1 && img.height == 1);
+    assert_int_equal(((uint16_t *)img.data)[0], 1500); /* 1500.25 rounds down */
+    sv_image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -278,6 +314,7 @@ int main(void)
         cmocka_unit_test(jpeg_from_the_data_set_decodes),
         cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
         cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
+        cmocka_unit_test(reduce_halves_with_an_alpha_weighted_box_filter),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }
