@@ -261,6 +261,78 @@ static double point_tri_dist2(const double p[3], const double a[3], const double
 
 #define SV_KEPT_FRAC 0.01
 
+/* A uniform grid over the kept triangles, each listed in every cell its box
+ * (grown by the distance limit) touches: a trunk triangle is then tested only
+ * against the kept triangles listed in the cell of its centroid (the loop
+ * over all kept triangles for every trunk triangle was 7 % of a default
+ * bake of a 150k-triangle tree). */
+#define KEPT_GRID 16
+
+typedef struct kept_grid {
+    double lo[3], cell[3];
+    uint32_t *first; /* KEPT_GRID³ + 1 offsets into tris */
+    uint32_t *tris;
+} kept_grid;
+
+static void cell_range(const kept_grid *g, const double lo[3], const double hi[3], int a[3],
+                       int b[3])
+{
+    for (int i = 0; i < 3; i++) {
+        double x0 = (lo[i] - g->lo[i]) / g->cell[i], x1 = (hi[i] - g->lo[i]) / g->cell[i];
+        a[i] = x0 < 0 ? 0 : x0 >= KEPT_GRID ? KEPT_GRID - 1 : (int)x0;
+        b[i] = x1 < 0 ? 0 : x1 >= KEPT_GRID ? KEPT_GRID - 1 : (int)x1;
+    }
+}
+
+static void kept_tri_box(const sv_mesh *k, uint32_t u, double grow, double lo[3], double hi[3])
+{
+    for (int i = 0; i < 3; i++) lo[i] = INFINITY, hi[i] = -INFINITY;
+    for (int v = 0; v < 3; v++)
+        for (int i = 0; i < 3; i++) {
+            double x = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
+            lo[i] = fmin(lo[i], x - grow);
+            hi[i] = fmax(hi[i], x + grow);
+        }
+}
+
+static sv_status kept_grid_build(const sv_mesh *k, double grow, kept_grid *g, sv_error *err)
+{
+    memset(g, 0, sizeof *g);
+    double mn[3], mx[3];
+    if (!sv_mesh_bounds(k, mn, mx)) return SV_OK;
+    for (int i = 0; i < 3; i++) {
+        g->lo[i] = mn[i] - grow;
+        g->cell[i] = fmax((mx[i] - mn[i] + 2 * grow) / KEPT_GRID, 1e-12);
+    }
+    const size_t ncell = (size_t)KEPT_GRID * KEPT_GRID * KEPT_GRID;
+    g->first = sv_calloc(ncell + 1, sizeof *g->first);
+    if (!g->first) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t u = 0; u < k->triangle_count; u++) {
+            double lo[3], hi[3];
+            int a[3], b[3];
+            kept_tri_box(k, u, grow, lo, hi);
+            cell_range(g, lo, hi, a, b);
+            for (int z = a[2]; z <= b[2]; z++)
+                for (int y = a[1]; y <= b[1]; y++)
+                    for (int x = a[0]; x <= b[0]; x++) {
+                        size_t c = ((size_t)z * KEPT_GRID + (size_t)y) * KEPT_GRID + (size_t)x;
+                        if (pass == 0) g->first[c + 1]++;
+                        else g->tris[g->first[c]++] = u;
+                    }
+        }
+        if (pass == 0) {
+            for (size_t c = 0; c < ncell; c++) g->first[c + 1] += g->first[c];
+            g->tris = sv_calloc(g->first[ncell] ? g->first[ncell] : 1, sizeof *g->tris);
+            if (!g->tris) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        }
+    }
+    /* the fill pass advanced every start to the next cell's: shift back */
+    for (size_t c = ncell; c > 0; c--) g->first[c] = g->first[c - 1];
+    g->first[0] = 0;
+    return SV_OK;
+}
+
 sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, double ratio,
                         uint32_t budget, sv_mesh **tm, uint8_t *skip, sv_error *err)
 {
@@ -271,19 +343,32 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
     if (st || !*tm) return st;
     const sv_mesh *k = *tm;
     double lim = SV_KEPT_FRAC * radius;
-    lim *= lim;
-    for (uint32_t t = 0; t < m->triangle_count; t++) {
+    kept_grid g;
+    if ((st = kept_grid_build(k, lim, &g, err))) {
+        free(g.first), free(g.tris);
+        sv_mesh_destroy(*tm);
+        *tm = NULL;
+        return st;
+    }
+    double lim2 = lim * lim;
+    for (uint32_t t = 0; t < m->triangle_count && g.first; t++) {
         if (part[t] != SV_PART_TRUNK) continue;
         double c[3] = {0, 0, 0};
         for (int v = 0; v < 3; v++)
             for (int i = 0; i < 3; i++) c[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
-        for (uint32_t u = 0; u < k->triangle_count && !skip[t]; u++) {
+        int a[3], b[3];
+        cell_range(&g, c, c, a, b);
+        size_t cell = ((size_t)a[2] * KEPT_GRID + (size_t)a[1]) * KEPT_GRID + (size_t)a[0];
+        for (uint32_t q = g.first[cell]; q < g.first[cell + 1] && !skip[t]; q++) {
+            uint32_t u = g.tris[q];
             double p[3][3];
             for (int v = 0; v < 3; v++)
                 for (int i = 0; i < 3; i++) p[v][i] = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
-            if (point_tri_dist2(c, p[0], p[1], p[2]) <= lim) skip[t] = 1;
+            if (point_tri_dist2(c, p[0], p[1], p[2]) <= lim2) skip[t] = 1;
         }
     }
+    free(g.first);
+    free(g.tris);
     return SV_OK;
 }
 
