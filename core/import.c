@@ -28,7 +28,15 @@
  *    as double-sided when the material is alpha-masked or blended, since alpha
  *    cards (leaves, twigs) are always meant to be seen from both sides.
  *  - textures: embedded ("*N") or an uploaded file, decoded to RGBA8; one that
- *    was not uploaded (or does not decode) is a warning, not an error.
+ *    does not decode is a warning, not an error.
+ * Missing files (issue 19, "honest outcomes"): a .mtl that assimp asks for and
+ * a base-colour texture a material names, when neither is among the uploaded
+ * files, are listed in info->missing_files and fail the import with
+ * SV_ERR_MISSING naming them, unless options.missing_files_warn: then they are
+ * warnings and the materials keep their plain colour (grey without the .mtl).
+ * Only files sylva reads count: an OBJ's missing mtllib is forgiven when
+ * assimp's own fallback, "<stem>.mtl", was uploaded and read instead (a
+ * warning says so); other maps (map_d, bump) are never read.
  * Non-finite positions never leave the importer (assimp 5.2.5 lets them through
  * its validation): they fail with SV_ERR_INVALID naming the vertex. Repairs
  * (degenerate and duplicate triangles) are sv_validate's job.
@@ -48,6 +56,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* Copies src into dst (capacity cap), truncating. */
 static void copy_str(char *dst, size_t cap, const char *src)
@@ -66,8 +75,17 @@ typedef struct io_ctx {
     const char *main_name; /* what assimp is told files[0] is called */
     sv_status refused;     /* SV_ERR_REFUSED once a reference was refused */
     char refused_msg[400];
-    char missing[400];     /* first safe name asked for but not uploaded */
+    char fallback_mtl[160]; /* assimp's OBJ fallback: main_name with .mtl */
+    char missing[4][160];  /* safe names asked for but not uploaded (first 4) */
+    unsigned missing_count;
+    char opened_mtl[160];  /* a .mtl that was uploaded and opened */
 } io_ctx;
+
+static bool ends_with_mtl(const char *name)
+{
+    size_t n = strlen(name);
+    return n >= 4 && strcasecmp(name + n - 4, ".mtl") == 0;
+}
 
 typedef struct mem_file {
     const uint8_t *data;
@@ -130,9 +148,21 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
             return NULL;
         }
         if (st != SV_OK) {
-            if (!ctx->missing[0]) copy_str(ctx->missing, sizeof ctx->missing, e.message);
+            while (name[0] == '.' && name[1] == '/') name += 2; /* assimp tries "x" and "./x" */
+            /* assimp's guess after a missing mtllib is not a file the mesh names */
+            bool guess = ctx->missing_count > 0 && strcmp(name, ctx->fallback_mtl) == 0;
+            bool seen = false;
+            for (unsigned i = 0; i < ctx->missing_count && i < 4; i++)
+                seen = seen || strcmp(ctx->missing[i], name) == 0;
+            if (!guess && !seen) {
+                if (ctx->missing_count < 4)
+                    copy_str(ctx->missing[ctx->missing_count], sizeof ctx->missing[0], name);
+                ctx->missing_count++;
+            }
             return NULL;
         }
+        if (ends_with_mtl(name))
+            copy_str(ctx->opened_mtl, sizeof ctx->opened_mtl, ctx->files[idx].name);
     }
     struct aiFile *f = calloc(1, sizeof *f);
     mem_file *m = calloc(1, sizeof *m);
@@ -174,6 +204,27 @@ static void add_warning(sv_import_info *info, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(info->warnings + len, cap - len, fmt, ap);
     va_end(ap);
+}
+
+/* Records a file the mesh references that was not uploaded: once per name in
+ * info->missing_files (", "-separated), and as a warning saying what it costs. */
+static void add_missing(sv_import_info *info, const char *name, const char *consequence)
+{
+    char *list = info->missing_files;
+    size_t nlen = strlen(name), cap = sizeof info->missing_files;
+    if (nlen == 0) return;
+    for (const char *p = list; (p = strstr(p, name)) != NULL; p += nlen)
+        if ((p == list || p[-1] == ' ') && (p[nlen] == 0 || p[nlen] == ','))
+            return; /* already listed */
+    info->files_missing++;
+    add_warning(info, "'%s' was not supplied: %s", name, consequence);
+    size_t len = strlen(list);
+    if (len + (len ? 2 : 0) + nlen + 1 > cap) {
+        if (len + 5 < cap && !strstr(list, ", ...")) strcat(list, ", ...");
+        return;
+    }
+    if (len) strcat(list, ", ");
+    strcat(list, name);
 }
 
 /* The reader assimp used, from the scene's SourceAsset_Format (assimp records
@@ -285,7 +336,9 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
         if (st == SV_ERR_REFUSED)
             return sv_fail(im->err, SV_ERR_REFUSED, "material '%s': texture %s", mname, e.message);
         if (st != SV_OK) {
-            add_warning(im->info, "material '%s': texture '%s' was not uploaded", mname, shown);
+            char why[300];
+            snprintf(why, sizeof why, "material '%.120s' is drawn without its texture", mname);
+            add_missing(im->info, shown, why);
             im->info->textures_missing++;
             return SV_OK;
         }
@@ -632,6 +685,9 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
     char name[160];
     main_file_name(&files[0], fmt, name, sizeof name);
     io_ctx ctx = {.files = files, .count = count, .main_name = name};
+    copy_str(ctx.fallback_mtl, sizeof ctx.fallback_mtl, name);
+    char *dot = strrchr(ctx.fallback_mtl, '.');
+    if (dot && (size_t)(dot - ctx.fallback_mtl) + 5 <= sizeof ctx.fallback_mtl) strcpy(dot, ".mtl");
     struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
     struct aiPropertyStore *props = aiCreatePropertyStore();
     if (!props) return sv_fail(err, SV_ERR_NOMEM, "assimp: cannot create a property store");
@@ -661,10 +717,29 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
         st = sv_fail(err, SV_ERR_FORMAT, "'%s' sniffs as %s but assimp read it with '%s'", shown,
                      sv_format_name(fmt), reader[0] ? reader : "an unnamed reader");
     } else {
-        if (ctx.missing[0]) add_warning(info, "%s", ctx.missing);
+        for (unsigned i = 0; i < ctx.missing_count && i < 4; i++) {
+            if (ends_with_mtl(ctx.missing[i]) && ctx.opened_mtl[0])
+                add_warning(info, "'%s' was not supplied: the materials were read from '%s'",
+                            ctx.missing[i], ctx.opened_mtl);
+            else
+                add_missing(info, ctx.missing[i],
+                            ends_with_mtl(ctx.missing[i]) ? "its materials are plain grey"
+                                                           : "it was not read");
+        }
         importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
                        .err = err};
         st = merge_scene(&im, scene, scale, up, out);
+        if (st == SV_OK && info->files_missing && !o.missing_files_warn) {
+            sv_mesh_destroy(*out);
+            *out = NULL;
+            st = sv_fail(err, SV_ERR_MISSING,
+                         "'%s' references %s that %s not supplied: %s. Supply %s with the mesh, "
+                         "or set \"import\": {\"missing_files\": \"warn\"} to bake with "
+                         "plain-coloured materials",
+                         shown, info->files_missing > 1 ? "files" : "a file",
+                         info->files_missing > 1 ? "were" : "was", info->missing_files,
+                         info->files_missing > 1 ? "them" : "it");
+        }
     }
     if (scene) aiReleaseImport(scene);
     return st;

@@ -95,6 +95,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     sv_import_options io = {0};
     io.unit_scale = spec->unit_scale;
     io.up_axis = spec->up_axis == 'A' ? 'Y' : spec->up_axis; /* "auto": decided below */
+    io.missing_files_warn = spec->missing_files_warn;
     if (r && (st = progress(r, ST_IMPORT, 0))) return sv_fail(err, st, "cancelled");
     if ((st = sv_import(files, count, &io, &p->mesh, &p->info, err))) return st;
     if (r && (st = progress(r, ST_VALIDATE, 0))) return sv_fail(err, st, "cancelled");
