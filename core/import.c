@@ -197,10 +197,17 @@ static void add_warning(sv_import_info *info, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 static void add_warning(sv_import_info *info, const char *fmt, ...)
 {
-    size_t len = strlen(info->warnings), cap = sizeof info->warnings;
-    if (len + 2 >= cap) return;
-    if (len) info->warnings[len++] = '\n';
+    /* the last KiB is kept for the left-out count and later checks */
+    size_t len = strlen(info->warnings), cap = sizeof info->warnings - 1024;
     va_list ap;
+    va_start(ap, fmt);
+    int need = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (need < 0 || len + 1 + (size_t)need + 1 > cap) {
+        info->warnings_left_out++;
+        return;
+    }
+    if (len) info->warnings[len++] = '\n';
     va_start(ap, fmt);
     vsnprintf(info->warnings + len, cap - len, fmt, ap);
     va_end(ap);
@@ -729,16 +736,24 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
         importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
                        .err = err};
         st = merge_scene(&im, scene, scale, up, out);
+        if (info->warnings_left_out) { /* into the reserved KiB: never lost silently */
+            size_t len = strlen(info->warnings);
+            snprintf(info->warnings + len, sizeof info->warnings - len,
+                     "%s%u more import warnings were left out (the list is full)", len ? "\n" : "",
+                     info->warnings_left_out);
+        }
         if (st == SV_OK && info->files_missing && !o.missing_files_warn) {
             sv_mesh_destroy(*out);
             *out = NULL;
+            char what[32] = "a file";
+            if (info->files_missing > 1)
+                snprintf(what, sizeof what, "%u files", info->files_missing);
             st = sv_fail(err, SV_ERR_MISSING,
                          "'%s' references %s that %s not supplied: %s. Supply %s with the mesh, "
                          "or set \"import\": {\"missing_files\": \"warn\"} to bake with "
                          "plain-coloured materials",
-                         shown, info->files_missing > 1 ? "files" : "a file",
-                         info->files_missing > 1 ? "were" : "was", info->missing_files,
-                         info->files_missing > 1 ? "them" : "it");
+                         shown, what, info->files_missing > 1 ? "were" : "was",
+                         info->missing_files, info->files_missing > 1 ? "them" : "it");
         }
     }
     if (scene) aiReleaseImport(scene);

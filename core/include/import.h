@@ -69,7 +69,10 @@ typedef struct sv_import_info {
     uint32_t textures_missing; /* not uploaded or not decodable: material keeps its colour */
     uint32_t files_missing;    /* referenced files (.mtl, textures) that were not uploaded */
     char missing_files[256];   /* their names, ", "-separated (", ..." when cut short) */
-    char warnings[1024];    /* '\n'-separated notes (missing textures, ...) */
+    char warnings[4096];    /* '\n'-separated notes (missing textures, ...); the importer
+                               fills at most 3 KiB and says how many it left out, so
+                               later checks (plausibility.h) always have room */
+    uint32_t warnings_left_out; /* import notes that did not fit */
 } sv_import_info;
 
 /* Imports files[0] (with files[1..count-1] as its companions) into a new mesh

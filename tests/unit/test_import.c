@@ -779,8 +779,40 @@ static void every_missing_file_is_named_once(void **state)
     assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
     assert_int_equal(info.files_missing, 2);
     assert_string_equal(info.missing_files, "leaf.png, bark.jpg");
-    if (!strstr(err.message, "references files that were not supplied: leaf.png, bark.jpg. Supply them"))
+    if (!strstr(err.message, "references 2 files that were not supplied: leaf.png, bark.jpg. Supply them"))
         fail_msg("message: %s", err.message);
+    upload_free(&u);
+}
+
+/* Many missing files: the count is exact, the list and the warnings are cut
+ * short saying so, and room is left for the checks after import. */
+static void many_missing_files_are_counted_and_never_dropped_silently(void **state)
+{
+    (void)state;
+    char obj[8192] = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";
+    char mtl[8192] = "";
+    for (int i = 0; i < 60; i++) {
+        size_t n = strlen(obj), k = strlen(mtl);
+        snprintf(obj + n, sizeof obj - n, "usemtl m%02d\nf 1/1 2/2 3/3\n", i);
+        snprintf(mtl + k, sizeof mtl - k, "newmtl m%02d\nmap_Kd a_rather_long_texture_name_%02d.png\n", i, i);
+    }
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", mtl);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    assert_int_equal(info.files_missing, 60);
+    if (!strstr(err.message, "references 60 files that were not supplied: a_rather_long_texture_name_00.png"))
+        fail_msg("message: %s", err.message);
+    assert_non_null(strstr(info.missing_files, ", ..."));
+    sv_import_options opt = {.missing_files_warn = true};
+    assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
+    assert_true(info.warnings_left_out > 0);
+    assert_non_null(strstr(info.warnings, "more import warnings were left out"));
+    assert_true(strlen(info.warnings) < sizeof info.warnings - 512); /* room for plausibility */
+    sv_mesh_destroy(m);
     upload_free(&u);
 }
 
@@ -1173,6 +1205,7 @@ int main(void)
         cmocka_unit_test(missing_mtl_fails_by_default_and_is_a_warning_with_warn),
         cmocka_unit_test(missing_mtl_is_forgiven_when_the_stem_mtl_is_read),
         cmocka_unit_test(every_missing_file_is_named_once),
+        cmocka_unit_test(many_missing_files_are_counted_and_never_dropped_silently),
         cmocka_unit_test(gltf_image_not_uploaded_fails_naming_it),
         cmocka_unit_test(undecodable_texture_stays_a_warning),
         cmocka_unit_test(obj_alpha_rules_give_mask_blend_and_double_sided),
