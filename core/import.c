@@ -69,6 +69,8 @@ static void copy_str(char *dst, size_t cap, const char *src)
 
 /* ---- the in-memory file system served to assimp ---- */
 
+#define IO_MISSING_MAX 8
+
 typedef struct io_ctx {
     const sv_file *files;
     size_t count;
@@ -76,9 +78,9 @@ typedef struct io_ctx {
     sv_status refused;     /* SV_ERR_REFUSED once a reference was refused */
     char refused_msg[400];
     char fallback_mtl[160]; /* assimp's OBJ fallback: main_name with .mtl */
-    char missing[4][160];  /* safe names asked for but not uploaded (first 4) */
-    unsigned missing_count;
-    char opened_mtl[160];  /* a .mtl that was uploaded and opened */
+    char missing[IO_MISSING_MAX][160]; /* safe names asked for but not uploaded */
+    unsigned missing_count;             /* all of them (the first IO_MISSING_MAX named) */
+    bool fallback_used;    /* fallback_mtl was uploaded and opened after a miss */
 } io_ctx;
 
 static bool ends_with_mtl(const char *name)
@@ -147,22 +149,22 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
             }
             return NULL;
         }
+        const char *plain = name;
+        while (plain[0] == '.' && plain[1] == '/') plain += 2; /* assimp tries "x" and "./x" */
+        /* after a missing mtllib assimp tries "<stem>.mtl": not a file the mesh names */
+        bool guess = ctx->missing_count > 0 && strcmp(plain, ctx->fallback_mtl) == 0;
         if (st != SV_OK) {
-            while (name[0] == '.' && name[1] == '/') name += 2; /* assimp tries "x" and "./x" */
-            /* assimp's guess after a missing mtllib is not a file the mesh names */
-            bool guess = ctx->missing_count > 0 && strcmp(name, ctx->fallback_mtl) == 0;
             bool seen = false;
-            for (unsigned i = 0; i < ctx->missing_count && i < 4; i++)
-                seen = seen || strcmp(ctx->missing[i], name) == 0;
+            for (unsigned i = 0; i < ctx->missing_count && i < IO_MISSING_MAX; i++)
+                seen = seen || strcmp(ctx->missing[i], plain) == 0;
             if (!guess && !seen) {
-                if (ctx->missing_count < 4)
-                    copy_str(ctx->missing[ctx->missing_count], sizeof ctx->missing[0], name);
+                if (ctx->missing_count < IO_MISSING_MAX)
+                    copy_str(ctx->missing[ctx->missing_count], sizeof ctx->missing[0], plain);
                 ctx->missing_count++;
             }
             return NULL;
         }
-        if (ends_with_mtl(name))
-            copy_str(ctx->opened_mtl, sizeof ctx->opened_mtl, ctx->files[idx].name);
+        if (guess) ctx->fallback_used = true;
     }
     struct aiFile *f = calloc(1, sizeof *f);
     mem_file *m = calloc(1, sizeof *m);
@@ -724,15 +726,17 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
         st = sv_fail(err, SV_ERR_FORMAT, "'%s' sniffs as %s but assimp read it with '%s'", shown,
                      sv_format_name(fmt), reader[0] ? reader : "an unnamed reader");
     } else {
-        for (unsigned i = 0; i < ctx.missing_count && i < 4; i++) {
-            if (ends_with_mtl(ctx.missing[i]) && ctx.opened_mtl[0])
+        for (unsigned i = 0; i < ctx.missing_count && i < IO_MISSING_MAX; i++) {
+            if (ends_with_mtl(ctx.missing[i]) && ctx.fallback_used)
                 add_warning(info, "'%s' was not supplied: the materials were read from '%s'",
-                            ctx.missing[i], ctx.opened_mtl);
+                            ctx.missing[i], ctx.fallback_mtl);
             else
                 add_missing(info, ctx.missing[i],
                             ends_with_mtl(ctx.missing[i]) ? "its materials are plain grey"
                                                            : "it was not read");
         }
+        if (ctx.missing_count > IO_MISSING_MAX) /* counted, not named */
+            add_missing(info, "...", "more files were asked for than are named here");
         importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
                        .err = err};
         st = merge_scene(&im, scene, scale, up, out);
