@@ -52,23 +52,25 @@ static const char usage[] =
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
     "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
-    "ever read. See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
+    "ever read; one that MESH references but FILES lack refuses the input (code\n"
+    "\"missing\") unless the spec says \"import\": {\"missing_files\": \"warn\"}.\n"
+    "See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
     "\n"
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
     "           and network, exec and ptrace calls kill the process with SIGSYS\n"
     "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n"
     "\n"
-    "Exit status: 0 done; 1 input refused or bake failed (DIR/error.json);\n"
-    "2 usage; 3 bake done but the spec's \"target\" was not met (outputs written,\n"
-    "the reason on stderr and in report.json).\n"
-    "\n"
     "--cpu-limit S  stop after S seconds of CPU time (RLIMIT_CPU): one line on stderr,\n"
     "           with bake DIR/error.json (code \"limit\"), exit 1. Default: the\n"
     "           inherited RLIMIT_CPU (ulimit -t; sylvad's worker_cpu_seconds) if\n"
     "           any, else 600. 0: no limit of its own. Never above the inherited\n"
     "           hard limit; the soft limit sits up to 5 s below a finite hard one\n"
-    "           so the message comes before the kernel's SIGKILL.\n";
+    "           so the message comes before the kernel's SIGKILL.\n"
+    "\n"
+    "Exit status: 0 done; 1 input refused or bake failed (DIR/error.json);\n"
+    "2 usage; 3 bake done but the spec's \"target\" was not met (outputs written,\n"
+    "the reason on stderr and in report.json). Warnings go to stderr.\n";
 
 typedef struct loaded {
     sv_file files[MAX_FILES];
