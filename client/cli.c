@@ -718,6 +718,19 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
                 cJSON_AddItemToArray(wl, cJSON_CreateString(w->valuestring));
         }
     }
+    /* The target's outcome: report.json's, else the status document's. */
+    const cJSON *target = get(rep, "target");
+    if (!cJSON_IsObject(target))
+        target = get(job, "target");
+    if (cJSON_IsObject(target)) {
+        cJSON *t = cJSON_AddObjectToObject(s, "target");
+        static const char *const keys[] = {"goal", "met", "chosen", "reason"};
+        for (size_t k = 0; t && k < sizeof keys / sizeof keys[0]; k++) {
+            const cJSON *v = get(target, keys[k]);
+            if (v)
+                cJSON_AddItemToObject(t, keys[k], cJSON_Duplicate(v, 1));
+        }
+    }
     /* Per-stage times: report.json's are the worker's own; else the job's. */
     const cJSON *times = get(rep, "times");
     if (!cJSON_IsObject(times))
@@ -796,6 +809,13 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
         if (cJSON_IsString(w))
             put(&o, "  warning: %s\n", w->valuestring);
     }
+    const cJSON *target = get(s, "target");
+    if (cJSON_IsTrue(get(target, "met"))) {
+        put(&o, "  target met\n");
+    } else if (cJSON_IsFalse(get(target, "met"))) {
+        const cJSON *why = get(target, "reason");
+        put(&o, "  target not met: %s\n", cJSON_IsString(why) ? why->valuestring : "see report.json");
+    }
     const cJSON *times = get(s, "times");
     if (cJSON_IsObject(times) && cJSON_GetArraySize(times) > 0) {
         put(&o, "  time:");
@@ -865,4 +885,17 @@ int sylva_cli_exit_code(sylva_status st)
         break;
     }
     return SYLVA_EXIT_SERVICE;
+}
+
+int sylva_cli_done_exit_code(const cJSON *summary)
+{
+    return cJSON_IsFalse(get(get(summary, "target"), "met")) ? SYLVA_EXIT_TARGET : SYLVA_EXIT_OK;
+}
+
+int sylva_cli_worse_exit(int a, int b)
+{
+    /* rank: success 0, unmet target 1, failures 2 + code */
+    int ra = a == SYLVA_EXIT_OK ? 0 : a == SYLVA_EXIT_TARGET ? 1 : 2 + a;
+    int rb = b == SYLVA_EXIT_OK ? 0 : b == SYLVA_EXIT_TARGET ? 1 : 2 + b;
+    return ra >= rb ? a : b;
 }

@@ -22,7 +22,9 @@ enum {
     SYLVA_EXIT_USAGE = 2,     /* bad command line or unusable local input */
     SYLVA_EXIT_SERVICE = 3,   /* no server, server error, busy, timeout, auth, protocol */
     SYLVA_EXIT_INTEGRITY = 4, /* a downloaded artifact did not match its SHA-256 */
-    SYLVA_EXIT_CANCELLED = 5  /* the bake was cancelled */
+    SYLVA_EXIT_CANCELLED = 5, /* the bake was cancelled */
+    SYLVA_EXIT_TARGET = 6     /* done and downloaded, but the spec's "target" was not met
+                                 (sylva-bake says 3: the client's 3 is taken by SERVICE) */
 };
 
 typedef enum sylva_cmd {
@@ -116,14 +118,16 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
  * "triangles","atlas":[w,h],"accuracy":{"pixels","iou_mean","color_error_mean"}}],
  * "planes": total, "atlas_texels": total, "warnings": [text] (report.json's
  * input.warnings, else the status document's "warnings"; left out when none),
+ * "target": {"goal","met","chosen","reason"} (report.json's target, else the
+ * status document's; left out when the spec had none),
  * "times": {stage: seconds}}. Never NULL unless out of memory; missing sources
  * leave fields out. */
 cJSON *sylva_cli_summary(const char *job_json, const char *report_json,
                          const char *planes_json);
 
 /* Formats a summary as short human-readable lines into buf (one
- * "  warning: ..." line per warning; always NUL-terminated, truncated to len).
- * Returns the length it wanted. */
+ * "  warning: ..." line per warning, "  target met" or "  target not met: why";
+ * always NUL-terminated, truncated to len). Returns the length it wanted. */
 size_t sylva_cli_summary_format(const cJSON *summary, char *buf, size_t len);
 
 /* Formats one progress line: "label: stage  42%" with a bar when bar is true. */
@@ -132,5 +136,14 @@ size_t sylva_cli_progress_format(const char *label, const char *stage, double fr
 
 /* The exit code for a libsylva status. */
 int sylva_cli_exit_code(sylva_status st);
+
+/* The exit code of a bake that is done and downloaded, from its summary:
+ * SYLVA_EXIT_TARGET when summary.target.met is false, else SYLVA_EXIT_OK. */
+int sylva_cli_done_exit_code(const cJSON *summary);
+
+/* The exit code of a batch holding bakes that ended with a and b: any failure
+ * (1-5) outranks an unmet target (6), which outranks success; among failures
+ * the higher code wins. */
+int sylva_cli_worse_exit(int a, int b);
 
 #endif

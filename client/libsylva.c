@@ -569,6 +569,14 @@ sylva_status sylva_job_parse(const char *body, size_t len, sylva_job *job)
         snprintf(job->error_code, sizeof job->error_code, "%s", ec->valuestring);
     if (cJSON_IsString(em))
         snprintf(job->error_message, sizeof job->error_message, "%s", em->valuestring);
+    const cJSON *target = cJSON_GetObjectItemCaseSensitive(doc, "target");
+    if (job->state == SYLVA_STATE_DONE &&
+        cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(target, "met"))) {
+        const cJSON *why = cJSON_GetObjectItemCaseSensitive(target, "reason");
+        job->target_unmet = true;
+        snprintf(job->target_reason, sizeof job->target_reason, "%s",
+                 cJSON_IsString(why) ? why->valuestring : "the spec's target was not met");
+    }
     job->json = malloc(len + 1);
     if (!job->json) {
         st = SYLVA_ERR_NOMEM;

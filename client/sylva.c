@@ -1,8 +1,8 @@
 /* sylva.c — the `sylva` command: bake, status, fetch, cancel, health against
  * sylvad (docs/client.md). Built on libsylva (sylva.h) and the pure helpers of
  * cli.h. Exit codes: cli.h (0 ok, 1 failed, 2 usage, 3 service, 4 integrity,
- * 5 cancelled). One clear line on stderr on failure; --json prints one JSON
- * document on stdout for every command. */
+ * 5 cancelled, 6 done but the spec's target not met). One clear line on stderr
+ * on failure; --json prints one JSON document on stdout for every command. */
 #include "cli.h"
 #include "sylva.h"
 
@@ -29,7 +29,8 @@ static const char usage_text[] =
     "Server from --server (repeatable, or a comma list: failover in order) or\n"
     "SYLVA_SERVER (default " SYLVA_DEFAULT_SERVER "); token from --token or SYLVA_TOKEN.\n"
     "Exit: 0 ok, 1 failed/refused, 2 usage, 3 server unreachable or failing,\n"
-    "4 artifact verification failed, 5 cancelled. Guide: docs/client.md\n";
+    "4 artifact verification failed, 5 cancelled, 6 done (outputs downloaded) but\n"
+    "the spec's \"target\" was not met. Guide: docs/client.md\n";
 
 /* Prints the JSON document (compact, one line) on stdout. */
 static void print_json(const cJSON *doc)
@@ -134,6 +135,40 @@ static sylva_client *open_client(const sylva_cli *cli, sylva_status *st)
     if (*st != SYLVA_OK)
         fail_out(cli, sylva_cli_exit_code(*st), sylva_status_name(*st), err);
     return c;
+}
+
+/* Prints a summary on stdout, however long (every warning: a fixed buffer
+ * would cut the list short). */
+static void print_summary(const cJSON *summary)
+{
+    char small[4096];
+    size_t want = sylva_cli_summary_format(summary, small, sizeof small);
+    char *text = want >= sizeof small ? malloc(want + 1) : NULL;
+    if (text) {
+        sylva_cli_summary_format(summary, text, want + 1);
+        fputs(text, stdout);
+        free(text);
+    } else {
+        fputs(small, stdout);
+    }
+    fflush(stdout);
+}
+
+/* A done, downloaded bake whose spec's target was not met: says so on stderr
+ * with the reason, where the outputs are and the exit code. Returns the bake's
+ * exit code (SYLVA_EXIT_TARGET or SYLVA_EXIT_OK). */
+static int report_target(const char *label, const char *out_dir, const cJSON *summary)
+{
+    int code = sylva_cli_done_exit_code(summary);
+    if (code == SYLVA_EXIT_TARGET) {
+        const char *why = cJSON_GetStringValue(
+            cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(summary, "target"),
+                                             "reason"));
+        fprintf(stderr, "sylva: %s: target not met: %s\n", label, why ? why : "see report.json");
+        fprintf(stderr, "sylva: %s: the outputs in %s are that bake (report.json: \"target\"); "
+                        "exit %d\n", label, out_dir, SYLVA_EXIT_TARGET);
+    }
+    return code;
 }
 
 /* ---- bake ------------------------------------------------------------------ */
@@ -467,15 +502,12 @@ static int cmd_bake(const sylva_cli *cli)
         if (b->st == SYLVA_OK) {
             summary = summary_for(b);
             if (!cli->json) {
-                char text[4096];
                 printf("%s: done -> %s (key %.12s)\n", b->label, b->group->out_dir, b->key);
-                sylva_cli_summary_format(summary, text, sizeof text);
-                fputs(text, stdout);
+                print_summary(summary);
             }
+            worst = sylva_cli_worse_exit(worst, report_target(b->label, b->group->out_dir, summary));
         } else {
-            int code = sylva_cli_exit_code(b->st);
-            if (code > worst)
-                worst = code;
+            worst = sylva_cli_worse_exit(worst, sylva_cli_exit_code(b->st));
             fprintf(stderr, "sylva: error: %s\n", b->error);
         }
         cJSON_AddItemToArray(results, bake_result_json(b, summary));
@@ -532,10 +564,8 @@ static int cmd_status(const sylva_cli *cli)
                 printf(": %s: %s", job.error_code, job.error_message);
             printf("\n");
             if (job.state == SYLVA_STATE_DONE) {
-                char text[4096];
                 cJSON *s = sylva_cli_summary(job.json, NULL, NULL);
-                sylva_cli_summary_format(s, text, sizeof text);
-                fputs(text, stdout);
+                print_summary(s);
                 cJSON_Delete(s);
             }
         }
@@ -568,16 +598,19 @@ static int cmd_fetch(const sylva_cli *cli)
         bake b = {.group = &g, .job = job};
         snprintf(b.key, sizeof b.key, "%s", job.key);
         cJSON *summary = summary_for(&b);
+        if (!cli->json) {
+            printf("%.12s: fetched -> %s\n", job.key, cli->out);
+            print_summary(summary);
+        }
+        char label[16];
+        snprintf(label, sizeof label, "%.12s", job.key);
+        rc = report_target(label, cli->out, summary);
         if (cli->json) {
             cJSON *doc = bake_result_json(&b, summary);
             cJSON_DeleteItemFromObject(doc, "mesh");
             print_json(doc);
             cJSON_Delete(doc);
         } else {
-            char text[4096];
-            printf("%.12s: fetched -> %s\n", job.key, cli->out);
-            sylva_cli_summary_format(summary, text, sizeof text);
-            fputs(text, stdout);
             cJSON_Delete(summary);
         }
     }

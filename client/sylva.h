@@ -180,6 +180,9 @@ typedef struct sylva_job {
     double progress;           /* 0..1 */
     char error_code[32];       /* when failed */
     char error_message[512];
+    bool target_unmet;         /* done, but the spec's "target" was not met: the outputs
+                                  are the best try's bake (docs/spec.md "target") */
+    char target_reason[512];   /* why, when target_unmet ("" otherwise) */
     char *json;
 } sylva_job;
 

@@ -28,7 +28,15 @@
  *    as double-sided when the material is alpha-masked or blended, since alpha
  *    cards (leaves, twigs) are always meant to be seen from both sides.
  *  - textures: embedded ("*N") or an uploaded file, decoded to RGBA8; one that
- *    was not uploaded (or does not decode) is a warning, not an error.
+ *    does not decode is a warning, not an error.
+ * Missing files (issue 19, "honest outcomes"): a .mtl that assimp asks for and
+ * a base-colour texture a material names, when neither is among the uploaded
+ * files, are listed in info->missing_files and fail the import with
+ * SV_ERR_MISSING naming them, unless options.missing_files_warn: then they are
+ * warnings and the materials keep their plain colour (grey without the .mtl).
+ * Only files sylva reads count: an OBJ's missing mtllib is forgiven when
+ * assimp's own fallback, "<stem>.mtl", was uploaded and read instead (a
+ * warning says so); other maps (map_d, bump) are never read.
  * Non-finite positions never leave the importer (assimp 5.2.5 lets them through
  * its validation): they fail with SV_ERR_INVALID naming the vertex. Repairs
  * (degenerate and duplicate triangles) are sv_validate's job.
@@ -48,6 +56,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* Copies src into dst (capacity cap), truncating. */
 static void copy_str(char *dst, size_t cap, const char *src)
@@ -60,14 +69,25 @@ static void copy_str(char *dst, size_t cap, const char *src)
 
 /* ---- the in-memory file system served to assimp ---- */
 
+#define IO_MISSING_MAX 8
+
 typedef struct io_ctx {
     const sv_file *files;
     size_t count;
     const char *main_name; /* what assimp is told files[0] is called */
     sv_status refused;     /* SV_ERR_REFUSED once a reference was refused */
     char refused_msg[400];
-    char missing[400];     /* first safe name asked for but not uploaded */
+    char fallback_mtl[160]; /* assimp's OBJ fallback: main_name with .mtl */
+    char missing[IO_MISSING_MAX][160]; /* safe names asked for but not uploaded */
+    unsigned missing_count;             /* all of them (the first IO_MISSING_MAX named) */
+    bool fallback_used;    /* fallback_mtl was uploaded and opened after a miss */
 } io_ctx;
+
+static bool ends_with_mtl(const char *name)
+{
+    size_t n = strlen(name);
+    return n >= 4 && strcasecmp(name + n - 4, ".mtl") == 0;
+}
 
 typedef struct mem_file {
     const uint8_t *data;
@@ -129,10 +149,22 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
             }
             return NULL;
         }
+        const char *plain = name;
+        while (plain[0] == '.' && plain[1] == '/') plain += 2; /* assimp tries "x" and "./x" */
+        /* after a missing mtllib assimp tries "<stem>.mtl": not a file the mesh names */
+        bool guess = ctx->missing_count > 0 && strcmp(plain, ctx->fallback_mtl) == 0;
         if (st != SV_OK) {
-            if (!ctx->missing[0]) copy_str(ctx->missing, sizeof ctx->missing, e.message);
+            bool seen = false;
+            for (unsigned i = 0; i < ctx->missing_count && i < IO_MISSING_MAX; i++)
+                seen = seen || strcmp(ctx->missing[i], plain) == 0;
+            if (!guess && !seen) {
+                if (ctx->missing_count < IO_MISSING_MAX)
+                    copy_str(ctx->missing[ctx->missing_count], sizeof ctx->missing[0], plain);
+                ctx->missing_count++;
+            }
             return NULL;
         }
+        if (guess) ctx->fallback_used = true;
     }
     struct aiFile *f = calloc(1, sizeof *f);
     mem_file *m = calloc(1, sizeof *m);
@@ -167,13 +199,41 @@ static void add_warning(sv_import_info *info, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 static void add_warning(sv_import_info *info, const char *fmt, ...)
 {
-    size_t len = strlen(info->warnings), cap = sizeof info->warnings;
-    if (len + 2 >= cap) return;
-    if (len) info->warnings[len++] = '\n';
+    /* the last KiB is kept for the left-out count and later checks */
+    size_t len = strlen(info->warnings), cap = sizeof info->warnings - 1024;
     va_list ap;
+    va_start(ap, fmt);
+    int need = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (need < 0 || len + 1 + (size_t)need + 1 > cap) {
+        info->warnings_left_out++;
+        return;
+    }
+    if (len) info->warnings[len++] = '\n';
     va_start(ap, fmt);
     vsnprintf(info->warnings + len, cap - len, fmt, ap);
     va_end(ap);
+}
+
+/* Records a file the mesh references that was not uploaded: once per name in
+ * info->missing_files (", "-separated), and as a warning saying what it costs. */
+static void add_missing(sv_import_info *info, const char *name, const char *consequence)
+{
+    char *list = info->missing_files;
+    size_t nlen = strlen(name), cap = sizeof info->missing_files;
+    if (nlen == 0) return;
+    for (const char *p = list; (p = strstr(p, name)) != NULL; p += nlen)
+        if ((p == list || p[-1] == ' ') && (p[nlen] == 0 || p[nlen] == ','))
+            return; /* already listed */
+    info->files_missing++;
+    add_warning(info, "'%s' was not supplied: %s", name, consequence);
+    size_t len = strlen(list);
+    if (len + (len ? 2 : 0) + nlen + 1 > cap) {
+        if (len + 5 < cap && !strstr(list, ", ...")) strcat(list, ", ...");
+        return;
+    }
+    if (len) strcat(list, ", ");
+    strcat(list, name);
 }
 
 /* The reader assimp used, from the scene's SourceAsset_Format (assimp records
@@ -285,7 +345,9 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
         if (st == SV_ERR_REFUSED)
             return sv_fail(im->err, SV_ERR_REFUSED, "material '%s': texture %s", mname, e.message);
         if (st != SV_OK) {
-            add_warning(im->info, "material '%s': texture '%s' was not uploaded", mname, shown);
+            char why[300];
+            snprintf(why, sizeof why, "material '%.120s' is drawn without its texture", mname);
+            add_missing(im->info, shown, why);
             im->info->textures_missing++;
             return SV_OK;
         }
@@ -632,6 +694,9 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
     char name[160];
     main_file_name(&files[0], fmt, name, sizeof name);
     io_ctx ctx = {.files = files, .count = count, .main_name = name};
+    copy_str(ctx.fallback_mtl, sizeof ctx.fallback_mtl, name);
+    char *dot = strrchr(ctx.fallback_mtl, '.');
+    if (dot && (size_t)(dot - ctx.fallback_mtl) + 5 <= sizeof ctx.fallback_mtl) strcpy(dot, ".mtl");
     struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
     struct aiPropertyStore *props = aiCreatePropertyStore();
     if (!props) return sv_fail(err, SV_ERR_NOMEM, "assimp: cannot create a property store");
@@ -661,10 +726,39 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
         st = sv_fail(err, SV_ERR_FORMAT, "'%s' sniffs as %s but assimp read it with '%s'", shown,
                      sv_format_name(fmt), reader[0] ? reader : "an unnamed reader");
     } else {
-        if (ctx.missing[0]) add_warning(info, "%s", ctx.missing);
+        for (unsigned i = 0; i < ctx.missing_count && i < IO_MISSING_MAX; i++) {
+            if (ends_with_mtl(ctx.missing[i]) && ctx.fallback_used)
+                add_warning(info, "'%s' was not supplied: the materials were read from '%s'",
+                            ctx.missing[i], ctx.fallback_mtl);
+            else
+                add_missing(info, ctx.missing[i],
+                            ends_with_mtl(ctx.missing[i]) ? "its materials are plain grey"
+                                                           : "it was not read");
+        }
+        if (ctx.missing_count > IO_MISSING_MAX) /* counted, not named */
+            add_missing(info, "...", "more files were asked for than are named here");
         importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
                        .err = err};
         st = merge_scene(&im, scene, scale, up, out);
+        if (info->warnings_left_out) { /* into the reserved KiB: never lost silently */
+            size_t len = strlen(info->warnings);
+            snprintf(info->warnings + len, sizeof info->warnings - len,
+                     "%s%u more import warnings were left out (the list is full)", len ? "\n" : "",
+                     info->warnings_left_out);
+        }
+        if (st == SV_OK && info->files_missing && !o.missing_files_warn) {
+            sv_mesh_destroy(*out);
+            *out = NULL;
+            char what[32] = "a file";
+            if (info->files_missing > 1)
+                snprintf(what, sizeof what, "%u files", info->files_missing);
+            st = sv_fail(err, SV_ERR_MISSING,
+                         "'%s' references %s that %s not supplied: %s. Supply %s with the mesh, "
+                         "or set \"import\": {\"missing_files\": \"warn\"} to bake with "
+                         "plain-coloured materials",
+                         shown, what, info->files_missing > 1 ? "were" : "was",
+                         info->missing_files, info->files_missing > 1 ? "them" : "it");
+        }
     }
     if (scene) aiReleaseImport(scene);
     return st;

@@ -95,6 +95,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     sv_import_options io = {0};
     io.unit_scale = spec->unit_scale;
     io.up_axis = spec->up_axis == 'A' ? 'Y' : spec->up_axis; /* "auto": decided below */
+    io.missing_files_warn = spec->missing_files_warn;
     if (r && (st = progress(r, ST_IMPORT, 0))) return sv_fail(err, st, "cancelled");
     if ((st = sv_import(files, count, &io, &p->mesh, &p->info, err))) return st;
     if (r && (st = progress(r, ST_VALIDATE, 0))) return sv_fail(err, st, "cancelled");
@@ -1577,6 +1578,48 @@ static sv_status bake_with(run *r, const char *json, sv_error *err)
     return bake_all(r, err);
 }
 
+/* Why a target was not met, for people (report.json target.reason, printed by
+ * sylva-bake and sylva): the goal, the try that was baked (1-based, its
+ * settings and cost), what it reached, and whether the search stopped at the
+ * budget. `tries` is the report's array, `chosen` an index into it. */
+static void target_reason(const sv_spec *goal, const char *method, const cJSON *tries, int chosen,
+                          char *out, size_t cap)
+{
+    char g[200] = "";
+    size_t n = 0;
+    if (goal->target_iou > 0)
+        n += (size_t)snprintf(g + n, sizeof g - n, "IoU %.3g at %u px (%s)", goal->target_iou,
+                              goal->target_pixels, goal->target_worst ? "worst view" : "mean of views");
+    if (goal->target_max_planes && n < sizeof g)
+        n += (size_t)snprintf(g + n, sizeof g - n, "%sat most %u planes", n ? ", " : "",
+                              goal->target_max_planes);
+    if (goal->target_max_triangles && n < sizeof g)
+        snprintf(g + n, sizeof g - n, "%sat most %u triangles", n ? ", " : "",
+                 goal->target_max_triangles);
+    const cJSON *t = cJSON_GetArrayItem(tries, chosen);
+    int count = cJSON_GetArraySize(tries);
+    char *set = cJSON_PrintUnformatted(cJSON_GetObjectItemCaseSensitive(t, "settings"));
+    double tris = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(t, "triangles"));
+    double quads = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(t, "quads"));
+    const cJSON *iou = cJSON_GetObjectItemCaseSensitive(t, "iou");
+    bool within = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(t, "within_budget"));
+    const cJSON *last = cJSON_GetArrayItem(tries, count - 1);
+    bool stopped = count > 1 && last != t &&
+                   cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(last, "within_budget"));
+    char what[300];
+    snprintf(what, sizeof what, "try %d of %d, %s %s (%.0f quads, %.0f triangles)", chosen + 1,
+             count, method, set ? set : "{}", quads, tris);
+    free(set);
+    if (!within)
+        snprintf(out, cap,
+                 "goal %s: even the cheapest setting, %s, is over the budget; it was baked anyway",
+                 g, what);
+    else
+        snprintf(out, cap, "goal %s: no setting reached it; the best within budget, %s, reached IoU %.3f%s",
+                 g, what, cJSON_IsNumber(iou) ? iou->valuedouble : 0.0,
+                 stopped ? ", and the next step was over the budget" : "");
+}
+
 /* Searches the method's knobs cheapest first for the spec's target, then bakes
  * the chosen setting with the user's own LOD settings into out_dir. A target
  * that cannot be met is not an error: the best try is baked and the report
@@ -1696,6 +1739,11 @@ static sv_status target_search(run *r, sv_error *err)
             cJSON_AddNumberToObject(g, "max_triangles", goal.target_max_triangles);
         cJSON_AddBoolToObject(tj, "met", met);
         cJSON_AddNumberToObject(tj, "chosen", chosen);
+        if (!met) {
+            char why[700];
+            target_reason(&goal, method, tries, chosen, why, sizeof why);
+            cJSON_AddStringToObject(tj, "reason", why);
+        }
         cJSON_AddStringToObject(tj, "judged_lod", "the method's finest level, baked alone");
         cJSON_AddItemToObject(tj, "tries", tries);
         tries = NULL;

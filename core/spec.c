@@ -140,8 +140,9 @@ static sv_status parse_scene(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"units", "up", NULL};
+    static const char *const keys[] = {"units", "up", "missing_files", NULL};
     static const char *const ups[] = {"Y", "Z", "auto", NULL};
+    static const char *const missing[] = {"error", "warn", NULL};
     static const struct {
         const char *name;
         double scale;
@@ -169,6 +170,9 @@ static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
     int e = s->up_axis == 'Z' ? 1 : s->up_axis == 'A' ? 2 : 0;
     if ((st = parse_enum(o, "import", "up", ups, &e, err))) return st;
     s->up_axis = e == 1 ? 'Z' : e == 2 ? 'A' : 'Y';
+    e = s->missing_files_warn ? 1 : 0;
+    if ((st = parse_enum(o, "import", "missing_files", missing, &e, err))) return st;
+    s->missing_files_warn = e == 1;
     return SV_OK;
 }
 

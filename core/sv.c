@@ -18,6 +18,7 @@ static const struct {
     [SV_ERR_INVALID] = {"invalid", "mesh fails validation"},
     [SV_ERR_LIMIT] = {"limit", "over a configured limit"},
     [SV_ERR_REFUSED] = {"refused", "reference to a file outside the upload"},
+    [SV_ERR_MISSING] = {"missing", "a file the mesh references was not supplied"},
     [SV_ERR_SPEC] = {"spec", "bad bake spec"},
     [SV_ERR_RENDER] = {"render", "rendering failed"},
     [SV_ERR_UNBAKEABLE] = {"unbakeable", "mesh imports but cannot be baked"},

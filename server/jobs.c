@@ -438,6 +438,18 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
         const cJSON *w = cJSON_GetObjectItemCaseSensitive(j->manifest, "warnings");
         cJSON_AddItemToObject(r, "warnings",
                               cJSON_IsArray(w) ? cJSON_Duplicate(w, 1) : cJSON_CreateArray());
+        /* a bake with a "target": whether it was met, and why not, at the top
+         * too (the whole search is in manifest.summary.target) */
+        const cJSON *tg = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(j->manifest, "summary"), "target");
+        if (cJSON_IsObject(tg)) {
+            cJSON *o = cJSON_AddObjectToObject(r, "target");
+            static const char *const keys[] = {"goal", "met", "chosen", "reason"};
+            for (size_t k = 0; o && k < sizeof keys / sizeof keys[0]; k++) {
+                const cJSON *v = cJSON_GetObjectItemCaseSensitive(tg, keys[k]);
+                if (v) cJSON_AddItemToObject(o, keys[k], cJSON_Duplicate(v, 1));
+            }
+        }
         cJSON_AddItemToObject(r, "manifest", cJSON_Duplicate(j->manifest, 1));
     }
     return r;

@@ -260,8 +260,9 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
         cJSON *rep = read_json(p, 16u << 20);
         if (rep) {
             cJSON *sum = cJSON_AddObjectToObject(m, "summary");
-            const char *keep[] = {"method", "lods", "evaluation", "effects"};
-            for (int k = 0; k < 4; k++) {
+            /* "target": the search's goal, met, chosen try and reason (docs/spec.md) */
+            const char *keep[] = {"method", "lods", "evaluation", "effects", "target"};
+            for (int k = 0; k < 5; k++) {
                 cJSON *it = cJSON_GetObjectItemCaseSensitive(rep, keep[k]);
                 if (it) cJSON_AddItemToObject(sum, keep[k], cJSON_Duplicate(it, 1));
             }
@@ -443,7 +444,9 @@ static void run_job(svd_workers *w, svd_ticket *t)
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
         signal_reason(c, &rr, logpath, msg, sizeof msg);
         svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, msg, NULL);
-    } else if (WEXITSTATUS(rr.status) == 0) {
+    } else if (WEXITSTATUS(rr.status) == 0 || WEXITSTATUS(rr.status) == 3) {
+        /* 3: done, every output written, but the spec's target was not met
+         * (sylva-bake's exit status): the status document says so ("target") */
         char *manifest = install_result(store, t->key, outdir, t, &err);
         if (manifest) svd_jobs_finish(jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
         else svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, err.message, NULL);

@@ -8,7 +8,9 @@
  *
  * Exit status: 0 success; 1 the input was refused or the bake failed (one line
  * on stderr; with bake, DIR/error.json holds {"error":{"code","message"}});
- * 2 usage. Anything else (a signal) is a crash.
+ * 2 usage; 3 (bake) the spec's "target" was not met: every output is written
+ * (the best try's bake) and stderr says why (report.json target.reason).
+ * Anything else (a signal) is a crash. sylvad takes 0 and 3 as done.
  *
  * CPU-time guard (issue 25): every info and bake runs under RLIMIT_CPU, so a
  * file that makes a reader spin cannot keep a core busy forever. The limit is
@@ -39,6 +41,7 @@
 #include "spec.h"
 
 #define MAX_FILES 256
+#define EXIT_TARGET_UNMET 3 /* bake: outputs written, the spec's target not met */
 #define SV_DEFAULT_CPU_LIMIT 600 /* seconds of CPU time */
 
 static const char usage[] =
@@ -49,7 +52,9 @@ static const char usage[] =
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
     "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
-    "ever read. See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
+    "ever read; one that MESH references but FILES lack refuses the input (code\n"
+    "\"missing\") unless the spec says \"import\": {\"missing_files\": \"warn\"}.\n"
+    "See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
     "\n"
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
@@ -61,7 +66,11 @@ static const char usage[] =
     "           inherited RLIMIT_CPU (ulimit -t; sylvad's worker_cpu_seconds) if\n"
     "           any, else 600. 0: no limit of its own. Never above the inherited\n"
     "           hard limit; the soft limit sits up to 5 s below a finite hard one\n"
-    "           so the message comes before the kernel's SIGKILL.\n";
+    "           so the message comes before the kernel's SIGKILL.\n"
+    "\n"
+    "Exit status: 0 done; 1 input refused or bake failed (DIR/error.json);\n"
+    "2 usage; 3 bake done but the spec's \"target\" was not met (outputs written,\n"
+    "the reason on stderr and in report.json). Warnings go to stderr.\n";
 
 typedef struct loaded {
     sv_file files[MAX_FILES];
@@ -370,10 +379,12 @@ static int cmd_info(int argc, char **argv)
     return 0;
 }
 
-/* Prints every input warning of a finished bake (out_dir/report.json,
- * input.warnings) on stderr as "sylva-bake: warning: ...", so a degraded
- * result is not silent (issue 19). Prints nothing when there is no report. */
-static void print_warnings(const char *out_dir)
+/* The outcome of a finished bake, from out_dir/report.json, so a degraded
+ * result is not silent (issue 19): prints every input warning on stderr as
+ * "sylva-bake: warning: ...", and when the spec's target was not met
+ * (target.met false) why, and returns EXIT_TARGET_UNMET; else 0. Prints
+ * nothing and returns 0 when there is no report. */
+static int report_outcome(const char *out_dir)
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/report.json", out_dir);
@@ -383,8 +394,18 @@ static void print_warnings(const char *out_dir)
     const cJSON *w;
     cJSON_ArrayForEach(w, cJSON_GetObjectItem(cJSON_GetObjectItem(rep, "input"), "warnings"))
         if (cJSON_IsString(w)) fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
+    const cJSON *t = cJSON_GetObjectItem(rep, "target");
+    int rc = 0;
+    if (cJSON_IsFalse(cJSON_GetObjectItem(t, "met"))) {
+        const char *why = cJSON_GetStringValue(cJSON_GetObjectItem(t, "reason"));
+        fprintf(stderr, "sylva-bake: target not met: %s\n", why ? why : "see report.json, target");
+        fprintf(stderr, "sylva-bake: the outputs in %s are that bake (report.json: \"target\"); "
+                        "exit %d\n", out_dir, EXIT_TARGET_UNMET);
+        rc = EXIT_TARGET_UNMET;
+    }
     cJSON_Delete(rep);
     free(text);
+    return rc;
 }
 
 static int cmd_bake(int argc, char **argv)
@@ -463,8 +484,7 @@ static int cmd_bake(int argc, char **argv)
         write_error_json(out_dir, &e);
         return 1;
     }
-    print_warnings(out_dir);
-    return 0;
+    return report_outcome(out_dir);
 }
 
 static int cmd_check_spec(int argc, char **argv)

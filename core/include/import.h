@@ -55,6 +55,9 @@ typedef struct sv_import_options {
     double unit_scale;  /* metres per source unit; 0 = format default (1) */
     char up_axis;       /* 'Y' (default, 0 means Y) or 'Z': Z-up sources are rotated to Y-up */
     sv_limits limits;   /* zero fields = defaults */
+    bool missing_files_warn; /* false (default): a referenced .mtl or base-colour texture
+                                that was not uploaded fails with SV_ERR_MISSING; true: a
+                                warning, the material keeps its plain colour */
 } sv_import_options;
 
 typedef struct sv_import_info {
@@ -63,14 +66,22 @@ typedef struct sv_import_info {
     char up_axis;
     uint32_t source_meshes; /* assimp meshes merged */
     uint32_t textures_decoded;
-    uint32_t textures_missing; /* referenced but not uploaded: material keeps its colour */
-    char warnings[1024];    /* '\n'-separated notes (missing textures, ...) */
+    uint32_t textures_missing; /* not uploaded or not decodable: material keeps its colour */
+    uint32_t files_missing;    /* referenced files (.mtl, textures) that were not uploaded */
+    char missing_files[256];   /* their names, ", "-separated (", ..." when cut short) */
+    char warnings[4096];    /* '\n'-separated notes (missing textures, ...); the importer
+                               fills at most 3 KiB and says how many it left out, so
+                               later checks (plausibility.h) always have room */
+    uint32_t warnings_left_out; /* import notes that did not fit */
 } sv_import_info;
 
 /* Imports files[0] (with files[1..count-1] as its companions) into a new mesh
  * in sylva's convention (metres, +Y up), node transforms applied, all meshes
  * merged, triangulated. On success *out owns the mesh (sv_mesh_destroy).
- * On failure *out is NULL and err names the problem. info may be NULL. */
+ * On failure *out is NULL and err names the problem. info may be NULL.
+ * A referenced .mtl or base-colour texture that is not among the files fails
+ * with SV_ERR_MISSING naming every such file (info->missing_files), unless
+ * opt->missing_files_warn (then it is in info->warnings). */
 sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt,
                     sv_mesh **out, sv_import_info *info, sv_error *err);
 

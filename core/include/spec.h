@@ -28,6 +28,9 @@ typedef struct sv_spec {
     /* import */
     double unit_scale;            /* metres per unit; 0 = format default */
     char up_axis;                 /* 'Y', 'Z' or 'A' ("auto": detected, plausibility.h) */
+    bool missing_files_warn;      /* import.missing_files "warn": a referenced .mtl or texture
+                                     that was not supplied is a warning; false ("error", the
+                                     default): the import fails (SV_ERR_MISSING) */
     /* classify */
     const char **foliage;         /* pointers into root */
     size_t foliage_count;

@@ -29,6 +29,7 @@ typedef enum sv_status {
     SV_ERR_INVALID,    /* mesh content fails validation (NaN, bad index, empty) */
     SV_ERR_LIMIT,      /* over a configured limit (counts, sizes, depth) (413) */
     SV_ERR_REFUSED,    /* a reference to a file outside the upload (abs, .., file:) */
+    SV_ERR_MISSING,    /* a file the mesh references (.mtl, texture) was not supplied */
     SV_ERR_SPEC,       /* bad bake spec (400) */
     SV_ERR_RENDER,     /* the renderer failed */
     SV_ERR_UNBAKEABLE, /* imports, but cannot be baked (422) */

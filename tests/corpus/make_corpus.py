@@ -368,9 +368,10 @@ CORPUS = [
     ("obj_mtllib_dotdot.obj", obj("mtllib ../canary.mtl\n%sf 1 2 3\n" % TRI_V), "mtllib .."),
     ("obj_mtllib_file_uri.obj", obj("mtllib file:canary.mtl\n%sf 1 2 3\n" % TRI_V),
      "mtllib file:"),
-    # A missing .mtl alone is tolerated (the material keeps its colour), so this
-    # one's faces are also all zero-area: the bake is refused, and the canary
-    # check proves the importer did not read canary.mtl from the disk meanwhile.
+    # A missing .mtl is refused ("missing") unless the spec says
+    # import.missing_files "warn"; this one's faces are also all zero-area, so
+    # the bake is refused either way, and the canary check proves the importer
+    # did not read canary.mtl from the disk meanwhile.
     ("obj_mtllib_not_uploaded.obj", obj("mtllib canary.mtl\nusemtl m\nv 0 0 0\nv 1 1 1\n"
                                         "v 2 2 2\nf 1 2 3\n"),
      "mtllib of a file that was not uploaded (plus zero-area faces)"),

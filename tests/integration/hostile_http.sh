@@ -20,7 +20,7 @@ cd "$T/cwd" || exit 1
 start_daemon --worker "$WORKER" --workers 2 --job-timeout 60 --max-upload-bytes 4M \
     --connection-timeout 5
 SPEC='{"method":"crossed_quads","evaluate":{"views":4}}'
-codes="parse invalid limit refused format io unbakeable"
+codes="parse invalid limit refused missing format io unbakeable"
 health() { curl -s -o /dev/null -w '%{http_code}' --max-time 5 "$URL/v1/health"; }
 
 names=$(grep -v '^#' "$corpus/MANIFEST.tsv" | cut -f1)

@@ -3,7 +3,8 @@
 # method's knobs cheapest first and stops at the first setting that meets it.
 #  1. an IoU target that is met: the chosen setting is the first try that
 #     reaches it, and the bake is that setting's bake;
-#  2. an IoU target that cannot be met: exit 0, "met": false, the best try;
+#  2. an IoU target that cannot be met: every output written, "met": false,
+#     the best try, and exit 3 with the reason on stderr (issue 19);
 #  3. a plane budget, and a triangle budget without evaluation;
 #  4. bad targets are refused naming the key; the same target twice gives
 #     byte-identical outputs; the daemon and `sylva` take a target end to end.
@@ -48,9 +49,12 @@ check "... and each try has its cost in times.target_tries" True "$(target met '
 len(j["times"]["target_tries"]) == len(j["target"]["tries"]) and all(s >= 0 for s in j["times"]["target_tries"])')"
 [ -s "$T/met/model.glb" ] && ok "... model.glb written" || bad "no model.glb"
 
-# 2. cannot be met: the best try is baked and flagged, not an error
+# 2. cannot be met: the best try is baked and flagged, with its own exit status
 run unmet '{"method":"crossed_quads",'"$COMMON"',"target":{"iou":0.999}}'
-check "an IoU target that cannot be met exits 0" 0 "$(cat "$T/unmet.rc")"
+check "an IoU target that cannot be met exits 3 (outputs written, target not met)" 3 "$(cat "$T/unmet.rc")"
+grep -q "target not met: goal IoU 0.999" "$T/unmet.log" && ok "... saying why on stderr" ||
+    bad "no reason on stderr: $(cat "$T/unmet.log")"
+[ -s "$T/unmet/model.glb" ] && ok "... model.glb written" || bad "no model.glb for the unmet target"
 check "... and says met: false" False "$(target unmet 'j["target"]["met"]')"
 check "... after trying every setting of the method (4)" 4 "$(target unmet 'len(j["target"]["tries"])')"
 check "... and bakes the best of them" True "$(stmts unmet '

@@ -346,6 +346,42 @@ static void summary_falls_back_to_the_job_times_and_survives_missing_files(void 
     cJSON_Delete(s);
 }
 
+/* Issue 19: an unmet target is in the summary (report.json's, else the
+ * status document's), printed with its reason, and gives exit 6. */
+static void summary_carries_an_unmet_target_and_its_reason(void **state)
+{
+    (void)state;
+    const char *report = "{\"target\":{\"goal\":{\"iou\":0.99},\"met\":false,\"chosen\":2,"
+                         "\"reason\":\"goal IoU 0.99: no setting reached it\",\"tries\":[{},{},{}]}}";
+    cJSON *s = sylva_cli_summary(NULL, report, NULL);
+    const cJSON *t = cJSON_GetObjectItem(s, "target");
+    assert_true(cJSON_IsFalse(cJSON_GetObjectItem(t, "met")));
+    assert_null(cJSON_GetObjectItem(t, "tries"));
+    char text[1024];
+    sylva_cli_summary_format(s, text, sizeof text);
+    assert_non_null(strstr(text, "  target not met: goal IoU 0.99: no setting reached it\n"));
+    assert_int_equal(sylva_cli_done_exit_code(s), SYLVA_EXIT_TARGET);
+    cJSON_Delete(s);
+    /* without report.json: the status document's "target" */
+    s = sylva_cli_summary("{\"key\":\"k\",\"target\":{\"met\":false,\"reason\":\"why\"}}", NULL,
+                          NULL);
+    assert_int_equal(sylva_cli_done_exit_code(s), SYLVA_EXIT_TARGET);
+    sylva_cli_summary_format(s, text, sizeof text);
+    assert_non_null(strstr(text, "target not met: why"));
+    cJSON_Delete(s);
+    /* met, or no target at all: exit 0 */
+    s = sylva_cli_summary(NULL, "{\"target\":{\"met\":true,\"chosen\":0}}", NULL);
+    assert_int_equal(sylva_cli_done_exit_code(s), SYLVA_EXIT_OK);
+    sylva_cli_summary_format(s, text, sizeof text);
+    assert_non_null(strstr(text, "  target met\n"));
+    cJSON_Delete(s);
+    s = sylva_cli_summary(NULL, REPORT, PLANES);
+    assert_int_equal(sylva_cli_done_exit_code(s), SYLVA_EXIT_OK);
+    sylva_cli_summary_format(s, text, sizeof text);
+    assert_null(strstr(text, "target"));
+    cJSON_Delete(s);
+}
+
 static void progress_lines_show_stage_and_percent(void **state)
 {
     (void)state;
@@ -373,6 +409,19 @@ static void exit_codes_separate_input_service_integrity_and_cancel(void **state)
     assert_int_equal(sylva_cli_exit_code(SYLVA_ERR_CANCELLED), SYLVA_EXIT_CANCELLED);
 }
 
+/* A batch: any failure outranks an unmet target, which outranks success. */
+static void batch_exit_puts_failures_before_an_unmet_target(void **state)
+{
+    (void)state;
+    assert_int_equal(SYLVA_EXIT_TARGET, 6);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_TARGET), SYLVA_EXIT_TARGET);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_OK), SYLVA_EXIT_TARGET);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_FAILED), SYLVA_EXIT_FAILED);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_SERVICE, SYLVA_EXIT_TARGET), SYLVA_EXIT_SERVICE);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_FAILED, SYLVA_EXIT_CANCELLED), SYLVA_EXIT_CANCELLED);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_OK), SYLVA_EXIT_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -393,6 +442,8 @@ int main(void)
         cmocka_unit_test(summary_falls_back_to_the_job_times_and_survives_missing_files),
         cmocka_unit_test(progress_lines_show_stage_and_percent),
         cmocka_unit_test(exit_codes_separate_input_service_integrity_and_cancel),
+        cmocka_unit_test(summary_carries_an_unmet_target_and_its_reason),
+        cmocka_unit_test(batch_exit_puts_failures_before_an_unmet_target),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -144,6 +144,26 @@ static void job_parse_accepts_a_null_stage(void **state)
     sylva_job_clear(&job);
 }
 
+/* Issue 19: a done bake whose target was not met says so in the job. */
+static void job_parse_reads_an_unmet_target(void **state)
+{
+    (void)state;
+    const char *body = "{\"key\":\"" K64 "\",\"state\":\"done\",\"target\":{\"met\":false,"
+                       "\"chosen\":1,\"reason\":\"goal IoU 0.99: no setting reached it\"}}";
+    sylva_job job = {0};
+    assert_int_equal(sylva_job_parse(body, strlen(body), &job), SYLVA_OK);
+    assert_true(job.target_unmet);
+    assert_string_equal(job.target_reason, "goal IoU 0.99: no setting reached it");
+    const char *met = "{\"key\":\"" K64 "\",\"state\":\"done\",\"target\":{\"met\":true}}";
+    assert_int_equal(sylva_job_parse(met, strlen(met), &job), SYLVA_OK);
+    assert_false(job.target_unmet);
+    assert_string_equal(job.target_reason, "");
+    const char *none = "{\"key\":\"" K64 "\",\"state\":\"done\"}";
+    assert_int_equal(sylva_job_parse(none, strlen(none), &job), SYLVA_OK);
+    assert_false(job.target_unmet);
+    sylva_job_clear(&job);
+}
+
 static void job_parse_refuses_what_is_not_a_job(void **state)
 {
     (void)state;
@@ -215,6 +235,7 @@ int main(void)
         cmocka_unit_test(client_create_refuses_urls_without_a_scheme),
         cmocka_unit_test(job_parse_reads_state_stage_progress_and_error),
         cmocka_unit_test(job_parse_accepts_a_null_stage),
+        cmocka_unit_test(job_parse_reads_an_unmet_target),
         cmocka_unit_test(job_parse_refuses_what_is_not_a_job),
         cmocka_unit_test(manifest_artifacts_are_listed_with_size_and_hash),
         cmocka_unit_test(manifest_with_a_path_as_artifact_name_is_refused),

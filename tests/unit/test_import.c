@@ -670,7 +670,31 @@ static void mtllib_outside_the_upload_is_refused(void **state)
     upload_free(&u);
 }
 
-static void missing_texture_is_a_warning_not_an_error(void **state)
+/* Issue 19, "honest outcomes": a base-colour texture the .mtl names that was
+ * not supplied fails the import by default, naming the file and the way on. */
+static void missing_texture_fails_naming_it_by_default(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "t.obj", uv_obj);
+    upload_add_str(&u, "t.mtl", "newmtl leafy\nKd 0.5 0.5 0.5\nmap_Kd leaf.png\n");
+    sv_mesh *m = (sv_mesh *)1;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    assert_null(m);
+    assert_string_equal(sv_status_code(SV_ERR_MISSING), "missing");
+    if (!strstr(err.message, "'t.obj' references a file that was not supplied: leaf.png") ||
+        !strstr(err.message, "\"missing_files\": \"warn\""))
+        fail_msg("message: %s", err.message);
+    assert_int_equal(info.files_missing, 1);
+    assert_string_equal(info.missing_files, "leaf.png");
+    upload_free(&u);
+}
+
+/* With import.missing_files "warn" the same upload imports: the material
+ * keeps its colour and the warning names the file. */
+static void missing_texture_is_a_warning_with_missing_files_warn(void **state)
 {
     (void)state;
     upload u = {0};
@@ -679,12 +703,169 @@ static void missing_texture_is_a_warning_not_an_error(void **state)
     sv_mesh *m = NULL;
     sv_import_info info;
     sv_error err = {0};
-    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_OK);
+    sv_import_options opt = {.missing_files_warn = true};
+    assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
     assert_int_equal(info.textures_missing, 1);
     assert_int_equal(info.textures_decoded, 0);
-    assert_non_null(strstr(info.warnings, "leaf.png"));
+    assert_int_equal(info.files_missing, 1);
+    assert_non_null(strstr(info.warnings, "'leaf.png' was not supplied"));
     assert_int_equal(m->materials[m->tri_material[0]].base_texture, -1);
     assert_float_equal(m->materials[m->tri_material[0]].base_color[0], 0.5, 1e-6);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+/* A missing mtllib: an error by default; with "warn" the mesh imports grey and
+ * the warning names the .mtl once (assimp asks for "x.mtl", "./x.mtl" and its
+ * "<stem>.mtl" guess: only the name the OBJ gives is reported). */
+static void missing_mtl_fails_by_default_and_is_a_warning_with_warn(void **state)
+{
+    (void)state;
+    const char *obj = "mtllib leaves.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl leafy\nf 1 2 3\n";
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    sv_mesh *m = (sv_mesh *)1;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    assert_null(m);
+    if (!strstr(err.message, "not supplied: leaves.mtl. Supply it"))
+        fail_msg("message: %s", err.message);
+    assert_string_equal(info.missing_files, "leaves.mtl");
+    sv_import_options opt = {.missing_files_warn = true};
+    assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
+    assert_int_equal(info.files_missing, 1);
+    assert_non_null(strstr(info.warnings, "'leaves.mtl' was not supplied: its materials are plain grey"));
+    assert_null(strstr(info.warnings, "t.mtl"));
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+/* An OBJ whose mtllib names another file than the one uploaded beside it:
+ * assimp reads "<stem>.mtl" instead, so nothing is lost: a warning, no error. */
+static void missing_mtl_is_forgiven_when_the_stem_mtl_is_read(void **state)
+{
+    (void)state;
+    const char *obj = "mtllib old_name.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", "newmtl red\nKd 1 0 0\n");
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, &info, &err);
+    if (st != SV_OK) fail_msg("%s", err.message);
+    assert_int_equal(info.files_missing, 0);
+    assert_non_null(strstr(info.warnings, "'old_name.mtl' was not supplied: the materials were read from 't.mtl'"));
+    assert_float_equal(m->materials[m->tri_material[0]].base_color[0], 1.0, 1e-6);
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+/* Every missing file is named once, however many materials use it. */
+static void every_missing_file_is_named_once(void **state)
+{
+    (void)state;
+    const char *obj = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                      "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2/2 4/1 3/3\nusemtl c\nf 1/1 4/2 2/3\n";
+    const char *mtl = "newmtl a\nmap_Kd leaf.png\nnewmtl b\nmap_Kd leaf.png\n"
+                      "newmtl c\nmap_Kd bark.jpg\n";
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", mtl);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    assert_int_equal(info.files_missing, 2);
+    assert_string_equal(info.missing_files, "leaf.png, bark.jpg");
+    if (!strstr(err.message, "references 2 files that were not supplied: leaf.png, bark.jpg. Supply them"))
+        fail_msg("message: %s", err.message);
+    upload_free(&u);
+}
+
+/* Many missing files: the count is exact, the list and the warnings are cut
+ * short saying so, and room is left for the checks after import. */
+static void many_missing_files_are_counted_and_never_dropped_silently(void **state)
+{
+    (void)state;
+    char obj[8192] = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";
+    char mtl[8192] = "";
+    for (int i = 0; i < 60; i++) {
+        size_t n = strlen(obj), k = strlen(mtl);
+        snprintf(obj + n, sizeof obj - n, "usemtl m%02d\nf 1/1 2/2 3/3\n", i);
+        snprintf(mtl + k, sizeof mtl - k, "newmtl m%02d\nmap_Kd a_rather_long_texture_name_%02d.png\n", i, i);
+    }
+    upload u = {0};
+    upload_add_str(&u, "t.obj", obj);
+    upload_add_str(&u, "t.mtl", mtl);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    assert_int_equal(info.files_missing, 60);
+    if (!strstr(err.message, "references 60 files that were not supplied: a_rather_long_texture_name_00.png"))
+        fail_msg("message: %s", err.message);
+    assert_non_null(strstr(info.missing_files, ", ..."));
+    sv_import_options opt = {.missing_files_warn = true};
+    assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
+    assert_true(info.warnings_left_out > 0);
+    assert_non_null(strstr(info.warnings, "more import warnings were left out"));
+    assert_true(strlen(info.warnings) < sizeof info.warnings - 512); /* room for plausibility */
+    sv_mesh_destroy(m);
+    upload_free(&u);
+}
+
+/* glTF: an image uri that was not uploaded is the same error (a missing
+ * buffer stays a refusal: the geometry cannot be read without it). */
+static void gltf_image_not_uploaded_fails_naming_it(void **state)
+{
+    (void)state;
+    uint8_t bin[44];
+    char *base = gltf_from_glb("t.bin", bin);
+    const char *from = "\"indices\":1}]}]";
+    char *at = strstr(base, from);
+    assert_non_null(at);
+    char json[2048];
+    snprintf(json, sizeof json,
+             "%.*s\"indices\":1,\"material\":0}]}],\"materials\":[{\"name\":\"leaf\","
+             "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],"
+             "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"leaf.png\"}]%s",
+             (int)(at - base), base, at + strlen(from));
+    upload u = {0};
+    upload_add_str(&u, "t.gltf", json);
+    upload_add(&u, "t.bin", bin, sizeof bin);
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
+    if (!strstr(err.message, "not supplied: leaf.png")) fail_msg("message: %s", err.message);
+    sv_import_options opt = {.missing_files_warn = true};
+    sv_status st = import_upload(&u, &opt, &m, &info, &err);
+    if (st != SV_OK) fail_msg("%s", err.message);
+    assert_non_null(strstr(info.warnings, "'leaf.png' was not supplied"));
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(base);
+}
+
+/* A texture that was supplied but does not decode stays a warning (the file
+ * is there; its bytes are the problem): the default does not refuse it. */
+static void undecodable_texture_stays_a_warning(void **state)
+{
+    (void)state;
+    upload u = {0};
+    upload_add_str(&u, "t.obj", uv_obj);
+    upload_add_str(&u, "t.mtl", "newmtl leafy\nKd 0.5 0.5 0.5\nmap_Kd leaf.png\n");
+    upload_add_str(&u, "leaf.png", "not a png at all");
+    sv_mesh *m = NULL;
+    sv_import_info info;
+    sv_error err = {0};
+    sv_status st = import_upload(&u, NULL, &m, &info, &err);
+    if (st != SV_OK) fail_msg("%s", err.message);
+    assert_int_equal(info.files_missing, 0);
+    assert_int_equal(info.textures_missing, 1);
+    assert_non_null(strstr(info.warnings, "leaf.png"));
     sv_mesh_destroy(m);
     upload_free(&u);
 }
@@ -1019,7 +1200,14 @@ int main(void)
         cmocka_unit_test(bad_units_or_axis_options_are_refused),
         cmocka_unit_test(texture_outside_the_upload_is_never_read),
         cmocka_unit_test(mtllib_outside_the_upload_is_refused),
-        cmocka_unit_test(missing_texture_is_a_warning_not_an_error),
+        cmocka_unit_test(missing_texture_fails_naming_it_by_default),
+        cmocka_unit_test(missing_texture_is_a_warning_with_missing_files_warn),
+        cmocka_unit_test(missing_mtl_fails_by_default_and_is_a_warning_with_warn),
+        cmocka_unit_test(missing_mtl_is_forgiven_when_the_stem_mtl_is_read),
+        cmocka_unit_test(every_missing_file_is_named_once),
+        cmocka_unit_test(many_missing_files_are_counted_and_never_dropped_silently),
+        cmocka_unit_test(gltf_image_not_uploaded_fails_naming_it),
+        cmocka_unit_test(undecodable_texture_stays_a_warning),
         cmocka_unit_test(obj_alpha_rules_give_mask_blend_and_double_sided),
         cmocka_unit_test(texture_over_the_size_limit_is_refused),
         cmocka_unit_test(units_and_z_up_are_converted_to_metres_y_up),

@@ -130,6 +130,24 @@ static void assert_state(fx *f, const char *key, const char *want)
     free(s);
 }
 
+/* Plays a worker that succeeds: writes a result directory and finishes with a
+ * manifest holding `extra` (JSON members after "artifacts", may be ""). */
+static void fake_done_with(fx *f, svd_ticket *t, const char *artifact, const char *extra)
+{
+    sv_error e = {0};
+    char out[SVD_STORE_PATH];
+    assert_int_equal(svd_store_mktemp(f->store, "out", out, &e), SV_OK);
+    assert_int_equal(svd_store_write_file(out, "model.glb", artifact, strlen(artifact), &e), SV_OK);
+    char h[SVD_KEY_HEX], manifest[2048];
+    svd_sha256_hex(artifact, strlen(artifact), h);
+    snprintf(manifest, sizeof manifest,
+             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%s\"}]%s%s}",
+             t->key, strlen(artifact), h, extra[0] ? "," : "", extra);
+    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e), SV_OK);
+    assert_int_equal(svd_store_install(f->store, out, t->key, "result", &e), SV_OK);
+    svd_jobs_finish(f->jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
+}
+
 /* Plays a worker that succeeds: writes a result directory and finishes. */
 static void fake_done(fx *f, svd_ticket *t, const char *artifact)
 {
@@ -364,6 +382,44 @@ static void status_reports_stage_progress_and_manifest(void **state)
     cJSON_Delete(j);
 }
 
+/* Issue 19: a bake whose target was not met is done, and its status document
+ * says so at the top ("target": met false and why) beside every warning; a
+ * bake without a target has no "target". */
+static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX], k2[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done_with(f, &t, "X",
+                   "\"summary\":{\"target\":{\"goal\":{\"iou\":0.99},\"met\":false,\"chosen\":3,"
+                   "\"reason\":\"goal IoU 0.99: no setting reached it\",\"tries\":[{},{},{},{}]}},"
+                   "\"warnings\":[\"'leaf.png' was not supplied: drawn without its texture\"]");
+    char *body = NULL;
+    assert_int_equal(svd_jobs_status(f->jobs, k, &body), 200);
+    cJSON *j = cJSON_Parse(body);
+    free(body);
+    assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "state")), "done");
+    const cJSON *tg = cJSON_GetObjectItem(j, "target");
+    assert_true(cJSON_IsFalse(cJSON_GetObjectItem(tg, "met")));
+    assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(tg, "reason")),
+                        "goal IoU 0.99: no setting reached it");
+    assert_int_equal((int)cJSON_GetNumberValue(cJSON_GetObjectItem(tg, "chosen")), 3);
+    assert_null(cJSON_GetObjectItem(tg, "tries")); /* the search itself stays in the manifest */
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(j, "warnings")), 1);
+    cJSON_Delete(j);
+    assert_int_equal(submit(f, "v 7 7 7\n", "addr:a", k2), 202);
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "Y");
+    assert_int_equal(svd_jobs_status(f->jobs, k2, &body), 200);
+    j = cJSON_Parse(body);
+    free(body);
+    assert_null(cJSON_GetObjectItem(j, "target"));
+    assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(j, "warnings")), 0);
+    cJSON_Delete(j);
+}
+
 static void on_wake(void *arg) { (*(int *)arg)++; }
 
 static void waiter_wakes_on_state_change_and_on_deadline(void **state)
@@ -414,6 +470,7 @@ int main(void)
         T(per_client_cap_answers_429_and_queue_cap_503),
         T(fair_queue_prefers_client_with_fewer_running_jobs),
         T(status_reports_stage_progress_and_manifest),
+        T(status_lifts_an_unmet_target_and_the_warnings_to_the_top),
         T(waiter_wakes_on_state_change_and_on_deadline),
         T(orphan_job_directory_without_journal_record_is_removed),
     };

@@ -90,6 +90,27 @@ static void import_up_accepts_auto(void **state)
     }
 }
 
+/* import.missing_files: "error" (default: a referenced file that was not
+ * supplied fails the import) or "warn" (proceed, say so in the report) */
+static void import_missing_files_defaults_to_error_and_accepts_warn(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *json;
+        bool warn;
+    } cases[] = {{"{}", false},
+                 {"{\"import\":{\"missing_files\":\"error\"}}", false},
+                 {"{\"import\":{\"missing_files\":\"warn\"}}", true},
+                 {"{\"import\":{\"units\":\"cm\",\"missing_files\":\"warn\"}}", true}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        sv_spec s;
+        sv_error e = {0};
+        assert_int_equal(sv_spec_parse(cases[i].json, strlen(cases[i].json), &s, &e), SV_OK);
+        if (s.missing_files_warn != cases[i].warn) fail_msg("case %zu: %s", i, cases[i].json);
+        sv_spec_free(&s);
+    }
+}
+
 static void expect_error(const char *json, const char *needle)
 {
     sv_spec s;
@@ -117,6 +138,10 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"scene\":3}", "scene: expected an object");
     expect_error("{\"import\":{\"units\":\"furlong\"}}", "import.units");
     expect_error("{\"import\":{\"up\":\"X\"}}", "import.up: expected one of Y, Z, auto");
+    expect_error("{\"import\":{\"missing_files\":\"ignore\"}}",
+                 "import.missing_files: expected one of error, warn");
+    expect_error("{\"import\":{\"missing_files\":false}}",
+                 "import.missing_files: expected one of error, warn");
     expect_error("{\"bake\":{\"max_atlas\":1000}}", "power of two");
     expect_error("{\"bake\":{\"max_atlas\":1e30}}", "bake.max_atlas");
     expect_error("{\"bake\":{\"alpha_threshold\":\"high\"}}", "bake.alpha_threshold");
@@ -163,6 +188,7 @@ int main(void)
         cmocka_unit_test(empty_spec_gives_every_default),
         cmocka_unit_test(full_spec_sets_every_section),
         cmocka_unit_test(import_up_accepts_auto),
+        cmocka_unit_test(import_missing_files_defaults_to_error_and_accepts_warn),
         cmocka_unit_test(bad_specs_are_refused_naming_the_key),
         cmocka_unit_test(deeply_nested_json_is_refused_without_crashing),
         cmocka_unit_test(scene_pixels_and_distance_are_inverse),
