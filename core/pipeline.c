@@ -63,6 +63,15 @@ typedef struct run {
     trial_out tout;
     cJSON *target_json;       /* report "target" (deterministic part), owned */
     cJSON *target_times;      /* report times.target: seconds per try, owned */
+    /* Kept across the bakes of one run (a target search bakes once per try,
+     * issue 19 item 6): the renderer, the original on it, and the evaluator
+     * with its reference renders, reused while its options stay the same. */
+    sv_renderer *ren;
+    sv_gpu_mesh *gsrc;
+    sv_evaluator *ev;
+    sv_eval_options ev_opt;
+    sv_evaluator *calib_ev;   /* the alpha calibration's (calibrate_cutoffs) */
+    sv_eval_options calib_opt;
 } run;
 
 static sv_status progress(run *r, int stage, double within)
@@ -671,9 +680,16 @@ static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *
     eo.sizes[0] = SV_CALIB_PIXELS;
     eo.size_count = 1;
     eo.supersample = 2; /* 128² renders: a quarter of the pixels of 4, same cutoffs to 0.0125 */
-    sv_evaluator *ev = NULL;
-    sv_status st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &ev, err);
-    if (st) return st;
+    sv_status st = SV_OK;
+    if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
+        sv_evaluator_destroy(r->calib_ev);
+        r->calib_ev = NULL;
+    }
+    if (!r->calib_ev) {
+        if ((st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &r->calib_ev, err))) return st;
+        r->calib_opt = eo;
+    }
+    sv_evaluator *ev = r->calib_ev;
     for (uint32_t i = 0; i < si->lod_count && !st; i++) {
         const sv_lod_plan *lp = &si->lods[i];
         sv_mesh *m = lods[i].baked.mesh;
@@ -702,7 +718,6 @@ static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *
         lods[i].calib_iou = best;
         sv_gpu_mesh_free(g);
     }
-    sv_evaluator_destroy(ev);
     return st;
 }
 
@@ -1092,8 +1107,12 @@ static sv_status bake_all(run *r, sv_error *err)
     memset(&ch, 0, sizeof ch);
     if ((st = progress(r, ST_METHOD, 0))) goto cancelled;
     /* the renderer first: the stochastic levels need r measured by rendering */
-    if ((st = sv_renderer_create(8192, &ren, err))) goto out;
-    if ((st = sv_gpu_mesh_upload(ren, p->mesh, &gsrc, err))) goto out;
+    if (!r->ren) {
+        if ((st = sv_renderer_create(8192, &r->ren, err))) goto out;
+        if ((st = sv_gpu_mesh_upload(r->ren, p->mesh, &r->gsrc, err))) goto out;
+    }
+    ren = r->ren;
+    gsrc = r->gsrc;
     if ((st = compose_chain(r, ren, gsrc, &si, &ch, err))) goto out;
     if (si.lod_count == 0) {
         st = sv_fail(err, SV_ERR_UNBAKEABLE, "method %s produced no level of detail",
@@ -1181,7 +1200,15 @@ static sv_status bake_all(run *r, sv_error *err)
         eo.supersample = spec->eval_supersample;
         eo.size_count = spec->eval_size_count;
         memcpy(eo.sizes, spec->eval_sizes, sizeof(uint32_t) * spec->eval_size_count);
-        if ((st = sv_evaluator_create(ren, p->mesh, gsrc, &eo, &ev, err))) goto out;
+        if (r->ev && memcmp(&r->ev_opt, &eo, sizeof eo) != 0) {
+            sv_evaluator_destroy(r->ev);
+            r->ev = NULL;
+        }
+        if (!r->ev) {
+            if ((st = sv_evaluator_create(ren, p->mesh, gsrc, &eo, &r->ev, err))) goto out;
+            r->ev_opt = eo;
+        }
+        ev = r->ev;
         for (uint32_t i = 0; i < si.lod_count; i++) {
             if ((st = progress(r, ST_EVALUATE, (double)i / si.lod_count))) goto cancelled;
             if ((st = sv_gpu_mesh_upload(ren, lods[i].baked.mesh, &lods[i].gpu, err))) goto out;
@@ -1485,9 +1512,7 @@ out:
             sv_baked_lod_free(&lods[i].baked);
         }
     free(lods);
-    sv_evaluator_destroy(ev);
-    sv_gpu_mesh_free(gsrc);
-    sv_renderer_destroy(ren);
+    (void)ev; /* the renderer, the original and the evaluator belong to r */
     sv_stand_in_free(&si);
     chain_free(&ch);
     return st;
@@ -1791,6 +1816,10 @@ sv_status sv_pipeline_run(const sv_bake_request *req, sv_error *err)
 out:
     cJSON_Delete(r.target_json);
     cJSON_Delete(r.target_times);
+    sv_evaluator_destroy(r.ev);
+    sv_evaluator_destroy(r.calib_ev);
+    sv_gpu_mesh_free(r.gsrc);
+    sv_renderer_destroy(r.ren);
     prepared_free(&r.p);
     sv_spec_free(&r.spec);
     return st;

@@ -48,6 +48,15 @@ j["method"]["settings"] == j["target"]["tries"][j["target"]["chosen"]]["settings
 check "... and each try has its cost in times.target_tries" True "$(target met '
 len(j["times"]["target_tries"]) == len(j["target"]["tries"]) and all(s >= 0 for s in j["times"]["target_tries"])')"
 [ -s "$T/met/model.glb" ] && ok "... model.glb written" || bad "no model.glb"
+# the search keeps its renderer and reference renders across tries (issue 19
+# item 6): what it bakes must still be exactly a bake of the chosen setting
+chosen=$(json_get "$T/met/report.json" 'json.dumps(j["method"]["settings"])')
+run direct '{"method":"leaf_clusters",'"$COMMON"',"leaf_clusters":'"$chosen"'}'
+same_all=1
+for f in model.glb planes.json; do
+    cmp -s "$T/met/$f" "$T/direct/$f" || { same_all=0; echo "differs from the direct bake: $f"; }
+done
+check "... and its outputs are byte for byte a direct bake of that setting" 1 "$same_all"
 
 # 2. cannot be met: the best try is baked and flagged, with its own exit status
 run unmet '{"method":"crossed_quads",'"$COMMON"',"target":{"iou":0.999}}'
