@@ -20,3 +20,5 @@ cd "$root"
 python3 "$here/bench.py"
 # issue 18: every quad method at a budget, sveval beside our figure
 python3 "$here/fidelity.py"
+# issue 19: a target search against one bake of its choice; the default chain
+python3 "$here/target_cost.py"
