@@ -672,6 +672,10 @@ static int cmd_health(const sylva_cli *cli)
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "--version") == 0) {
+        printf("sylva %s\n", SYLVA_VERSION);
+        return SYLVA_EXIT_OK;
+    }
     sylva_cli cli;
     char err[512];
     int rc = sylva_cli_parse(argc, argv, getenv("SYLVA_SERVER"), getenv("SYLVA_TOKEN"), &cli, err,

@@ -38,6 +38,10 @@ static void default_worker(char *out, size_t cap)
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "--version") == 0) {
+        printf("sylvad %s\n", SV_VERSION);
+        return 0;
+    }
     svd_config cfg;
     sv_error err = {0};
     sv_status st = svd_config_from_args(&cfg, argc, argv, &err);

@@ -54,6 +54,12 @@ json_get() { # json_get FILE PYTHON-EXPR (d = the document)
     python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"
 }
 
+# --version on all three programs (issue 23): one line, the program and its version
+ver=$(sed -n 's/^#define SV_VERSION "\(.*\)"/\1/p' "$(dirname "$0")/../../core/include/sv.h")
+check "sylva --version prints 'sylva $ver'" test "$("$SYLVA" --version)" = "sylva $ver"
+check "sylvad --version prints 'sylvad $ver'" test "$("$SYLVAD" --version)" = "sylvad $ver"
+check "sylva-bake --version prints 'sylva-bake $ver'" test "$("$BAKER" --version)" = "sylva-bake $ver"
+
 # health
 check "health exits 0" "$SYLVA" health
 "$SYLVA" health --json >"$T/health.json"
