@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -30,7 +31,42 @@ struct svd_store {
     pthread_mutex_t mu;
     uint64_t counter;
     vcache_entry *cache; /* direct-mapped cache of verified files */
+    int lock_fd;         /* <root>/lock, flock()ed for the store's lifetime */
 };
+
+/* One daemon per store (issue 23): two sylvad on one --store both recovered
+ * its jobs and the second wiped the first one's tmp/. Takes an exclusive,
+ * non-blocking flock on <root>/lock (close-on-exec: workers do not hold it)
+ * and writes our pid there; a held lock fails naming the holder's pid. */
+static int lock_store(const char *root, sv_error *err)
+{
+    char p[SVD_STORE_PATH];
+    snprintf(p, sizeof p, "%s/lock", root);
+    int fd = open(p, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        sv_fail(err, SV_ERR_IO, "cannot open %s: %s", p, strerror(errno));
+        return -1;
+    }
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        int e = errno;
+        char buf[32] = {0};
+        ssize_t n = pread(fd, buf, sizeof buf - 1, 0);
+        long pid = n > 0 ? strtol(buf, NULL, 10) : 0;
+        close(fd);
+        if (e == EWOULDBLOCK)
+            sv_fail(err, SV_ERR_IO, "store %s is in use by another sylvad (pid %ld; %s)", root,
+                    pid, p);
+        else
+            sv_fail(err, SV_ERR_IO, "cannot lock %s: %s", p, strerror(e));
+        return -1;
+    }
+    char buf[32];
+    int n = snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
+    if (ftruncate(fd, 0) != 0 || pwrite(fd, buf, (size_t)n, 0) != n) {
+        /* the lock holds without the pid: only the message loses it */
+    }
+    return fd;
+}
 
 void svd_rm_rf(const char *path)
 {
@@ -88,19 +124,26 @@ svd_store *svd_store_open(const char *root, sv_error *err)
     }
     char p[SVD_STORE_PATH];
     if (mkdir_p1(root, err) != SV_OK) return NULL;
+    int lock_fd = lock_store(root, err); /* before tmp/ is emptied */
+    if (lock_fd < 0) return NULL;
     const char *subs[] = {"tmp", "jobs", "quarantine"};
     for (int i = 0; i < 3; i++) {
         snprintf(p, sizeof p, "%s/%s", root, subs[i]);
         if (i == 0) svd_rm_rf(p); /* stray temp files from a crash */
-        if (mkdir_p1(p, err) != SV_OK) return NULL;
+        if (mkdir_p1(p, err) != SV_OK) {
+            close(lock_fd);
+            return NULL;
+        }
     }
     svd_store *s = calloc(1, sizeof *s);
     if (s) s->cache = calloc(VCACHE, sizeof *s->cache);
     if (!s || !s->cache) {
         if (s) free(s);
+        close(lock_fd);
         sv_fail(err, SV_ERR_NOMEM, "store: out of memory");
         return NULL;
     }
+    s->lock_fd = lock_fd;
     snprintf(s->root, sizeof s->root, "%s", root);
     pthread_mutex_init(&s->mu, NULL);
     return s;
@@ -111,6 +154,7 @@ void svd_store_close(svd_store *s)
     if (!s) return;
     pthread_mutex_destroy(&s->mu);
     free(s->cache);
+    close(s->lock_fd); /* releases the flock */
     free(s);
 }
 

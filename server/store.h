@@ -27,7 +27,9 @@
 
 typedef struct svd_store svd_store;
 
-/* Opens (creating) the store at root and removes stale temp files. */
+/* Opens (creating) the store at root, locks it (one daemon per store: a
+ * store another process holds fails naming its pid) and removes stale temp
+ * files. svd_store_close releases the lock. */
 svd_store *svd_store_open(const char *root, sv_error *err);
 
 /* Closes the store. NULL is a no-op. */

@@ -54,6 +54,14 @@ json_get() { # json_get FILE PYTHON-EXPR (d = the document)
     python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"
 }
 
+# one daemon per store (issue 23): a second sylvad on the same --store exits
+# at once naming the first one's pid
+"$SYLVAD" --listen 127.0.0.1:0 --store "$T/store" --worker "$BAKER" >"$T/second.log" 2>&1
+rc2=$?
+check "a second sylvad on the same store exits non-zero" test "$rc2" -ne 0
+check "  saying the store is in use by the first (pid $DPID)" \
+    grep -q "in use by another sylvad (pid $DPID" "$T/second.log"
+
 # --version on all three programs (issue 23): one line, the program and its version
 ver=$(sed -n 's/^#define SV_VERSION "\(.*\)"/\1/p' "$(dirname "$0")/../../core/include/sv.h")
 check "sylva --version prints 'sylva $ver'" test "$("$SYLVA" --version)" = "sylva $ver"

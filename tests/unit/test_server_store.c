@@ -456,6 +456,28 @@ static void orphan_job_directory_without_journal_record_is_removed(void **state)
     assert_int_not_equal(stat(orphan, &sb), 0);
 }
 
+/* One daemon per store (issue 23): a second open of a held store fails naming
+ * the holder's pid and leaves its tmp/ alone; after close it opens again. */
+static void a_held_store_is_refused_naming_the_holder(void **state)
+{
+    fx *f = *state;
+    char tmpf[160];
+    snprintf(tmpf, sizeof tmpf, "%s/tmp/in-flight", f->root);
+    FILE *t = fopen(tmpf, "w");
+    assert_non_null(t);
+    fclose(t);
+    sv_error e = {0};
+    assert_null(svd_store_open(f->root, &e));
+    char want[64];
+    snprintf(want, sizeof want, "in use by another sylvad (pid %ld", (long)getpid());
+    assert_non_null(strstr(e.message, want));
+    struct stat sb;
+    assert_int_equal(stat(tmpf, &sb), 0); /* the holder's temp file survives */
+    close_all(f);
+    open_all(f); /* released: opens again (and now clears tmp/) */
+    assert_int_not_equal(stat(tmpf, &sb), 0);
+}
+
 int main(void)
 {
 #define T(fn) cmocka_unit_test_setup_teardown(fn, setup, teardown)
@@ -473,6 +495,7 @@ int main(void)
         T(status_lifts_an_unmet_target_and_the_warnings_to_the_top),
         T(waiter_wakes_on_state_change_and_on_deadline),
         T(orphan_job_directory_without_journal_record_is_removed),
+        T(a_held_store_is_refused_naming_the_holder),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
