@@ -25,6 +25,10 @@
 #include "spec.h"
 
 #define SPEC_MAX (1u << 20)
+/* Body bytes read and dropped on a route that takes no body (or a request
+ * refused from its headers) so the connection stays usable; a larger or
+ * chunked body is answered before it is read and the connection closed. */
+#define SMALL_BODY 4096u
 
 struct svd_http {
     struct MHD_Daemon *d;
@@ -607,6 +611,49 @@ static void remote_addr(struct MHD_Connection *c, char *out, size_t cap)
         inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)(const void *)sa)->sin6_addr, out, (socklen_t)cap);
 }
 
+/* Whether the request's body, which its route does not take, is small enough
+ * to be read and dropped (at most SMALL_BODY bytes declared by
+ * Content-Length, or none). *declared: the Content-Length, 0 when chunked. */
+static bool body_is_small(struct MHD_Connection *c, uint64_t *declared)
+{
+    *declared = 0;
+    if (MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_TRANSFER_ENCODING)) return false;
+    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (!cl) return true;
+    char *end;
+    errno = 0;
+    unsigned long long n = strtoull(cl, &end, 10);
+    if (end == cl || errno) return false; /* libmicrohttpd refuses those before we see them */
+    *declared = n;
+    return n <= SMALL_BODY;
+}
+
+/* Answers a request refused from its headers alone: no such route (404), a
+ * bad key (400), a method the path does not take (405, with Allow), or no
+ * valid token (401). */
+static enum MHD_Result answer_refused(req *q)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    if (q->m.status == 405) {
+        char *body = svd_error_json("method_not_allowed", q->m.message);
+        struct MHD_Response *r =
+            body ? MHD_create_response_from_buffer(strlen(body), body, MHD_RESPMEM_MUST_COPY) : NULL;
+        free(body);
+        if (!r) return MHD_NO;
+        MHD_add_response_header(r, "Allow", q->m.allow);
+        MHD_add_response_header(r, "Content-Type", "application/json");
+        enum MHD_Result ret = MHD_queue_response(c, 405, r);
+        MHD_destroy_response(r);
+        svd_metrics_request(h->metrics, SVD_R_NONE, 405);
+        return ret;
+    }
+    if (q->m.status)
+        return send_error(h, c, SVD_R_NONE, (unsigned)q->m.status,
+                          q->m.status == 404 ? "not_found" : "bad_request", q->m.message);
+    return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+}
+
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
                                   const char *method, const char *version, const char *upload_data,
                                   size_t *upload_data_size, void **con_cls)
@@ -614,7 +661,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     (void)version;
     svd_http *h = cls;
     req *q = *con_cls;
-    if (!q) { /* first call: headers only */
+    if (!q) { /* first call: headers only, no body byte read yet */
         q = calloc(1, sizeof *q);
         if (!q) return MHD_NO;
         pthread_mutex_init(&q->mu, NULL);
@@ -627,10 +674,9 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         remote_addr(c, addr, sizeof addr);
         svd_client_id(h->tokens ? auth : NULL, addr, q->client, sizeof q->client);
         q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH || svd_tokens_check(h->tokens, auth);
-        /* Uploads are checked before any body byte is read: an answer queued
-         * now makes libmicrohttpd skip the body and close the connection.
-         * Everything else answers on the next call, which keeps the
-         * connection alive. */
+        /* The answer is decided here, before any body byte is read. An answer
+         * queued now makes libmicrohttpd send it and close the connection
+         * without reading the body (docs/reliability.md, "Bounded reads"). */
         if (q->m.status == 0 && q->authorized &&
             (q->m.route == SVD_R_SUBMIT || q->m.route == SVD_R_PUT)) {
             int answered;
@@ -638,38 +684,34 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             if (answered) q->answered = 1;
             return r;
         }
+        /* Not an upload: the body is not wanted. Up to SMALL_BODY declared
+         * bytes are read and dropped and the answer comes after them, on a
+         * connection that stays open; a larger or chunked body gets its
+         * answer now, and the connection is closed. */
+        uint64_t declared = 0;
+        if (!body_is_small(c, &declared)) {
+            q->answered = 1;
+            if (q->m.status || !q->authorized) return answer_refused(q);
+            char msg[200];
+            if (declared)
+                snprintf(msg, sizeof msg, "this route takes no request body (%llu bytes declared, at most %u "
+                         "are read)", (unsigned long long)declared, SMALL_BODY);
+            else
+                snprintf(msg, sizeof msg, "this route takes no request body (a chunked body is not read)");
+            return send_error(h, c, q->m.route, 413, "too_large", msg);
+        }
         return MHD_YES;
     }
-    if (q->answered) { /* answered early; discard anything else */
+    if (q->answered) { /* answered early; libmicrohttpd reads no body after that */
         *upload_data_size = 0;
         return MHD_YES;
     }
-    if (q->m.status) {
-        if (*upload_data_size) {
+    if (q->m.status || !q->authorized) {
+        if (*upload_data_size) { /* at most SMALL_BODY bytes: see the first call */
             *upload_data_size = 0;
             return MHD_YES;
         }
-        if (q->m.status == 405) {
-            char *body = svd_error_json("method_not_allowed", q->m.message);
-            struct MHD_Response *r = MHD_create_response_from_buffer(strlen(body), body, MHD_RESPMEM_MUST_COPY);
-            free(body);
-            if (!r) return MHD_NO;
-            MHD_add_response_header(r, "Allow", q->m.allow);
-            MHD_add_response_header(r, "Content-Type", "application/json");
-            enum MHD_Result ret = MHD_queue_response(c, 405, r);
-            MHD_destroy_response(r);
-            svd_metrics_request(h->metrics, SVD_R_NONE, 405);
-            return ret;
-        }
-        return send_error(h, c, SVD_R_NONE, (unsigned)q->m.status,
-                          q->m.status == 404 ? "not_found" : "bad_request", q->m.message);
-    }
-    if (!q->authorized) {
-        if (*upload_data_size) {
-            *upload_data_size = 0;
-            return MHD_YES;
-        }
-        return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+        return answer_refused(q);
     }
     if (q->kind == REQ_DRAIN) {
         if (*upload_data_size) {
@@ -698,7 +740,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     }
     if (q->kind == REQ_WAIT) return handle_status(q, 0); /* resumed */
     if (q->m.route == SVD_R_STATUS && !*upload_data_size) return handle_status(q, 1);
-    if (*upload_data_size) { /* a body on a GET/DELETE: ignore it */
+    if (*upload_data_size) { /* a small body on a GET/DELETE (at most SMALL_BODY): dropped */
         *upload_data_size = 0;
         return MHD_YES;
     }

@@ -2,9 +2,13 @@
  *
  * libmicrohttpd runs with an epoll internal thread and a thread pool,
  * a connection limit, a per-connection memory limit, an idle timeout and
- * suspend/resume for long-polls (GET ?wait=S never holds a thread). Uploads
- * are refused with 413 from Content-Length before the body is read; chunked
- * bodies are cut off (connection closed) once over the limit. Upload parts are
+ * suspend/resume for long-polls (GET ?wait=S never holds a thread). Every
+ * answer is decided from the headers, before a body byte is read: uploads
+ * are refused with 413 from Content-Length, chunked uploads are cut off
+ * (connection closed) once over the limit; a request that takes no body (any
+ * route but an authorised upload, and 404/405/401 answers) has at most 4 KiB
+ * of it read and dropped, and a larger or chunked body is answered at once
+ * (413, or the route's refusal) and the connection closed. Upload parts are
  * streamed to files under the store's tmp/ while their SHA-256 is computed:
  * a body is never held whole in memory (the spec part, at most 1 MiB, is).
  */
