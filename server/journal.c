@@ -224,7 +224,9 @@ sv_status svd_journal_rewrite(svd_journal *j, const char *const *payloads, const
 {
     char tmp[4200];
     snprintf(tmp, sizeof tmp, "%s.tmp", j->path);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    /* O_RDWR: after the rename this descriptor is the journal's (no reopen
+     * that could fail and leave appends going to the unlinked old file). */
+    int fd = open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
     if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
     uint64_t total = 0;
     sv_status st = SV_OK;
@@ -245,20 +247,16 @@ sv_status svd_journal_rewrite(svd_journal *j, const char *const *payloads, const
         unlink(tmp);
         return st;
     }
-    close(fd);
     pthread_mutex_lock(&j->mu);
     if (rename(tmp, j->path) != 0) {
         st = sv_fail(err, SV_ERR_IO, "%s: rename failed: %s", j->path, strerror(errno));
+        close(fd);
         unlink(tmp);
-    } else if ((st = svd_fsync_parent(j->path, err)) == SV_OK) {
-        int nfd = open(j->path, O_RDWR | O_CLOEXEC);
-        if (nfd < 0) {
-            st = sv_fail(err, SV_ERR_IO, "%s: reopen failed: %s", j->path, strerror(errno));
-        } else {
-            close(j->fd);
-            j->fd = nfd;
-            j->size = total;
-        }
+    } else {
+        close(j->fd);
+        j->fd = fd;
+        j->size = total;
+        st = svd_fsync_parent(j->path, err); /* the new journal is in use either way */
     }
     pthread_mutex_unlock(&j->mu);
     return st;
