@@ -366,12 +366,16 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
         }
     }
     drop_orphans(jobs);
-    /* Compact: one record per live job, ordered by seq so FIFO order survives. */
+    /* Compact: one record per live job, ordered by seq so FIFO order survives.
+     * A failure here is not fatal: the journal as it is replays to the same
+     * jobs (what reconciliation changed above, it finds again at the next
+     * start), so the daemon serves on a full disk rather than not at all. */
     svd_job **order = sv_calloc(live ? live : 1, sizeof *order);
     char **recs = sv_calloc(live ? live : 1, sizeof *recs);
     size_t *sizes = sv_calloc(live ? live : 1, sizeof *sizes);
     size_t n = 0;
-    sv_status st = order && recs && sizes ? SV_OK : sv_fail(err, SV_ERR_NOMEM, "jobs: out of memory");
+    sv_error ce = {0};
+    sv_status st = order && recs && sizes ? SV_OK : sv_fail(&ce, SV_ERR_NOMEM, "jobs: out of memory");
     for (size_t b = 0; st == SV_OK && b < NBUCKETS; b++)
         for (svd_job *j = jobs->buckets[b]; j && n < live; j = j->hnext) order[n++] = j;
     for (size_t i = 1; st == SV_OK && i < n; i++) /* insertion sort by seq */
@@ -382,25 +386,27 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
         }
     for (size_t i = 0; st == SV_OK && i < n; i++) {
         recs[i] = print_free(accept_record(order[i]));
-        if (!recs[i]) st = sv_fail(err, SV_ERR_NOMEM, "jobs: out of memory");
+        if (!recs[i]) st = sv_fail(&ce, SV_ERR_NOMEM, "jobs: out of memory");
         else sizes[i] = strlen(recs[i]);
     }
     if (st == SV_OK)
-        st = svd_journal_rewrite(jobs->journal, (const char *const *)recs, sizes, n, err);
-    if (st == SV_OK) {
-        char q[32];
-        size_t queued = 0;
-        for (size_t i = 0; i < n; i++) queued += order[i]->state == SVD_JOB_QUEUED;
-        snprintf(n1, sizeof n1, "%zu", n);
-        snprintf(q, sizeof q, "%zu", queued);
-        svd_log_kv(jobs->log, SVD_LOG_INFO, "jobs_recovered", "jobs", n1, "requeued", q,
+        st = svd_journal_rewrite(jobs->journal, (const char *const *)recs, sizes, n, &ce);
+    if (st != SV_OK)
+        svd_log_kv(jobs->log, SVD_LOG_ERROR, "journal_compaction_failed", "msg", ce.message, "effect",
+                   "the journal is kept as it is; stored results are served, uploads may fail with 507",
                    (const char *)NULL);
-    }
+    char q[32];
+    size_t queued = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) queued += j->state == SVD_JOB_QUEUED;
+    snprintf(n1, sizeof n1, "%zu", live);
+    snprintf(q, sizeof q, "%zu", queued);
+    svd_log_kv(jobs->log, SVD_LOG_INFO, "jobs_recovered", "jobs", n1, "requeued", q, (const char *)NULL);
     free(order);
     for (size_t i = 0; recs && i < n; i++) free(recs[i]);
     free(recs);
     free(sizes);
-    return st;
+    return SV_OK;
 }
 
 /* ---- status documents ---- */

@@ -55,7 +55,10 @@ svd_jobs *svd_jobs_create(const svd_config *cfg, svd_store *store, svd_log *log,
 
 /* Opens ROOT/journal, replays it, reconciles with the store (requeues every
  * accepted job that had not finished, drops orphan directories, counts store
- * bytes), and compacts the journal. Call once before serving. */
+ * bytes), and compacts the journal. Call once before serving. Fails only when
+ * the journal cannot be opened or read; a compaction that fails (a full
+ * disk) is logged (journal_compaction_failed) and the journal kept as it
+ * is: it replays to the same jobs, and appends go on after it. */
 sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err);
 
 /* Frees the table (after the workers stopped). NULL is a no-op. */

@@ -478,6 +478,65 @@ static void a_held_store_is_refused_naming_the_holder(void **state)
     assert_int_not_equal(stat(tmpf, &sb), 0);
 }
 
+static char *slurp_file(const char *path, size_t *n)
+{
+    FILE *fp = fopen(path, "rb");
+    assert_non_null(fp);
+    char *buf = malloc(1 << 16);
+    *n = fread(buf, 1, 1 << 16, fp);
+    fclose(fp);
+    return buf;
+}
+
+static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
+{
+    fx *f = *state;
+    char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX], k3[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), 202);
+    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "GLB1");
+    close_all(f);
+    /* journal.tmp cannot be written (a directory stands in its place, as a
+     * full disk would refuse it): compaction fails; before issue 22 so did
+     * start-up */
+    char journal[SVD_STORE_PATH], jtmp[SVD_STORE_PATH + 8];
+    snprintf(journal, sizeof journal, "%s/journal", f->root);
+    snprintf(jtmp, sizeof jtmp, "%s.tmp", journal);
+    assert_int_equal(mkdir(jtmp, 0700), 0);
+    size_t n0, n1;
+    char *before = slurp_file(journal, &n0);
+    open_all(f); /* asserts svd_jobs_recover == SV_OK */
+    char *after = slurp_file(journal, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0); /* kept as it was */
+    free(before);
+    free(after);
+    assert_state(f, k1, "done");
+    assert_state(f, k2, "queued");
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size = 0;
+    assert_int_equal(svd_jobs_artifact(f->jobs, k1, "model.glb", path, &size, sha), 200);
+    char log[96];
+    snprintf(log, sizeof log, "%s/log", f->dir);
+    size_t ln;
+    char *text = slurp_file(log, &ln);
+    text[ln < (1 << 16) ? ln : (1 << 16) - 1] = '\0';
+    assert_non_null(strstr(text, "\"event\":\"journal_compaction_failed\""));
+    free(text);
+    /* appends go on after the kept journal: a new job and k2's end survive */
+    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), 202);
+    assert_true(svd_jobs_take(f->jobs, &t));
+    fake_done(f, &t, "GLB2");
+    close_all(f);
+    rmdir(jtmp);
+    open_all(f);
+    assert_state(f, k1, "done");
+    assert_state(f, k2, "done");
+    assert_state(f, k3, "queued");
+}
+
 int main(void)
 {
 #define T(fn) cmocka_unit_test_setup_teardown(fn, setup, teardown)
@@ -496,6 +555,7 @@ int main(void)
         T(waiter_wakes_on_state_change_and_on_deadline),
         T(orphan_job_directory_without_journal_record_is_removed),
         T(a_held_store_is_refused_naming_the_holder),
+        T(start_up_survives_a_journal_that_cannot_be_compacted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
