@@ -313,11 +313,14 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     u->md = EVP_MD_CTX_new();
     u->objects = cJSON_CreateObject();
     u->mp = svd_multipart_create(boundary, &mp_cb, q);
+    if (!u->md || !u->objects || !u->mp) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     char in[SVD_STORE_PATH + 4];
-    if (!u->md || !u->objects || !u->mp ||
-        svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e) != SV_OK ||
-        (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
-        return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
+    sv_status ms = svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e);
+    if (ms == SV_OK && (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
+        ms = errno == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO;
+    if (ms == SV_ERR_LIMIT) /* a full disk: the 507 an upload gets later, before its body */
+        return send_error(h, c, q->m.route, 507, "store_full", "the store's disk is full");
+    if (ms != SV_OK) return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
     q->kind = REQ_UPLOAD;
     *answered = 0;
     return MHD_YES;

@@ -109,11 +109,32 @@ uint64_t svd_dir_bytes(const char *dir)
     return total;
 }
 
+/* Creates a directory unless it is one already: mkdir fails with ENOSPC on a
+ * full disk even where nothing needs creating. */
 static sv_status mkdir_p1(const char *path, sv_error *err)
 {
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) return SV_OK;
     if (mkdir(path, 0700) != 0 && errno != EEXIST)
         return sv_fail(err, SV_ERR_IO, "%s: cannot create directory: %s", path, strerror(errno));
     return SV_OK;
+}
+
+/* Removes everything in dir but dir itself: removing and re-creating it
+ * could fail on a full disk (a daemon without root may not take back the
+ * block it just freed when only the root reserve is left). */
+static void empty_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        char sub[4096];
+        if (snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name) >= (int)sizeof sub) continue;
+        svd_rm_rf(sub);
+    }
+    closedir(d);
 }
 
 svd_store *svd_store_open(const char *root, sv_error *err)
@@ -129,7 +150,9 @@ svd_store *svd_store_open(const char *root, sv_error *err)
     const char *subs[] = {"tmp", "jobs", "quarantine"};
     for (int i = 0; i < 3; i++) {
         snprintf(p, sizeof p, "%s/%s", root, subs[i]);
-        if (i == 0) svd_rm_rf(p); /* stray temp files from a crash */
+        struct stat st;
+        if (i == 0 && lstat(p, &st) == 0 && !S_ISDIR(st.st_mode)) svd_rm_rf(p); /* not a directory */
+        else if (i == 0) empty_dir(p); /* stray temp files from a crash */
         if (mkdir_p1(p, err) != SV_OK) {
             close(lock_fd);
             return NULL;
@@ -171,7 +194,11 @@ sv_status svd_store_mktemp(svd_store *s, const char *prefix, char out[SVD_STORE_
                            sv_error *err)
 {
     snprintf(out, SVD_STORE_PATH, "%s/tmp/%s-XXXXXX", s->root, prefix);
-    if (!mkdtemp(out)) return sv_fail(err, SV_ERR_IO, "%s: cannot create temp dir: %s", out, strerror(errno));
+    if (!mkdtemp(out)) {
+        int e = errno;
+        return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO, "%s: cannot create temp dir: %s", out,
+                       strerror(e));
+    }
     return SV_OK;
 }
 

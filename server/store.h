@@ -29,7 +29,8 @@ typedef struct svd_store svd_store;
 
 /* Opens (creating) the store at root, locks it (one daemon per store: a
  * store another process holds fails naming its pid) and removes stale temp
- * files. svd_store_close releases the lock. */
+ * files. Creates no directory that exists (so it opens on a full disk).
+ * svd_store_close releases the lock. */
 svd_store *svd_store_open(const char *root, sv_error *err);
 
 /* Closes the store. NULL is a no-op. */
@@ -41,7 +42,8 @@ const char *svd_store_root(const svd_store *s);
 void svd_store_job_path(const svd_store *s, const char *key, const char *sub,
                         char out[SVD_STORE_PATH]);
 
-/* Creates a fresh directory ROOT/tmp/PREFIX-XXXXXX and returns its path. */
+/* Creates a fresh directory ROOT/tmp/PREFIX-XXXXXX and returns its path.
+ * SV_ERR_LIMIT when the disk is full (ENOSPC), else SV_ERR_IO on failure. */
 sv_status svd_store_mktemp(svd_store *s, const char *prefix, char out[SVD_STORE_PATH],
                            sv_error *err);
 
