@@ -44,7 +44,9 @@ sv_status svd_journal_append(svd_journal *j, const char *payload, size_t size, s
 
 /* Replaces the journal's content with exactly these records (compaction):
  * written to a temp file, fsynced, renamed over the journal, directory fsynced.
- * Thread-safe; on failure the old journal stays in use. */
+ * Thread-safe. A failure before the rename leaves the old journal in use and
+ * no temp file; after it (the directory fsync) the new journal is in use and
+ * the error is still returned. Appends always go to the file at the path. */
 sv_status svd_journal_rewrite(svd_journal *j, const char *const *payloads, const size_t *sizes,
                               size_t count, sv_error *err);
 
