@@ -97,6 +97,7 @@ static const struct setting {
     S("workers", K_U32, workers),
     S("http_threads", K_U32, http_threads),
     S("connection_limit", K_U32, connection_limit),
+    S("reuse_port", K_BOOL, reuse_port),
     S("connection_memory", K_SIZE, connection_memory),
     S("connection_timeout", K_U32, connection_timeout),
     S("max_upload_bytes", K_SIZE, max_upload_bytes),

@@ -830,7 +830,10 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
-        MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)1,
+        /* one daemon per port (issue 23): with SO_REUSEPORT a second sylvad
+         * on the port started too and the kernel split requests between the
+         * two stores; opt in with reuse_port = on */
+        MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)(cfg->reuse_port ? 1 : 0),
         MHD_OPTION_END);
     freeaddrinfo(ai);
     if (!h->d) {

@@ -62,6 +62,13 @@ check "a second sylvad on the same store exits non-zero" test "$rc2" -ne 0
 check "  saying the store is in use by the first (pid $DPID)" \
     grep -q "in use by another sylvad (pid $DPID" "$T/second.log"
 
+# one daemon per port (issue 23): no SO_REUSEPORT unless reuse_port = on
+"$SYLVAD" --listen "127.0.0.1:$(cat "$T/port")" --store "$T/store2" --worker "$BAKER" \
+    >"$T/third.log" 2>&1
+rc3=$?
+check "a second sylvad on the same port exits non-zero" test "$rc3" -ne 0
+check "  saying it cannot listen" grep -q "cannot listen on 127.0.0.1:$(cat "$T/port")" "$T/third.log"
+
 # --version on all three programs (issue 23): one line, the program and its version
 ver=$(sed -n 's/^#define SV_VERSION "\(.*\)"/\1/p' "$(dirname "$0")/../../core/include/sv.h")
 check "sylva --version prints 'sylva $ver'" test "$("$SYLVA" --version)" = "sylva $ver"
