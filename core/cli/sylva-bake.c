@@ -444,6 +444,14 @@ static int cmd_bake(int argc, char **argv)
         fprintf(stderr, "sylva-bake: cannot create %s: %s\n", out_dir, strerror(errno));
         return 1;
     }
+    /* A failed bake's error.json would outlive a later success in the same
+     * folder and tell scripts the bake failed (issue 23). */
+    char stale[4200];
+    snprintf(stale, sizeof stale, "%s/error.json", out_dir);
+    if (unlink(stale) != 0 && errno != ENOENT) {
+        fprintf(stderr, "sylva-bake: cannot remove the stale %s: %s\n", stale, strerror(errno));
+        return 1;
+    }
     /* Before the sandbox, which does not allow setrlimit. */
     cpu_guard(cpu_limit, paths[0], out_dir);
     sv_error e = {0};

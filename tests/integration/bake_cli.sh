@@ -63,6 +63,10 @@ set -e
 [ $rc = 1 ] || fail "bad spec: exit $rc"
 [ "$(json_get "$tmp/c/error.json" "j['error']['code']")" = spec ] || fail "bad spec: error.json code"
 grep -q "scene.viewer" "$tmp/err2.txt" || fail "bad spec: message does not name scene.viewer"
+# a later success in the same folder removes the failure's error.json (issue 23)
+echo '{"method": "crossed_quads", "lod": {"chain": false}, "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/quick.json"
+"$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/c" > /dev/null || fail "quick bake into a failed bake's folder"
+[ ! -e "$tmp/c/error.json" ] || fail "a stale error.json survived a successful bake"
 set +e
 "$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
 set -e
