@@ -31,6 +31,8 @@ struct sylva_client {
     char *token;
     char *user_agent;
     sylva_options policy;      /* the numbers above, for sylva_retry_delay */
+    void (*on_retry)(void *, const char *, long, int, int);
+    void *on_retry_user;
     CURL *curl;
     long http_status;
     char error[1024];
@@ -145,6 +147,10 @@ sylva_status sylva_client_create(const char *const *urls, size_t url_count,
     c->backoff_max_ms = opts && opts->backoff_max_ms > 0 ? opts->backoff_max_ms
                                                          : d.backoff_max_ms;
     c->policy = d;
+    if (opts) {
+        c->on_retry = opts->on_retry;
+        c->on_retry_user = opts->on_retry_user;
+    }
     c->policy.max_attempts = c->max_attempts;
     c->policy.backoff_base_ms = c->backoff_base_ms;
     c->policy.backoff_max_ms = c->backoff_max_ms;
@@ -506,6 +512,8 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         if (delay < 0)
             break;
         c->current = (c->current + 1) % c->url_count;
+        if (c->on_retry && delay > 0)
+            c->on_retry(c->on_retry_user, c->error, delay, attempt, c->max_attempts);
         sleep_ms(delay);
     }
     curl_mime_free(mime);

@@ -121,6 +121,15 @@ static double now_s(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
+/* Says on stderr why the client is waiting (issue 23: with no server,
+ * `sylva health` sat 24 s in silence). */
+static void retry_notice(void *user, const char *error, long delay_ms, int attempt, int max)
+{
+    (void)user;
+    fprintf(stderr, "sylva: %s; retrying in %.1f s (attempt %d of %d)\n", error,
+            (double)delay_ms / 1000.0, attempt + 1, max);
+}
+
 static sylva_client *open_client(const sylva_cli *cli, sylva_status *st)
 {
     sylva_options o;
@@ -128,6 +137,10 @@ static sylva_client *open_client(const sylva_cli *cli, sylva_status *st)
     o.token = cli->token;
     if (cli->retries >= 0)
         o.max_attempts = cli->retries + 1;
+    else if (cli->cmd == SYLVA_CMD_HEALTH)
+        o.max_attempts = (int)cli->server_count; /* a probe: each server once, no waiting */
+    if (cli->progress != SYLVA_PROGRESS_NONE)
+        o.on_retry = retry_notice; /* not with --quiet */
     sylva_client *c = NULL;
     char err[512];
     *st = sylva_client_create((const char *const *)cli->servers, cli->server_count, &o, &c, err,

@@ -69,6 +69,12 @@ typedef struct sylva_options {
     long backoff_base_ms;      /* first retry delay, doubled each round; default 250 */
     long backoff_max_ms;       /* cap on one delay (Retry-After is capped at 4x this); default 8000 */
     const char *user_agent;    /* default "libsylva/<version>" */
+    /* Called before each retry's wait (NULL = silent, the default): the last
+     * attempt's error, the wait in ms, attempts made and allowed. For a
+     * command-line tool to say why it is waiting instead of hanging mute. */
+    void (*on_retry)(void *user, const char *error, long delay_ms, int attempt,
+                     int max_attempts);
+    void *on_retry_user;
 } sylva_options;
 
 #define SYLVA_VERSION "0.1.0"

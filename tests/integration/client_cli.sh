@@ -83,6 +83,19 @@ check "health --json is JSON naming the server" \
 "$SYLVA" health --server http://127.0.0.1:1 --retries 0 >"$T/down.out" 2>"$T/down.err"
 check "health against a closed port exits 3" test $? -eq 3
 check "  with one line on stderr" test "$(wc -l <"$T/down.err")" -eq 1
+# without --retries too: a probe tries each server once and does not wait
+# (it sat 24 s in silence before issue 23); 10 s is a hang guard, not a speed bound
+timeout 10 "$SYLVA" health --server http://127.0.0.1:1,http://127.0.0.1:2 >/dev/null 2>"$T/down2.err"
+check "health with no server up exits 3 at once (no retry rounds)" test $? -eq 3
+check "  having tried both servers" grep -q "127.0.0.1:2" "$T/down2.err"
+# other commands say why they wait, unless --quiet
+"$SYLVA" status 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef \
+    --server http://127.0.0.1:1 --retries 2 >/dev/null 2>"$T/retry.err"
+check "a retried request says so on stderr before each wait (2 notices)" \
+    test "$(grep -c 'retrying in .* (attempt [23] of 3)' "$T/retry.err")" -eq 2
+"$SYLVA" status 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef \
+    --server http://127.0.0.1:1 --retries 2 --quiet >/dev/null 2>"$T/retryq.err"
+check "  and --quiet keeps them back" test "$(grep -c 'retrying in' "$T/retryq.err")" -eq 0
 
 # usage errors
 "$SYLVA" bake $MESH >/dev/null 2>"$T/usage.err"
