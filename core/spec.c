@@ -1,6 +1,7 @@
 /* spec.c — strict parsing of the bake spec (spec.h, docs/spec.md). */
 #include "spec.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -319,6 +320,19 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     cJSON *root = cJSON_ParseWithLengthOpts(json, len, &end, false);
     if (!root) {
         size_t off = end ? (size_t)(end - json) : 0;
+        /* A file name where the document should be: curl's -F spec=FILE
+         * sends the name itself; -F spec=@FILE sends the file (issue 23). */
+        size_t k = 0, e = len;
+        while (k < len && isspace((unsigned char)json[k])) k++;
+        while (e > k && isspace((unsigned char)json[e - 1])) e--;
+        bool named = e - k >= 5 && e - k < 256 && json[k] != '{' && json[k] != '[' &&
+                     memchr(json + k, '\n', e - k) == NULL && memcmp(json + e - 5, ".json", 5) == 0;
+        if (named)
+            return sv_fail(err, SV_ERR_SPEC,
+                           "spec: invalid JSON near byte %zu: the spec part holds '%.*s', a "
+                           "file name? (curl -F spec=@FILE sends the file, -F spec=FILE the "
+                           "name)",
+                           off, (int)(e - k < 80 ? e - k : 80), json + k);
         return sv_fail(err, SV_ERR_SPEC, "spec: invalid JSON near byte %zu", off);
     }
     s->root = root;
