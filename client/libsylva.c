@@ -671,8 +671,10 @@ sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s, s
     return st;
 }
 
-sylva_status sylva_cancel(sylva_client *c, const char *key)
+sylva_status sylva_cancel_state(sylva_client *c, const char *key, char *state, size_t state_len)
 {
+    if (state && state_len)
+        state[0] = '\0';
     if (!c)
         return SYLVA_ERR_ARG;
     clear_error(c);
@@ -683,8 +685,23 @@ sylva_status sylva_cancel(sylva_client *c, const char *key)
     request r = {.method = "DELETE", .out = &s};
     snprintf(r.path, sizeof r.path, "/v1/bakes/%s", key);
     sylva_status st = request_run(c, &r, "cancel");
+    if (st == SYLVA_OK && state && state_len) {
+        cJSON *doc = s.buf ? cJSON_ParseWithLength(s.buf, s.len) : NULL;
+        const cJSON *js = cJSON_GetObjectItemCaseSensitive(doc, "state");
+        const char *v = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(doc, "cancel_requested"))
+                            ? "cancel_requested"
+                        : cJSON_IsString(js) ? js->valuestring
+                                             : "";
+        snprintf(state, state_len, "%s", v);
+        cJSON_Delete(doc);
+    }
     free(s.buf);
     return st;
+}
+
+sylva_status sylva_cancel(sylva_client *c, const char *key)
+{
+    return sylva_cancel_state(c, key, NULL, 0);
 }
 
 sylva_status sylva_health(sylva_client *c, char **body)

@@ -638,16 +638,24 @@ static int cmd_cancel(const sylva_cli *cli)
     sylva_client *c = open_client(cli, &st);
     if (!c)
         return sylva_cli_exit_code(st);
-    st = sylva_cancel(c, cli->args[0]);
+    char state[32];
+    st = sylva_cancel_state(c, cli->args[0], state, sizeof state);
     int rc = SYLVA_EXIT_OK;
+    /* a finished bake is deleted, not cancelled: say which (issue 23) */
+    bool deleted = strcmp(state, "deleted") == 0;
     if (st != SYLVA_OK) {
         rc = fail_client(cli, c, st);
     } else if (cli->json) {
         cJSON *doc = cJSON_CreateObject();
         cJSON_AddStringToObject(doc, "key", cli->args[0]);
-        cJSON_AddBoolToObject(doc, "cancelled", 1);
+        cJSON_AddBoolToObject(doc, "cancelled", !deleted);
+        cJSON_AddStringToObject(doc, "state", state[0] ? state : "unknown");
         print_json(doc);
         cJSON_Delete(doc);
+    } else if (deleted) {
+        printf("%s deleted (it had finished: its results are gone)\n", cli->args[0]);
+    } else if (strcmp(state, "cancel_requested") == 0) {
+        printf("%s cancel requested (it was running; it ends cancelled shortly)\n", cli->args[0]);
     } else {
         printf("%s cancelled\n", cli->args[0]);
     }

@@ -227,6 +227,12 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
 /* `DELETE /v1/bakes/{key}`: cancels a queued or running bake, deletes a finished one. */
 sylva_status sylva_cancel(sylva_client *c, const char *key);
 
+/* As sylva_cancel, and says what happened in state (NUL-terminated, cut to
+ * state_len): "cancelled" (it was queued), "cancel_requested" (it was running;
+ * it ends cancelled shortly), "deleted" (it had finished: its results are
+ * gone). */
+sylva_status sylva_cancel_state(sylva_client *c, const char *key, char *state, size_t state_len);
+
 /* `GET /v1/health`. body (may be NULL) receives the response body (free()). */
 sylva_status sylva_health(sylva_client *c, char **body);
 

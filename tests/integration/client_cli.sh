@@ -185,8 +185,9 @@ check "  writes out/$STEM/ and out/copy/" \
     sh -c "test -f '$T/batch/$STEM/model.glb' && test -f '$T/batch/copy/model.glb'"
 
 # cancel (DELETE) a finished bake: it is gone afterwards
-"$SYLVA" cancel "$KEY" >/dev/null
+"$SYLVA" cancel "$KEY" >"$T/cancel.out"
 check "cancel of a finished bake exits 0" test $? -eq 0
+check "  and says it deleted it, not 'cancelled' (issue 23)" grep -q "^$KEY deleted" "$T/cancel.out"
 "$SYLVA" status "$KEY" >/dev/null 2>&1
 check "  and its status is then unknown (exit 1)" test $? -eq 1
 
