@@ -819,30 +819,51 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         free(h);
         return NULL;
     }
+    /* The listening socket is ours (issue 23): SO_REUSEADDR always, so a
+     * restart binds while the old connections linger (TIME_WAIT, FIN_WAIT);
+     * SO_REUSEPORT only with reuse_port = on, so a second daemon on a port
+     * in use fails instead of sharing it (the kernel split requests between
+     * two stores). MHD 0.9.75's own option cannot say that: 0 there also
+     * drops SO_REUSEADDR. */
+    int lfd = socket(ai->ai_family, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    int one = 1, e = 0;
+    if (lfd < 0 || setsockopt(lfd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+        (cfg->reuse_port && setsockopt(lfd, SOL_SOCKET, SO_REUSEPORT, &one, sizeof one) != 0) ||
+        bind(lfd, ai->ai_addr, ai->ai_addrlen) != 0 || listen(lfd, SOMAXCONN) != 0) {
+        e = errno;
+        if (lfd >= 0) close(lfd);
+        freeaddrinfo(ai);
+        sv_fail(err, SV_ERR_IO, "cannot listen on %s:%u: %s", cfg->listen_host, cfg->port,
+                e == EADDRINUSE ? "address in use (another sylvad? reuse_port is off)" : strerror(e));
+        free(h);
+        return NULL;
+    }
     unsigned flags = MHD_USE_EPOLL_INTERNAL_THREAD | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
     if (ai->ai_family == AF_INET6) flags |= MHD_USE_IPv6;
+    freeaddrinfo(ai);
     h->d = MHD_start_daemon(
         flags, 0, NULL, NULL, on_request, h,
         MHD_OPTION_EXTERNAL_LOGGER, mhd_logger, h,
-        MHD_OPTION_SOCK_ADDR, ai->ai_addr,
+        MHD_OPTION_LISTEN_SOCKET, (MHD_socket)lfd,
         MHD_OPTION_THREAD_POOL_SIZE, (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
         MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
-        /* one daemon per port (issue 23): with SO_REUSEPORT a second sylvad
-         * on the port started too and the kernel split requests between the
-         * two stores; opt in with reuse_port = on */
-        MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)(cfg->reuse_port ? 1 : 0),
         MHD_OPTION_END);
-    freeaddrinfo(ai);
     if (!h->d) {
-        sv_fail(err, SV_ERR_IO, "cannot listen on %s:%u (in use, or no permission)", cfg->listen_host, cfg->port);
+        close(lfd);
+        sv_fail(err, SV_ERR_IO, "cannot start the HTTP server on %s:%u", cfg->listen_host, cfg->port);
         free(h);
         return NULL;
     }
-    const union MHD_DaemonInfo *di = MHD_get_daemon_info(h->d, MHD_DAEMON_INFO_BIND_PORT);
-    h->port = di ? di->port : (uint16_t)cfg->port;
+    /* the bound port (port 0 picks one): from our socket */
+    struct sockaddr_storage sa;
+    socklen_t sl = sizeof sa;
+    h->port = (uint16_t)cfg->port;
+    if (getsockname(lfd, (struct sockaddr *)&sa, &sl) == 0)
+        h->port = ntohs(sa.ss_family == AF_INET6 ? ((struct sockaddr_in6 *)&sa)->sin6_port
+                                                 : ((struct sockaddr_in *)&sa)->sin_port);
     return h;
 }
 

@@ -191,6 +191,19 @@ check "  and says it deleted it, not 'cancelled' (issue 23)" grep -q "^$KEY dele
 "$SYLVA" status "$KEY" >/dev/null 2>&1
 check "  and its status is then unknown (exit 1)" test $? -eq 1
 
+# a restart on the same port while the old connections sit in TIME_WAIT (the
+# server closes them first with "Connection: close"): SO_REUSEADDR must stay
+# on when SO_REUSEPORT is off (MHD drops both for "reuse = 0")
+PORT=$(cat "$T/port")
+for i in 1 2 3; do curl -s -H "Connection: close" "$SYLVA_SERVER/v1/health" >/dev/null; done
+kill "$DPID" && wait "$DPID" 2>/dev/null
+DPID=""
+"$SYLVAD" --listen "127.0.0.1:$PORT" --store "$T/store" --worker "$BAKER" >"$T/restart.log" 2>&1 &
+DPID=$!
+i=0
+until "$SYLVA" health >/dev/null 2>&1 || [ $i -ge 50 ]; do sleep 0.1; i=$((i + 1)); done
+check "the daemon restarts on its port at once (TIME_WAIT connections do not block it)" \
+    "$SYLVA" health
 if [ $fails -ne 0 ]; then
     echo "$fails check(s) failed; daemon log tail:"
     tail -n 20 "$T/sylvad.log"

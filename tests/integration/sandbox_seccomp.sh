@@ -49,7 +49,7 @@ same_outputs() {
 # 2. the bundled oak, with and without the filter
 oak="$root/examples/oak_large"
 files="$oak/oak_large.obj $oak/oak_large.mtl $oak/leaves_oak_color.png $oak/bark_oak_color_1k.jpg"
-echo '{"method": "crossed_quads", "evaluate": {"views": 8}'"$atlas"'}' > "$tmp/oak.json"
+echo '{"method": "crossed_quads", "evaluate": {"views": 8, "sizes": [64, 32]}'"$atlas"'}' > "$tmp/oak.json"
 # shellcheck disable=SC2086
 "$bake" bake $files --spec "$tmp/oak.json" --out "$tmp/oak-plain" || fail "oak: bake failed"
 # shellcheck disable=SC2086
