@@ -68,22 +68,29 @@ static int lock_store(const char *root, sv_error *err)
     return fd;
 }
 
+/* Removes everything in dir but dir itself: removing and re-creating it
+ * could fail on a full disk (a daemon without root may not take back the
+ * block it just freed when only the root reserve is left). */
+static void empty_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
+        char sub[4096];
+        if (snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name) >= (int)sizeof sub) continue;
+        svd_rm_rf(sub);
+    }
+    closedir(d);
+}
+
 void svd_rm_rf(const char *path)
 {
     struct stat st;
     if (lstat(path, &st) != 0) return;
     if (S_ISDIR(st.st_mode)) {
-        DIR *d = opendir(path);
-        if (d) {
-            struct dirent *e;
-            while ((e = readdir(d))) {
-                if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
-                char sub[4096];
-                if (snprintf(sub, sizeof sub, "%s/%s", path, e->d_name) >= (int)sizeof sub) continue;
-                svd_rm_rf(sub);
-            }
-            closedir(d);
-        }
+        empty_dir(path);
         rmdir(path);
     } else {
         unlink(path);
@@ -120,22 +127,6 @@ static sv_status mkdir_p1(const char *path, sv_error *err)
     return SV_OK;
 }
 
-/* Removes everything in dir but dir itself: removing and re-creating it
- * could fail on a full disk (a daemon without root may not take back the
- * block it just freed when only the root reserve is left). */
-static void empty_dir(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0) continue;
-        char sub[4096];
-        if (snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name) >= (int)sizeof sub) continue;
-        svd_rm_rf(sub);
-    }
-    closedir(d);
-}
 
 svd_store *svd_store_open(const char *root, sv_error *err)
 {

@@ -11,6 +11,9 @@ SYLVA_BENCH_TREES (comma-separated folders). Bakes run one at a time.
 """
 import json, os, re, subprocess, sys, tempfile, time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from docsection import write_section  # noqa: E402
+
 root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 build = os.path.join(root, os.environ.get("BUILD", "build"))
 data = os.environ.get("SYLVA_DATA", os.path.join(root, "..", "shared", "data"))
@@ -126,14 +129,7 @@ def main():
     md += ["", "Largest |sveval − ours|: %.3f. Contact sheets of the three worst 20-plane clouds: "
            "`bench/results/sheets/` (%s)." % (worst, ", ".join(r["tree"] for r in bc[:3])),
            "<!-- fidelity:end -->"]
-    doc = os.path.join(root, "docs", "benchmarks.md")
-    text = open(doc).read() if os.path.exists(doc) else ""
-    block = "\n".join(md) + "\n"
-    if "<!-- fidelity:begin" in text:
-        text = re.sub(r"<!-- fidelity:begin.*?<!-- fidelity:end -->\n?", lambda m: block, text, flags=re.S)
-    else:
-        text = text.rstrip("\n") + "\n\n" + block
-    open(doc, "w").write(text)
+    write_section(os.path.join(root, "docs", "benchmarks.md"), "fidelity", md)
     print("fidelity: wrote bench/results/fidelity.tsv and docs/benchmarks.md")
 
 

@@ -10,6 +10,9 @@ SYLVA_BENCH_TREES (comma-separated folders; default three trees).
 """
 import json, os, re, subprocess, sys, tempfile, time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from docsection import write_section  # noqa: E402
+
 root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 build = os.path.join(root, os.environ.get("BUILD", "build"))
 data = os.environ.get("SYLVA_DATA", os.path.join(root, "..", "shared", "data"))
@@ -87,14 +90,7 @@ def main():
                        for l in rc["lods"])
         md.append("| %s | %s | %d | %s | %.1f |" % (d, units, len(rc["lods"]), lv, tc))
     md.append("<!-- target:end -->")
-    doc = os.path.join(root, "docs", "benchmarks.md")
-    text = open(doc).read() if os.path.exists(doc) else ""
-    block = "\n".join(md) + "\n"
-    if "<!-- target:begin" in text:
-        text = re.sub(r"<!-- target:begin.*?<!-- target:end -->\n?", lambda m: block, text, flags=re.S)
-    else:
-        text = text.rstrip("\n") + "\n\n" + block
-    open(doc, "w").write(text)
+    write_section(os.path.join(root, "docs", "benchmarks.md"), "target", md)
     subprocess.run(["rm", "-rf", tmp])
     print("target_cost: wrote docs/benchmarks.md")
 
