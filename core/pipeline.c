@@ -404,7 +404,8 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
     if (!c->skipped) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
     bool is_stoch = strcmp(spec->method, "stochastic") == 0;
     if ((st = sv_stochastic_parse(cJSON_GetObjectItemCaseSensitive(spec->root, "stochastic"),
-                                  &c->ss, err)))
+                                  &c->ss, err)) ||
+        (st = sv_stochastic_resolve(&c->ss, p->mesh->triangle_count, err)))
         return st;
     sv_method_input in = {p->mesh, &p->cls, &p->leaves, {p->centre[0], p->centre[1], p->centre[2]},
                           p->radius, &spec->scene, spec->seed};
@@ -437,8 +438,10 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                           "never reached: at the farthest scene distance (%g m) lambda is still "
                           "%.3g (level %g)",
                           sc->distance_max, lf, c->ss.levels[coarse]);
-            else
+            else {
+                keep.level_triangles[keep.level_count] = c->ss.level_triangles[i];
                 keep.levels[keep.level_count++] = c->ss.levels[i];
+            }
         }
         if (keep.level_count) {
             double ratio = c->ss.visible_ratio;
@@ -469,6 +472,7 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                 L->geometry = NULL;
                 l->trunk = L->lambda >= 1 ? SV_TRUNK_MESH : SV_TRUNK_SIMPLIFIED;
                 l->trunk_ratio = fmax(L->lambda, 0.05);
+                l->trunk_max_triangles = sv_stochastic_trunk_cap(&keep, k, L);
                 uint32_t gv = l->geometry ? l->geometry->vertex_count : 0;
                 if ((st = append_lods(si, c, &one, "stochastic", err))) return st;
                 chain_lod *x = &c->info[si->lod_count - 1];
@@ -477,8 +481,7 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                 x->lambda = L->lambda;
                 x->geom_vertices = gv;
                 x->distance = sv_stochastic_distance_for_lambda(&c->ss, sc, L->lambda);
-                double d = fmin(fmax(x->distance, sc->distance_min), sc->distance_max);
-                x->trunk_error = L->lambda >= 1 ? 0 : metres_per_pixel(sc, d);
+                x->trunk_error = sv_stochastic_level_error(&c->ss, sc, p->radius, L->lambda);
             }
         }
     }
@@ -555,6 +558,7 @@ static sv_status stochastic_gltf(const chain *c, const chain_lod *x, const sv_me
     cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
     cJSON_AddNumberToObject(o, "lambda", L->lambda);
     cJSON_AddNumberToObject(o, "leaves", L->leaves);
+    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
     cJSON_AddNumberToObject(o, "leaf_total", c->sres.leaf_count);
     cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
     cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
@@ -1445,6 +1449,11 @@ static sv_status bake_all(run *r, sv_error *err)
             const sv_stoch_level *L = &ch.sres.levels[ch.info[i].level];
             cJSON_AddNumberToObject(o, "lambda", L->lambda);
             cJSON_AddNumberToObject(o, "leaves", L->leaves);
+            if (ch.ss.level_triangles[ch.info[i].level])
+                cJSON_AddNumberToObject(o, "triangles_asked", ch.ss.level_triangles[ch.info[i].level]);
+            cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
+            cJSON_AddNumberToObject(o, "leaf_triangles", (double)L->leaf_triangles);
+            cJSON_AddNumberToObject(o, "leaf_error", L->leaf_error);
             cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
             cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
             cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);

@@ -9,11 +9,16 @@
  *   §3.4 eq. 4     contrast preservation     sv_stochastic_contrast, contrast bins
  *   §3.5, §4.3.3   fade window               sv_stochastic_fade
  *   §6             r measured by rendering   sv_stochastic_measure_ratio
+ * Ours, beyond the paper (docs/methods/stochastic.md "Leaf shapes"): below
+ * λ = 1 every leaf modelled with several triangles is simplified to the
+ * level's pixel error (simplify_leaves), so a level's triangle budget draws
+ * more of the leaves (the paper's leaves are two-triangle cards).
  * Pure C: no GL (the daemon links this file through the method registry).
  */
 #include "stochastic.h"
 
 #include <math.h>
+#include <meshoptimizer.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -205,7 +210,7 @@ sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *o
 
 static const char *const st_keys[] = {"levels", "h", "d0", "order", "fade", "area_preservation",
                                       "contrast_preservation", "shutter", "ratio_fraction",
-                                      "visible_ratio", NULL};
+                                      "visible_ratio", "simplify_leaves", NULL};
 
 sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_error *err)
 {
@@ -217,6 +222,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
     s->fade = 0.1;
     s->area_preservation = true;
     s->contrast_preservation = true;
+    s->simplify_leaves = true;
     s->shutter = 1.0 / 60.0;
     s->ratio_fraction = 0.1;
     sv_status st;
@@ -230,10 +236,25 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
                            SV_STOCH_MAX_LEVELS);
         for (int i = 0; i < n; i++) {
             const cJSON *e = cJSON_GetArrayItem(lv, i);
+            if (cJSON_IsObject(e)) {
+                /* {"triangles": N}: resolved to λ by sv_stochastic_resolve */
+                const cJSON *t = cJSON_GetObjectItemCaseSensitive(e, "triangles");
+                if (!cJSON_IsNumber(t) || cJSON_GetArraySize(e) != 1 || !(t->valuedouble >= 1) ||
+                    t->valuedouble > 4e9 || t->valuedouble != floor(t->valuedouble))
+                    return sv_fail(err, SV_ERR_SPEC,
+                                   ST_NAME ".levels[%d]: expected {\"triangles\": N} with N a "
+                                   "whole number >= 1 and no other key",
+                                   i);
+                s->level_triangles[i] = (uint32_t)t->valuedouble;
+                s->levels[i] = 0;
+                continue;
+            }
             if (!cJSON_IsNumber(e) || !(e->valuedouble > 0) || e->valuedouble > 1)
-                return sv_fail(err, SV_ERR_SPEC, ST_NAME ".levels[%d]: expected a number in (0, 1]",
+                return sv_fail(err, SV_ERR_SPEC,
+                               ST_NAME ".levels[%d]: expected a number in (0, 1] or "
+                               "{\"triangles\": N}",
                                i);
-            if (i > 0 && !(e->valuedouble < s->levels[i - 1]))
+            if (i > 0 && !s->level_triangles[i - 1] && !(e->valuedouble < s->levels[i - 1]))
                 return sv_fail(err, SV_ERR_SPEC,
                                ST_NAME ".levels[%d]: levels must be strictly decreasing", i);
             s->levels[i] = e->valuedouble;
@@ -248,6 +269,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
     if ((st = sv_setting_bool(o, ST_NAME, "contrast_preservation", &s->contrast_preservation,
                               err)))
         return st;
+    if ((st = sv_setting_bool(o, ST_NAME, "simplify_leaves", &s->simplify_leaves, err))) return st;
     if ((st = sv_setting_number(o, ST_NAME, "shutter", 0, 1, &s->shutter, err))) return st;
     if ((st = sv_setting_number(o, ST_NAME, "ratio_fraction", 0.01, 0.5, &s->ratio_fraction, err)))
         return st;
@@ -262,6 +284,24 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
         else
             return sv_fail(err, SV_ERR_SPEC, ST_NAME ".order: expected one of random, area");
     }
+    return SV_OK;
+}
+
+sv_status sv_stochastic_resolve(sv_stochastic_settings *s, uint32_t triangles, sv_error *err)
+{
+    for (uint32_t i = 0; i < s->level_count; i++)
+        if (s->level_triangles[i])
+            s->levels[i] = triangles ? fmin(1.0, (double)s->level_triangles[i] / triangles) : 1.0;
+    for (uint32_t i = 1; i < s->level_count; i++)
+        if (!(s->levels[i] < s->levels[i - 1])) {
+            char what[64] = "";
+            if (s->level_triangles[i] || s->level_triangles[i - 1])
+                snprintf(what, sizeof what, " (on this tree of %u triangles)", triangles);
+            return sv_fail(err, SV_ERR_SPEC,
+                           ST_NAME ".levels[%u] is lambda %.4g, not below levels[%u] (%.4g)%s: "
+                           "levels must be strictly decreasing",
+                           i, s->levels[i], i - 1, s->levels[i - 1], what);
+        }
     return SV_OK;
 }
 
@@ -293,12 +333,31 @@ double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const 
     return exp(hi);
 }
 
+double sv_stochastic_level_error(const sv_stochastic_settings *s, const sv_scene *scene,
+                                 double radius, double lambda)
+{
+    if (lambda >= 1 || !scene) return 0;
+    double d0 = s->d0 > 0 ? s->d0 : scene->distance_min;
+    double d = sv_stochastic_distance_for_lambda(s, scene, lambda);
+    d = fmin(fmax(d, scene->distance_min), scene->distance_max);
+    double px = sv_scene_pixels(scene, 1.0, d);
+    double e = px > 0 && isfinite(px) ? 1.0 / px : 0.0;
+    /* a tree taller than SV_STOCH_FULL_PIXELS at d0 needs no more detail
+     * there than one that size: one pixel of the tree drawn that tall at d0,
+     * shrunk by d0/d */
+    if (radius > 0 && d0 > 0 && d > 0)
+        e = fmax(e, 2.0 * radius / (SV_STOCH_FULL_PIXELS * d0 / d));
+    return e;
+}
+
 void sv_stochastic_level_name(double lambda, char name[32])
 {
     if (lambda >= 1)
         snprintf(name, 32, "full");
-    else
+    else if (lambda >= 5e-5)
         snprintf(name, 32, "stochastic%g", round(lambda * 1e4) / 100.0);
+    else /* a level of a few triangles on a large tree: three significant digits */
+        snprintf(name, 32, "stochastic%.3g", lambda * 100.0);
 }
 
 /* ---- leaf colours (§3.4: c̄ from the textures) ------------------------------ */
@@ -369,12 +428,194 @@ static void leaf_colours(const sv_mesh *mesh, const sv_leaves *lv, double *col)
     }
 }
 
+/* ---- leaf shapes (ours) ---------------------------------------------------- */
+
+/* The leaves' triangles for one level: every leaf's own (error 0) or its
+ * outline simplified to the level's error. */
+typedef struct leaf_shapes {
+    uint32_t *idx;    /* 3 per triangle: source vertex ids */
+    uint32_t *mat;    /* per triangle: source material */
+    uint32_t *first;  /* per leaf: first triangle */
+    uint32_t *count;  /* per leaf: triangles */
+    float *gain;      /* per leaf: modelled area / simplified area, in [1, 4] (1 as modelled) */
+    uint64_t total;
+} leaf_shapes;
+
+typedef struct shape_scratch {
+    uint32_t *stamp;  /* per source vertex: leaf + 1 last seen */
+    uint32_t *local;  /* per source vertex: index among the leaf's vertices */
+    uint32_t *verts;  /* the leaf's source vertices */
+    float *pu;        /* 5 per leaf vertex: position, uv */
+    float *pos;       /* 3 per welded vertex */
+    uint32_t *remap, *rep, *src, *dst;
+} shape_scratch;
+
+static void leaf_shapes_free(leaf_shapes *sh)
+{
+    free(sh->idx);
+    free(sh->mat);
+    free(sh->first);
+    free(sh->count);
+    free(sh->gain);
+    memset(sh, 0, sizeof *sh);
+}
+
+/* Area of the triangle with source vertices ix[0..2]. */
+static double tri_area_v(const sv_mesh *m, const uint32_t *ix)
+{
+    const float *a = &m->positions[3 * (size_t)ix[0]], *b = &m->positions[3 * (size_t)ix[1]],
+                *c = &m->positions[3 * (size_t)ix[2]];
+    double u[3], v[3];
+    for (int k = 0; k < 3; k++) u[k] = (double)b[k] - a[k], v[k] = (double)c[k] - a[k];
+    double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2], z = u[0] * v[1] - u[1] * v[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
+/* Copies leaf i's triangles as modelled into sh at sh->total. */
+static void shape_copy(const sv_mesh *m, const sv_leaves *lv, uint32_t i, leaf_shapes *sh)
+{
+    const sv_leaf *l = &lv->leaves[i];
+    sh->first[i] = (uint32_t)sh->total;
+    sh->count[i] = l->count;
+    sh->gain[i] = 1.0f;
+    for (uint32_t k = 0; k < l->count; k++) {
+        uint32_t t = lv->tris[l->first + k];
+        memcpy(&sh->idx[3 * sh->total], &m->indices[3 * (size_t)t], 3 * sizeof(uint32_t));
+        sh->mat[sh->total++] = m->tri_material[t];
+    }
+}
+
+/* Simplifies leaf i to `error` metres (meshopt_simplify on its own vertices,
+ * welded by position and UV as gltfpack does, so seams and the outline are
+ * kept; the error is relative to the leaf's extent there; then
+ * meshopt_simplifySloppy towards two triangles within the same bound). A leaf of one or two
+ * triangles, of several materials, or that would vanish is kept as modelled. */
+static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, double error,
+                           shape_scratch *x, leaf_shapes *sh)
+{
+    const sv_leaf *l = &lv->leaves[i];
+    uint32_t m0 = m->tri_material[lv->tris[l->first]];
+    bool one_material = true;
+    for (uint32_t k = 1; k < l->count && one_material; k++)
+        one_material = m->tri_material[lv->tris[l->first + k]] == m0;
+    if (l->count <= 2 || !one_material || !(error > 0)) {
+        shape_copy(m, lv, i, sh);
+        return;
+    }
+    size_t nv = 0, ni = (size_t)l->count * 3;
+    for (uint32_t k = 0; k < l->count; k++) {
+        const uint32_t *ix = &m->indices[3 * (size_t)lv->tris[l->first + k]];
+        for (int j = 0; j < 3; j++) {
+            uint32_t v = ix[j];
+            if (x->stamp[v] != i + 1) {
+                x->stamp[v] = i + 1;
+                x->local[v] = (uint32_t)nv;
+                x->verts[nv] = v;
+                memcpy(&x->pu[5 * nv], &m->positions[3 * (size_t)v], 3 * sizeof(float));
+                memcpy(&x->pu[5 * nv + 3], &m->uvs[2 * (size_t)v], 2 * sizeof(float));
+                nv++;
+            }
+            x->src[3 * k + (uint32_t)j] = x->local[v];
+        }
+    }
+    size_t unique = meshopt_generateVertexRemap(x->remap, x->src, ni, x->pu, nv, 5 * sizeof(float));
+    meshopt_remapIndexBuffer(x->src, x->src, ni, x->remap);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = nv; v-- > 0;) {
+        uint32_t w = x->remap[v];
+        x->rep[w] = x->verts[v];
+        for (int a = 0; a < 3; a++) {
+            x->pos[3 * (size_t)w + a] = x->pu[5 * v + (size_t)a];
+            lo[a] = fmin(lo[a], x->pu[5 * v + (size_t)a]);
+            hi[a] = fmax(hi[a], x->pu[5 * v + (size_t)a]);
+        }
+    }
+    double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    /* a leaf smaller than the error collapses to nothing: it still covers
+     * its pixels, so it keeps its coarsest outline that has triangles */
+    size_t got = 0;
+    for (double e = error / extent; extent > 0 && got == 0 && e > 1e-4; e *= 0.5)
+        got = meshopt_simplify(x->dst, x->src, ni, x->pos, unique, 3 * sizeof(float), 3,
+                               (float)fmin(e, 1.0), 0, NULL);
+    /* topology stops a leaf at about three triangles; vertex clustering
+     * within the same bound takes it to two where the outline allows */
+    if (got > 6) {
+        size_t gs = meshopt_simplifySloppy(x->src + ni, x->src, ni, x->pos, unique,
+                                           3 * sizeof(float), 6, (float)fmin(error / extent, 1.0),
+                                           NULL);
+        if (gs > 0 && gs < got) {
+            memcpy(x->dst, x->src + ni, gs * sizeof(uint32_t));
+            got = gs;
+        }
+    }
+    if (got == 0 || got >= ni) {
+        shape_copy(m, lv, i, sh);
+        return;
+    }
+    sh->first[i] = (uint32_t)sh->total;
+    sh->count[i] = (uint32_t)(got / 3);
+    for (size_t k = 0; k < got; k++) sh->idx[3 * sh->total + k] = x->rep[x->dst[k]];
+    /* the outline moved inwards as often as out: the leaf is scaled about its
+     * centre to its modelled area (a thin needle loses most of it) */
+    double a0 = 0, a1 = 0;
+    for (uint32_t k = 0; k < l->count; k++) a0 += sv_tri_area(m, lv->tris[l->first + k]);
+    for (size_t k = 0; k < got / 3; k++) a1 += tri_area_v(m, &sh->idx[3 * (sh->total + k)]);
+    sh->gain[i] = a1 > 0 ? (float)fmin(fmax(a0 / a1, 1.0), 4.0) : 1.0f;
+    for (size_t k = 0; k < got / 3; k++) sh->mat[sh->total + k] = m0;
+    sh->total += got / 3;
+}
+
+/* Every leaf's shape at `error` metres (0 = as modelled). */
+static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double error,
+                                   leaf_shapes *sh, sv_error *err)
+{
+    memset(sh, 0, sizeof *sh);
+    uint32_t N = lv->count, most = 1;
+    for (uint32_t i = 0; i < N; i++)
+        if (lv->leaves[i].count > most) most = lv->leaves[i].count;
+    size_t cap = (size_t)3 * most;
+    shape_scratch x = {0};
+    sh->idx = sv_calloc(lv->tri_count ? lv->tri_count : 1, 3 * sizeof(uint32_t));
+    sh->mat = sv_calloc(lv->tri_count ? lv->tri_count : 1, sizeof(uint32_t));
+    sh->first = sv_calloc(N ? N : 1, sizeof(uint32_t));
+    sh->count = sv_calloc(N ? N : 1, sizeof(uint32_t));
+    sh->gain = sv_calloc(N ? N : 1, sizeof(float));
+    x.stamp = sv_calloc(m->vertex_count ? m->vertex_count : 1, sizeof(uint32_t));
+    x.local = sv_calloc(m->vertex_count ? m->vertex_count : 1, sizeof(uint32_t));
+    x.verts = sv_calloc(cap, sizeof(uint32_t));
+    x.pu = sv_calloc(cap, 5 * sizeof(float));
+    x.pos = sv_calloc(cap, 3 * sizeof(float));
+    x.remap = sv_calloc(cap, sizeof(uint32_t));
+    x.rep = sv_calloc(cap, sizeof(uint32_t));
+    x.src = sv_calloc(2 * cap, sizeof(uint32_t)); /* the second half: the sloppy result */
+    x.dst = sv_calloc(cap, sizeof(uint32_t));
+    sv_status st = SV_OK;
+    if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !x.stamp || !x.local || !x.verts ||
+        !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
+        leaf_shapes_free(sh);
+        st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
+    } else {
+        for (uint32_t i = 0; i < N; i++) shape_simplify(m, lv, i, error, &x, sh);
+    }
+    free(x.stamp);
+    free(x.local);
+    free(x.verts);
+    free(x.pu);
+    free(x.pos);
+    free(x.remap);
+    free(x.rep);
+    free(x.src);
+    free(x.dst);
+    return st;
+}
+
 /* ---- building a level --------------------------------------------------- */
 
 typedef struct build_ctx {
     const sv_mesh *mesh;
     const sv_leaves *lv;
     const uint32_t *order;
+    const leaf_shapes *shapes; /* the level's leaf triangles */
     const double *colour;      /* 3 per leaf */
     double mean_y;
     uint32_t *stamp;           /* per source vertex: leaf position + 1 last seen */
@@ -388,12 +629,23 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
 {
     const sv_mesh *src = b->mesh;
     const sv_leaves *lv = b->lv;
+    const leaf_shapes *sh = b->shapes;
     uint32_t N = lv->count, n = sv_stochastic_count(lambda, N);
+    /* the budget: λ of the foliage triangles; simplified leaves fit more */
+    double budget = lambda * (double)lv->tri_count;
+    uint64_t used = 0;
+    uint32_t fit = 0;
+    while (fit < N && (double)(used + sh->count[b->order[fit]]) <= budget)
+        used += sh->count[b->order[fit++]];
+    if (fit > n) n = fit;
+    double mu = N ? (double)n / N : 1.0;
+    if (n >= N) mu = 1.0;
     L->lambda = lambda;
+    L->leaf_fraction = mu;
     L->leaves = n;
-    L->area_scale = s->area_preservation ? sv_stochastic_area_scale(r, lambda) : 1.0;
-    L->contrast_alpha = s->contrast_preservation ? sqrt(lambda) : 1.0;
-    sv_stochastic_fade(lambda, s->fade, &L->fade_lo, &L->fade_hi);
+    L->area_scale = s->area_preservation ? sv_stochastic_area_scale(r, mu) : 1.0;
+    L->contrast_alpha = s->contrast_preservation ? sqrt(mu) : 1.0;
+    sv_stochastic_fade(mu, s->fade, &L->fade_lo, &L->fade_hi);
 
     /* Contrast bins: each leaf's luminance factor, quantised. */
     const uint32_t nb = 2 * CONTRAST_BINS + 1, M = src->material_count;
@@ -403,18 +655,18 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     uint32_t copies = 0;
     for (uint32_t k = 0; k < n; k++) {
         int bin = 0;
-        if (s->contrast_preservation && lambda < 1) {
+        if (s->contrast_preservation && mu < 1) {
             double y = luminance(&b->colour[3 * (size_t)b->order[k]]);
-            double y2 = sv_stochastic_contrast(y, b->mean_y, lambda);
+            double y2 = sv_stochastic_contrast(y, b->mean_y, mu);
             if (y > 1e-6 && y2 > 1e-6) {
                 double q = round(CONTRAST_STEPS * log2(y2 / y));
                 bin = q > CONTRAST_BINS ? CONTRAST_BINS : q < -CONTRAST_BINS ? -CONTRAST_BINS : (int)q;
             }
         }
         b->leaf_bin[k] = bin;
-        const sv_leaf *l = &lv->leaves[b->order[k]];
-        for (uint32_t t = 0; t < l->count; t++) {
-            uint32_t m = src->tri_material[lv->tris[l->first + t]];
+        uint32_t li = b->order[k];
+        for (uint32_t t = 0; t < sh->count[li]; t++) {
+            uint32_t m = sh->mat[sh->first[li] + t];
             int32_t *slot = &b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
             if (*slot < 0) *slot = bin == 0 ? (int32_t)m : (int32_t)(M + copies++);
         }
@@ -423,10 +675,10 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     uint64_t nv = 0, nt = 0;
     for (uint32_t v = 0; v < src->vertex_count; v++) b->stamp[v] = 0;
     for (uint32_t k = 0; k < n; k++) {
-        const sv_leaf *l = &lv->leaves[b->order[k]];
-        nt += l->count;
-        for (uint32_t t = 0; t < l->count; t++) {
-            const uint32_t *ix = &src->indices[3 * (size_t)lv->tris[l->first + t]];
+        uint32_t li = b->order[k];
+        nt += sh->count[li];
+        for (uint32_t t = 0; t < sh->count[li]; t++) {
+            const uint32_t *ix = &sh->idx[3 * ((size_t)sh->first[li] + t)];
             for (int j = 0; j < 3; j++)
                 if (b->stamp[ix[j]] != k + 1) {
                     b->stamp[ix[j]] = k + 1;
@@ -434,6 +686,7 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
                 }
         }
     }
+    L->leaf_triangles = nt;
     if (nv > UINT32_MAX || nt > UINT32_MAX || (uint64_t)M + copies > UINT32_MAX)
         return sv_fail(err, SV_ERR_LIMIT, "stochastic: level %g is too large", lambda);
     sv_mesh *g = sv_mesh_create((uint32_t)nv, (uint32_t)nt, M + copies, src->image_count);
@@ -465,7 +718,6 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
             memcpy(c->name, name, sizeof c->name);
         }
     L->contrast_materials = copies;
-    double g2 = sqrt(L->area_scale);
     uint32_t vo = 0, to = 0;
     for (uint32_t v = 0; v < src->vertex_count; v++) b->stamp[v] = 0;
     for (uint32_t k = 0; k < n; k++) {
@@ -473,16 +725,18 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
         const double *c = l->centre;
         float pos_order = (float)(((double)k + 0.5) / (double)N);
         int bin = b->leaf_bin[k];
+        uint32_t li = b->order[k];
+        double gl = sqrt(L->area_scale * sh->gain[li]);
         if (bin > 0) {
             /* count leaves whose brightening hit the [0, 1] cap */
-            uint32_t m = src->tri_material[lv->tris[l->first]];
+            uint32_t m = sh->mat[sh->first[li]];
             const float *bc = src->materials[m].base_color;
             double mx = fmax(bc[0], fmax(bc[1], bc[2]));
             if (mx * exp2((double)bin / CONTRAST_STEPS) > 1.0) L->contrast_capped++;
         }
-        for (uint32_t t = 0; t < l->count; t++) {
-            uint32_t st_ = lv->tris[l->first + t];
-            const uint32_t *ix = &src->indices[3 * (size_t)st_];
+        for (uint32_t t = 0; t < sh->count[li]; t++) {
+            size_t st_ = (size_t)sh->first[li] + t;
+            const uint32_t *ix = &sh->idx[3 * st_];
             for (int j = 0; j < 3; j++) {
                 uint32_t v = ix[j];
                 if (b->stamp[v] != k + 1) {
@@ -490,7 +744,7 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
                     b->local[v] = vo;
                     for (int a = 0; a < 3; a++) {
                         double p = src->positions[3 * (size_t)v + a];
-                        g->positions[3 * (size_t)vo + a] = (float)(c[a] + g2 * (p - c[a]));
+                        g->positions[3 * (size_t)vo + a] = (float)(c[a] + gl * (p - c[a]));
                         g->normals[3 * (size_t)vo + a] = src->normals[3 * (size_t)v + a];
                         L->leaf_centre[3 * (size_t)vo + a] = (float)c[a];
                     }
@@ -501,13 +755,21 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
                 }
                 g->indices[3 * (size_t)to + j] = b->local[v];
             }
-            uint32_t m = src->tri_material[st_];
+            uint32_t m = sh->mat[st_];
             g->tri_material[to] =
                 (uint32_t)b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
             to++;
         }
     }
     return SV_OK;
+}
+
+uint32_t sv_stochastic_trunk_cap(const sv_stochastic_settings *s, uint32_t i,
+                                 const sv_stoch_level *L)
+{
+    uint64_t n = i < s->level_count ? s->level_triangles[i] : 0;
+    if (!n) return 0;
+    return n > L->leaf_triangles + 1 ? (uint32_t)(n - L->leaf_triangles) : 1;
 }
 
 void sv_stoch_result_free(sv_stoch_result *res)
@@ -567,7 +829,18 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     b.mean_y = luminance(out->mean_color);
     for (uint32_t i = 0; i < s->level_count; i++) {
         out->level_count = i + 1;
-        if ((st = build_level(&b, s, r, s->levels[i], &out->levels[i], err))) goto out;
+        double e = s->simplify_leaves
+                       ? sv_stochastic_level_error(s, in->scene, in->radius, s->levels[i])
+                       : 0;
+        leaf_shapes sh;
+        if ((st = leaf_shapes_build(mesh, lv, e, &sh, err))) goto out;
+        b.shapes = &sh;
+        out->levels[i].leaf_error = e;
+        out->levels[i].leaf_triangles = 0;
+        st = build_level(&b, s, r, s->levels[i], &out->levels[i], err);
+        b.shapes = NULL;
+        leaf_shapes_free(&sh);
+        if (st) goto out;
     }
 out:
     free(colour);
@@ -596,6 +869,7 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
     sv_stochastic_settings s;
     sv_status st = sv_stochastic_parse(settings, &s, err);
     if (st) return st;
+    if ((st = sv_stochastic_resolve(&s, in->mesh ? in->mesh->triangle_count : 0, err))) return st;
     sv_stoch_result res;
     if ((st = sv_stochastic_build(in, &s, s.visible_ratio, &res, err))) return st;
     snprintf(out->method, sizeof out->method, "%s", ST_NAME);
@@ -611,6 +885,7 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
         res.levels[i].geometry = NULL;
         lod->trunk = res.levels[i].lambda >= 1 ? SV_TRUNK_MESH : SV_TRUNK_SIMPLIFIED;
         lod->trunk_ratio = fmax(res.levels[i].lambda, 0.05);
+        lod->trunk_max_triangles = sv_stochastic_trunk_cap(&s, i, &res.levels[i]);
     }
     sv_stoch_result_free(&res);
     if (st) sv_stand_in_free(out);

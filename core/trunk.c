@@ -130,12 +130,15 @@ sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double rat
  * position only (UV seams would lock the borders that must collapse; at the
  * distance a capped trunk is drawn a texture seam is not visible), then
  * meshopt_simplify with relative error `rel`, or meshopt_simplifySloppy when
- * `sloppy` (its error limit raised until the budget is met). On success m's
+ * `sloppy` (its error limit `rel`, raised until the budget is met when
+ * `raise`; rel 0 starts at 1e-3). With `partial` any reduction is applied
+ * even above max_triangles (*done still says whether the budget was met). On
+ * success m's
  * triangles are replaced in place (vertices keep their original attributes;
  * each triangle takes the material of the first original triangle using its
  * first vertex) and *done is true; otherwise m is unchanged. */
 static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, bool sloppy,
-                                 bool *done, sv_error *err)
+                                 bool raise, bool partial, bool *done, sv_error *err)
 {
     *done = false;
     size_t ni = (size_t)m->triangle_count * 3;
@@ -153,7 +156,8 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
                                                 m->vertex_count, 3 * sizeof(float));
     meshopt_remapVertexBuffer(cpos, m->positions, m->vertex_count, 3 * sizeof(float), weld);
     for (size_t i = 0; i < ni; i++) src[i] = weld[m->indices[i]];
-    for (uint32_t v = m->vertex_count; v-- > 0;) rep[weld[v]] = v;
+    for (uint32_t v = m->vertex_count; v-- > 0;)
+        if (weld[v] != ~0u) rep[weld[v]] = v; /* unreferenced after an earlier pass: ~0 */
     for (uint32_t t = m->triangle_count; t-- > 0;)
         for (int c = 0; c < 3; c++) vmat[m->indices[3 * (size_t)t + c]] = m->tri_material[t];
     size_t target = (size_t)max_triangles * 3, got = ni;
@@ -161,20 +165,64 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
         got = meshopt_simplify(dst, src, ni, cpos, unique, 3 * sizeof(float), target, rel, 0, NULL);
     } else {
         float lim = rel > 0 ? rel : 1e-3f;
-        for (int k = 0; k < 16 && got > target; k++, lim *= 2)
+        for (int k = 0; k < (raise ? 16 : 1) && got > target; k++, lim *= 2)
             got = meshopt_simplifySloppy(dst, src, ni, cpos, unique, 3 * sizeof(float), target, lim,
                                          NULL);
     }
     uint32_t nt = (uint32_t)(got / 3);
-    if (nt == 0 || nt > max_triangles) goto out;
+    if (nt == 0 || nt >= m->triangle_count || (nt > max_triangles && !partial)) goto out;
     for (uint32_t t = 0; t < nt; t++) {
         for (int c = 0; c < 3; c++) m->indices[3 * (size_t)t + c] = rep[dst[3 * (size_t)t + c]];
         m->tri_material[t] = vmat[m->indices[3 * (size_t)t]];
     }
     m->triangle_count = nt;
-    *done = true;
+    *done = nt <= max_triangles;
 out:
     free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat);
+    return st;
+}
+
+/* sv_trunk_mesh, and when the topology or UV seams stop it above ratio × n
+ * while max_error allows more: welded by position only, then vertex
+ * clustering (meshopt_simplifySloppy) with its error limit held at the same
+ * bound, each kept only if it gets closer to the target. Thin separate parts
+ * (stems, twigs) that meshopt_simplify cannot remove go where they are below
+ * the bound. */
+static sv_status trunk_mesh_bounded(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                                    double max_error, sv_mesh **out, sv_error *err)
+{
+    sv_status st = sv_trunk_mesh(mesh, tri_part, ratio, max_error, out, err);
+    if (st || !*out || !(ratio < 1) || !(max_error > 0)) return st;
+    sv_mesh *m = *out;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
+    uint32_t target = (uint32_t)fmax(1.0, floor(ratio * n + 0.5));
+    if (m->triangle_count <= target + target / 4) return SV_OK;
+    double c[3], r;
+    sv_mesh_sphere(m, c, &r);
+    if (!(r > 0)) return SV_OK;
+    float rel = (float)fmin(max_error / (2.0 * r), 1.0);
+    bool done = false;
+    uint32_t before = m->triangle_count;
+    if ((st = simplify_welded(m, target, rel, false, false, true, &done, err))) goto fail;
+    if (!done && (st = simplify_welded(m, target, rel, true, false, true, &done, err))) goto fail;
+    if (m->triangle_count == before) return SV_OK;
+    uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
+    if (!all) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto fail;
+    }
+    for (uint32_t t = 0; t < m->triangle_count; t++) all[t] = t;
+    sv_mesh *o = NULL;
+    st = sv_mesh_subset(m, all, m->triangle_count, &o, err); /* compacts the vertices */
+    free(all);
+    if (st) goto fail;
+    sv_mesh_destroy(m);
+    *out = o;
+    return SV_OK;
+fail:
+    sv_mesh_destroy(m);
+    *out = NULL;
     return st;
 }
 
@@ -183,7 +231,7 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
                                sv_error *err)
 {
     *out = NULL;
-    if (!max_triangles) return sv_trunk_mesh(mesh, tri_part, ratio, max_error, out, err);
+    if (!max_triangles) return trunk_mesh_bounded(mesh, tri_part, ratio, max_error, out, err);
     uint32_t n = 0;
     for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
     if (!n) return SV_OK;
@@ -199,8 +247,8 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     /* 2: the budget wins over the bound: shape-preserving collapse without a
      * bound; 3: only then the sloppy clustering (it can cut thin parts) */
     bool done = false;
-    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, &done, err)) && !done)
-        st = simplify_welded(m, max_triangles, 0, true, &done, err);
+    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, false, false, &done, err)) && !done)
+        st = simplify_welded(m, max_triangles, 0, true, true, false, &done, err);
     sv_mesh *o = NULL;
     if (!st && done) {
         uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);

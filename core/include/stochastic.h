@@ -107,7 +107,10 @@ sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *o
 
 typedef struct sv_stochastic_settings {
     double levels[SV_STOCH_MAX_LEVELS]; /* "levels": λ values, strictly decreasing in (0, 1];
-                                           default 1, 0.5, 0.25, 0.1 (1 = the full reordered mesh) */
+                                           default 1, 0.5, 0.25, 0.1 (1 = the full reordered mesh);
+                                           0 until resolved for a level given by triangles */
+    uint32_t level_triangles[SV_STOCH_MAX_LEVELS]; /* {"triangles": N} entries (0 = given as λ):
+                                           the level draws at most N triangles, trunk included */
     uint32_t level_count;
     double h;                  /* "h": in (0, 1), default 0.5 */
     double d0;                 /* "d0": metres where simplification starts; 0 = scene.distance_min */
@@ -117,13 +120,23 @@ typedef struct sv_stochastic_settings {
     bool contrast_preservation;/* "contrast_preservation": default true */
     double shutter;            /* "shutter": seconds of exposure for the motion term, default 1/60 */
     double ratio_fraction;     /* "ratio_fraction": leaf fraction drawn to measure r, default 0.1 */
+    bool simplify_leaves;      /* "simplify_leaves": default true: below λ = 1 a leaf modelled
+                                  with several triangles is simplified to the level's error
+                                  (sv_stochastic_level_error) before leaves are dropped */
     double visible_ratio;      /* "visible_ratio": r given by the user, in (0, 1]; 0 (default) =
                                   the pipeline measures it by rendering. The method's run()
                                   (without a renderer) needs it given. */
 } sv_stochastic_settings;
 
-/* Parses the spec's "stochastic" object (NULL = defaults) strictly. */
+/* Parses the spec's "stochastic" object (NULL = defaults) strictly. A level
+ * is a number λ in (0, 1] or {"triangles": N}; the latter is resolved by
+ * sv_stochastic_resolve once the tree is known. */
 sv_status sv_stochastic_parse(const cJSON *settings, sv_stochastic_settings *out, sv_error *err);
+
+/* Turns every {"triangles": N} level into λ = min(1, N / triangles) (the
+ * tree's triangle count) and checks that all levels are strictly decreasing
+ * (SV_ERR_SPEC naming the level and the tree's count otherwise). */
+sv_status sv_stochastic_resolve(sv_stochastic_settings *s, uint32_t triangles, sv_error *err);
 
 /* λ at distance d in `scene`: eq. 1 and 2, with b multiplied by the motion
  * term when scene->camera_speed > 0 (blur = camera_speed × shutter × pixels
@@ -136,12 +149,28 @@ double sv_stochastic_lambda_at(const sv_stochastic_settings *s, const sv_scene *
 double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const sv_scene *scene,
                                          double lambda);
 
+/* The height in pixels above which a tree needs its full mesh: a tree drawn
+ * taller than this at d0 is treated as if drawn this tall there. */
+#define SV_STOCH_FULL_PIXELS 512.0
+
+/* The geometric error a level may have, in metres: one pixel at the nearest
+ * distance d it is drawn by Cook's schedule (sv_stochastic_distance_for_lambda,
+ * clamped to the scene's distance range), or, when larger, one pixel of the
+ * tree (bounding diameter 2·radius) drawn SV_STOCH_FULL_PIXELS × d0/d tall
+ * (a tree too large for the scene's d0 is not kept finer than one of 512 px);
+ * 0 for λ >= 1 (the full mesh) or when the scene gives no pixel size. */
+double sv_stochastic_level_error(const sv_stochastic_settings *s, const sv_scene *scene,
+                                 double radius, double lambda);
+
 typedef struct sv_stoch_level {
-    double lambda;
-    double area_scale;         /* s (1 when area preservation is off) */
-    double contrast_alpha;     /* √λ (1 when contrast preservation is off) */
-    uint32_t leaves;           /* ⌈λN⌉ */
-    double fade_lo, fade_hi;   /* sv_stochastic_fade */
+    double lambda;             /* the level: its foliage triangles are about λ of the tree's */
+    double leaf_fraction;      /* μ = leaves / N: λ, or more when simplified leaves fit more */
+    double leaf_error;         /* metres each kept leaf's outline may move (0 = as modelled) */
+    uint64_t leaf_triangles;   /* foliage triangles drawn */
+    double area_scale;         /* s(r, μ) (1 when area preservation is off) */
+    double contrast_alpha;     /* √μ (1 when contrast preservation is off) */
+    uint32_t leaves;           /* ⌈μN⌉ */
+    double fade_lo, fade_hi;   /* sv_stochastic_fade at μ */
     sv_mesh *geometry;         /* the drawn leaves (owned until moved out) */
     float *leaf_centre;        /* 3 per geometry vertex: its leaf's centre */
     float *leaf_order;         /* 1 per geometry vertex: (order position + 0.5) / N */
@@ -159,15 +188,25 @@ typedef struct sv_stoch_result {
 } sv_stoch_result;
 
 /* Builds every level of s from in->leaves (in->mesh, in->seed) with the ratio
- * r (must be in (0, 1] when s->area_preservation). Each level's geometry holds
- * the leaf triangles of its prefix, in order, every leaf with its own vertices
- * scaled by √s about its centre, and the source's materials and images plus one
+ * r (must be in (0, 1] when s->area_preservation). The budget of level λ is
+ * λ × the foliage triangles. With s->simplify_leaves and in->scene, every
+ * leaf is first simplified (meshoptimizer, topology kept, per leaf) to the
+ * level's error (sv_stochastic_level_error); the prefix drawn is then the
+ * longest that fits the budget, and never shorter than ⌈λN⌉, so μ >= λ.
+ * Each level's geometry holds the leaf triangles of its prefix, in order,
+ * every leaf with its own vertices scaled by √s(r, μ) about its centre, and the source's materials and images plus one
  * copy of a leaf material per contrast bin (contrast: each leaf's luminance Y
  * is moved to Ȳ + √λ (Y − Ȳ) by a base-colour factor, quantised in steps of
  * 2^(1/16); factors are capped where the base colour would exceed 1). On
  * failure out is freed. */
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
                               double r, sv_stoch_result *out, sv_error *err);
+
+/* The trunk cap of level i built as L: for a level given as {"triangles": N},
+ * N minus the leaf triangles drawn (at least 1), so leaves and trunk together
+ * stay within N (sv_trunk_mesh_budget); 0 = no cap (a level given as λ). */
+uint32_t sv_stochastic_trunk_cap(const sv_stochastic_settings *s, uint32_t i,
+                                 const sv_stoch_level *L);
 
 /* Frees geometry, attributes and order. NULL is fine. */
 void sv_stoch_result_free(sv_stoch_result *res);

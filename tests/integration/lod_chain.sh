@@ -46,7 +46,8 @@ for l in stoch:
     nd = nodes[names.index(l['node'])]
     ex = nd['extras']['sylva_stochastic']
     lo, hi = ex['fade_window']
-    assert 0 <= lo <= ex['lambda'] <= hi <= 1, ex
+    # centred on the fraction of leaves drawn (>= λ: simplified leaves fit more)
+    assert 0 <= lo <= ex['leaf_fraction'] <= hi <= 1 and ex['leaf_fraction'] >= ex['lambda'], ex
     prim = g['meshes'][nd['mesh']]['primitives'][0]
     assert '_LEAF_CENTRE' in prim['attributes'] and '_LEAF_ORDER' in prim['attributes'], prim
 sw = [l['switch_pixels'] for l in rep['lods']]

@@ -296,6 +296,141 @@ static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(
     toy_free(&t);
 }
 
+/* n flat square leaves 0.4 m across, each a 4×4 grid (32 triangles, 25
+ * shared vertices), 1 m apart; one material. */
+static void toy_make_tessellated(toy *t, uint32_t n)
+{
+    memset(t, 0, sizeof *t);
+    t->mesh = sv_mesh_create(25 * n, 32 * n, 1, 0);
+    assert_non_null(t->mesh);
+    sv_mesh *m = t->mesh;
+    for (int c = 0; c < 3; c++) m->materials[0].base_color[c] = 0.5f;
+    t->cls.tri_part = calloc(32 * n, 1);
+    t->leaves.leaves = calloc(n, sizeof(sv_leaf));
+    t->leaves.tris = calloc(32 * n, sizeof(uint32_t));
+    t->leaves.count = n;
+    t->leaves.tri_count = 32 * n;
+    for (uint32_t i = 0; i < n; i++) {
+        double cx = (double)(i % 10), cy = (double)(i / 10), cz = 0.1 * (i % 3);
+        for (uint32_t y = 0; y < 5; y++)
+            for (uint32_t x = 0; x < 5; x++) {
+                uint32_t v = 25 * i + 5 * y + x;
+                m->positions[3 * v] = (float)(cx - 0.2 + 0.1 * x);
+                m->positions[3 * v + 1] = (float)(cy - 0.2 + 0.1 * y);
+                m->positions[3 * v + 2] = (float)cz;
+                m->normals[3 * v + 2] = 1;
+                m->uvs[2 * v] = 0.25f * (float)x;
+                m->uvs[2 * v + 1] = 0.25f * (float)y;
+            }
+        uint32_t k = 32 * i;
+        for (uint32_t y = 0; y < 4; y++)
+            for (uint32_t x = 0; x < 4; x++) {
+                uint32_t a = 25 * i + 5 * y + x, q[6] = {a, a + 1, a + 6, a, a + 6, a + 5};
+                for (int j = 0; j < 6; j++) m->indices[3 * (size_t)k + (size_t)j] = q[j];
+                k += 2;
+            }
+        for (uint32_t j = 0; j < 32; j++) {
+            t->cls.tri_part[32 * i + j] = SV_PART_FOLIAGE;
+            t->leaves.tris[32 * i + j] = 32 * i + j;
+        }
+        sv_leaf *l = &t->leaves.leaves[i];
+        l->centre[0] = cx;
+        l->centre[1] = cy;
+        l->centre[2] = cz;
+        l->normal[2] = 1;
+        l->area = 0.16;
+        l->radius = 0.2 * sqrt(2);
+        l->first = 32 * i;
+        l->count = 32;
+    }
+    t->cls.foliage_triangles = 32 * n;
+    sv_scene_defaults(&t->scene);
+    t->in.mesh = m;
+    t->in.cls = &t->cls;
+    t->in.leaves = &t->leaves;
+    sv_mesh_sphere(m, t->in.centre, &t->in.radius);
+    t->in.scene = &t->scene;
+    t->in.seed = 7;
+}
+
+static double mesh_area(const sv_mesh *g)
+{
+    double a = 0;
+    for (uint32_t t = 0; t < g->triangle_count; t++) a += sv_tri_area(g, t);
+    return a;
+}
+
+/* Below λ = 1 a leaf modelled with many triangles is simplified to the
+ * level's error before leaves are dropped: the budget (λ × the foliage
+ * triangles) then holds more leaves (μ > λ), each keeping its modelled area;
+ * with simplify_leaves off, μ = λ and every leaf keeps its 32 triangles. */
+static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_tessellated(&t, 100);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    assert_true(s.simplify_leaves);
+    sv_stoch_result a, b, off;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &a, &err), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &b, &err), SV_OK);
+    /* λ = 1: as modelled */
+    assert_true(a.levels[0].leaf_error == 0);
+    assert_int_equal(a.levels[0].geometry->triangle_count, 3200);
+    for (uint32_t k = 1; k < 3; k++) {
+        const sv_stoch_level *L = &a.levels[k];
+        assert_true(L->leaf_error > 0);
+        CLOSE(L->leaf_error, sv_stochastic_level_error(&s, &t.scene, t.in.radius, L->lambda), 1e-12);
+        /* a flat grid simplifies to its two corner triangles: every leaf fits */
+        assert_true(L->leaf_triangles <= (uint64_t)(L->lambda * 3200 + 0.5));
+        assert_int_equal(L->leaves, 100);
+        assert_true(L->leaf_fraction == 1.0);
+        assert_true(L->area_scale == 1.0);
+        assert_int_equal(L->geometry->triangle_count, 200);
+        CLOSE(mesh_area(L->geometry), 100 * 0.16, 1e-4);
+        /* deterministic */
+        assert_int_equal(b.levels[k].geometry->vertex_count, L->geometry->vertex_count);
+        assert_memory_equal(b.levels[k].geometry->positions, L->geometry->positions,
+                            3 * sizeof(float) * L->geometry->vertex_count);
+        assert_memory_equal(b.levels[k].geometry->indices, L->geometry->indices,
+                            3 * sizeof(uint32_t) * L->geometry->triangle_count);
+    }
+    s.simplify_leaves = false;
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &off, &err), SV_OK);
+    for (uint32_t k = 1; k < 3; k++) {
+        const sv_stoch_level *L = &off.levels[k];
+        assert_true(L->leaf_error == 0);
+        assert_int_equal(L->leaves, sv_stochastic_count(L->lambda, 100));
+        CLOSE(L->leaf_fraction, L->lambda, 1e-12);
+        assert_int_equal(L->geometry->triangle_count, 32 * L->leaves);
+    }
+    sv_stoch_result_free(&a);
+    sv_stoch_result_free(&b);
+    sv_stoch_result_free(&off);
+    toy_free(&t);
+}
+
+/* The level error: one pixel at the level's Cook distance, or one pixel of
+ * a tree drawn 512 px tall at d0 and shrunk by d0/d, whichever is larger. */
+static void level_error_is_a_pixel_at_the_level_distance(void **state)
+{
+    (void)state;
+    sv_stochastic_settings s;
+    assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
+    sv_scene sc;
+    sv_scene_defaults(&sc); /* d0 = distance_min = 10 m, h = 0.5: λ 0.25 at 20 m */
+    double px20 = sv_scene_pixels(&sc, 1.0, 20);
+    assert_true(sv_stochastic_level_error(&s, &sc, 1.0, 1.0) == 0);
+    CLOSE(sv_stochastic_level_error(&s, &sc, 0.5, 0.25), 1.0 / px20, 1e-9);
+    /* a 400 m tree: its own 512 px rule wins */
+    CLOSE(sv_stochastic_level_error(&s, &sc, 200, 0.25), 400.0 / (512 * 0.5), 1e-6);
+    assert_true(sv_stochastic_level_error(&s, NULL, 1.0, 0.25) == 0);
+}
+
 static double lum(const float *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
 static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
@@ -337,9 +472,13 @@ static void settings_are_strict_and_the_method_needs_r(void **state)
     sv_stochastic_settings s;
     sv_error err = {0};
     const char *bad[] = {"{\"levels\": [0.5, 0.7]}", "{\"levels\": [0]}", "{\"h\": 1}",
-                         "{\"order\": \"best\"}", "{\"bogus\": 1}", "{\"levels\": []}"};
+                         "{\"order\": \"best\"}", "{\"bogus\": 1}", "{\"levels\": []}",
+                         "{\"levels\": [{\"triangles\": 0}]}", "{\"levels\": [1, {\"triangles\": 2.5}]}",
+                         "{\"levels\": [{\"triangles\": 9, \"lambda\": 1}]}",
+                         "{\"simplify_leaves\": 1}"};
     const char *key[] = {"levels[1]", "levels[0]", "stochastic.h", "stochastic.order", "bogus",
-                         "stochastic.levels"};
+                         "stochastic.levels", "levels[0]", "levels[1]", "levels[0]",
+                         "simplify_leaves"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         cJSON *j = cJSON_Parse(bad[i]);
         assert_int_equal(sv_stochastic_parse(j, &s, &err), SV_ERR_SPEC);
@@ -367,7 +506,37 @@ static void settings_are_strict_and_the_method_needs_r(void **state)
     assert_int_equal(si.lods[3].trunk, SV_TRUNK_SIMPLIFIED);
     assert_int_equal(si.lods[3].geometry->triangle_count, 2 * 4);
     assert_int_equal(si.lods[0].quad_count, 0);
+    assert_int_equal(si.lods[3].trunk_max_triangles, 0); /* a λ level: no cap */
     sv_stand_in_free(&si);
+
+    /* levels by triangles: λ = N / the tree's triangles (80 here), resolved
+     * once the tree is known; the trunk gets what the leaves leave of N */
+    j = cJSON_Parse("{\"visible_ratio\": 0.01, \"levels\": [1, {\"triangles\": 40}, 0.25, "
+                    "{\"triangles\": 8}]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, &err), SV_OK);
+    assert_int_equal(s.level_triangles[1], 40);
+    assert_true(s.levels[1] == 0);
+    assert_int_equal(sv_stochastic_resolve(&s, 80, &err), SV_OK);
+    CLOSE(s.levels[1], 0.5, 1e-12);
+    CLOSE(s.levels[3], 0.1, 1e-12);
+    assert_int_equal(m->run(&t.in, j, &si, &err), SV_OK);
+    cJSON_Delete(j);
+    assert_string_equal(si.lods[1].name, "stochastic50");
+    assert_string_equal(si.lods[3].name, "stochastic10");
+    assert_int_equal(si.lods[1].geometry->triangle_count, 40);
+    assert_int_equal(si.lods[1].trunk_max_triangles, 1); /* the leaves took all 40 */
+    assert_int_equal(si.lods[2].trunk_max_triangles, 0);
+    sv_stand_in_free(&si);
+    sv_stoch_level L = {.leaf_triangles = 6};
+    assert_int_equal(sv_stochastic_trunk_cap(&s, 3, &L), 2);
+    assert_int_equal(sv_stochastic_trunk_cap(&s, 2, &L), 0);
+    /* a count that does not fall below the level before it names both */
+    j = cJSON_Parse("{\"levels\": [0.5, {\"triangles\": 60}]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, &err), SV_OK);
+    cJSON_Delete(j);
+    assert_int_equal(sv_stochastic_resolve(&s, 80, &err), SV_ERR_SPEC);
+    assert_non_null(strstr(err.message, "levels[1]"));
+    assert_non_null(strstr(err.message, "80 triangles"));
     toy_free(&t);
 }
 
@@ -509,6 +678,8 @@ int main(void)
         cmocka_unit_test(order_is_a_deterministic_permutation_for_a_seed),
         cmocka_unit_test(area_order_puts_larger_leaves_first_on_average),
         cmocka_unit_test(every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres),
+        cmocka_unit_test(simplified_leaves_fit_more_of_the_tree_in_the_budget),
+        cmocka_unit_test(level_error_is_a_pixel_at_the_level_distance),
         cmocka_unit_test(contrast_bins_pull_leaf_luminance_towards_the_mean),
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
         cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
