@@ -392,6 +392,18 @@ static sv_status append_lods(sv_stand_in *dst, chain *c, sv_stand_in *src, const
     return SV_OK;
 }
 
+/* The alpha calibration's evaluator (64 px, 8 views, supersample 2), made
+ * once per run and shared: the cutoff calibration and the stochastic trunk
+ * choice use it. */
+static sv_status small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                                 sv_evaluator **out, sv_error *err);
+typedef struct stoch_score_ctx {
+    run *r;
+    sv_renderer *ren;
+    const sv_gpu_mesh *gsrc;
+} stoch_score_ctx;
+static sv_status stoch_score(void *user, const sv_mesh *level, double *score, sv_error *err);
+
 /* Builds the chain into si (and c->info, one per LOD). */
 static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_stand_in *si,
                                chain *c, sv_error *err)
@@ -458,7 +470,9 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                 ratio = c->ratio.r;
                 c->ratio_measured = true;
             }
-            if ((st = sv_stochastic_build(&in, &keep, ratio, &c->sres, err))) return st;
+            stoch_score_ctx sc_ctx = {r, ren, gsrc};
+            sv_stoch_scorer scorer = {stoch_score, &sc_ctx};
+            if ((st = sv_stochastic_build(&in, &keep, ratio, &scorer, &c->sres, err))) return st;
             c->ss = keep;
             c->has_stochastic = true;
             for (uint32_t k = 0; k < c->sres.level_count; k++) {
@@ -470,10 +484,13 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                 if (!l) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
                 l->geometry = L->geometry;
                 L->geometry = NULL;
-                l->trunk = L->lambda >= 1 ? SV_TRUNK_MESH : SV_TRUNK_SIMPLIFIED;
-                l->trunk_ratio = fmax(L->lambda, 0.05);
+                /* below λ = 1 the method built the trunk first (it leads the geometry) */
+                l->trunk = L->trunk_in_geometry ? SV_TRUNK_NONE
+                           : L->lambda >= 1     ? SV_TRUNK_MESH
+                                                : SV_TRUNK_SIMPLIFIED;
+                l->trunk_ratio = fmax(L->lambda, SV_STOCH_TRUNK_FLOOR);
                 l->trunk_max_triangles = sv_stochastic_trunk_cap(&keep, k, L);
-                uint32_t gv = l->geometry ? l->geometry->vertex_count : 0;
+                uint32_t gv = l->geometry ? l->geometry->vertex_count - L->trunk_vertices : 0;
                 if ((st = append_lods(si, c, &one, "stochastic", err))) return st;
                 chain_lod *x = &c->info[si->lod_count - 1];
                 x->stochastic = true;
@@ -481,7 +498,9 @@ static sv_status compose_chain(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc
                 x->lambda = L->lambda;
                 x->geom_vertices = gv;
                 x->distance = sv_stochastic_distance_for_lambda(&c->ss, sc, L->lambda);
-                x->trunk_error = sv_stochastic_level_error(&c->ss, sc, p->radius, L->lambda);
+                x->trunk_error = L->trunk_in_geometry
+                                     ? L->trunk_error
+                                     : sv_stochastic_level_error(&c->ss, sc, p->radius, L->lambda);
             }
         }
     }
@@ -561,6 +580,7 @@ static sv_status stochastic_gltf(const chain *c, const chain_lod *x, const sv_me
     cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
     cJSON_AddNumberToObject(o, "leaf_total", c->sres.leaf_count);
     cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
+    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
     cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
     double fw[2] = {L->fade_lo, L->fade_hi};
     cJSON_AddItemToObject(o, "fade_window", cJSON_CreateDoubleArray(fw, 2));
@@ -655,6 +675,47 @@ typedef struct lod_out {
 #define SV_CALIB_VIEWS 8u
 #define SV_CALIB_STEP 0.1
 
+static sv_status small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                                 sv_evaluator **out, sv_error *err)
+{
+    sv_eval_options eo;
+    memset(&eo, 0, sizeof eo);
+    eo.viewer = r->spec.scene.viewer;
+    eo.view_count = SV_CALIB_VIEWS;
+    eo.sizes[0] = SV_CALIB_PIXELS;
+    eo.size_count = 1;
+    eo.supersample = 2; /* 128² renders: a quarter of the pixels of 4, same cutoffs to 0.0125 */
+    if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
+        sv_evaluator_destroy(r->calib_ev);
+        r->calib_ev = NULL;
+    }
+    if (!r->calib_ev) {
+        sv_status st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &r->calib_ev, err);
+        if (st) return st;
+        r->calib_opt = eo;
+    }
+    *out = r->calib_ev;
+    return SV_OK;
+}
+
+/* Stochastic candidates (sv_stoch_scorer): mean IoU at 64 px, 8 views. */
+static sv_status stoch_score(void *user, const sv_mesh *level, double *score, sv_error *err)
+{
+    stoch_score_ctx *c = user;
+    sv_evaluator *ev = NULL;
+    sv_status st = small_evaluator(c->r, c->ren, c->gsrc, &ev, err);
+    if (st) return st;
+    sv_gpu_mesh *g = NULL;
+    if ((st = sv_gpu_mesh_upload(c->ren, level, &g, err))) return st;
+    sv_eval_result er;
+    st = sv_evaluate(ev, g, &er, err);
+    sv_gpu_mesh_free(g);
+    if (st) return st;
+    *score = er.sizes[0].mean.iou;
+    sv_eval_result_free(&er);
+    return SV_OK;
+}
+
 static sv_status calib_try(sv_evaluator *ev, const sv_gpu_mesh *g, sv_material *mat, double t,
                            double *iou, sv_error *err)
 {
@@ -672,28 +733,13 @@ static sv_status calib_try(sv_evaluator *ev, const sv_gpu_mesh *g, sv_material *
 static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
                                    const sv_stand_in *si, lod_out *lods, sv_error *err)
 {
-    const sv_spec *spec = &r->spec;
     bool any = false;
     for (uint32_t i = 0; i < si->lod_count; i++)
         any |= si->lods[i].quad_count > 0 && !si->lods[i].select;
     if (!any) return SV_OK;
-    sv_eval_options eo;
-    memset(&eo, 0, sizeof eo);
-    eo.viewer = spec->scene.viewer;
-    eo.view_count = SV_CALIB_VIEWS;
-    eo.sizes[0] = SV_CALIB_PIXELS;
-    eo.size_count = 1;
-    eo.supersample = 2; /* 128² renders: a quarter of the pixels of 4, same cutoffs to 0.0125 */
-    sv_status st = SV_OK;
-    if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
-        sv_evaluator_destroy(r->calib_ev);
-        r->calib_ev = NULL;
-    }
-    if (!r->calib_ev) {
-        if ((st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &r->calib_ev, err))) return st;
-        r->calib_opt = eo;
-    }
-    sv_evaluator *ev = r->calib_ev;
+    sv_evaluator *ev = NULL;
+    sv_status st = small_evaluator(r, ren, gsrc, &ev, err);
+    if (st) return st;
     for (uint32_t i = 0; i < si->lod_count && !st; i++) {
         const sv_lod_plan *lp = &si->lods[i];
         sv_mesh *m = lods[i].baked.mesh;
@@ -1455,6 +1501,7 @@ static sv_status bake_all(run *r, sv_error *err)
             cJSON_AddNumberToObject(o, "leaf_triangles", (double)L->leaf_triangles);
             cJSON_AddNumberToObject(o, "leaf_error", L->leaf_error);
             cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
+            cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
             cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
             cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
             cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);

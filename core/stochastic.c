@@ -17,6 +17,8 @@
  */
 #include "stochastic.h"
 
+#include "trunk.h"
+
 #include <math.h>
 #include <meshoptimizer.h>
 #include <stdio.h>
@@ -625,14 +627,18 @@ typedef struct build_ctx {
 } build_ctx;
 
 static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r,
-                             double lambda, sv_stoch_level *L, sv_error *err)
+                             double lambda, double leaf_budget, double gamma, sv_stoch_level *L,
+                             sv_error *err)
 {
+    L->area_gamma = gamma;
     const sv_mesh *src = b->mesh;
     const sv_leaves *lv = b->lv;
     const leaf_shapes *sh = b->shapes;
-    uint32_t N = lv->count, n = sv_stochastic_count(lambda, N);
-    /* the budget: λ of the foliage triangles; simplified leaves fit more */
-    double budget = lambda * (double)lv->tri_count;
+    /* the budget: the caller's (what the trunk leaves of λ × all triangles),
+     * else λ of the foliage triangles and never fewer than ⌈λN⌉ leaves;
+     * simplified leaves fit more */
+    uint32_t N = lv->count, n = leaf_budget > 0 ? (N ? 1 : 0) : sv_stochastic_count(lambda, N);
+    double budget = leaf_budget > 0 ? leaf_budget : lambda * (double)lv->tri_count;
     uint64_t used = 0;
     uint32_t fit = 0;
     while (fit < N && (double)(used + sh->count[b->order[fit]]) <= budget)
@@ -726,7 +732,7 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
         float pos_order = (float)(((double)k + 0.5) / (double)N);
         int bin = b->leaf_bin[k];
         uint32_t li = b->order[k];
-        double gl = sqrt(L->area_scale * sh->gain[li]);
+        double gl = pow(L->area_scale * sh->gain[li], 0.5 * gamma);
         if (bin > 0) {
             /* count leaves whose brightening hit the [0, 1] cap */
             uint32_t m = sh->mat[sh->first[li]];
@@ -772,20 +778,85 @@ uint32_t sv_stochastic_trunk_cap(const sv_stochastic_settings *s, uint32_t i,
     return n > L->leaf_triangles + 1 ? (uint32_t)(n - L->leaf_triangles) : 1;
 }
 
+static void level_free(sv_stoch_level *L);
+
+/* Puts the trunk (built first) in front of level i's leaves. A
+ * {"triangles": N} level over N gets *trunk rebuilt capped at what the leaves
+ * leave (sv_stochastic_trunk_cap). *trunk stays the caller's. */
+static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_settings *s,
+                            uint32_t i, double e, sv_mesh **trunk, sv_stoch_level *L,
+                            sv_error *err)
+{
+    sv_status st = SV_OK;
+    uint32_t cap = sv_stochastic_trunk_cap(s, i, L);
+    if (*trunk && cap && (*trunk)->triangle_count > cap) {
+        sv_mesh_destroy(*trunk);
+        *trunk = NULL;
+        if ((st = sv_trunk_mesh_budget(in->mesh, in->cls->tri_part, SV_STOCH_TRUNK_FLOOR, cap, e,
+                                       trunk, err)))
+            return st;
+    }
+    L->trunk_in_geometry = true;
+    L->trunk_error = e;
+    if (*trunk) {
+        sv_mesh *merged = NULL;
+        st = sv_mesh_merge(*trunk, L->geometry, &merged, err);
+        if (!st) {
+            L->trunk_vertices = (*trunk)->vertex_count;
+            L->trunk_triangles = (*trunk)->triangle_count;
+            sv_mesh_destroy(L->geometry);
+            L->geometry = merged;
+        }
+    }
+    return st;
+}
+
+/* One candidate of a level: the leaves at `gamma` beside `trunk` (built to et),
+ * scored when a scorer is given; kept in *L when it is the first or better
+ * than *best by more than 1e-4 (the candidates come coarsest / paper first). */
+static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_stochastic_settings *s,
+                           double r, uint32_t i, double e, double et, double all, double gamma,
+                           sv_mesh **trunk, const sv_stoch_scorer *scorer, bool first,
+                           double *best, bool *kept, sv_stoch_level *L, sv_error *err)
+{
+    sv_stoch_level cand = {0};
+    cand.leaf_error = e;
+    uint32_t tn = *trunk ? (*trunk)->triangle_count : 0;
+    sv_status st = build_level(b, s, r, s->levels[i], fmax(1.0, all - tn), gamma, &cand, err);
+    if (!st) st = trunk_lead(in, s, i, et, trunk, &cand, err);
+    double score = 0;
+    if (!st && scorer && scorer->fn) st = scorer->fn(scorer->user, cand.geometry, &score, err);
+    *kept = !st && (first || score > *best + 1e-4);
+    if (*kept) {
+        *best = score;
+        level_free(L);
+        *L = cand;
+    } else {
+        level_free(&cand);
+    }
+    return st;
+}
+
+/* Frees what a level owns and zeroes it. */
+static void level_free(sv_stoch_level *L)
+{
+    sv_mesh_destroy(L->geometry);
+    free(L->leaf_centre);
+    free(L->leaf_order);
+    memset(L, 0, sizeof *L);
+}
+
 void sv_stoch_result_free(sv_stoch_result *res)
 {
     if (!res) return;
-    for (uint32_t i = 0; i < SV_STOCH_MAX_LEVELS; i++) {
-        sv_mesh_destroy(res->levels[i].geometry);
-        free(res->levels[i].leaf_centre);
-        free(res->levels[i].leaf_order);
-    }
+    for (uint32_t i = 0; i < SV_STOCH_MAX_LEVELS; i++) level_free(&res->levels[i]);
     free(res->order);
     memset(res, 0, sizeof *res);
 }
 
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
-                              double r, sv_stoch_result *out, sv_error *err)
+                              double r, const sv_stoch_scorer *scorer, sv_stoch_result *out,
+                              sv_error *err)
 {
     memset(out, 0, sizeof *out);
     const sv_mesh *mesh = in->mesh;
@@ -827,17 +898,73 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     b.order = out->order;
     b.colour = colour;
     b.mean_y = luminance(out->mean_color);
+    uint32_t trunk_n = 0;
+    if (in->cls && in->cls->tri_part)
+        for (uint32_t t = 0; t < mesh->triangle_count; t++)
+            trunk_n += in->cls->tri_part[t] == SV_PART_TRUNK;
     for (uint32_t i = 0; i < s->level_count; i++) {
         out->level_count = i + 1;
         double e = s->simplify_leaves
                        ? sv_stochastic_level_error(s, in->scene, in->radius, s->levels[i])
                        : 0;
+        sv_stoch_level *L = &out->levels[i];
+        bool trunk_first = e > 0 && in->cls && in->cls->tri_part;
         leaf_shapes sh;
         if ((st = leaf_shapes_build(mesh, lv, e, &sh, err))) goto out;
         b.shapes = &sh;
-        out->levels[i].leaf_error = e;
-        out->levels[i].leaf_triangles = 0;
-        st = build_level(&b, s, r, s->levels[i], &out->levels[i], err);
+        if (!trunk_first) {
+            L->leaf_error = e;
+            st = build_level(&b, s, r, s->levels[i], 0, 1.0, L, err);
+        }
+        /* the trunk first, the leaves get what it leaves of the budget; with
+         * a scorer, finer trunks compete, then gentler area scaling */
+        double all = s->level_triangles[i] ? (double)s->level_triangles[i]
+                                           : s->levels[i] * mesh->triangle_count;
+        uint32_t share = (uint32_t)floor(all * trunk_n / fmax(1.0, mesh->triangle_count));
+        bool scored = scorer && scorer->fn;
+        double best = -INFINITY, best_et = e;
+        sv_mesh *best_trunk = NULL;
+        uint32_t prev = UINT32_MAX;
+        for (int k = 0; trunk_first && !st && k < (scored ? 3 : 1); k++) {
+            double et = ldexp(e, -k);
+            sv_mesh *trunk = NULL;
+            if ((st = sv_trunk_mesh_budget(mesh, in->cls->tri_part, SV_STOCH_TRUNK_FLOOR, 0, et,
+                                           &trunk, err)))
+                break;
+            /* never more than the trunk's share of the whole tree: the leaves
+             * keep at least λ of theirs */
+            if (trunk && trunk->triangle_count > share && share > 0) {
+                sv_mesh_destroy(trunk);
+                trunk = NULL;
+                if ((st = sv_trunk_mesh_budget(mesh, in->cls->tri_part, SV_STOCH_TRUNK_FLOOR,
+                                               share, et, &trunk, err)))
+                    break;
+            }
+            uint32_t tn = trunk ? trunk->triangle_count : 0;
+            if (tn == prev) { /* a finer bound changed nothing */
+                sv_mesh_destroy(trunk);
+                break;
+            }
+            prev = tn;
+            bool kept = false;
+            st = try_level(&b, in, s, r, i, e, et, all, 1.0, &trunk, scorer, k == 0, &best, &kept,
+                           L, err);
+            if (kept) {
+                sv_mesh_destroy(best_trunk);
+                best_trunk = trunk;
+                best_et = et;
+            } else {
+                sv_mesh_destroy(trunk);
+            }
+        }
+        static const double gammas[] = {0.85, 0.7};
+        for (size_t k = 0; trunk_first && scored && !st && k < sizeof gammas / sizeof gammas[0];
+             k++) {
+            bool kept = false;
+            st = try_level(&b, in, s, r, i, e, best_et, all, gammas[k], &best_trunk, scorer, false,
+                           &best, &kept, L, err);
+        }
+        sv_mesh_destroy(best_trunk);
         b.shapes = NULL;
         leaf_shapes_free(&sh);
         if (st) goto out;
@@ -871,7 +998,7 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
     if (st) return st;
     if ((st = sv_stochastic_resolve(&s, in->mesh ? in->mesh->triangle_count : 0, err))) return st;
     sv_stoch_result res;
-    if ((st = sv_stochastic_build(in, &s, s.visible_ratio, &res, err))) return st;
+    if ((st = sv_stochastic_build(in, &s, s.visible_ratio, NULL, &res, err))) return st;
     snprintf(out->method, sizeof out->method, "%s", ST_NAME);
     for (uint32_t i = 0; i < res.level_count; i++) {
         char name[32];
@@ -883,8 +1010,10 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
         }
         lod->geometry = res.levels[i].geometry;
         res.levels[i].geometry = NULL;
-        lod->trunk = res.levels[i].lambda >= 1 ? SV_TRUNK_MESH : SV_TRUNK_SIMPLIFIED;
-        lod->trunk_ratio = fmax(res.levels[i].lambda, 0.05);
+        lod->trunk = res.levels[i].trunk_in_geometry ? SV_TRUNK_NONE
+                     : res.levels[i].lambda >= 1    ? SV_TRUNK_MESH
+                                                    : SV_TRUNK_SIMPLIFIED;
+        lod->trunk_ratio = fmax(res.levels[i].lambda, SV_STOCH_TRUNK_FLOOR);
         lod->trunk_max_triangles = sv_stochastic_trunk_cap(&s, i, &res.levels[i]);
     }
     sv_stoch_result_free(&res);

@@ -126,6 +126,39 @@ sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double rat
     return st;
 }
 
+/* Welded by position, a simplified triangle's corner may stand for several
+ * vertices (a UV seam: the same point with the bark's u = 0 and u = 1). Of
+ * the first four candidates of each corner, picks the three whose UVs span
+ * the smallest perimeter (first in order on ties): the triangle samples one
+ * side of the seam instead of the whole texture across it. */
+static void pick_uv_consistent(const sv_mesh *m, const unsigned int *tri, const uint32_t *first,
+                               const uint32_t *cand, uint32_t best[3])
+{
+    uint32_t n[3];
+    for (int c = 0; c < 3; c++) {
+        n[c] = first[tri[c] + 1] - first[tri[c]];
+        if (n[c] > 4) n[c] = 4;
+        best[c] = cand[first[tri[c]]];
+    }
+    if (n[0] * n[1] * n[2] == 1) return;
+    double bp = INFINITY;
+    for (uint32_t a = 0; a < n[0]; a++)
+        for (uint32_t b = 0; b < n[1]; b++)
+            for (uint32_t c = 0; c < n[2]; c++) {
+                uint32_t v[3] = {cand[first[tri[0]] + a], cand[first[tri[1]] + b],
+                                 cand[first[tri[2]] + c]};
+                double per = 0;
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &m->uvs[2 * (size_t)v[k]], *q = &m->uvs[2 * (size_t)v[(k + 1) % 3]];
+                    per += hypot((double)p[0] - q[0], (double)p[1] - q[1]);
+                }
+                if (per < bp) {
+                    bp = per;
+                    memcpy(best, v, sizeof v);
+                }
+            }
+}
+
 /* One simplification pass over m held to max_triangles: vertices welded by
  * position only (UV seams would lock the borders that must collapse; at the
  * distance a capped trunk is drawn a texture seam is not visible), then
@@ -147,6 +180,7 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
     float *cpos = malloc((size_t)m->vertex_count * 3 * sizeof *cpos);
     unsigned int *rep = malloc((size_t)m->vertex_count * sizeof *rep);
     uint32_t *vmat = malloc((size_t)m->vertex_count * sizeof *vmat);
+    uint32_t *first = NULL, *cand = NULL;
     sv_status st = SV_OK;
     if (!weld || !src || !dst || !cpos || !rep || !vmat) {
         st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
@@ -171,14 +205,31 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
     }
     uint32_t nt = (uint32_t)(got / 3);
     if (nt == 0 || nt >= m->triangle_count || (nt > max_triangles && !partial)) goto out;
-    for (uint32_t t = 0; t < nt; t++) {
-        for (int c = 0; c < 3; c++) m->indices[3 * (size_t)t + c] = rep[dst[3 * (size_t)t + c]];
-        m->tri_material[t] = vmat[m->indices[3 * (size_t)t]];
+    /* the vertices sharing each welded position (a UV seam has several) */
+    first = calloc(unique + 1, sizeof *first);
+    cand = malloc((size_t)m->vertex_count * sizeof *cand);
+    if (!first || !cand) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
     }
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        if (weld[v] != ~0u) first[weld[v] + 1]++;
+    for (size_t w = 0; w < unique; w++) first[w + 1] += first[w];
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        if (weld[v] != ~0u) cand[first[weld[v]]++] = v;
+    for (size_t w = unique; w > 0; w--) first[w] = first[w - 1];
+    first[0] = 0;
+    for (uint32_t t = 0; t < nt; t++) {
+        uint32_t best[3];
+        pick_uv_consistent(m, &dst[3 * (size_t)t], first, cand, best);
+        memcpy(&m->indices[3 * (size_t)t], best, sizeof best);
+        m->tri_material[t] = vmat[best[0]];
+    }
+    (void)rep;
     m->triangle_count = nt;
     *done = nt <= max_triangles;
 out:
-    free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat);
+    free(weld), free(src), free(dst), free(cpos), free(rep), free(vmat), free(first), free(cand);
     return st;
 }
 

@@ -153,6 +153,10 @@ double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const 
  * taller than this at d0 is treated as if drawn this tall there. */
 #define SV_STOCH_FULL_PIXELS 512.0
 
+/* The smallest fraction of its triangles a level's trunk is simplified
+ * towards (the error bound usually stops it first). */
+#define SV_STOCH_TRUNK_FLOOR 0.05
+
 /* The geometric error a level may have, in metres: one pixel at the nearest
  * distance d it is drawn by Cook's schedule (sv_stochastic_distance_for_lambda,
  * clamped to the scene's distance range), or, when larger, one pixel of the
@@ -168,12 +172,18 @@ typedef struct sv_stoch_level {
     double leaf_error;         /* metres each kept leaf's outline may move (0 = as modelled) */
     uint64_t leaf_triangles;   /* foliage triangles drawn */
     double area_scale;         /* s(r, μ) (1 when area preservation is off) */
+    double area_gamma;         /* leaves scaled by (s × gain)^(γ/2): 1 (the paper) unless the
+                                  scorer found 0.85 or 0.7 closer to the original */
     double contrast_alpha;     /* √μ (1 when contrast preservation is off) */
     uint32_t leaves;           /* ⌈μN⌉ */
     double fade_lo, fade_hi;   /* sv_stochastic_fade at μ */
     sv_mesh *geometry;         /* the drawn leaves (owned until moved out) */
     float *leaf_centre;        /* 3 per geometry vertex: its leaf's centre */
     float *leaf_order;         /* 1 per geometry vertex: (order position + 0.5) / N */
+    bool trunk_in_geometry;    /* the trunk was built first and leads the geometry */
+    double trunk_error;        /* when trunk_in_geometry: the bound its trunk was built to (m) */
+    uint32_t trunk_vertices;   /* when trunk_in_geometry: the geometry's first vertices */
+    uint32_t trunk_triangles;  /* when trunk_in_geometry: the geometry's first triangles */
     uint32_t contrast_materials; /* material copies added for contrast bins */
     uint32_t contrast_capped;  /* leaves whose brightening was capped at factor 1 */
 } sv_stoch_level;
@@ -187,20 +197,51 @@ typedef struct sv_stoch_result {
     double r;
 } sv_stoch_result;
 
+/* Scores a candidate level (its whole geometry, trunk included) against the
+ * original, higher = closer (the pipeline: mean coverage IoU at 64 px from 8
+ * views, the alpha calibration's evaluator). */
+typedef sv_status (*sv_stoch_score_fn)(void *user, const sv_mesh *level, double *score,
+                                       sv_error *err);
+typedef struct sv_stoch_scorer {
+    sv_stoch_score_fn fn;
+    void *user;
+} sv_stoch_scorer;
+
 /* Builds every level of s from in->leaves (in->mesh, in->seed) with the ratio
- * r (must be in (0, 1] when s->area_preservation). The budget of level λ is
- * λ × the foliage triangles. With s->simplify_leaves and in->scene, every
- * leaf is first simplified (meshoptimizer, topology kept, per leaf) to the
- * level's error (sv_stochastic_level_error); the prefix drawn is then the
- * longest that fits the budget, and never shorter than ⌈λN⌉, so μ >= λ.
- * Each level's geometry holds the leaf triangles of its prefix, in order,
- * every leaf with its own vertices scaled by √s(r, μ) about its centre, and the source's materials and images plus one
- * copy of a leaf material per contrast bin (contrast: each leaf's luminance Y
- * is moved to Ȳ + √λ (Y − Ȳ) by a base-colour factor, quantised in steps of
- * 2^(1/16); factors are capped where the base colour would exceed 1). On
- * failure out is freed. */
+ * r (must be in (0, 1] when s->area_preservation).
+ *
+ * Below λ = 1, with s->simplify_leaves and a scene giving a level error e(λ)
+ * (sv_stochastic_level_error) > 0, the budget is spent where coverage comes
+ * from: the trunk (in->cls->tri_part) is built first, simplified within e(λ)
+ * towards SV_STOCH_TRUNK_FLOOR of its triangles (sv_trunk_mesh_budget), never
+ * above the trunk's share of the whole tree's triangles times the level's
+ * budget (capped there, the budget winning over the bound), and leads the
+ * level's geometry (trunk_in_geometry). Where thin parts (stems, twigs) carry
+ * coverage that a pixel's error removes, a finer trunk is worth its
+ * triangles; where they hide in the crown, the leaves are: with a scorer the
+ * trunk is also built at e/2 and e/4 and the candidate that scores highest is
+ * kept (the coarser one unless another is better by more than 1e-4), and
+ * then scaling the leaves by (s × gain)^(γ/2) with
+ * γ = 0.85 and 0.7 competes with the paper's γ = 1 (√s-scaled leaves at the
+ * crown's edge widen the silhouette, which Cook's model ignores; the
+ * original's coverage decides); without one, e and γ = 1; every leaf is simplified
+ * (meshoptimizer, per leaf) to e(λ); the leaves drawn are the longest prefix
+ * of the order whose triangles fit λ × all the tree's triangles (or N for a
+ * {"triangles": N} level) minus the trunk's, at least one. A {"triangles": N}
+ * level whose trunk and leaves exceed N gets its trunk capped at what the
+ * leaves leave. Otherwise (the paper's method) the budget is λ × the foliage
+ * triangles, never fewer than ⌈λN⌉ leaves, and the geometry holds leaves only.
+ *
+ * The leaves of a level are its prefix, in order, every leaf with its own
+ * vertices scaled by √(s(r, μ) × its simplified-area gain) about its centre
+ * (μ = leaves / N), with the source's materials and images plus one copy of a
+ * leaf material per contrast bin (contrast: each leaf's luminance Y is moved
+ * to Ȳ + √μ (Y − Ȳ) by a base-colour factor, quantised in steps of 2^(1/16);
+ * factors are capped where the base colour would exceed 1). On failure out is
+ * freed. */
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
-                              double r, sv_stoch_result *out, sv_error *err);
+                              double r, const sv_stoch_scorer *scorer, sv_stoch_result *out,
+                              sv_error *err);
 
 /* The trunk cap of level i built as L: for a level given as {"triangles": N},
  * N minus the leaf triangles drawn (at least 1), so leaves and trunk together

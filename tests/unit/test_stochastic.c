@@ -260,7 +260,7 @@ static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(
     cJSON_Delete(j);
     sv_stoch_result res;
     sv_error err = {0};
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &res, &err), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &res, &err), SV_OK);
     assert_int_equal(res.level_count, 5);
     for (uint32_t k = 0; k < res.level_count; k++) {
         const sv_stoch_level *L = &res.levels[k];
@@ -376,8 +376,8 @@ static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
     assert_true(s.simplify_leaves);
     sv_stoch_result a, b, off;
     sv_error err = {0};
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &a, &err), SV_OK);
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &b, &err), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &b, &err), SV_OK);
     /* λ = 1: as modelled */
     assert_true(a.levels[0].leaf_error == 0);
     assert_int_equal(a.levels[0].geometry->triangle_count, 3200);
@@ -400,7 +400,7 @@ static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
                             3 * sizeof(uint32_t) * L->geometry->triangle_count);
     }
     s.simplify_leaves = false;
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &off, &err), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &off, &err), SV_OK);
     for (uint32_t k = 1; k < 3; k++) {
         const sv_stoch_level *L = &off.levels[k];
         assert_true(L->leaf_error == 0);
@@ -411,6 +411,97 @@ static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
     sv_stoch_result_free(&a);
     sv_stoch_result_free(&b);
     sv_stoch_result_free(&off);
+    toy_free(&t);
+}
+
+/* The trunk first: below λ = 1 it is simplified within the level error and
+ * leads the geometry, and the leaves get λ × all triangles minus its share. */
+static void the_trunk_is_built_first_and_the_leaves_get_the_rest(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_tessellated(&t, 100);
+    /* the last 20 grids become trunk: 80 leaves (2560 triangles), 640 trunk */
+    for (uint32_t k = 80 * 32; k < 100 * 32; k++) t.cls.tri_part[k] = SV_PART_TRUNK;
+    t.leaves.count = 80;
+    t.leaves.tri_count = 80 * 32;
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.1, {\"triangles\": 100}]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    assert_int_equal(sv_stochastic_resolve(&s, t.mesh->triangle_count, NULL), SV_OK);
+    sv_stoch_result res;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &res, &err), SV_OK);
+    assert_false(res.levels[0].trunk_in_geometry); /* λ = 1: the pipeline keeps the trunk whole */
+    for (uint32_t k = 1; k < 3; k++) {
+        const sv_stoch_level *L = &res.levels[k];
+        const sv_mesh *g = L->geometry;
+        assert_true(L->trunk_in_geometry);
+        /* flat grids: the trunk goes to two triangles a grid, far below 640 */
+        assert_true(L->trunk_triangles > 0 && L->trunk_triangles <= 64);
+        assert_int_equal(g->triangle_count, L->trunk_triangles + L->leaf_triangles);
+        /* the trunk's vertices lead: every trunk triangle uses only them */
+        for (uint32_t tr = 0; tr < L->trunk_triangles; tr++)
+            for (int c = 0; c < 3; c++) assert_true(g->indices[3 * tr + c] < L->trunk_vertices);
+        for (uint32_t tr = L->trunk_triangles; tr < g->triangle_count; tr++)
+            for (int c = 0; c < 3; c++) assert_true(g->indices[3 * tr + c] >= L->trunk_vertices);
+    }
+    /* λ = 0.1 of 3200 = 320 triangles: the trunk's few leave room for every leaf */
+    assert_int_equal(res.levels[1].leaves, 80);
+    assert_true(res.levels[1].geometry->triangle_count <= 320);
+    /* {"triangles": 100}: within 100, trunk included */
+    assert_true(res.levels[2].geometry->triangle_count <= 100);
+    assert_true(res.levels[2].leaves < 80);
+    sv_stoch_result_free(&res);
+    toy_free(&t);
+}
+
+static sv_status score_small_area(void *user, const sv_mesh *g, double *score, sv_error *err)
+{
+    (void)err;
+    (*(int *)user)++;
+    *score = -mesh_area(g);
+    return SV_OK;
+}
+
+static sv_status score_large_area(void *user, const sv_mesh *g, double *score, sv_error *err)
+{
+    (void)err;
+    (*(int *)user)++;
+    *score = mesh_area(g);
+    return SV_OK;
+}
+
+/* With a scorer the candidates compete: gentler area scaling (γ 0.85, 0.7)
+ * wins only when the score says so; the paper's γ = 1 otherwise. */
+static void a_scorer_chooses_the_area_scaling(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 100);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.25]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    int calls = 0;
+    sv_stoch_scorer small = {score_small_area, &calls}, large = {score_large_area, &calls};
+    sv_stoch_result a, b, none;
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &small, &a, NULL), SV_OK);
+    assert_true(calls >= 3); /* λ = 1 is not scored; 0.25: trunkless, then two γ */
+    assert_true(a.levels[0].area_gamma == 1.0);
+    assert_true(a.levels[1].area_gamma == 0.7);
+    assert_true(a.levels[1].area_scale > 1.5);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &large, &b, NULL), SV_OK);
+    assert_true(b.levels[1].area_gamma == 1.0);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &none, NULL), SV_OK);
+    assert_true(none.levels[1].area_gamma == 1.0);
+    /* γ = 0.7 leaves are smaller: (s)^(0.35) vs √s about the same centres */
+    CLOSE(mesh_area(a.levels[1].geometry) / mesh_area(none.levels[1].geometry),
+          pow(a.levels[1].area_scale, 0.7 - 1.0), 1e-3);
+    sv_stoch_result_free(&a);
+    sv_stoch_result_free(&b);
+    sv_stoch_result_free(&none);
     toy_free(&t);
 }
 
@@ -444,7 +535,7 @@ static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
     sv_stochastic_settings s;
     assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
     sv_stoch_result res;
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &res, NULL), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &res, NULL), SV_OK);
     double mean = 0.5 * (0.4 + 0.1); /* equal areas */
     CLOSE(res.mean_color[0], mean, 1e-6);
     const sv_stoch_level *L = &res.levels[2]; /* λ = 0.25 */
@@ -459,7 +550,7 @@ static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
     /* switched off: the source materials only */
     s.contrast_preservation = false;
     sv_stoch_result r2;
-    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &r2, NULL), SV_OK);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &r2, NULL), SV_OK);
     assert_int_equal(r2.levels[2].contrast_materials, 0);
     sv_stoch_result_free(&r2);
     sv_stoch_result_free(&res);
@@ -503,7 +594,8 @@ static void settings_are_strict_and_the_method_needs_r(void **state)
     assert_string_equal(si.lods[0].name, "full");
     assert_string_equal(si.lods[1].name, "stochastic50");
     assert_int_equal(si.lods[0].trunk, SV_TRUNK_MESH);
-    assert_int_equal(si.lods[3].trunk, SV_TRUNK_SIMPLIFIED);
+    /* below λ = 1 the trunk is built first, into the geometry (none here) */
+    assert_int_equal(si.lods[3].trunk, SV_TRUNK_NONE);
     assert_int_equal(si.lods[3].geometry->triangle_count, 2 * 4);
     assert_int_equal(si.lods[0].quad_count, 0);
     assert_int_equal(si.lods[3].trunk_max_triangles, 0); /* a λ level: no cap */
@@ -617,7 +709,9 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     sv_scene_defaults(&sc);
     sv_method_input in = {m, &cls, &lv, {c.centre[0], c.centre[1], c.centre[2]}, c.radius, &sc, 1};
     sv_stochastic_settings s;
-    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.25, 0.1]}");
+    /* the paper's method (leaves as modelled, a leaf count): what is measured
+     * here is eq. 3 itself */
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.25, 0.1], \"simplify_leaves\": false}");
     assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
     cJSON_Delete(j);
     uint32_t *order = calloc(lv.count, sizeof *order);
@@ -630,7 +724,7 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     for (int pres = 1; pres >= 0; pres--) {
         s.area_preservation = pres;
         sv_stoch_result res;
-        assert_int_equal(sv_stochastic_build(&in, &s, ratio.r, &res, &err), SV_OK);
+        assert_int_equal(sv_stochastic_build(&in, &s, ratio.r, NULL, &res, &err), SV_OK);
         double full = 0;
         for (uint32_t k = 0; k < res.level_count; k++) {
             sv_gpu_mesh *gg = NULL;
@@ -680,6 +774,8 @@ int main(void)
         cmocka_unit_test(every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres),
         cmocka_unit_test(simplified_leaves_fit_more_of_the_tree_in_the_budget),
         cmocka_unit_test(level_error_is_a_pixel_at_the_level_distance),
+        cmocka_unit_test(the_trunk_is_built_first_and_the_leaves_get_the_rest),
+        cmocka_unit_test(a_scorer_chooses_the_area_scaling),
         cmocka_unit_test(contrast_bins_pull_leaf_luminance_towards_the_mean),
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
         cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
