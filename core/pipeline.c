@@ -1155,6 +1155,13 @@ static sv_status bake_all(run *r, sv_error *err)
 
     chain ch;
     memset(&ch, 0, sizeof ch);
+    /* scene.distance "auto" (the default): the range follows the tree's size,
+     * the framing sphere's diameter that every screen size below is measured on */
+    {
+        double fc[3], fr = 0;
+        sv_mesh_frame_sphere(p->mesh, fc, &fr);
+        sv_scene_resolve_distance(&r->spec.scene, 2.0 * (fr > 0 ? fr : p->radius));
+    }
     if ((st = progress(r, ST_METHOD, 0))) goto cancelled;
     /* the renderer first: the stochastic levels need r measured by rendering */
     if (!r->ren) {
@@ -1483,6 +1490,18 @@ static sv_status bake_all(run *r, sv_error *err)
                                          : cJSON_CreateObject());
     cJSON_AddNumberToObject(mo, "seed", (double)spec->seed);
     cJSON_AddItemToObject(report, "effects", effects_json(spec, &bo));
+    {
+        cJSON *so = cJSON_AddObjectToObject(report, "scene");
+        double dd[2] = {spec->scene.distance_min, spec->scene.distance_max};
+        cJSON_AddItemToObject(so, "distance", cJSON_CreateDoubleArray(dd, 2));
+        cJSON_AddStringToObject(
+            so, "distance_source",
+            spec->scene.distance_auto
+                ? "auto: from where the tree fills the screen's height to 100 times smaller"
+                : "given in the spec (scene.distance)");
+        cJSON_AddNumberToObject(so, "screen_height", spec->scene.screen_height);
+        cJSON_AddNumberToObject(so, "fov_deg", spec->scene.fov_y_deg);
+    }
     cJSON *rl = cJSON_AddArrayToObject(report, "lods");
     for (uint32_t i = 0; i < si.lod_count; i++) {
         const sv_baked_lod *b = &lods[i].baked;

@@ -18,6 +18,8 @@ void sv_scene_defaults(sv_scene *s)
     s->distance_min = 10.0;
     s->distance_max = 1000.0; /* an open-world draw distance (issue 19: at 200 m a
                                * 12 m tree is 60 px and no quad level was needed) */
+    s->distance_auto = true;  /* replaced by the tree's own range once its size is
+                               * known: a bake does not depend on the file's units */
     s->screen_height = 1080;
     s->fov_y_deg = 60.0;
     s->camera_speed = 0.0;
@@ -35,4 +37,13 @@ double sv_scene_distance_for_pixels(const sv_scene *s, double h, double pixels)
     double t = tan(0.5 * s->fov_y_deg * M_PI / 180.0);
     if (pixels <= 0 || t <= 0) return INFINITY;
     return h * (double)s->screen_height / (2.0 * t * pixels);
+}
+
+void sv_scene_resolve_distance(sv_scene *s, double h)
+{
+    if (!s->distance_auto || !(h > 0) || !isfinite(h)) return;
+    double d = sv_scene_distance_for_pixels(s, h, (double)s->screen_height);
+    if (!(d > 0) || !isfinite(d)) return;
+    s->distance_min = d;
+    s->distance_max = d * SV_SCENE_AUTO_RANGE;
 }

@@ -122,15 +122,19 @@ static sv_status parse_scene(const cJSON *o, sv_spec *s, sv_error *err)
     if ((st = sv_setting_number(o, "scene", "camera_speed", 0, 1e4, &sc->camera_speed, err)))
         return st;
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(o, "distance");
-    if (d) {
+    if (cJSON_IsString(d) && strcmp(d->valuestring, "auto") == 0) {
+        sc->distance_auto = true;
+    } else if (d) {
         const cJSON *a = cJSON_GetArrayItem(d, 0), *b = cJSON_GetArrayItem(d, 1);
         if (!cJSON_IsArray(d) || cJSON_GetArraySize(d) != 2 || !cJSON_IsNumber(a) ||
             !cJSON_IsNumber(b) || !(a->valuedouble > 0) || !(b->valuedouble >= a->valuedouble) ||
             !(b->valuedouble <= 1e7))
             return sv_fail(err, SV_ERR_SPEC,
-                           "scene.distance: expected [min, max] in metres with 0 < min <= max <= 1e7");
+                           "scene.distance: expected [min, max] in metres with 0 < min <= max "
+                           "<= 1e7, or \"auto\"");
         sc->distance_min = a->valuedouble;
         sc->distance_max = b->valuedouble;
+        sc->distance_auto = false;
     }
     if (sc->ambient_occlusion && sc->lighting != SV_LIGHTING_DYNAMIC)
         return sv_fail(err, SV_ERR_SPEC,

@@ -26,13 +26,28 @@ typedef struct sv_scene {
     sv_viewer viewer;
     double distance_min;       /* metres from the camera to the tree */
     double distance_max;
+    bool distance_auto;        /* true (the default, or "distance": "auto"): the
+                                * distances follow the tree's size once it is
+                                * known (sv_scene_resolve_distance) */
     uint32_t screen_height;    /* pixels */
     double fov_y_deg;          /* vertical field of view */
     double camera_speed;       /* m/s; > 0 enables Cook's motion term */
 } sv_scene;
 
-/* Fills the defaults listed above. */
+/* The automatic distance range: from where the tree fills the screen's
+ * height to where it is SV_SCENE_AUTO_RANGE times smaller (1080 px down to
+ * 10.8 px on the default screen; [10.4, 1039] m for a 12 m tree). */
+#define SV_SCENE_AUTO_RANGE 100.0
+
+/* Fills the defaults listed above (distance_auto true, with [10, 1000] m as
+ * the range until sv_scene_resolve_distance replaces it). */
 void sv_scene_defaults(sv_scene *s);
+
+/* With distance_auto, sets [distance_min, distance_max] from the tree's size
+ * h (world units, the height screen sizes are measured on): the distance at
+ * which h is screen_height pixels tall, and SV_SCENE_AUTO_RANGE times that.
+ * No change when distance_auto is false or h is not a positive number. */
+void sv_scene_resolve_distance(sv_scene *s, double h);
 
 /* Height in pixels of an object of world height h seen at distance dist. */
 double sv_scene_pixels(const sv_scene *s, double h, double dist);

@@ -31,6 +31,7 @@ static void empty_spec_gives_every_default(void **state)
     assert_int_equal(s.eval_sizes[0], 256);
     assert_int_equal(s.scene.viewer, SV_VIEWER_SIDE);
     assert_int_equal(s.scene.lighting, SV_LIGHTING_UNLIT);
+    assert_true(s.scene.distance_auto); /* the range follows the tree's size */
     assert_int_equal(s.seed, 1);
     sv_spec_free(&s);
     /* a zero-length spec part means {} */
@@ -57,6 +58,8 @@ static void full_spec_sets_every_section(void **state)
     assert_non_null(s.settings);
     assert_int_equal(s.scene.lighting, SV_LIGHTING_DYNAMIC);
     assert_int_equal(s.scene.viewer, SV_VIEWER_GROUND);
+    assert_false(s.scene.distance_auto); /* given: used as it is */
+    assert_true(s.scene.distance_min == 5 && s.scene.distance_max == 50);
     assert_true(s.scene.shadows && s.scene.ambient_occlusion);
     assert_true(fabs(s.scene.light_dir[1] - 1.0) < 1e-12); /* normalised */
     assert_true(fabs(s.unit_scale - 0.01) < 1e-12);
@@ -186,6 +189,38 @@ static void scene_pixels_and_distance_are_inverse(void **state)
     assert_true(fabs(sv_scene_pixels(&sc, 10, 10) - 1080 / (2 * tan(M_PI / 6))) < 1e-6);
 }
 
+/* scene.distance "auto" (the default): from where the tree fills the screen
+ * to SV_SCENE_AUTO_RANGE times farther, so the same tree in cm or in m gets
+ * the same range in pixels; a given range is never touched. */
+static void auto_distance_follows_the_tree_size(void **state)
+{
+    (void)state;
+    sv_spec s;
+    sv_error e;
+    assert_int_equal(parse("{\"scene\":{\"distance\":\"auto\"}}", &s, &e), SV_OK);
+    assert_true(s.scene.distance_auto);
+    sv_scene a = s.scene, b = s.scene;
+    sv_spec_free(&s);
+    sv_scene_resolve_distance(&a, 12.0);
+    sv_scene_resolve_distance(&b, 1200.0); /* the same tree in centimetres */
+    assert_true(fabs(sv_scene_pixels(&a, 12.0, a.distance_min) - 1080) < 1e-6);
+    assert_true(fabs(sv_scene_pixels(&a, 12.0, a.distance_max) - 10.8) < 1e-6);
+    assert_true(fabs(b.distance_min / a.distance_min - 100) < 1e-9);
+    assert_true(fabs(a.distance_min - 12.0 / (2 * tan(M_PI / 6))) < 1e-9);
+    /* nonsense sizes leave the range alone */
+    sv_scene c = a;
+    sv_scene_resolve_distance(&c, 0);
+    sv_scene_resolve_distance(&c, NAN);
+    assert_true(c.distance_min == a.distance_min && c.distance_max == a.distance_max);
+    /* a given range is kept */
+    assert_int_equal(parse("{\"scene\":{\"distance\":[5,50]}}", &s, &e), SV_OK);
+    sv_scene g = s.scene;
+    sv_spec_free(&s);
+    sv_scene_resolve_distance(&g, 12.0);
+    assert_true(g.distance_min == 5 && g.distance_max == 50);
+    expect_error("{\"scene\":{\"distance\":\"near\"}}", "scene.distance");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -196,6 +231,7 @@ int main(void)
         cmocka_unit_test(bad_specs_are_refused_naming_the_key),
         cmocka_unit_test(deeply_nested_json_is_refused_without_crashing),
         cmocka_unit_test(scene_pixels_and_distance_are_inverse),
+        cmocka_unit_test(auto_distance_follows_the_tree_size),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
