@@ -9,10 +9,14 @@
 #include <string.h>
 #include <stdio.h>
 
-sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
-                        double max_error, sv_mesh **out, sv_error *err)
+/* sv_trunk_mesh; *rel_error (when not NULL) = the largest meshopt result
+ * error of the materials, relative to the trunk's extent (0 when nothing
+ * was simplified). */
+static sv_status trunk_mesh_err(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                                double max_error, sv_mesh **out, double *rel_error, sv_error *err)
 {
     *out = NULL;
+    if (rel_error) *rel_error = 0;
     uint32_t n = 0;
     for (uint32_t t = 0; t < mesh->triangle_count; t++)
         if (tri_part[t] == SV_PART_TRUNK) n++;
@@ -93,6 +97,7 @@ sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double rat
         float result_error = 0;
         size_t got = meshopt_simplify(&dst[total], src, k, cpos, unique, 3 * sizeof(float),
                                       target, rel, 0, &result_error);
+        if (rel_error && result_error > *rel_error) *rel_error = result_error;
         for (size_t i = 0; i < got / 3; i++) mat[total / 3 + i] = m;
         total += got;
     }
@@ -124,6 +129,12 @@ sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double rat
     free(all);
     sv_mesh_destroy(sub);
     return st;
+}
+
+sv_status sv_trunk_mesh(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                        double max_error, sv_mesh **out, sv_error *err)
+{
+    return trunk_mesh_err(mesh, tri_part, ratio, max_error, out, NULL, err);
 }
 
 /* Welded by position, a simplified triangle's corner may stand for several
@@ -171,9 +182,11 @@ static void pick_uv_consistent(const sv_mesh *m, const unsigned int *tri, const 
  * each triangle takes the material of the first original triangle using its
  * first vertex) and *done is true; otherwise m is unchanged. */
 static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, bool sloppy,
-                                 bool raise, bool partial, bool *done, sv_error *err)
+                                 bool raise, bool partial, bool *done, float *result_error,
+                                 sv_error *err)
 {
     *done = false;
+    if (result_error) *result_error = 0;
     size_t ni = (size_t)m->triangle_count * 3;
     unsigned int *weld = malloc((size_t)m->vertex_count * sizeof *weld);
     unsigned int *src = malloc(ni * sizeof *src), *dst = malloc(ni * sizeof *dst);
@@ -196,7 +209,8 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
         for (int c = 0; c < 3; c++) vmat[m->indices[3 * (size_t)t + c]] = m->tri_material[t];
     size_t target = (size_t)max_triangles * 3, got = ni;
     if (!sloppy) {
-        got = meshopt_simplify(dst, src, ni, cpos, unique, 3 * sizeof(float), target, rel, 0, NULL);
+        got = meshopt_simplify(dst, src, ni, cpos, unique, 3 * sizeof(float), target, rel, 0,
+                               result_error);
     } else {
         float lim = rel > 0 ? rel : 1e-3f;
         for (int k = 0; k < (raise ? 16 : 1) && got > target; k++, lim *= 2)
@@ -255,8 +269,8 @@ static sv_status trunk_mesh_bounded(const sv_mesh *mesh, const uint8_t *tri_part
     float rel = (float)fmin(max_error / (2.0 * r), 1.0);
     bool done = false;
     uint32_t before = m->triangle_count;
-    if ((st = simplify_welded(m, target, rel, false, false, true, &done, err))) goto fail;
-    if (!done && (st = simplify_welded(m, target, rel, true, false, true, &done, err))) goto fail;
+    if ((st = simplify_welded(m, target, rel, false, false, true, &done, NULL, err))) goto fail;
+    if (!done && (st = simplify_welded(m, target, rel, true, false, true, &done, NULL, err))) goto fail;
     if (m->triangle_count == before) return SV_OK;
     uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
     if (!all) {
@@ -298,8 +312,8 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     /* 2: the budget wins over the bound: shape-preserving collapse without a
      * bound; 3: only then the sloppy clustering (it can cut thin parts) */
     bool done = false;
-    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, false, false, &done, err)) && !done)
-        st = simplify_welded(m, max_triangles, 0, true, true, false, &done, err);
+    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, false, false, &done, NULL, err)) && !done)
+        st = simplify_welded(m, max_triangles, 0, true, true, false, &done, NULL, err);
     sv_mesh *o = NULL;
     if (!st && done) {
         uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
@@ -316,6 +330,357 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     return st;
 }
 
+
+/* A trunk vertex's position and material, and the part it belongs to. */
+typedef struct vkey {
+    float p[3];
+    uint32_t mat, part;
+} vkey;
+
+static int vkey_cmp(const void *a, const void *b)
+{
+    const vkey *x = a, *y = b;
+    for (int i = 0; i < 3; i++)
+        if (x->p[i] != y->p[i]) return x->p[i] < y->p[i] ? -1 : 1;
+    return x->mat < y->mat ? -1 : x->mat > y->mat;
+}
+
+/* One connected part of the trunk (welded by position, within a material). */
+typedef struct trunk_part {
+    double area;
+    uint32_t first, count; /* into the triangle list sorted by part */
+    uint32_t min_tri;      /* ties broken by the first triangle: determinism */
+} trunk_part;
+
+static int part_cmp(const void *a, const void *b)
+{
+    const trunk_part *x = a, *y = b;
+    if (x->area != y->area) return x->area > y->area ? -1 : 1;
+    return x->min_tri < y->min_tri ? -1 : x->min_tri > y->min_tri;
+}
+
+static uint32_t uf_find(uint32_t *par, uint32_t a)
+{
+    while (par[a] != a) a = par[a] = par[par[a]];
+    return a;
+}
+
+/* Simplifies the triangles tl[0..n) of sub (its indices welded by position +
+ * UV + material into wb, rep[] mapping back) on a local vertex buffer, within
+ * abs_err (world units; <= 0: towards `target` triangles without a bound,
+ * then vertex clustering). Appends the result (sub's vertex ids) to out at
+ * *total and returns the triangles added (0 when over `room`). */
+static uint32_t simplify_part(const sv_mesh *sub, const unsigned int *wb, const uint32_t *rep,
+                              const uint32_t *tl, uint32_t n, double abs_err, uint32_t target,
+                              uint32_t room, uint32_t *loc, unsigned int *lidx, float *lpos,
+                              unsigned int *ldst, uint32_t *lrep, unsigned int *out, uint32_t *omat,
+                              size_t *total)
+{
+    uint32_t nv = 0;
+    for (uint32_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            unsigned int w = wb[sub->indices[3 * (size_t)tl[i] + c]];
+            if (loc[w] == UINT32_MAX) {
+                loc[w] = nv;
+                lrep[nv] = rep[w];
+                memcpy(&lpos[3 * (size_t)nv], &sub->positions[3 * (size_t)rep[w]], 3 * sizeof(float));
+                nv++;
+            }
+            lidx[3 * (size_t)i + c] = loc[w];
+        }
+    for (uint32_t v = 0; v < nv; v++) loc[wb[lrep[v]]] = UINT32_MAX; /* reset for the next part */
+    float scale = meshopt_simplifyScale(lpos, nv, 3 * sizeof(float));
+    size_t got;
+    if (abs_err > 0) {
+        float rel = scale > 0 ? (float)fmin(abs_err / scale, 1.0) : 1.0f;
+        got = meshopt_simplify(ldst, lidx, 3 * (size_t)n, lpos, nv, 3 * sizeof(float), 0, rel, 0,
+                               NULL);
+    } else {
+        got = meshopt_simplify(ldst, lidx, 3 * (size_t)n, lpos, nv, 3 * sizeof(float),
+                               3 * (size_t)target, 1.0f, 0, NULL);
+        float lim = 1e-3f;
+        for (int k = 0; k < 16 && got > 3 * (size_t)target; k++, lim *= 2)
+            got = meshopt_simplifySloppy(ldst, lidx, 3 * (size_t)n, lpos, nv, 3 * sizeof(float),
+                                         3 * (size_t)target, lim, NULL);
+    }
+    if (got / 3 > room || got == 0) return 0;
+    for (size_t i = 0; i < got; i++) out[*total + i] = lrep[ldst[i]];
+    for (size_t i = 0; i < got / 3; i++) omat[*total / 3 + i] = sub->tri_material[tl[0]];
+    *total += got;
+    return (uint32_t)(got / 3);
+}
+
+/* The trunk's connected parts (sapling's maple: 3,121 separate branches),
+ * largest area first, each simplified alone within SV_TRUNK_PART_ERROR of
+ * the trunk's extent, kept while they fit in `limit` triangles; a part that
+ * does not fit is left out (the caller's quads draw it). The largest part
+ * always gets in: when it does not fit within the bound it is simplified
+ * without one (then vertex-clustered) towards the limit. */
+#define SV_TRUNK_PART_ERROR (1.0 / 256.0)
+#define SV_TRUNK_PART_BOUNDS 5 /* 1/256, 1/128, ..., 1/16 of the trunk's extent */
+
+static sv_status trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, uint32_t limit,
+                                  sv_mesh *cand, sv_mesh **out, sv_error *err)
+{
+    *out = NULL;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
+    if (!n || !limit) {
+        *out = cand;
+        return SV_OK;
+    }
+    uint32_t *tris = malloc((size_t)n * sizeof *tris);
+    if (!tris) {
+        sv_mesh_destroy(cand);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++)
+        if (tri_part[t] == SV_PART_TRUNK) tris[n++] = t;
+    sv_mesh *sub = NULL;
+    sv_status st = sv_mesh_subset(mesh, tris, n, &sub, err);
+    free(tris);
+    if (st) {
+        sv_mesh_destroy(cand);
+        return st;
+    }
+    uint32_t nv = sub->vertex_count, nt = sub->triangle_count;
+    vkey *vk = NULL;
+    double *parea = NULL, *drawn = NULL;
+    float *key = malloc((size_t)nv * 6 * sizeof *key);
+    unsigned int *wa = malloc((size_t)nv * sizeof *wa), *wb = malloc((size_t)nv * sizeof *wb);
+    uint32_t *rep = malloc((size_t)nv * sizeof *rep), *par = malloc((size_t)nv * sizeof *par);
+    uint32_t *tpart = malloc((size_t)nt * sizeof *tpart), *order = malloc((size_t)nt * sizeof *order);
+    uint32_t *loc = malloc((size_t)nv * sizeof *loc), *lrep = malloc((size_t)nv * sizeof *lrep);
+    unsigned int *lidx = malloc((size_t)nt * 3 * sizeof *lidx);
+    unsigned int *ldst = malloc((size_t)nt * 3 * sizeof *ldst);
+    unsigned int *oidx = malloc((size_t)(limit + 1) * 3 * sizeof *oidx);
+    uint32_t *omat = malloc((size_t)(limit + 1) * sizeof *omat);
+    unsigned int *boidx = malloc((size_t)(limit + 1) * 3 * sizeof *boidx);
+    uint32_t *bomat = malloc((size_t)(limit + 1) * sizeof *bomat);
+    float *lpos = malloc((size_t)nv * 3 * sizeof *lpos);
+    trunk_part *parts = NULL;
+    if (!key || !wa || !wb || !rep || !par || !tpart || !order || !loc || !lrep || !lidx ||
+        !ldst || !oidx || !omat || !boidx || !bomat || !lpos) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
+    }
+    /* wa: position + material (the parts); wb: + UV (the vertices simplified) */
+    for (uint32_t v = 0; v < nv; v++) {
+        memcpy(&key[6 * (size_t)v], &sub->positions[3 * (size_t)v], 3 * sizeof(float));
+        key[6 * (size_t)v + 3] = 0;
+        memcpy(&key[6 * (size_t)v + 4], &sub->uvs[2 * (size_t)v], 2 * sizeof(float));
+    }
+    for (uint32_t t = 0; t < nt; t++)
+        for (int c = 0; c < 3; c++)
+            key[6 * (size_t)sub->indices[3 * (size_t)t + c] + 3] = (float)sub->tri_material[t];
+    size_t ub = meshopt_generateVertexRemap(wb, NULL, nv, key, nv, 6 * sizeof(float));
+    for (uint32_t v = 0; v < nv; v++) key[6 * (size_t)v + 4] = key[6 * (size_t)v + 5] = 0;
+    meshopt_generateVertexRemap(wa, NULL, nv, key, nv, 6 * sizeof(float));
+    for (uint32_t v = nv; v-- > 0;) rep[wb[v]] = v;
+    for (uint32_t v = 0; v < nv; v++) par[v] = v, loc[v] = UINT32_MAX;
+    (void)ub;
+    for (uint32_t t = 0; t < nt; t++) {
+        uint32_t a = uf_find(par, wa[sub->indices[3 * (size_t)t]]);
+        for (int c = 1; c < 3; c++) {
+            uint32_t b = uf_find(par, wa[sub->indices[3 * (size_t)t + c]]);
+            if (a == b) continue;
+            if (b < a) { /* the smaller id is the root */
+                par[a] = b;
+                a = b;
+            } else {
+                par[b] = a;
+            }
+        }
+    }
+    /* parts numbered in order of their first triangle */
+    uint32_t np = 0;
+    for (uint32_t v = 0; v < nv; v++) lrep[v] = UINT32_MAX;
+    for (uint32_t t = 0; t < nt; t++) {
+        uint32_t root = uf_find(par, wa[sub->indices[3 * (size_t)t]]);
+        if (lrep[root] == UINT32_MAX) lrep[root] = np++;
+        tpart[t] = lrep[root];
+    }
+    parts = sv_calloc(np, sizeof *parts);
+    if (!parts) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
+    }
+    for (uint32_t t = nt; t-- > 0;) {
+        trunk_part *q = &parts[tpart[t]];
+        q->area += sv_tri_area(sub, t);
+        q->count++;
+        q->min_tri = t;
+    }
+    /* for judging cand: each vertex's part, found by position and material */
+    vk = malloc((size_t)nv * sizeof *vk);
+    parea = malloc((size_t)np * sizeof *parea);
+    drawn = sv_calloc(np, sizeof *drawn);
+    if (!vk || !parea || !drawn) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
+    }
+    for (uint32_t k = 0; k < np; k++) parea[k] = parts[k].area;
+    for (uint32_t t = 0; t < nt; t++)
+        for (int c = 0; c < 3; c++) {
+            uint32_t v = sub->indices[3 * (size_t)t + c];
+            memcpy(vk[v].p, &sub->positions[3 * (size_t)v], sizeof vk[v].p);
+            vk[v].mat = sub->tri_material[t];
+            vk[v].part = tpart[t];
+        }
+    qsort(vk, nv, sizeof *vk, vkey_cmp);
+    for (uint32_t k = 0, f = 0; k < np; k++) parts[k].first = f, f += parts[k].count;
+    for (uint32_t k = 0; k < np; k++) parts[k].count = 0;
+    for (uint32_t t = 0; t < nt; t++) {
+        trunk_part *q = &parts[tpart[t]];
+        order[q->first + q->count++] = t;
+    }
+    qsort(parts, np, sizeof *parts, part_cmp);
+    /* The bound that draws the most of the trunk as geometry: per part the
+     * smaller of its simplified and its own area, summed (a part collapsed
+     * to slivers counts for what it still draws). A pot that takes the whole
+     * budget at the finest bound leaves the bonsai's trunk to the quads; at a
+     * coarser one both fit. */
+    double scale = meshopt_simplifyScale(sub->positions, nv, 3 * sizeof(float));
+    size_t total = 0, best_total = 0;
+    double best_credit = -1;
+    for (int b = 0; b < SV_TRUNK_PART_BOUNDS; b++) {
+        double abs_err = ldexp(SV_TRUNK_PART_ERROR, b) * scale, credit = 0;
+        total = 0;
+        for (uint32_t k = 0; k < np && total / 3 < limit; k++) {
+            uint32_t room = limit - (uint32_t)(total / 3);
+            size_t before = total;
+            uint32_t got = simplify_part(sub, wb, rep, &order[parts[k].first], parts[k].count,
+                                         abs_err, 0, room, loc, lidx, lpos, ldst, lrep, oidx, omat,
+                                         &total);
+            if (!got && k == 0) /* the largest part does not fit within the bound */
+                simplify_part(sub, wb, rep, &order[parts[k].first], parts[k].count, 0, room, room,
+                              loc, lidx, lpos, ldst, lrep, oidx, omat, &total);
+            double drawn = 0;
+            for (size_t i = before; i < total; i += 3) {
+                const float *a = &sub->positions[3 * (size_t)oidx[i]];
+                const float *c1 = &sub->positions[3 * (size_t)oidx[i + 1]];
+                const float *c2 = &sub->positions[3 * (size_t)oidx[i + 2]];
+                double u[3], w[3];
+                for (int j = 0; j < 3; j++) u[j] = c1[j] - a[j], w[j] = c2[j] - a[j];
+                double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2],
+                       z = u[0] * w[1] - u[1] * w[0];
+                drawn += 0.5 * sqrt(x * x + y * y + z * z);
+            }
+            credit += fmin(drawn, parts[k].area);
+        }
+        if (credit > best_credit * (1 + 1e-9)) {
+            best_credit = credit;
+            best_total = total;
+            memcpy(boidx, oidx, total * sizeof *oidx);
+            memcpy(bomat, omat, total / 3 * sizeof *omat);
+        }
+    }
+    total = best_total;
+    memcpy(oidx, boidx, total * sizeof *oidx);
+    memcpy(omat, bomat, total / 3 * sizeof *omat);
+    if (cand) {
+        for (uint32_t t = 0; t < cand->triangle_count; t++) {
+            vkey q;
+            memcpy(q.p, &cand->positions[3 * (size_t)cand->indices[3 * (size_t)t]], sizeof q.p);
+            q.mat = cand->tri_material[t];
+            const vkey *hit = bsearch(&q, vk, nv, sizeof *vk, vkey_cmp);
+            if (hit) drawn[hit->part] += sv_tri_area(cand, t);
+        }
+        double credit = 0;
+        for (uint32_t k = 0; k < np; k++) credit += fmin(drawn[k], parea[k]);
+        if (credit > best_credit) { /* the whole-trunk simplification draws more */
+            *out = cand;
+            cand = NULL;
+            total = 0;
+        }
+    }
+    if (total) {
+        memcpy(sub->indices, oidx, total * sizeof *oidx);
+        memcpy(sub->tri_material, omat, total / 3 * sizeof *omat);
+        sub->triangle_count = (uint32_t)(total / 3);
+        uint32_t *all = malloc((size_t)sub->triangle_count * sizeof *all);
+        if (!all) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+            goto out;
+        }
+        for (uint32_t t = 0; t < sub->triangle_count; t++) all[t] = t;
+        st = sv_mesh_subset(sub, all, sub->triangle_count, out, err); /* compacts the vertices */
+        free(all);
+    }
+out:
+    free(key), free(wa), free(wb), free(rep), free(par), free(tpart), free(order), free(loc);
+    free(lrep), free(lidx), free(ldst), free(oidx), free(omat), free(boidx), free(bomat);
+    free(lpos), free(parts), free(vk), free(parea), free(drawn);
+    sv_mesh_destroy(sub);
+    sv_mesh_destroy(cand);
+    return st;
+}
+
+sv_status sv_trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                              uint32_t max_triangles, sv_mesh **out, sv_error *err)
+{
+    *out = NULL;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
+    if (!n) return SV_OK;
+    double lim = fmin((double)max_triangles, fmax(1.0, floor(ratio * n + 0.5)));
+    /* A: material by material, welded by position and UV (seams kept) */
+    sv_mesh *a = NULL;
+    double ea = 0;
+    sv_status st = trunk_mesh_err(mesh, tri_part, lim / n, 0, &a, &ea, err);
+    if (st || !a || n <= (uint32_t)lim) {
+        *out = a;
+        return st;
+    }
+    /* B: the whole trunk at once, welded by position: the error decides where
+     * the triangles go across materials (decorativePlant's pot kept 31 of
+     * 200 by its share of the count and crumpled); it can dissolve whole thin
+     * parts (the maple's stem went with its twigs) */
+    sv_mesh *m = NULL, *cand = NULL;
+    if ((st = sv_trunk_mesh(mesh, tri_part, 1.0, 0, &m, err))) {
+        sv_mesh_destroy(a);
+        return st;
+    }
+    bool done = false;
+    float eb = 0;
+    if ((st = simplify_welded(m, (uint32_t)lim, 1.0f, false, false, false, &done, &eb, err))) {
+        sv_mesh_destroy(m);
+        sv_mesh_destroy(a);
+        return st;
+    }
+    if (done) {
+        uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
+        if (!all) {
+            sv_mesh_destroy(m);
+            sv_mesh_destroy(a);
+            return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        }
+        for (uint32_t t = 0; t < m->triangle_count; t++) all[t] = t;
+        st = sv_mesh_subset(m, all, m->triangle_count, &cand, err); /* compacts the vertices */
+        free(all);
+    }
+    sv_mesh_destroy(m);
+    if (st) {
+        sv_mesh_destroy(a);
+        return st;
+    }
+    /* both within the budget: the smaller deviation (meshopt's result error,
+     * both relative to the trunk's extent) */
+    if (a->triangle_count <= (uint32_t)lim) {
+        if (cand && (double)eb < ea) {
+            sv_mesh_destroy(a);
+            *out = cand;
+        } else {
+            sv_mesh_destroy(cand);
+            *out = a;
+        }
+        return SV_OK;
+    }
+    sv_mesh_destroy(a);
+    /* 3: the parts, largest first; the candidate that draws more of the trunk wins */
+    return trunk_mesh_parts(mesh, tri_part, (uint32_t)lim, cand, out, err);
+}
 
 /* Squared distance from p to triangle abc (Ericson, Real-Time Collision
  * Detection §5.1.5, closest point by Voronoi regions). */
@@ -438,7 +803,7 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
     memset(skip, 0, m->triangle_count);
     *tm = NULL;
     if (!part) return SV_OK;
-    sv_status st = sv_trunk_mesh_budget(m, part, ratio, budget, 0, tm, err);
+    sv_status st = sv_trunk_mesh_parts(m, part, ratio, budget, tm, err);
     if (st || !*tm) return st;
     const sv_mesh *k = *tm;
     double lim = SV_KEPT_FRAC * radius;

@@ -22,10 +22,25 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
                                uint32_t max_triangles, double max_error, sv_mesh **out,
                                sv_error *err);
 
+/* The trunk of a quad level, whose quads draw what it leaves out: the trunk
+ * triangles simplified to at most min(max_triangles, ratio × their count).
+ * Candidates: (A) material by material, welded by position and UV; (B) the
+ * whole trunk at once welded by position (the error decides which material
+ * keeps triangles); when both fit, the smaller meshopt error wins. When A
+ * does not fit (many separate branches: sapling's maple has 3,121), (C) the
+ * connected parts, largest area first, each simplified alone within 1/256 of
+ * the trunk's extent (coarser bounds up to 1/16 tried), kept while they fit;
+ * B or C, whichever draws more of the trunk's area (per part, the smaller of
+ * its drawn and its own area). Parts left out are the quads' to draw (issue
+ * 18: B and vertex clustering dissolved the maple's stem; A gave
+ * decorativePlant's pot 31 triangles by its share of the count). *out NULL
+ * when there is no trunk. */
+sv_status sv_trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,
+                              uint32_t max_triangles, sv_mesh **out, sv_error *err);
+
 /* The trunk of one level as geometry, and what it leaves to the quads: *tm =
  * the trunk triangles (part[t] == SV_PART_TRUNK) simplified to about ratio ×
- * their count and at most `budget` triangles (sv_trunk_mesh_budget, no error
- * bound; NULL when there is
+ * their count and at most `budget` triangles (sv_trunk_mesh_parts; NULL when there is
  * no trunk or part is NULL), and skip[t] = 1 (skip: triangle_count bytes) for
  * each trunk triangle that mesh draws — its centroid within 1 % of `radius` of
  * the kept surface. The other trunk triangles (thin branches the budget could

@@ -254,9 +254,9 @@ static void bad_settings_fail_naming_the_key(void **state)
     }
 }
 
-/* "twigs": trunk triangles the capped trunk does not draw go onto the quads
- * (each exactly once, checked by assert_stand_in_sound); without it they are
- * only in the kept geometry. */
+/* "twigs" (default true): trunk triangles the capped trunk does not draw go
+ * onto the quads (each exactly once, checked by assert_stand_in_sound); with
+ * "twigs": false they are only in the kept geometry. */
 static void twigs_the_trunk_cap_drops_go_onto_the_quads(void **state)
 {
     (void)state;
@@ -265,8 +265,8 @@ static void twigs_the_trunk_cap_drops_go_onto_the_quads(void **state)
     const uint32_t levels[] = {8};
     uint32_t on_quads[2] = {0, 0};
     for (int k = 0; k < 2; k++) {
-        cJSON *j = json(k ? "{\"clusters\":[8],\"twigs\":true,\"trunk_max_triangles\":1}"
-                          : "{\"clusters\":[8],\"trunk_max_triangles\":1}");
+        cJSON *j = json(k ? "{\"clusters\":[8],\"trunk_max_triangles\":1}"
+                          : "{\"clusters\":[8],\"twigs\":false,\"trunk_max_triangles\":1}");
         sv_stand_in s = {0};
         sv_error e = {0};
         assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_OK);
@@ -316,10 +316,10 @@ static void quads_are_planes_of_their_leaves(void **state)
 {
     (void)state;
     /* with 4 layers and 4 clusters, each quad's plane is its layer's plane:
-     * slabs are small against the tree */
+     * slabs are small against the tree (leaves only: no twigs on the quads) */
     toy t;
     toy_make(&t, 120, 9);
-    cJSON *j = json("{\"clusters\":[4]}");
+    cJSON *j = json("{\"clusters\":[4],\"twigs\":false}");
     sv_stand_in s = {0};
     assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, NULL), SV_OK);
     assert_int_equal(s.lods[0].quad_count, 4);

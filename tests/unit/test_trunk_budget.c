@@ -1,16 +1,23 @@
 /* test_trunk_budget.c — the trunk held to a triangle budget (core/trunk.c,
  * sv_trunk_mesh_budget): the cap wins over the error bound, the shape stays
- * where the trunk was, foliage never enters, and no budget means no change. */
+ * where the trunk was, foliage never enters, and no budget means no change;
+ * a quad level's trunk (sv_trunk_mesh_parts) keeps the stem of a trunk made
+ * of many separate branches and shares the budget between parts. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_skip.h"
+#include "test_data.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "classify.h"
+#include "import.h"
 #include "trunk.h"
 
 /* A welded cylinder (radius 1, height `rings`) of seg × rings quads, material
@@ -150,12 +157,185 @@ static void no_cap_goes_below_what_topology_holds_within_the_bound(void **state)
     free(parts);
 }
 
+/* Open tubes (radius r, from y0 to y0 + h, axis at (x, z)), each welded,
+ * all trunk, material 0: a trunk as sapling writes it, one separate part
+ * per branch. */
+typedef struct tubes {
+    float pos[3 * 40000];
+    uint32_t idx[3 * 40000];
+    uint32_t nv, nt;
+} tubes;
+
+static void add_tube(tubes *b, double x, double z, double y0, double h, double r, int seg, int rings)
+{
+    uint32_t base = b->nv;
+    for (int k = 0; k <= rings; k++)
+        for (int s = 0; s < seg; s++) {
+            double a = 2 * M_PI * s / seg;
+            float *p = &b->pos[3 * (size_t)b->nv++];
+            p[0] = (float)(x + r * cos(a)), p[1] = (float)(y0 + h * k / rings),
+            p[2] = (float)(z + r * sin(a));
+        }
+    for (int k = 0; k < rings; k++)
+        for (int s = 0; s < seg; s++) {
+            uint32_t a = base + (uint32_t)(k * seg + s), bb = base + (uint32_t)(k * seg + (s + 1) % seg);
+            uint32_t c = a + (uint32_t)seg, d = bb + (uint32_t)seg;
+            uint32_t q[6] = {a, d, bb, a, c, d};
+            memcpy(&b->idx[3 * (size_t)b->nt], q, sizeof q);
+            b->nt += 2;
+        }
+}
+
+static sv_mesh *tubes_mesh(const tubes *b, uint8_t **parts)
+{
+    sv_mesh *m = sv_mesh_create(b->nv, b->nt, 1, 0);
+    assert_non_null(m);
+    memcpy(m->positions, b->pos, 3 * (size_t)b->nv * sizeof(float));
+    memcpy(m->indices, b->idx, 3 * (size_t)b->nt * sizeof(uint32_t));
+    *parts = malloc(b->nt);
+    assert_non_null(*parts);
+    memset(*parts, SV_PART_TRUNK, b->nt);
+    sv_mesh_compute_normals(m);
+    return m;
+}
+
+/* The stem's four height quarters (0..4 m) that output triangles on the
+ * stem (every corner within its radius of the axis at (0, 0)) reach across
+ * (a straight tube simplifies to triangles spanning its whole length). */
+static int stem_quarters(const sv_mesh *o, double r)
+{
+    int seen[4] = {0, 0, 0, 0};
+    for (uint32_t t = 0; t < o->triangle_count; t++) {
+        double lo = INFINITY, hi = -INFINITY;
+        bool on = true;
+        for (int v = 0; v < 3; v++) {
+            const float *p = &o->positions[3 * (size_t)o->indices[3 * (size_t)t + v]];
+            on = on && hypot(p[0], p[2]) <= r * 1.001;
+            lo = fmin(lo, p[1]), hi = fmax(hi, p[1]);
+        }
+        for (int q = 0; q < 4 && on; q++) seen[q] |= lo <= q + 0.5 && hi >= q + 0.5;
+    }
+    return seen[0] + seen[1] + seen[2] + seen[3];
+}
+
+/* A stem (radius 0.15 m, 4 m, 128 triangles) under 300 thin twigs (2 cm,
+ * 48 triangles each, in a crown 12 m across above 4 m): 14,528 triangles
+ * for a budget of 100. The stem is what shows under the crown; it must be there, from the
+ * ground up, and the twigs (the quads' to draw) may go. The unbounded
+ * whole-trunk collapse and the vertex clustering after it dissolved the
+ * sapling maple's stem into scattered triangles (issue 18). */
+static void parts_keep_the_stem_under_many_twigs(void **state)
+{
+    (void)state;
+    static tubes b;
+    memset(&b, 0, sizeof b);
+    add_tube(&b, 0, 0, 0, 4, 0.15, 8, 8);
+    for (int k = 0; k < 2000; k++)
+        add_tube(&b, -6 + 0.2 * (k % 60), -3 + 0.2 * (k / 60), 4.5 + 0.7 * (k % 7), 1.0, 0.01, 4, 2);
+    uint8_t *parts = NULL;
+    sv_mesh *m = tubes_mesh(&b, &parts);
+    sv_mesh *o = NULL;
+    assert_int_equal(sv_trunk_mesh_parts(m, parts, 1.0, 100, &o, NULL), SV_OK);
+    assert_non_null(o);
+    assert_true(o->triangle_count <= 100);
+    assert_int_equal(stem_quarters(o, 0.15), 4);
+    sv_mesh_destroy(o);
+    sv_mesh_destroy(m);
+    free(parts);
+}
+
+/* A pot (a dense tube 1 m across, 3,200 triangles, most of the area) beside
+ * the stem: at the finest bound the pot alone fills a 150-triangle budget;
+ * the choice must still draw the stem (the bonsai lost its trunk). */
+static void parts_share_the_budget_between_a_pot_and_the_stem(void **state)
+{
+    (void)state;
+    static tubes b;
+    memset(&b, 0, sizeof b);
+    add_tube(&b, 0, 0, 0, 4, 0.3, 16, 4);
+    add_tube(&b, 3, 0, 0, 1, 1.0, 64, 25);
+    uint8_t *parts = NULL;
+    sv_mesh *m = tubes_mesh(&b, &parts);
+    sv_mesh *o = NULL;
+    assert_int_equal(sv_trunk_mesh_parts(m, parts, 1.0, 150, &o, NULL), SV_OK);
+    assert_non_null(o);
+    assert_true(o->triangle_count <= 150);
+    assert_true(stem_quarters(o, 0.3) >= 3);
+    bool pot = false;
+    for (uint32_t v = 0; v < o->vertex_count; v++) pot |= o->positions[3 * (size_t)v] > 1.5f;
+    assert_true(pot);
+    sv_mesh_destroy(o);
+    sv_mesh_destroy(m);
+    free(parts);
+}
+
+/* The sapling maple (SYLVA_DATA): 117,328 bark triangles in 3,121 separate
+ * branches, held to 200. Its stem is what shows under the crown: the kept
+ * trunk must draw the lowest 15 % of the trunk's height (at least a third of
+ * the area the original has there). The whole-trunk collapse kept 190
+ * triangles, none below 2 m (issue 18). */
+static void the_maple_keeps_its_stem_at_200_triangles(void **state)
+{
+    (void)state;
+    const char *data = sv_test_data("the maple's trunk");
+    char obj[1024], mtl[1024];
+    snprintf(obj, sizeof obj, "%s/sapling_small_maple/sapling_small_maple_rect.obj", data);
+    snprintf(mtl, sizeof mtl, "%s/sapling_small_maple/sapling_small_maple_rect.mtl", data);
+    size_t n_obj = 0, n_mtl = 0;
+    uint8_t *b_obj = sv_test_read_all(obj, &n_obj), *b_mtl = sv_test_read_all(mtl, &n_mtl);
+    if (!b_obj || !b_mtl) {
+        free(b_obj), free(b_mtl);
+        fail_msg("cannot read %s or its .mtl", obj);
+    }
+    sv_file files[2] = {{"sapling_small_maple_rect.obj", b_obj, n_obj},
+                        {"sapling_small_maple_rect.mtl", b_mtl, n_mtl}};
+    sv_import_options io = {.unit_scale = 1.0};
+    sv_mesh *m = NULL;
+    sv_error e = {0};
+    assert_int_equal(sv_import(files, 2, &io, &m, NULL, &e), SV_OK);
+    free(b_obj), free(b_mtl);
+    sv_classification cls;
+    assert_int_equal(sv_classify(m, NULL, &cls, &e), SV_OK);
+    double y0 = INFINITY, y1 = -INFINITY;
+    for (uint32_t t = 0; t < m->triangle_count; t++)
+        for (int v = 0; v < 3 && cls.tri_part[t] == SV_PART_TRUNK; v++) {
+            double y = m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + 1];
+            y0 = fmin(y0, y), y1 = fmax(y1, y);
+        }
+    double band = y0 + 0.15 * (y1 - y0), orig = 0, kept = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (cls.tri_part[t] != SV_PART_TRUNK) continue;
+        double y = INFINITY;
+        for (int v = 0; v < 3; v++) y = fmin(y, m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + 1]);
+        if (y < band) orig += sv_tri_area(m, t);
+    }
+    sv_mesh *o = NULL;
+    assert_int_equal(sv_trunk_mesh_parts(m, cls.tri_part, 0.5, 200, &o, &e), SV_OK);
+    assert_non_null(o);
+    assert_true(o->triangle_count <= 200);
+    for (uint32_t t = 0; t < o->triangle_count; t++) {
+        double y = INFINITY;
+        for (int v = 0; v < 3; v++) y = fmin(y, o->positions[3 * (size_t)o->indices[3 * (size_t)t + v] + 1]);
+        if (y < band) kept += sv_tri_area(o, t);
+    }
+    print_message("maple stem: %u triangles; below %.2f m %.3f m2 kept of %.3f\n", o->triangle_count,
+                  band, kept, orig);
+    assert_true(orig > 0);
+    assert_true(kept >= orig / 3);
+    sv_mesh_destroy(o);
+    sv_classification_free(&cls);
+    sv_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(budget_caps_the_trunk_even_against_a_tight_error_bound),
         cmocka_unit_test(budget_above_the_count_keeps_the_trunk_as_it_is),
         cmocka_unit_test(no_cap_goes_below_what_topology_holds_within_the_bound),
+        cmocka_unit_test(parts_keep_the_stem_under_many_twigs),
+        cmocka_unit_test(parts_share_the_budget_between_a_pot_and_the_stem),
+        cmocka_unit_test(the_maple_keeps_its_stem_at_200_triangles),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }
