@@ -2,7 +2,9 @@
 # lod_chain.sh — the LOD chain of issue 6 on every tree in ../shared/data:
 # full mesh → stochastic levels → the spec's method → crossed quads. Each bake
 # must succeed, model.glb must validate (Khronos validator), and every standalone
-# lod<i>_<name>.glb on the trees of at most 25k triangles (OBJ and GLB), the stochastic
+# lod<i>_<name>.glb on the trees of at most 25k triangles (OBJ and GLB) must
+# validate and load in three.js (GLTFLoader: one node, the level's triangles,
+# its atlas texture, the tree's height), the stochastic
 # LODs must carry _LEAF_CENTRE/_LEAF_ORDER and their fade window, switch sizes
 # must not increase along the chain, and report.json must say which λ terms
 # were used and which LODs were skipped.
@@ -63,6 +65,26 @@ print(len(lods), 'LODs:', ' '.join('%s(%d)' % (l['name'], l['triangles']) for l 
 EOF
 }
 
+# three_check LOADED REPORT: each standalone level, as three.js's GLTFLoader
+# loads it (three_load.mjs), is one node named as the report says, draws the
+# level's triangles, has its atlas texture on a quad level and stands as
+# tall as the tree (within 10 %)
+three_check() {
+    python3 - "$1" "$2" <<'EOF'
+import json, os, sys
+rep = json.load(open(sys.argv[2]))
+got = {os.path.basename(j['file']): j for j in map(json.loads, open(sys.argv[1]))}
+h = rep['input']['bounds']['size'][1]
+for l in rep['lods']:
+    j = got[l['file']]
+    assert j['nodes'] == [l['node']], (l['file'], j['nodes'])
+    assert j['triangles'] == l['triangles'], (l['file'], j['triangles'], l['triangles'])
+    assert l['texels'] == 0 or j['textured'] >= 1, (l['file'], 'no texture on a quad level')
+    tall = j['box'][1][1] - j['box'][0][1]  # quads' corners may stand out
+    assert 0.9 * h <= tall <= 1.6 * h, (l['file'], tall, h)
+EOF
+}
+
 trees > "$tmp/trees"
 while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
     c=$(tree_cache "$dir" "$mesh" "$units") || fail "$mesh: no chain bake"
@@ -72,6 +94,11 @@ while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
     if [ "$tris" -le 25000 ]; then
         node "$v" "$c/bake/model.glb" "$c/bake"/lod*_*.glb > /dev/null ||
             fail "$mesh: model.glb or a standalone level does not validate"
+        # and three.js (which ignores MSFT_lod) builds each level's scene
+        node "$(dirname "$v")/three_load.mjs" "$c/bake"/lod*_*.glb > "$tmp/three.json" ||
+            fail "$mesh: three.js cannot load a standalone level: $(grep error "$tmp/three.json")"
+        three_check "$tmp/three.json" "$c/bake/report.json" ||
+            fail "$mesh: a standalone level is not the level three.js draws"
     else
         node "$v" "$c/bake/model.glb" > /dev/null || fail "$mesh: model.glb does not validate"
     fi

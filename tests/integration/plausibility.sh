@@ -98,7 +98,9 @@ SYLVA_SERVER=$URL "$SYLVA" bake $YMESH --spec "$T/cm.json" --out "$T/cm_c" > /de
 check "chain in centimetres (client) exits 0" 0 $?
 # (float rounding of the scaled positions moves IoUs by ~0.01 and can flip
 # a level at a band's edge, so the chain is compared level by level, not as
-# a list: every level baked in both, IoU at 64 px within 0.02, triangles 2 %)
+# a list: every level baked in both, the same quads, IoU at 64 px within
+# 0.02, triangles within 10 %: meshoptimizer's collapse order on the rounded
+# positions moves a 200-triangle kept trunk by ~10 triangles)
 cmp_chain() {
     python3 - "$T/cm_m/report.json" "$T/cm_c/report.json" <<'PY'
 import json, sys
@@ -110,7 +112,8 @@ def levels(f):
 (a, na), (b, nb) = levels(sys.argv[1]), levels(sys.argv[2])
 iou = lambda l: [x['iou_mean'] for x in l['accuracy'] if x['pixels'] == 64][0]
 bad = [n for n in a if n not in b or abs(iou(a[n]) - iou(b[n])) > 0.02
-       or abs(a[n]['triangles'] - b[n]['triangles']) > 0.02 * a[n]['triangles']]
+       or a[n].get('quads') != b[n].get('quads')
+       or abs(a[n]['triangles'] - b[n]['triangles']) > 0.1 * a[n]['triangles']]
 print('same' if not bad and set(a) == set(b) else 'differ: %s' % (bad or set(a) ^ set(b)),
       na >= 4 and nb >= 4)
 PY
