@@ -427,7 +427,24 @@ static enum MHD_Result upload_end(req *q)
     char *body = NULL;
     int status = svd_jobs_submit(h->jobs, &up, &body);
     u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
-    return send_json(h, c, route, (unsigned)status, body);
+    if (status < 200 || status > 202) return send_json(h, c, route, (unsigned)status, body);
+    /* accepted (or already known): Location names the bake's status document */
+    cJSON *j = body ? cJSON_Parse(body) : NULL;
+    const char *key = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(j, "key"));
+    char loc[SVD_KEY_HEX + 16] = "";
+    if (key && strlen(key) < SVD_KEY_HEX) snprintf(loc, sizeof loc, "/v1/bakes/%s", key);
+    cJSON_Delete(j);
+    struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
+                                                             body ? body : (void *)"{}",
+                                                             MHD_RESPMEM_MUST_COPY);
+    free(body);
+    if (!r) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", "application/json");
+    if (loc[0]) MHD_add_response_header(r, MHD_HTTP_HEADER_LOCATION, loc);
+    enum MHD_Result ret = MHD_queue_response(c, (unsigned)status, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(h->metrics, route, (unsigned)status);
+    return ret;
 }
 
 /* ---- long-poll ---- */
@@ -488,6 +505,40 @@ static const char *content_type_of(const char *name)
     return "application/octet-stream";
 }
 
+/* One byte range of a file of `size` bytes (RFC 9110 §14.1.2): "bytes=a-b",
+ * "bytes=a-" or "bytes=-n". 1: satisfiable, [*off, *off + *len); -1: not
+ * satisfiable (416); 0: not one range this parser takes (several ranges,
+ * another unit, a malformed value), so the header is ignored and the whole
+ * file is sent, as the RFC allows. */
+static int parse_range(const char *v, uint64_t size, uint64_t *off, uint64_t *len)
+{
+    if (strncmp(v, "bytes=", 6) != 0 || strchr(v, ',')) return 0;
+    const char *p = v + 6, *dash = strchr(p, '-');
+    if (!dash) return 0;
+    char *end;
+    if (p == dash) { /* suffix: the last n bytes */
+        if (dash[1] < '0' || dash[1] > '9') return 0;
+        unsigned long long n = strtoull(dash + 1, &end, 10);
+        if (*end) return 0;
+        if (n == 0 || size == 0) return -1;
+        *len = n < size ? n : size;
+        *off = size - *len;
+        return 1;
+    }
+    if (*p < '0' || *p > '9') return 0;
+    unsigned long long a = strtoull(p, &end, 10), b = UINT64_MAX;
+    if (end != dash) return 0;
+    if (dash[1]) {
+        if (dash[1] < '0' || dash[1] > '9') return 0;
+        b = strtoull(dash + 1, &end, 10);
+        if (*end || b < a) return 0;
+    }
+    if (a >= size) return -1;
+    *off = a;
+    *len = (b >= size - 1 ? size - 1 : b) - a + 1;
+    return 1;
+}
+
 static enum MHD_Result handle_artifact(req *q)
 {
     svd_http *h = q->h;
@@ -535,18 +586,47 @@ static enum MHD_Result handle_artifact(req *q)
         return send_error(h, c, q->m.route, 503, "corrupt",
                           "the stored artifact failed its SHA-256 check; it was quarantined and the bake requeued");
     }
+    /* Range (one range; If-Range must name this ETag, else the whole file) */
+    uint64_t off = 0, len = size;
+    int ranged = 0;
+    const char *rg = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_RANGE);
+    const char *ifr = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_RANGE);
+    if (rg && (!ifr || strstr(ifr, sha))) ranged = parse_range(rg, size, &off, &len);
+    char crange[96];
+    if (ranged < 0) {
+        snprintf(crange, sizeof crange, "bytes */%llu", (unsigned long long)size);
+        char *body = svd_error_json("range", "the range starts at or past the end of the artifact");
+        struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
+                                                                 body ? body : (void *)"{}",
+                                                                 MHD_RESPMEM_MUST_COPY);
+        free(body);
+        if (!r) return MHD_NO;
+        MHD_add_response_header(r, "Content-Type", "application/json");
+        MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_RANGE, crange);
+        enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_RANGE_NOT_SATISFIABLE, r);
+        MHD_destroy_response(r);
+        svd_metrics_request(h->metrics, q->m.route, 416);
+        return ret;
+    }
     int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
     if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", "artifact missing from the store");
-    struct MHD_Response *r = MHD_create_response_from_fd64(size, fd); /* closes fd */
+    struct MHD_Response *r = MHD_create_response_from_fd_at_offset64(len, fd, off); /* closes fd */
     if (!r) {
         close(fd);
         return MHD_NO;
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
     MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, content_type_of(q->m.name));
-    enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_OK, r);
+    MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
+    if (ranged > 0) {
+        snprintf(crange, sizeof crange, "bytes %llu-%llu/%llu", (unsigned long long)off,
+                 (unsigned long long)(off + len - 1), (unsigned long long)size);
+        MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_RANGE, crange);
+    }
+    unsigned code = ranged > 0 ? MHD_HTTP_PARTIAL_CONTENT : MHD_HTTP_OK;
+    enum MHD_Result ret = MHD_queue_response(c, code, r);
     MHD_destroy_response(r);
-    svd_metrics_request(h->metrics, q->m.route, 200);
+    svd_metrics_request(h->metrics, q->m.route, code);
     return ret;
 }
 

@@ -17,8 +17,8 @@ int svd_stage_index(const char *name)
     return -1;
 }
 
-static const unsigned statuses[] = {200, 202, 204, 304, 400, 401, 404, 405, 409,
-                                    413, 415, 422, 429, 500, 503, 507};
+static const unsigned statuses[] = {200, 201, 202, 204, 206, 304, 400, 401, 404, 405, 409,
+                                    413, 415, 416, 422, 429, 500, 503, 507};
 #define NSTATUS (sizeof statuses / sizeof statuses[0] + 1) /* + "other" */
 
 static const char *const finals[] = {"done", "failed", "cancelled"};

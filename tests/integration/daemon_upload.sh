@@ -1,7 +1,8 @@
 #!/bin/sh
-# Upload -> wait -> artifact with ETag/304; idempotence (16 concurrent uploads
-# bake once); key mismatch 400; oversized Content-Length 413 before the body;
-# bad spec 400; unknown format 415; traversal refused.
+# Upload -> wait -> artifact with ETag/304 and byte ranges (206, 416,
+# If-Range); Location on the answer to an upload; idempotence (16 concurrent
+# uploads bake once); key mismatch 400; oversized Content-Length 413 before
+# the body; bad spec 400; unknown format 415; traversal refused.
 . "$(dirname "$0")/daemon_lib.inc"
 export FAKE_WORKER_LOG=$T/invocations
 : > "$FAKE_WORKER_LOG"
@@ -23,10 +24,32 @@ etag=$(sed -n 's/^ETag: *\(".*"\).*/\1/Ip' "$T/h" | tr -d '\r')
 sha=$(sha256sum "$T/model.glb" | cut -d' ' -f1)
 check "ETag is the SHA-256" "\"$sha\"" "$etag"
 check "If-None-Match answers 304" 304 "$(curl -s -o /dev/null -w '%{http_code}' -H "If-None-Match: $etag" "$URL/v1/bakes/$key/artifacts/model.glb")"
+a="$URL/v1/bakes/$key/artifacts/model.glb"
+n=$(wc -c < "$T/model.glb")
+contains "200 says Accept-Ranges: bytes" "Accept-Ranges: bytes" "$(cat "$T/h")"
+code=$(curl -s -D "$T/rh" -o "$T/part" -w '%{http_code}' -r 0-9 "$a")
+check "Range 0-9 answers 206" 206 "$code"
+contains "  Content-Range bytes 0-9/size" "Content-Range: bytes 0-9/$n" "$(tr -d '\r' < "$T/rh")"
+check "  the first 10 bytes" "$(head -c 10 "$T/model.glb" | od -An -tx1)" "$(od -An -tx1 < "$T/part")"
+curl -s -o "$T/part" -H "Range: bytes=-5" "$a"
+check "suffix range: the last 5 bytes" "$(tail -c 5 "$T/model.glb" | od -An -tx1)" "$(od -An -tx1 < "$T/part")"
+code=$(curl -s -D "$T/rh" -o "$T/part" -w '%{http_code}' -H "Range: bytes=$n-" "$a")
+check "a range past the end answers 416" 416 "$code"
+contains "  Content-Range bytes */size" "Content-Range: bytes */$n" "$(tr -d '\r' < "$T/rh")"
+contains "  with a JSON error" '"code":"range"' "$(cat "$T/part")"
+check "If-Range with another ETag: the whole file (200)" "200 $n" \
+    "$(curl -s -o "$T/part" -w '%{http_code} %{size_download}' -r 0-9 -H 'If-Range: "0000"' "$a")"
+check "If-Range with this ETag: the range (206)" "206 10" \
+    "$(curl -s -o "$T/part" -w '%{http_code} %{size_download}' -r 0-9 -H "If-Range: $etag" "$a")"
+check "several ranges: the whole file (200)" "200 $n" \
+    "$(curl -s -o "$T/part" -w '%{http_code} %{size_download}' -r 0-1,4-5 "$a")"
 check "unknown artifact is 404" 404 "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/bakes/$key/artifacts/inputs.json")"
 check "traversal is refused" 404 "$(curl -s -o /dev/null -w '%{http_code}' --path-as-is "$URL/v1/bakes/$key/artifacts/%2e%2e%2fspec.json")"
 post "$m" >/dev/null
 check "same upload again answers 200" 200 "$(cat "$T/status")"
+loc=$(curl -s -D - -o /dev/null -F "spec=$SPEC;type=application/json" -F "mesh=@$m" "$URL/v1/bakes" |
+    sed -n 's/^Location: *//Ip' | tr -d '\r')
+check "the answer to an upload says Location: /v1/bakes/KEY" "/v1/bakes/$key" "$loc"
 
 # A PUT of a key already held: its body is read and dropped, then answered on a
 # connection that stays open (closing with body bytes unread resets it, which a
