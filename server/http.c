@@ -630,6 +630,36 @@ static enum MHD_Result handle_artifact(req *q)
     return ret;
 }
 
+/* GET /v1/bakes[?limit=N][&before=CURSOR]: the caller's bakes, newest first
+ * (docs/api.md). */
+#define LIST_DEFAULT 50
+#define LIST_MAX 1000
+
+static enum MHD_Result handle_list(req *q)
+{
+    svd_http *h = q->h;
+    const char *ls = MHD_lookup_connection_value(q->conn, MHD_GET_ARGUMENT_KIND, "limit");
+    const char *bs = MHD_lookup_connection_value(q->conn, MHD_GET_ARGUMENT_KIND, "before");
+    unsigned long limit = LIST_DEFAULT;
+    unsigned long long before = 0;
+    char *end;
+    if (ls) {
+        limit = strtoul(ls, &end, 10);
+        if (end == ls || *end || *ls == '-' || limit < 1 || limit > LIST_MAX)
+            return send_error(h, q->conn, q->m.route, 400, "bad_request",
+                              "limit: expected an integer from 1 to 1000");
+    }
+    if (bs) {
+        before = strtoull(bs, &end, 10);
+        if (end == bs || *end || *bs == '-' || before == 0)
+            return send_error(h, q->conn, q->m.route, 400, "bad_request",
+                              "before: expected a cursor from an earlier page (\"next\")");
+    }
+    char *body = NULL;
+    int st = svd_jobs_list(h->jobs, q->client, (uint64_t)before, (unsigned)limit, &body);
+    return send_json(h, q->conn, q->m.route, (unsigned)st, body);
+}
+
 static enum MHD_Result handle_info(req *q)
 {
     svd_http *h = q->h;
@@ -842,6 +872,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return send_json(h, c, q->m.route, (unsigned)st, body);
     }
     case SVD_R_STATUS: return handle_status(q, 0);
+    case SVD_R_LIST: return handle_list(q);
     default: return send_error(h, c, SVD_R_NONE, 404, "not_found", "no such resource");
     }
 }

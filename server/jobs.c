@@ -478,6 +478,62 @@ int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out)
     return 200;
 }
 
+static int by_seq_desc(const void *a, const void *b)
+{
+    return -by_seq(a, b);
+}
+
+int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
+                  char **json_out)
+{
+    *json_out = NULL;
+    if (before == 0) before = UINT64_MAX;
+    pthread_mutex_lock(&jobs->mu);
+    size_t n = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            n += strcmp(o->client, client) == 0 && o->seq < before;
+    svd_job **v = malloc((n ? n : 1) * sizeof *v);
+    cJSON *r = cJSON_CreateObject(), *a = r ? cJSON_AddArrayToObject(r, "bakes") : NULL;
+    if (!v || !a) {
+        pthread_mutex_unlock(&jobs->mu);
+        free(v);
+        cJSON_Delete(r);
+        *json_out = svd_error_json("io", "out of memory");
+        return 500;
+    }
+    n = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            if (strcmp(o->client, client) == 0 && o->seq < before) v[n++] = o;
+    qsort(v, n, sizeof *v, by_seq_desc);
+    size_t k = n < limit ? n : limit;
+    char cur[24];
+    for (size_t i = 0; i < k; i++) {
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddStringToObject(e, "key", v[i]->key);
+        cJSON_AddStringToObject(e, "state", svd_job_state_name(v[i]->state));
+        if (v[i]->state == SVD_JOB_RUNNING && v[i]->stage >= 0)
+            cJSON_AddStringToObject(e, "stage", svd_stage_names[v[i]->stage]);
+        else
+            cJSON_AddNullToObject(e, "stage");
+        cJSON_AddNumberToObject(e, "progress", v[i]->state == SVD_JOB_DONE ? 1.0 : v[i]->progress);
+        snprintf(cur, sizeof cur, "%llu", (unsigned long long)v[i]->seq);
+        cJSON_AddStringToObject(e, "cursor", cur);
+        cJSON_AddItemToArray(a, e);
+    }
+    if (k < n && k > 0) {
+        snprintf(cur, sizeof cur, "%llu", (unsigned long long)v[k - 1]->seq);
+        cJSON_AddStringToObject(r, "next", cur);
+    } else {
+        cJSON_AddNullToObject(r, "next");
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    free(v);
+    *json_out = print_free(r);
+    return *json_out ? 200 : 500;
+}
+
 bool svd_jobs_has(svd_jobs *jobs, const char *key)
 {
     pthread_mutex_lock(&jobs->mu);

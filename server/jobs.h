@@ -86,6 +86,14 @@ bool svd_jobs_has(svd_jobs *jobs, const char *key);
 /* Status document of a job (see docs/api.md) into *json_out; 200 or 404. */
 int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out);
 
+/* The bakes submitted by `client` (the id svd_client_id gives: its token, or
+ * its address without auth), newest first: those submitted before the
+ * cursor `before` (0: from the newest), at most `limit`. *json_out =
+ * {"bakes": [{"key", "state", "stage", "progress", "cursor"}...], "next":
+ * cursor of the next page or null}. Returns 200 (500 without memory). */
+int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
+                  char **json_out);
+
 /* Registers w to be woken when the job with this key changes state or stage.
  * Returns false (nothing registered) if the job is missing or already final. */
 bool svd_jobs_wait(svd_jobs *jobs, const char *key, svd_waiter *w);

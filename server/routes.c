@@ -8,6 +8,7 @@ static const char *const labels[SVD_R_COUNT] = {
     [SVD_R_NONE] = "other",     [SVD_R_HEALTH] = "health", [SVD_R_METRICS] = "metrics",
     [SVD_R_INFO] = "info",      [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
     [SVD_R_STATUS] = "status",  [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
+    [SVD_R_LIST] = "list",
 };
 
 const char *svd_route_label(svd_route r)
@@ -34,8 +35,9 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
         return;
     }
     if (strcmp(path, "/v1/bakes") == 0 || strcmp(path, "/v1/bakes/") == 0) {
-        if (strcmp(method, "POST") != 0) return fail(m, 405, "method not allowed", "POST");
-        m->route = SVD_R_SUBMIT;
+        if (get) m->route = SVD_R_LIST;
+        else if (strcmp(method, "POST") == 0) m->route = SVD_R_SUBMIT;
+        else return fail(m, 405, "method not allowed", "GET, HEAD, POST");
         return;
     }
     if (strncmp(path, "/v1/bakes/", 10) != 0) return fail(m, 404, "no such resource", NULL);

@@ -15,6 +15,7 @@ typedef enum svd_route {
     SVD_R_STATUS,       /* GET /v1/bakes/{key} */
     SVD_R_DELETE,       /* DELETE /v1/bakes/{key} */
     SVD_R_ARTIFACT,     /* GET /v1/bakes/{key}/artifacts/{name} */
+    SVD_R_LIST,         /* GET /v1/bakes: the caller's bakes */
     SVD_R_COUNT
 } svd_route;
 

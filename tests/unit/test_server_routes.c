@@ -45,8 +45,12 @@ static void routes_refuse_wrong_methods_with_allow(void **state)
     svd_route_find("POST", "/v1/health", &m);
     assert_int_equal(m.status, 405);
     assert_string_equal(m.allow, "GET, HEAD");
-    svd_route_find("GET", "/v1/bakes", &m);
+    svd_route_find("PUT", "/v1/bakes", &m);
     assert_int_equal(m.status, 405);
+    assert_string_equal(m.allow, "GET, HEAD, POST");
+    svd_route_find("GET", "/v1/bakes", &m); /* the caller's bakes */
+    assert_int_equal(m.status, 0);
+    assert_int_equal(m.route, SVD_R_LIST);
     svd_route_find("PATCH", "/v1/bakes/" KEY, &m);
     assert_int_equal(m.status, 405);
 }
