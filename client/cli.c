@@ -197,6 +197,8 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             cli->retries = (int)r;
         } else if (strcmp(name, "--json") == 0 && !val) {
             cli->json = true;
+        } else if (strcmp(name, "--delete") == 0 && !val) {
+            cli->delete_done = true;
         } else if (strcmp(name, "--quiet") == 0 && !val) {
             cli->progress = SYLVA_PROGRESS_NONE;
         } else if (strcmp(name, "--progress") == 0) {

@@ -52,6 +52,7 @@ typedef struct sylva_cli {
     size_t server_count;
     const char *token;         /* --token, else SYLVA_TOKEN, else NULL */
     bool json;                 /* --json */
+    bool delete_done;          /* --delete: `cancel` may delete a finished bake */
     sylva_progress_mode progress; /* --progress=auto|bar|plain|none, --quiet = none */
     const char *out;           /* --out DIR */
     const char *spec_path;     /* --spec FILE */

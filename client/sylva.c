@@ -24,7 +24,7 @@ static const char usage_text[] =
     "             [--retries N]  (on every command; default 7)\n"
     "  sylva status KEY [--wait S]\n"
     "  sylva fetch KEY --out DIR\n"
-    "  sylva cancel KEY\n"
+    "  sylva cancel KEY [--delete]  (--delete: also a finished bake, results and all)\n"
     "  sylva health\n"
     "Server from --server (repeatable, or a comma list: failover in order) or\n"
     "SYLVA_SERVER (default " SYLVA_DEFAULT_SERVER "); token from --token or SYLVA_TOKEN.\n"
@@ -638,7 +638,31 @@ static int cmd_cancel(const sylva_cli *cli)
     sylva_client *c = open_client(cli, &st);
     if (!c)
         return sylva_cli_exit_code(st);
-    char state[32];
+    char state[32] = "";
+    /* A finished bake is not cancelled but deleted with its results: only
+     * with --delete (issue 23). The state is read first; a bake that
+     * finishes between the two requests is deleted as a cancel would have
+     * stopped it. */
+    if (!cli->delete_done) {
+        sylva_job job = {0};
+        st = sylva_status_get(c, cli->args[0], 0, &job);
+        sylva_state s = job.state;
+        sylva_job_clear(&job);
+        if (st != SYLVA_OK) {
+            int rc = fail_client(cli, c, st);
+            sylva_client_destroy(c);
+            return rc;
+        }
+        if (s == SYLVA_STATE_DONE || s == SYLVA_STATE_FAILED || s == SYLVA_STATE_CANCELLED) {
+            char msg[200];
+            snprintf(msg, sizeof msg,
+                     "the bake has finished (%s): nothing to cancel; `sylva cancel --delete %.64s` "
+                     "deletes it and its results",
+                     sylva_state_name(s), cli->args[0]);
+            sylva_client_destroy(c);
+            return fail_out(cli, SYLVA_EXIT_FAILED, "finished", msg);
+        }
+    }
     st = sylva_cancel_state(c, cli->args[0], state, sizeof state);
     int rc = SYLVA_EXIT_OK;
     /* a finished bake is deleted, not cancelled: say which (issue 23) */

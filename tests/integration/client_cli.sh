@@ -184,9 +184,14 @@ check "  reports two bakes, ok" test "$(json_get "$T/batch.json" 'str(d["ok"]) +
 check "  writes out/$STEM/ and out/copy/" \
     sh -c "test -f '$T/batch/$STEM/model.glb' && test -f '$T/batch/copy/model.glb'"
 
-# cancel (DELETE) a finished bake: it is gone afterwards
-"$SYLVA" cancel "$KEY" >"$T/cancel.out"
-check "cancel of a finished bake exits 0" test $? -eq 0
+# cancel of a finished bake is refused (its results stay); --delete deletes it
+"$SYLVA" cancel "$KEY" >"$T/cancel.out" 2>"$T/cancel.err"
+check "cancel of a finished bake is refused (exit 1, issue 23)" test $? -eq 1
+check "  saying it finished and naming --delete" grep -q "has finished (done).*--delete" "$T/cancel.err"
+"$SYLVA" status "$KEY" >/dev/null 2>&1
+check "  and the bake is still there" test $? -eq 0
+"$SYLVA" cancel --delete "$KEY" >"$T/cancel.out"
+check "cancel --delete of a finished bake exits 0" test $? -eq 0
 check "  and says it deleted it, not 'cancelled' (issue 23)" grep -q "^$KEY deleted" "$T/cancel.out"
 "$SYLVA" status "$KEY" >/dev/null 2>&1
 check "  and its status is then unknown (exit 1)" test $? -eq 1
