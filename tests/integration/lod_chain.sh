@@ -54,6 +54,14 @@ for l in stoch:
     assert '_LEAF_CENTRE' in prim['attributes'] and '_LEAF_ORDER' in prim['attributes'], prim
 sw = [l['switch_pixels'] for l in rep['lods']]
 assert all(sw[i] >= sw[i + 1] for i in range(len(sw) - 1)), sw
+# atlases sized by where a level is drawn (issue 19 item 3): a quad level
+# after the first, drawn at most S px tall, has no texel finer than half of
+# the tree's height / (4 S), unless its atlas is already at 64x64 or less
+h = rep['input']['bounds']['size'][1]
+for l in rep['lods'][1:]:
+    if l['texels'] > 64 * 64:
+        assert 2 * l['texel_size'] * 4 * l['switch_pixels'] * 1.01 >= h, \
+            (l['name'], l['texel_size'], l['switch_pixels'], h)
 c = rep['lod_chain']
 assert isinstance(c['skipped'], list)
 if 'stochastic' in c:
