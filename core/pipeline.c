@@ -675,16 +675,24 @@ typedef struct lod_out {
 #define SV_CALIB_VIEWS 8u
 #define SV_CALIB_STEP 0.1
 
+/* The calibration's views at one size px: SV_CALIB_VIEWS views placed by
+ * scene.viewer, rendered at 128² (at 64 px: a quarter of the pixels of a
+ * supersample of 4, the same cutoffs to 0.0125). */
+static void calib_options(const run *r, uint32_t px, sv_eval_options *eo)
+{
+    memset(eo, 0, sizeof *eo);
+    eo->viewer = r->spec.scene.viewer;
+    eo->view_count = SV_CALIB_VIEWS;
+    eo->sizes[0] = px;
+    eo->size_count = 1;
+    eo->supersample = 128 / px;
+}
+
 static sv_status small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
                                  sv_evaluator **out, sv_error *err)
 {
     sv_eval_options eo;
-    memset(&eo, 0, sizeof eo);
-    eo.viewer = r->spec.scene.viewer;
-    eo.view_count = SV_CALIB_VIEWS;
-    eo.sizes[0] = SV_CALIB_PIXELS;
-    eo.size_count = 1;
-    eo.supersample = 2; /* 128² renders: a quarter of the pixels of 4, same cutoffs to 0.0125 */
+    calib_options(r, SV_CALIB_PIXELS, &eo);
     if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
         sv_evaluator_destroy(r->calib_ev);
         r->calib_ev = NULL;
@@ -828,12 +836,7 @@ static sv_status shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
             uint32_t px = 16;
             while (px < SV_CALIB_PIXELS && px < l->switch_pixels) px *= 2;
             sv_eval_options eo;
-            memset(&eo, 0, sizeof eo);
-            eo.viewer = r->spec.scene.viewer;
-            eo.view_count = SV_CALIB_VIEWS;
-            eo.sizes[0] = px;
-            eo.size_count = 1;
-            eo.supersample = 128 / px; /* 128² renders, as the 64 px calibration */
+            calib_options(r, px, &eo);
             if (!ev || ev_px != px) {
                 sv_evaluator_destroy(ev);
                 ev = NULL;

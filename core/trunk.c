@@ -9,6 +9,24 @@
 #include <string.h>
 #include <stdio.h>
 
+/* New mesh with the trunk triangles of mesh (*sub NULL when there are none). */
+static sv_status trunk_subset(const sv_mesh *mesh, const uint8_t *tri_part, sv_mesh **sub,
+                              sv_error *err)
+{
+    *sub = NULL;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
+    if (n == 0) return SV_OK;
+    uint32_t *tris = malloc((size_t)n * sizeof *tris);
+    if (!tris) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    n = 0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++)
+        if (tri_part[t] == SV_PART_TRUNK) tris[n++] = t;
+    sv_status st = sv_mesh_subset(mesh, tris, n, sub, err);
+    free(tris);
+    return st;
+}
+
 /* sv_trunk_mesh; *rel_error (when not NULL) = the largest meshopt result
  * error of the materials, relative to the trunk's extent (0 when nothing
  * was simplified). */
@@ -17,19 +35,9 @@ static sv_status trunk_mesh_err(const sv_mesh *mesh, const uint8_t *tri_part, do
 {
     *out = NULL;
     if (rel_error) *rel_error = 0;
-    uint32_t n = 0;
-    for (uint32_t t = 0; t < mesh->triangle_count; t++)
-        if (tri_part[t] == SV_PART_TRUNK) n++;
-    if (n == 0) return SV_OK;
-    uint32_t *tris = malloc((size_t)n * sizeof *tris);
-    if (!tris) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    n = 0;
-    for (uint32_t t = 0; t < mesh->triangle_count; t++)
-        if (tri_part[t] == SV_PART_TRUNK) tris[n++] = t;
     sv_mesh *sub = NULL;
-    sv_status st = sv_mesh_subset(mesh, tris, n, &sub, err);
-    free(tris);
-    if (st) return st;
+    sv_status st = trunk_subset(mesh, tri_part, &sub, err);
+    if (st || !sub) return st;
     if (!(ratio < 1.0)) {
         *out = sub;
         return SV_OK;
@@ -429,18 +437,9 @@ static sv_status trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, 
         *out = cand;
         return SV_OK;
     }
-    uint32_t *tris = malloc((size_t)n * sizeof *tris);
-    if (!tris) {
-        sv_mesh_destroy(cand);
-        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    }
-    n = 0;
-    for (uint32_t t = 0; t < mesh->triangle_count; t++)
-        if (tri_part[t] == SV_PART_TRUNK) tris[n++] = t;
     sv_mesh *sub = NULL;
-    sv_status st = sv_mesh_subset(mesh, tris, n, &sub, err);
-    free(tris);
-    if (st) {
+    sv_status st = trunk_subset(mesh, tri_part, &sub, err);
+    if (st || !sub) {
         sv_mesh_destroy(cand);
         return st;
     }

@@ -104,6 +104,24 @@ static enum MHD_Result send_json(svd_http *h, struct MHD_Connection *c, svd_rout
     return ret;
 }
 
+/* A JSON answer with one more header (Location, Content-Range). body freed. */
+static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd_route route,
+                                      unsigned status, char *body, const char *header,
+                                      const char *value)
+{
+    struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
+                                                             body ? body : (void *)"{}",
+                                                             MHD_RESPMEM_MUST_COPY);
+    free(body);
+    if (!r) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", "application/json");
+    if (header && value && value[0]) MHD_add_response_header(r, header, value);
+    enum MHD_Result ret = MHD_queue_response(c, status, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(h->metrics, route, status);
+    return ret;
+}
+
 static enum MHD_Result send_error(svd_http *h, struct MHD_Connection *c, svd_route route,
                                   unsigned status, const char *code, const char *msg)
 {
@@ -434,17 +452,7 @@ static enum MHD_Result upload_end(req *q)
     char loc[SVD_KEY_HEX + 16] = "";
     if (key && strlen(key) < SVD_KEY_HEX) snprintf(loc, sizeof loc, "/v1/bakes/%s", key);
     cJSON_Delete(j);
-    struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
-                                                             body ? body : (void *)"{}",
-                                                             MHD_RESPMEM_MUST_COPY);
-    free(body);
-    if (!r) return MHD_NO;
-    MHD_add_response_header(r, "Content-Type", "application/json");
-    if (loc[0]) MHD_add_response_header(r, MHD_HTTP_HEADER_LOCATION, loc);
-    enum MHD_Result ret = MHD_queue_response(c, (unsigned)status, r);
-    MHD_destroy_response(r);
-    svd_metrics_request(h->metrics, route, (unsigned)status);
-    return ret;
+    return send_json_with(h, c, route, (unsigned)status, body, MHD_HTTP_HEADER_LOCATION, loc);
 }
 
 /* ---- long-poll ---- */
@@ -595,18 +603,9 @@ static enum MHD_Result handle_artifact(req *q)
     char crange[96];
     if (ranged < 0) {
         snprintf(crange, sizeof crange, "bytes */%llu", (unsigned long long)size);
-        char *body = svd_error_json("range", "the range starts at or past the end of the artifact");
-        struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
-                                                                 body ? body : (void *)"{}",
-                                                                 MHD_RESPMEM_MUST_COPY);
-        free(body);
-        if (!r) return MHD_NO;
-        MHD_add_response_header(r, "Content-Type", "application/json");
-        MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_RANGE, crange);
-        enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_RANGE_NOT_SATISFIABLE, r);
-        MHD_destroy_response(r);
-        svd_metrics_request(h->metrics, q->m.route, 416);
-        return ret;
+        return send_json_with(h, c, q->m.route, MHD_HTTP_RANGE_NOT_SATISFIABLE,
+                              svd_error_json("range", "the range starts at or past the end of the artifact"),
+                              MHD_HTTP_HEADER_CONTENT_RANGE, crange);
     }
     int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
     if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", "artifact missing from the store");

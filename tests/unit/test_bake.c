@@ -6,6 +6,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include <math.h>
@@ -431,24 +432,6 @@ static void bake_is_byte_identical_across_runs(void **state)
 
 #include "import.h"
 
-static uint8_t *read_all(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *d = n > 0 ? malloc((size_t)n) : NULL;
-    if (d && fread(d, 1, (size_t)n, f) != (size_t)n) {
-        free(d);
-        d = NULL;
-    }
-    fclose(f);
-    *size = (size_t)n;
-    return d;
-}
-
 /* 20 quads over the real oak: 12 vertical planes through the trunk axis and 8
  * horizontal slices; foliage only. Prints the timing for the report. */
 static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
@@ -458,7 +441,7 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
     char path[1024];
     snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", data);
     size_t size = 0;
-    uint8_t *bytes = read_all(path, &size);
+    uint8_t *bytes = sv_test_read_all(path, &size);
     if (!bytes) fail_msg("cannot read %s", path);
     sv_file file = {"oak_large.glb", bytes, size};
     sv_mesh *m = NULL;

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include "classify.h"
@@ -503,30 +504,13 @@ static void mesh_without_leaves_or_classification_still_runs(void **state)
 
 /* ---------------------------------------------------------------- real trees */
 
-static uint8_t *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long sz = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = sz > 0 ? malloc((size_t)sz) : NULL;
-    if (b && fread(b, 1, (size_t)sz, f) != (size_t)sz) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *n = (size_t)sz;
-    return b;
-}
-
 static void run_real_tree(const char *rel, double unit_scale)
 {
     const char *dir = sv_test_data("a real-tree billboard cloud");
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", dir, rel);
     size_t n = 0;
-    uint8_t *data = slurp(path, &n);
+    uint8_t *data = sv_test_read_all(path, &n);
     if (!data) fail_msg("cannot read %s", path);
     const char *base = strrchr(rel, '/') ? strrchr(rel, '/') + 1 : rel;
     sv_file f = {base, data, n};

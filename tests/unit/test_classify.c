@@ -5,6 +5,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include <dirent.h>
@@ -543,23 +544,6 @@ static const tree_case TREES[] = {
     {"sapling_small_maple", "sapling_small_maple_rect.obj", 0, 153618, 36290},
 };
 
-static uint8_t *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *d = malloc(n > 0 ? (size_t)n : 1);
-    if (d && n > 0 && fread(d, 1, (size_t)n, f) != (size_t)n) {
-        free(d);
-        d = NULL;
-    }
-    fclose(f);
-    *size = (size_t)(n > 0 ? n : 0);
-    return d;
-}
-
 /* Imports dir/file with every non-mesh file of dir as a companion. */
 static sv_mesh *import_tree(const char *data, const tree_case *tc)
 {
@@ -569,7 +553,7 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
     size_t n = 0;
     snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, tc->file);
     files[0].name = tc->file;
-    files[0].data = slurp(path, &files[0].size);
+    files[0].data = sv_test_read_all(path, &files[0].size);
     assert_non_null(files[0].data);
     n = 1;
     snprintf(path, sizeof path, "%s/%s", data, tc->dir);
@@ -583,7 +567,7 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
         snprintf(names[n], sizeof names[n], "%s", e->d_name);
         snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, e->d_name);
         files[n].name = names[n];
-        files[n].data = slurp(path, &files[n].size);
+        files[n].data = sv_test_read_all(path, &files[n].size);
         if (files[n].data) n++;
     }
     closedir(d);

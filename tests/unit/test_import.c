@@ -9,6 +9,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include <dirent.h>
@@ -57,28 +58,13 @@ static void upload_free(upload *u)
     memset(u, 0, sizeof *u);
 }
 
-static uint8_t *read_file(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
-    size_t got = fread(b, 1, (size_t)n, f);
-    fclose(f);
-    assert_int_equal(got, (size_t)n);
-    *size = (size_t)n;
-    return b;
-}
-
 /* Loads dir/main first, then every other regular file of dir. */
 static bool upload_dir(upload *u, const char *dir, const char *main)
 {
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", dir, main);
     size_t n;
-    uint8_t *b = read_file(path, &n);
+    uint8_t *b = sv_test_read_all(path, &n);
     if (!b) return false;
     upload_add(u, main, b, n);
     free(b);
@@ -92,7 +78,7 @@ static bool upload_dir(upload *u, const char *dir, const char *main)
         /* the other mesh file of the folder (obj next to glb) is not a companion */
         if (ext && (strcmp(ext, ".glb") == 0 || strcmp(ext, ".obj") == 0)) continue;
         snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        b = read_file(path, &n);
+        b = sv_test_read_all(path, &n);
         if (!b) continue;
         upload_add(u, e->d_name, b, n);
         free(b);

@@ -7,6 +7,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include <math.h>
@@ -392,23 +393,6 @@ static void bad_settings_make_run_fail_too(void **state)
 
 /* ---- a real tree ---- */
 
-static uint8_t *read_all(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *size = (size_t)n;
-    return b;
-}
-
 static void ficus_clusters_into_32_16_8_quads(void **state)
 {
     (void)state;
@@ -417,7 +401,7 @@ static void ficus_clusters_into_32_16_8_quads(void **state)
     snprintf(obj, sizeof obj, "%s/scopia_ficusTree/ficusTree.obj", data);
     snprintf(mtl, sizeof mtl, "%s/scopia_ficusTree/ficusTree.mtl", data);
     size_t n_obj = 0, n_mtl = 0;
-    uint8_t *b_obj = read_all(obj, &n_obj), *b_mtl = read_all(mtl, &n_mtl);
+    uint8_t *b_obj = sv_test_read_all(obj, &n_obj), *b_mtl = sv_test_read_all(mtl, &n_mtl);
     if (!b_obj) {
         free(b_mtl);
         fail_msg("cannot read %s", obj);

@@ -7,6 +7,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "test_data.h"
 #include "test_skip.h"
 
 #include <math.h>
@@ -149,56 +150,77 @@ typedef struct toy {
 
 /* n square leaves (2 triangles, 4 vertices each) on a grid; leaves with odd
  * index use material 1 (dark), even material 0 (bright); untextured. */
-static void toy_make(toy *t, uint32_t n)
+/* What both toys share: the mesh and the leaf arrays for n leaves of k
+ * triangles each (leaf i owns triangles k·i .. k·i + k − 1, all foliage). */
+static sv_mesh *toy_alloc(toy *t, uint32_t vertices, uint32_t n, uint32_t k, uint32_t materials)
 {
     memset(t, 0, sizeof *t);
-    t->mesh = sv_mesh_create(4 * n, 2 * n, 2, 0);
+    t->mesh = sv_mesh_create(vertices, k * n, materials, 0);
     assert_non_null(t->mesh);
-    sv_mesh *m = t->mesh;
+    t->cls.tri_part = calloc(k * n, 1);
+    t->leaves.leaves = calloc(n, sizeof(sv_leaf));
+    t->leaves.tris = calloc(k * n, sizeof(uint32_t));
+    assert_true(t->cls.tri_part && t->leaves.leaves && t->leaves.tris);
+    t->leaves.count = n;
+    t->leaves.tri_count = k * n;
+    for (uint32_t j = 0; j < k * n; j++) {
+        t->cls.tri_part[j] = SV_PART_FOLIAGE;
+        t->leaves.tris[j] = j;
+    }
+    t->cls.foliage_triangles = k * n;
+    return t->mesh;
+}
+
+/* Leaf i of k triangles: a square 0.4 m across facing +z, centred at
+ * (i mod 10, i / 10, 0.1 (i mod 3)). Returns its centre in c. */
+static void toy_leaf(toy *t, uint32_t i, uint32_t k, double c[3])
+{
+    c[0] = (double)(i % 10), c[1] = (double)(i / 10), c[2] = 0.1 * (i % 3);
+    sv_leaf *l = &t->leaves.leaves[i];
+    memcpy(l->centre, c, sizeof l->centre);
+    l->normal[2] = 1;
+    l->area = 0.16;
+    l->radius = 0.2 * sqrt(2);
+    l->first = k * i;
+    l->count = k;
+}
+
+/* The method input over the toy's mesh, scene defaults, seed 7. */
+static void toy_finish(toy *t)
+{
+    sv_scene_defaults(&t->scene);
+    t->in.mesh = t->mesh;
+    t->in.cls = &t->cls;
+    t->in.leaves = &t->leaves;
+    sv_mesh_sphere(t->mesh, t->in.centre, &t->in.radius);
+    t->in.scene = &t->scene;
+    t->in.seed = 7;
+}
+
+static void toy_make(toy *t, uint32_t n)
+{
+    sv_mesh *m = toy_alloc(t, 4 * n, n, 2, 2);
     m->materials[0].base_color[0] = 0.8f;
     m->materials[0].base_color[1] = 0.8f;
     m->materials[0].base_color[2] = 0.8f;
     m->materials[1].base_color[0] = 0.2f;
     m->materials[1].base_color[1] = 0.2f;
     m->materials[1].base_color[2] = 0.2f;
-    t->cls.tri_part = calloc(2 * n, 1);
-    t->leaves.leaves = calloc(n, sizeof(sv_leaf));
-    t->leaves.tris = calloc(2 * n, sizeof(uint32_t));
-    t->leaves.count = n;
-    t->leaves.tri_count = 2 * n;
     for (uint32_t i = 0; i < n; i++) {
-        double cx = (double)(i % 10), cy = (double)(i / 10), cz = 0.1 * (i % 3);
+        double c[3];
+        toy_leaf(t, i, 2, c);
         const double du[4] = {-0.2, 0.2, 0.2, -0.2}, dv[4] = {-0.2, -0.2, 0.2, 0.2};
         for (int k = 0; k < 4; k++) {
-            m->positions[3 * (4 * i + k)] = (float)(cx + du[k]);
-            m->positions[3 * (4 * i + k) + 1] = (float)(cy + dv[k]);
-            m->positions[3 * (4 * i + k) + 2] = (float)cz;
+            m->positions[3 * (4 * i + k)] = (float)(c[0] + du[k]);
+            m->positions[3 * (4 * i + k) + 1] = (float)(c[1] + dv[k]);
+            m->positions[3 * (4 * i + k) + 2] = (float)c[2];
             m->normals[3 * (4 * i + k) + 2] = 1;
         }
         const uint32_t ix[6] = {0, 1, 2, 0, 2, 3};
         for (int k = 0; k < 6; k++) m->indices[6 * i + k] = 4 * i + ix[k];
         m->tri_material[2 * i] = m->tri_material[2 * i + 1] = i % 2;
-        t->cls.tri_part[2 * i] = t->cls.tri_part[2 * i + 1] = SV_PART_FOLIAGE;
-        sv_leaf *l = &t->leaves.leaves[i];
-        l->centre[0] = cx;
-        l->centre[1] = cy;
-        l->centre[2] = cz;
-        l->normal[2] = 1;
-        l->area = 0.16;
-        l->radius = 0.2 * sqrt(2);
-        l->first = 2 * i;
-        l->count = 2;
-        t->leaves.tris[2 * i] = 2 * i;
-        t->leaves.tris[2 * i + 1] = 2 * i + 1;
     }
-    t->cls.foliage_triangles = 2 * n;
-    sv_scene_defaults(&t->scene);
-    t->in.mesh = m;
-    t->in.cls = &t->cls;
-    t->in.leaves = &t->leaves;
-    sv_mesh_sphere(m, t->in.centre, &t->in.radius);
-    t->in.scene = &t->scene;
-    t->in.seed = 7;
+    toy_finish(t);
 }
 
 static void toy_free(toy *t)
@@ -300,24 +322,17 @@ static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(
  * shared vertices), 1 m apart; one material. */
 static void toy_make_tessellated(toy *t, uint32_t n)
 {
-    memset(t, 0, sizeof *t);
-    t->mesh = sv_mesh_create(25 * n, 32 * n, 1, 0);
-    assert_non_null(t->mesh);
-    sv_mesh *m = t->mesh;
+    sv_mesh *m = toy_alloc(t, 25 * n, n, 32, 1);
     for (int c = 0; c < 3; c++) m->materials[0].base_color[c] = 0.5f;
-    t->cls.tri_part = calloc(32 * n, 1);
-    t->leaves.leaves = calloc(n, sizeof(sv_leaf));
-    t->leaves.tris = calloc(32 * n, sizeof(uint32_t));
-    t->leaves.count = n;
-    t->leaves.tri_count = 32 * n;
     for (uint32_t i = 0; i < n; i++) {
-        double cx = (double)(i % 10), cy = (double)(i / 10), cz = 0.1 * (i % 3);
+        double c[3];
+        toy_leaf(t, i, 32, c);
         for (uint32_t y = 0; y < 5; y++)
             for (uint32_t x = 0; x < 5; x++) {
                 uint32_t v = 25 * i + 5 * y + x;
-                m->positions[3 * v] = (float)(cx - 0.2 + 0.1 * x);
-                m->positions[3 * v + 1] = (float)(cy - 0.2 + 0.1 * y);
-                m->positions[3 * v + 2] = (float)cz;
+                m->positions[3 * v] = (float)(c[0] - 0.2 + 0.1 * x);
+                m->positions[3 * v + 1] = (float)(c[1] - 0.2 + 0.1 * y);
+                m->positions[3 * v + 2] = (float)c[2];
                 m->normals[3 * v + 2] = 1;
                 m->uvs[2 * v] = 0.25f * (float)x;
                 m->uvs[2 * v + 1] = 0.25f * (float)y;
@@ -329,28 +344,8 @@ static void toy_make_tessellated(toy *t, uint32_t n)
                 for (int j = 0; j < 6; j++) m->indices[3 * (size_t)k + (size_t)j] = q[j];
                 k += 2;
             }
-        for (uint32_t j = 0; j < 32; j++) {
-            t->cls.tri_part[32 * i + j] = SV_PART_FOLIAGE;
-            t->leaves.tris[32 * i + j] = 32 * i + j;
-        }
-        sv_leaf *l = &t->leaves.leaves[i];
-        l->centre[0] = cx;
-        l->centre[1] = cy;
-        l->centre[2] = cz;
-        l->normal[2] = 1;
-        l->area = 0.16;
-        l->radius = 0.2 * sqrt(2);
-        l->first = 32 * i;
-        l->count = 32;
     }
-    t->cls.foliage_triangles = 32 * n;
-    sv_scene_defaults(&t->scene);
-    t->in.mesh = m;
-    t->in.cls = &t->cls;
-    t->in.leaves = &t->leaves;
-    sv_mesh_sphere(m, t->in.centre, &t->in.radius);
-    t->in.scene = &t->scene;
-    t->in.seed = 7;
+    toy_finish(t);
 }
 
 static double mesh_area(const sv_mesh *g)
@@ -663,23 +658,6 @@ static sv_status count_pixels(void *user, const uint32_t *tris, uint32_t n, doub
     return SV_OK;
 }
 
-static uint8_t *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long sz = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = sz > 0 ? malloc((size_t)sz) : NULL;
-    if (b && fread(b, 1, (size_t)sz, f) != (size_t)sz) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *n = (size_t)sz;
-    return b;
-}
-
 /* Visible (covered) area of each level's geometry relative to the full
  * tree's foliage, with and without area preservation. */
 static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state)
@@ -689,7 +667,7 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     char path[1024];
     snprintf(path, sizeof path, "%s/eztree_oak_large/oak_large.glb", dir);
     size_t n = 0;
-    uint8_t *data = slurp(path, &n);
+    uint8_t *data = sv_test_read_all(path, &n);
     if (!data) fail_msg("cannot read %s", path);
     sv_file f = {"oak_large.glb", data, n};
     sv_error err = {0};
