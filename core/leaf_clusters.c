@@ -32,6 +32,8 @@
  *     (sv_trunk_mesh_parts): at 32 clusters, sveval, sapling maple 0.778 ->
  *     0.809, bush 0.780 -> 0.797, decorativePlant 0.919 -> 0.927, acacia
  *     0.869 -> 0.865 the one loss over 0.002 (docs/methods/leaf_clusters.md).
+ *     The twig triangles are grouped into elements by a grid (twig_elements):
+ *     one element per triangle made the clustering the slowest stage.
  *
  * Settings (spec key "leaf_clusters"), all optional:
  *   "clusters":      array of 1..8 integers in [1, 1024], strictly decreasing,
@@ -226,6 +228,100 @@ static sv_status check_leaves(const sv_mesh *m, const sv_leaves *lv, sv_error *e
     return SV_OK;
 }
 
+/* The trunk triangles the kept trunk leaves out (skip[t] == 0), as leaf
+ * elements for the clustering, grouped by a grid of cells SV_TWIG_CELL of the
+ * bounding radius (the sapling maple leaves ~100k twig triangles: one
+ * element each made the clustering the slowest stage and a target search
+ * 4x one bake). An element's normal is its triangles' area-weighted normal,
+ * or, where they cancel (a twig's tube), the horizontal direction away from
+ * the tree's centre. Appended to ext (room for one element per triangle). */
+#define SV_TWIG_CELL (1.0 / 64.0)
+
+typedef struct twig_key {
+    uint64_t cell;
+    uint32_t t;
+} twig_key;
+
+static int twig_key_cmp(const void *a, const void *b)
+{
+    const twig_key *x = a, *y = b;
+    if (x->cell != y->cell) return x->cell < y->cell ? -1 : 1;
+    return x->t < y->t ? -1 : x->t > y->t;
+}
+
+static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
+                               const sv_method_input *in, sv_leaves *ext, sv_error *err)
+{
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) n += part[t] == SV_PART_TRUNK && !skip[t];
+    twig_key *k = malloc((size_t)(n ? n : 1) * sizeof *k);
+    if (!k) return sv_fail(err, SV_ERR_NOMEM, LC_NAME ": out of memory");
+    double cell = SV_TWIG_CELL * in->radius, lo[3];
+    for (int i = 0; i < 3; i++) lo[i] = in->centre[i] - in->radius;
+    n = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (part[t] != SV_PART_TRUNK || skip[t]) continue;
+        uint64_t c = 0;
+        for (int i = 0; i < 3; i++) {
+            double x = 0;
+            for (int v = 0; v < 3; v++) x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+            double q = floor((x - lo[i]) / cell);
+            c = c * 4096 + (uint64_t)(q < 0 ? 0 : q > 4095 ? 4095 : q);
+        }
+        k[n].cell = c;
+        k[n++].t = t;
+    }
+    qsort(k, n, sizeof *k, twig_key_cmp);
+    for (uint32_t a = 0; a < n;) {
+        uint32_t b = a;
+        while (b < n && k[b].cell == k[a].cell) b++;
+        sv_leaf *f = &ext->leaves[ext->count++];
+        memset(f, 0, sizeof *f);
+        double nsum[3] = {0, 0, 0};
+        f->first = ext->tri_count;
+        for (uint32_t j = a; j < b; j++) {
+            uint32_t t = k[j].t;
+            double ar = sv_tri_area(m, t), nn[3];
+            sv_tri_normal(m, t, nn);
+            for (int i = 0; i < 3; i++) {
+                double x = 0;
+                for (int v = 0; v < 3; v++) x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+                f->centre[i] += ar * x;
+                nsum[i] += ar * nn[i];
+            }
+            f->area += ar;
+            ext->tris[ext->tri_count++] = t;
+        }
+        f->count = b - a;
+        for (int i = 0; i < 3; i++) f->centre[i] = f->area > 0 ? f->centre[i] / f->area : 0;
+        if (!(f->area > 0)) { /* degenerate triangles only: the first one's centroid */
+            for (int i = 0; i < 3; i++) {
+                f->centre[i] = 0;
+                for (int v = 0; v < 3; v++)
+                    f->centre[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)k[a].t + v] + i] / 3.0;
+            }
+        }
+        double len = sqrt(nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]);
+        if (len < 0.3 * f->area || !(len > 0)) { /* a tube: away from the tree's centre */
+            nsum[0] = f->centre[0] - in->centre[0], nsum[1] = 0, nsum[2] = f->centre[2] - in->centre[2];
+            len = sqrt(nsum[0] * nsum[0] + nsum[2] * nsum[2]);
+            if (!(len > 0)) nsum[0] = 1, len = 1;
+        }
+        for (int i = 0; i < 3; i++) f->normal[i] = nsum[i] / len;
+        for (uint32_t j = a; j < b; j++)
+            for (int v = 0; v < 3; v++) {
+                const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)k[j].t + v]];
+                double d = sqrt((p[0] - f->centre[0]) * (p[0] - f->centre[0]) +
+                                (p[1] - f->centre[1]) * (p[1] - f->centre[1]) +
+                                (p[2] - f->centre[2]) * (p[2] - f->centre[2]));
+                if (d > f->radius) f->radius = d;
+            }
+        a = b;
+    }
+    free(k);
+    return SV_OK;
+}
+
 static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
                           sv_error *err)
 {
@@ -269,25 +365,10 @@ static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_s
     }
     memcpy(ext.leaves, lv->leaves, (size_t)lv->count * sizeof *ext.leaves);
     memcpy(ext.tris, lv->tris, (size_t)lv->tri_count * sizeof *ext.tris);
-    for (uint32_t t = 0; s.twigs && part && t < m->triangle_count; t++) {
-        if (part[t] != SV_PART_TRUNK || skip[t]) continue;
-        sv_leaf *f = &ext.leaves[ext.count];
-        double p[3][3];
-        for (int v = 0; v < 3; v++)
-            for (int k = 0; k < 3; k++) p[v][k] = m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + k];
-        for (int k = 0; k < 3; k++) f->centre[k] = (p[0][k] + p[1][k] + p[2][k]) / 3.0;
-        sv_tri_normal(m, t, f->normal);
-        f->area = sv_tri_area(m, t);
-        for (int v = 0; v < 3; v++) {
-            double d = sqrt((p[v][0] - f->centre[0]) * (p[v][0] - f->centre[0]) +
-                            (p[v][1] - f->centre[1]) * (p[v][1] - f->centre[1]) +
-                            (p[v][2] - f->centre[2]) * (p[v][2] - f->centre[2]));
-            if (d > f->radius) f->radius = d;
-        }
-        f->first = ext.tri_count;
-        f->count = 1;
-        ext.tris[ext.tri_count++] = t;
-        ext.count++;
+    if (twigs && (st = twig_elements(m, part, skip, in, &ext, err))) {
+        free(ext.leaves), free(ext.tris), free(skip);
+        sv_mesh_destroy(tm0);
+        return st;
     }
     free(skip);
     lv = &ext;

@@ -582,6 +582,11 @@ static enum MHD_Result handle_artifact(req *q)
         struct MHD_Response *r = MHD_create_response_from_buffer(0, (void *)"", MHD_RESPMEM_PERSISTENT);
         if (!r) return MHD_NO;
         MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+        /* RFC 9110 §8.6 wants no Content-Length on a 304, or the 200's;
+         * libmicrohttpd 0.9.75 writes "Content-Length: 0" and, given the
+         * artifact's length as well, sends both: its 0 is left (clients
+         * ignore a 304's length; the connection stays usable, tested). */
+        MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
         enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_NOT_MODIFIED, r);
         MHD_destroy_response(r);
         svd_metrics_request(h->metrics, q->m.route, 304);
