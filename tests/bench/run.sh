@@ -22,5 +22,7 @@ python3 "$here/bench.py"
 python3 "$here/fidelity.py"
 # issue 19: a target search against one bake of its choice; the default chain
 python3 "$here/target_cost.py"
+# issue 19: `{}` as it is on every shared tree (four levels or more each)
+python3 "$here/default_chains.py"
 # issue 24: every stochastic level against meshoptimizer at equal triangles (sveval)
 python3 "$here/stochastic_peers.py"
