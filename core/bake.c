@@ -538,6 +538,17 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     uint32_t aw = 1, ah = 1;
     for (uint32_t i = 0; i < n; i++)
         sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
+    /* Packing is a heuristic, not monotone in the chart sizes: the texel
+     * floor, a hair coarser than the finest texel that packed, can fail to
+     * pack (decorativePlant's 8 clusters in 512²). A chosen (not given)
+     * texel then grows by 2 % until the charts fit. */
+    for (int grow = 0; n && !(opt.texel_size > 0) && grow < 64 &&
+                       !sv_atlas_fit(charts, n, opt.padding, opt.max_atlas, &aw, &ah);
+         grow++) {
+        texel *= 1.02;
+        for (uint32_t i = 0; i < n; i++)
+            sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
+    }
     if (n && !sv_atlas_fit(charts, n, opt.padding, opt.max_atlas, &aw, &ah)) {
         st = sv_fail(err, SV_ERR_LIMIT,
                      "bake: %u charts at texel size %g do not fit a %ux%u atlas", n, texel,
