@@ -1,8 +1,10 @@
 #!/bin/sh
 # target.sh — issue 10, "accuracy targets in the spec": `target` searches the
-# method's knobs cheapest first and stops at the first setting that meets it.
-#  1. an IoU target that is met: the chosen setting is the first try that
-#     reaches it, and the bake is that setting's bake;
+# method's ladder of settings (cheapest first) by bisection (issue 19 item 6)
+# for the cheapest setting that meets it.
+#  1. an IoU target that is met: the chosen setting reaches it, the step just
+#     cheaper was tried and does not, within log2 of the ladder's tries, and
+#     the bake is that setting's bake;
 #  2. an IoU target that cannot be met: every output written, "met": false,
 #     the best try, and exit 3 with the reason on stderr (issue 19);
 #  3. a plane budget, and a triangle budget without evaluation;
@@ -41,8 +43,11 @@ j = json.load(open(sys.argv[1])); t = j["target"]; tr = t["tries"]; c = t["chose
 run met '{"method":"leaf_clusters",'"$COMMON"',"target":{"iou":0.6}}'
 check "an IoU target that is met exits 0" 0 "$(cat "$T/met.rc")"
 check "... and says met" True "$(target met 'j["target"]["met"]')"
-check "... the chosen try is the first that reaches the goal" True "$(stmts met '
-print(c == next(i for i, x in enumerate(tr) if x.get("iou", 0) >= 0.6) == len(tr) - 1)')"
+check "... the chosen try reaches the goal and no cheaper step tried does" True "$(stmts met '
+s = tr[c]["step"]
+print(tr[c]["iou"] >= 0.6 and all(x.get("iou", 0) < 0.6 for x in tr if x["step"] < s)
+      and (s == 0 or any(x["step"] == s - 1 for x in tr)))')"
+check "... by bisection: at most 4 tries of the 11 cluster counts" True "$(stmts met 'print(len(tr) <= 4)')"
 check "... the bake uses the chosen setting" True "$(target met '
 j["method"]["settings"] == j["target"]["tries"][j["target"]["chosen"]]["settings"]')"
 check "... and each try has its cost in times.target_tries" True "$(target met '
@@ -65,7 +70,8 @@ grep -q "target not met: goal IoU 0.999" "$T/unmet.log" && ok "... saying why on
     bad "no reason on stderr: $(cat "$T/unmet.log")"
 [ -s "$T/unmet/model.glb" ] && ok "... model.glb written" || bad "no model.glb for the unmet target"
 check "... and says met: false" False "$(target unmet 'j["target"]["met"]')"
-check "... after trying every setting of the method (4)" 4 "$(target unmet 'len(j["target"]["tries"])')"
+check "... after bisecting the method's 4 settings up to the richest (3 tries)" "3 3" \
+    "$(stmts unmet 'print(len(tr), max(x["step"] for x in tr))')"
 check "... and bakes the best of them" True "$(stmts unmet '
 print(tr[c]["iou"] == max(x["iou"] for x in tr) and j["method"]["settings"] == tr[c]["settings"])')"
 
@@ -76,12 +82,17 @@ check "... is met" True "$(target planes 'j["target"]["met"]')"
 check "... the baked billboard cloud has at most 10 planes" True "$(target planes '
 all(l["quads"] <= 10 for l in j["lods"] if l["source"] == "billboard_cloud") and
 any(l["source"] == "billboard_cloud" for l in j["lods"])')"
-check "... the search stopped at the first setting over budget" True "$(stmts planes '
-print(all(x["within_budget"] for x in tr[:-1]) and (not tr[-1]["within_budget"] or len(tr) == 11))')"
+check "... the chosen step is the last within budget (the next one tried is over)" True "$(stmts planes '
+s = tr[c]["step"]
+print(tr[c]["within_budget"] and all(x["within_budget"] == (x["step"] <= s) for x in tr)
+      and (s == 10 or any(x["step"] == s + 1 for x in tr)))')"
 run tris '{"method":"billboard_cloud","bake":{"max_atlas":256},"evaluate":{"enabled":false},"target":{"max_triangles":20}}'
 check "a triangle budget without evaluation exits 0" 0 "$(cat "$T/tris.rc")"
 check "... is met with the richest setting within it" True "$(stmts tris '
-print(t["met"] and tr[c]["triangles"] <= 20 and all(not x["within_budget"] for x in tr[c + 1:]) and "iou" not in tr[c])')"
+s = tr[c]["step"]
+print(t["met"] and tr[c]["triangles"] <= 20 and "iou" not in tr[c]
+      and all(x["within_budget"] == (x["step"] <= s) for x in tr)
+      and (s == 10 or any(x["step"] == s + 1 for x in tr)))')"
 
 # 4. refusals, determinism, the daemon
 for bad_target in '{}' '{"iou":0.9,"pixels":100}' '{"iou":2}' '{"max_planes":0}' '{"iou":0.9,"colour":1}'; do
