@@ -431,16 +431,15 @@ static sv_status trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, 
                                   sv_mesh *cand, sv_mesh **out, sv_error *err)
 {
     *out = NULL;
-    uint32_t n = 0;
-    for (uint32_t t = 0; t < mesh->triangle_count; t++) n += tri_part[t] == SV_PART_TRUNK;
-    if (!n || !limit) {
+    if (!limit) {
         *out = cand;
         return SV_OK;
     }
     sv_mesh *sub = NULL;
     sv_status st = trunk_subset(mesh, tri_part, &sub, err);
-    if (st || !sub) {
-        sv_mesh_destroy(cand);
+    if (st || !sub) { /* no trunk (the caller checked) or no memory */
+        if (st) sv_mesh_destroy(cand);
+        else *out = cand;
         return st;
     }
     uint32_t nv = sub->vertex_count, nt = sub->triangle_count;

@@ -26,4 +26,13 @@ static inline uint8_t *sv_test_read_all(const char *path, size_t *size)
     return b;
 }
 
+/* The file `rel` under the shared data folder `data`, read whole (NULL when
+ * it cannot be read). */
+static inline uint8_t *sv_test_read_data(const char *data, const char *rel, size_t *size)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", data, rel);
+    return sv_test_read_all(path, size);
+}
+
 #endif

@@ -397,14 +397,12 @@ static void ficus_clusters_into_32_16_8_quads(void **state)
 {
     (void)state;
     const char *data = sv_test_data("the ficus clustering");
-    char obj[1024], mtl[1024];
-    snprintf(obj, sizeof obj, "%s/scopia_ficusTree/ficusTree.obj", data);
-    snprintf(mtl, sizeof mtl, "%s/scopia_ficusTree/ficusTree.mtl", data);
     size_t n_obj = 0, n_mtl = 0;
-    uint8_t *b_obj = sv_test_read_all(obj, &n_obj), *b_mtl = sv_test_read_all(mtl, &n_mtl);
+    uint8_t *b_obj = sv_test_read_data(data, "scopia_ficusTree/ficusTree.obj", &n_obj);
+    uint8_t *b_mtl = sv_test_read_data(data, "scopia_ficusTree/ficusTree.mtl", &n_mtl);
     if (!b_obj) {
         free(b_mtl);
-        fail_msg("cannot read %s", obj);
+        fail_msg("cannot read scopia_ficusTree/ficusTree.obj under %s", data);
     }
     sv_file files[2] = {{"ficusTree.obj", b_obj, n_obj}, {"ficusTree.mtl", b_mtl, n_mtl}};
     /* the .mtl names the materials (classification); its texture is not needed

@@ -278,14 +278,12 @@ static void the_maple_keeps_its_stem_at_200_triangles(void **state)
 {
     (void)state;
     const char *data = sv_test_data("the maple's trunk");
-    char obj[1024], mtl[1024];
-    snprintf(obj, sizeof obj, "%s/sapling_small_maple/sapling_small_maple_rect.obj", data);
-    snprintf(mtl, sizeof mtl, "%s/sapling_small_maple/sapling_small_maple_rect.mtl", data);
     size_t n_obj = 0, n_mtl = 0;
-    uint8_t *b_obj = sv_test_read_all(obj, &n_obj), *b_mtl = sv_test_read_all(mtl, &n_mtl);
+    uint8_t *b_obj = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.obj", &n_obj);
+    uint8_t *b_mtl = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.mtl", &n_mtl);
     if (!b_obj || !b_mtl) {
         free(b_obj), free(b_mtl);
-        fail_msg("cannot read %s or its .mtl", obj);
+        fail_msg("cannot read the sapling maple's .obj or .mtl under %s", data);
     }
     sv_file files[2] = {{"sapling_small_maple_rect.obj", b_obj, n_obj},
                         {"sapling_small_maple_rect.mtl", b_mtl, n_mtl}};
