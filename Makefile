@@ -20,7 +20,7 @@ SAN_FLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-fr
 endif
 OPT      ?= -O2 -g
 WARN     := -Wall -Wextra -Werror
-CPPFLAGS_SV = -Icore/include -Iserver -Iclient -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+CPPFLAGS_SV = -Icore/include -Iserver -Iclient -Icommon -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
 SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(SAN_FLAGS)
 SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
 LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
@@ -30,13 +30,20 @@ CORE_C   := $(wildcard core/*.c)
 CORE_CXX := $(wildcard core/*.cpp)
 CORE_OBJ := $(CORE_C:%.c=$(BUILD)/%.o) $(CORE_CXX:%.cpp=$(BUILD)/%.o)
 SERVER_LIB_C := $(filter-out server/sylvad.c,$(wildcard server/*.c))
-CLIENT_LIB_C := $(filter-out client/sylva.c,$(wildcard client/*.c))
+# libsylva (installed: sylva.h, libsylva.a, libsylva.so, sylva.pc) is the
+# client's public API only; client/cli.c is the `sylva` command's own code.
+CLIENT_LIB_C := client/libsylva.c client/key.c
 SERVER_OBJ := $(SERVER_LIB_C:%.c=$(BUILD)/%.o)
 CLIENT_OBJ := $(CLIENT_LIB_C:%.c=$(BUILD)/%.o)
+CLIENT_PIC := $(CLIENT_LIB_C:%.c=$(BUILD)/pic/%.o)
+SYLVA_VER  := $(shell sed -n 's/^\#define SYLVA_VERSION "\(.*\)"/\1/p' client/sylva.h)
+SYLVA_SOMAJOR := $(firstword $(subst ., ,$(SYLVA_VER)))
 
 LIBCORE   := $(BUILD)/libsvcore.a
 LIBSERVER := $(BUILD)/libsvserver.a
 LIBSYLVA  := $(BUILD)/libsylva.a
+LIBSYLVA_SO := $(BUILD)/libsylva.so.$(SYLVA_VER)
+LIBCLI    := $(BUILD)/libsylvacli.a
 
 BINS := $(BUILD)/sylva-bake
 ifneq ($(wildcard server/sylvad.c),)
@@ -56,7 +63,7 @@ DEPS_STAMP := $(BUILD)/.deps-ok
 .PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench reliability soak clean install
 # keep object files of tests and tools (make would delete them as intermediates)
 .SECONDARY:
-all: $(BINS) $(UNIT_BINS) $(TOOL_BINS)
+all: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS)
 
 # Installs missing Debian packages (non-interactive). Every build depends on it.
 deps:
@@ -81,19 +88,34 @@ $(LIBSERVER): $(SERVER_OBJ)
 $(LIBSYLVA): $(CLIENT_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
+$(LIBCLI): $(BUILD)/client/cli.o
+	@rm -f $@
+	ar rcs $@ $^
+# The shared library: position-independent objects, soname libsylva.so.MAJOR,
+# only the sylva_* API exported (client/libsylva.map).
+$(BUILD)/pic/%.o: %.c | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_SV) $(SV_CFLAGS) -fPIC $(CFLAGS) -c $< -o $@
+$(LIBSYLVA_SO): $(CLIENT_PIC) client/libsylva.map
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libsylva.so.$(SYLVA_SOMAJOR) \
+	    -Wl,--version-script,client/libsylva.map -Wl,--no-undefined -o $@ $(CLIENT_PIC) \
+	    $(shell pkg-config --libs libcurl libcjson libcrypto)
+	ln -sf $(notdir $@) $(BUILD)/libsylva.so.$(SYLVA_SOMAJOR)
+	ln -sf $(notdir $@) $(BUILD)/libsylva.so
 
 # The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
 $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lmeshoptimizer -lpthread -lm
-$(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBSYLVA) $(LIBCORE)
-	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lmeshoptimizer -lpthread -lm
+# The client links libsylva statically and nothing of core.
+$(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm
 $(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(LIBCORE)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
-$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBSYLVA) $(LIBCORE)
+$(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)
 	@mkdir -p $(@D)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
-$(BUILD)/tools/%: $(BUILD)/tests/tools/%.o $(LIBSERVER) $(LIBSYLVA) $(LIBCORE)
+$(BUILD)/tools/%: $(BUILD)/tests/tools/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)
 	@mkdir -p $(@D)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
@@ -141,9 +163,11 @@ reliability: all
 soak: all
 	@BUILD=$(BUILD) sh ./tests/reliability/soak.sh
 
-# Installs the binaries, the default config (kept if one exists: the new one goes
-# beside it as sylvad.conf.new), man pages made from each binary's --help, the
-# guides, the systemd unit + sysusers entry and the nginx example (docs/deploy.md).
+# Installs the binaries, libsylva (sylva.h, libsylva.a, libsylva.so.*, sylva.pc),
+# the default config (kept if one exists: the new one goes beside it as
+# sylvad.conf.new), the man pages (deploy/man/, written by hand), the guides,
+# the systemd unit + sysusers entry and the nginx example (docs/deploy.md).
+# PREFIX and DESTDIR are honoured; LIBDIR and INCLUDEDIR may be set apart.
 # The config lives in $(PREFIX)/etc/sylva/, or /etc/sylva/ when PREFIX=/usr.
 PREFIX ?= /usr/local
 DESTDIR ?=
@@ -153,23 +177,32 @@ else
 SYSCONFDIR ?= $(PREFIX)/etc
 endif
 BINDIR := $(PREFIX)/bin
+LIBDIR ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
 DOCDIR := $(PREFIX)/share/doc/sylva
 MANDIR := $(PREFIX)/share/man/man1
 UNITDIR := $(PREFIX)/lib/systemd/system
 SYSUSERSDIR := $(PREFIX)/lib/sysusers.d
-install: $(BINS)
+MAN_SED := -e 's\#@SYSCONFDIR@\#$(SYSCONFDIR)\#g' -e 's\#@DOCDIR@\#$(DOCDIR)\#g' \
+           -e 's\#@VERSION@\#$(SYLVA_VER)\#g'
+install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO)
 	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(SYSCONFDIR)/sylva $(DESTDIR)$(DOCDIR)/nginx \
-	    $(DESTDIR)$(MANDIR) $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSUSERSDIR)
+	    $(DESTDIR)$(MANDIR) $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSUSERSDIR) \
+	    $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
+	install -m 644 client/sylva.h $(DESTDIR)$(INCLUDEDIR)/
+	install -m 644 $(LIBSYLVA) $(DESTDIR)$(LIBDIR)/
+	install -m 755 $(LIBSYLVA_SO) $(DESTDIR)$(LIBDIR)/
+	ln -sf libsylva.so.$(SYLVA_VER) $(DESTDIR)$(LIBDIR)/libsylva.so.$(SYLVA_SOMAJOR)
+	ln -sf libsylva.so.$(SYLVA_SOMAJOR) $(DESTDIR)$(LIBDIR)/libsylva.so
+	sed -e 's#@PREFIX@#$(PREFIX)#' -e 's#@LIBDIR@#$(LIBDIR)#' -e 's#@INCLUDEDIR@#$(INCLUDEDIR)#' \
+	    -e 's#@VERSION@#$(SYLVA_VER)#' client/sylva.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/sylva.pc
 	@if [ -e $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf ]; then \
 	    echo "keeping $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; new default: sylvad.conf.new"; \
 	    install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf.new; \
 	else install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; fi
 	set -e; for b in $(notdir $(BINS)); do \
-	    case $$b in sylvad) d="the sylva baking daemon" ;; sylva) d="the sylva client" ;; \
-	                *) d="bake a tree offline, and the daemon's worker" ;; esac; \
-	    ./deploy/help2man.sh $(BUILD)/$$b $$b "$$d" $(SYSCONFDIR)/sylva $(DOCDIR) \
-	        > $(DESTDIR)$(MANDIR)/$$b.1; done
+	    sed $(MAN_SED) deploy/man/$$b.1 > $(DESTDIR)$(MANDIR)/$$b.1; done
 	install -m 644 docs/operations.md docs/api.md docs/client.md docs/spec.md docs/outputs.md \
 	    docs/deploy.md $(DESTDIR)$(DOCDIR)/
 	install -m 644 deploy/nginx/sylva.conf deploy/nginx/sylva-nodes.conf $(DESTDIR)$(DOCDIR)/nginx/
@@ -177,6 +210,7 @@ install: $(BINS)
 	    -e 's#/usr/local/share/doc/sylva#$(DOCDIR)#g' deploy/sylvad.service \
 	    > $(DESTDIR)$(UNITDIR)/sylvad.service
 	install -m 644 deploy/sylva.sysusers $(DESTDIR)$(SYSUSERSDIR)/sylva.conf
+	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v ldconfig >/dev/null; then ldconfig; fi
 
 # libFuzzer targets (tests/fuzz/fuzz_*.c) under ASan+UBSan, built with clang into
 # $(BUILD)/fuzz/ (the core and the multipart parser recompiled with coverage);
@@ -233,4 +267,4 @@ fuzz: fuzz-build
 clean:
 	rm -rf build
 
--include $(shell find $(BUILD) -name '*.d' 2>/dev/null)
+-include $(shell find $(BUILD) -path '$(BUILD)/test-tmp' -prune -o -name '*.d' -type f -print 2>/dev/null)

@@ -1,12 +1,14 @@
 /* libsylva.c — the HTTP side of libsylva (libcurl): one easy handle per client,
  * every request through request_run(), which retries and fails over following
  * sylva_retry_delay(). API v1 as in docs/api.md; contracts in sylva.h. */
+#include "out_names.h"
 #include "sylva.h"
 
 #include <cjson/cJSON.h>
 #include <curl/curl.h>
 #include <openssl/evp.h>
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -970,6 +972,29 @@ out:
     return st;
 }
 
+/* Removes from dir the files an earlier bake wrote (sylva's output names,
+ * out_names.h) that are not among this bake's n artifacts. */
+static sylva_status remove_stale_outputs(sylva_client *c, const char *dir,
+                                         const sylva_artifact *arts, size_t n)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return fail(c, SYLVA_ERR_IO, "cannot list %s: %s", dir, strerror(errno));
+    sylva_status st = SYLVA_OK;
+    for (struct dirent *e; st == SYLVA_OK && (e = readdir(d));) {
+        if (!sylva_is_output_name(e->d_name))
+            continue;
+        bool ours = false;
+        for (size_t i = 0; i < n && !ours; i++)
+            ours = strcmp(arts[i].name, e->d_name) == 0;
+        if (!ours && unlinkat(dirfd(d), e->d_name, 0) != 0 && errno != ENOENT)
+            st = fail(c, SYLVA_ERR_IO, "cannot remove the stale %s/%s: %s", dir, e->d_name,
+                      strerror(errno));
+    }
+    closedir(d);
+    return st;
+}
+
 sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *job,
                              const char *dir)
 {
@@ -996,6 +1021,8 @@ sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *
     st = mkdir_p(c, dir);
     for (size_t i = 0; st == SYLVA_OK && i < n; i++)
         st = fetch_one_to_file(c, key, &arts[i], dir);
+    if (st == SYLVA_OK)
+        st = remove_stale_outputs(c, dir, arts, n);
 out:
     free(arts);
     sylva_job_clear(&tmp);

@@ -250,8 +250,12 @@ sylva_status sylva_job_artifacts(const sylva_job *job, sylva_artifact **out, siz
 
 /* Downloads every artifact of a done bake into dir (created if missing; files
  * written to a temporary name and renamed only once their SHA-256 matches).
- * A mismatch fails with SYLVA_ERR_INTEGRITY and leaves no file behind. job may
- * be a done job from sylva_wait / sylva_status_get, or NULL (then it is fetched). */
+ * A mismatch fails with SYLVA_ERR_INTEGRITY and leaves no file behind. Once
+ * every artifact is there, files of an earlier bake in dir that this one does
+ * not have are removed: only sylva's output names (model.glb, planes.json,
+ * report.json, preview.png, impostor.json, error.json, lod<i>_*.glb,
+ * atlas_*.png); other files are never touched. job may be a done job from
+ * sylva_wait / sylva_status_get, or NULL (then it is fetched). */
 sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *job,
                              const char *dir);
 

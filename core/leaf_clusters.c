@@ -37,7 +37,7 @@
  *
  * Settings (spec key "leaf_clusters"), all optional:
  *   "clusters":      array of 1..8 integers in [1, 1024], strictly decreasing,
- *                    finest first (default [32, 16, 8]);
+ *                    finest first (default [32, 16, 8]); one integer N = [N];
  *   "alpha_rel":     number in [0, 100] (default 0.003): α = alpha_rel·R², R
  *                    the bounding-sphere radius (docs/methods/leaf_clusters.md
  *                    has the measurement behind the default);
@@ -91,12 +91,15 @@ static sv_status parse_levels(const cJSON *s, lc_settings *o, sv_error *err)
 {
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(s, "clusters");
     if (!a) return SV_OK;
-    int n = cJSON_IsArray(a) ? cJSON_GetArraySize(a) : -1;
+    /* One integer is a one-level list: `--set clusters=16` means [16]. */
+    bool one = cJSON_IsNumber(a);
+    int n = one ? 1 : cJSON_IsArray(a) ? cJSON_GetArraySize(a) : -1;
     if (n < 1 || n > LC_MAX_LEVELS)
-        return sv_fail(err, SV_ERR_SPEC, LC_NAME ".clusters: expected an array of 1 to %d integers",
+        return sv_fail(err, SV_ERR_SPEC,
+                       LC_NAME ".clusters: expected an integer or an array of 1 to %d integers",
                        LC_MAX_LEVELS);
     int i = 0;
-    for (const cJSON *it = a->child; it; it = it->next, i++) {
+    for (const cJSON *it = one ? a : a->child; it; it = one ? NULL : it->next, i++) {
         double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
         if (!isfinite(v) || v != floor(v) || v < 1 || v > LC_MAX_CLUSTERS)
             return sv_fail(err, SV_ERR_SPEC,

@@ -22,6 +22,7 @@
  * (and, for bake, DIR/error.json with code "limit") and exits 1, which sylvad
  * records as a permanent failure instead of retrying the same spin.
  */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -36,6 +37,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "out_names.h"
 #include "pipeline.h"
 #include "sandbox.h"
 #include "spec.h"
@@ -408,6 +410,55 @@ static int report_outcome(const char *out_dir)
     return rc;
 }
 
+/* mkdir -p DIR, then removes the sylva output files in it
+ * (sylva_is_output_name) but for the n inputs (a mesh named model.glb baked
+ * into its own folder is read, not removed). 0, or -1 after a message on
+ * stderr. */
+static int prepare_out_dir(const char *dir, char *const *inputs, size_t n)
+{
+    char path[4096];
+    if (snprintf(path, sizeof path, "%s", dir) >= (int)sizeof path) {
+        fprintf(stderr, "sylva-bake: --out: path too long\n");
+        return -1;
+    }
+    for (char *p = path + 1;; p++) {
+        if (*p != '/' && *p != '\0') continue;
+        char saved = *p;
+        *p = '\0';
+        if (mkdir(path, 0755) != 0 && errno != EEXIST) {
+            fprintf(stderr, "sylva-bake: cannot create %s: %s\n", path, strerror(errno));
+            return -1;
+        }
+        *p = saved;
+        if (!saved) break;
+    }
+    DIR *d = opendir(dir);
+    if (!d) {
+        fprintf(stderr, "sylva-bake: cannot open %s: %s\n", dir, strerror(errno));
+        return -1;
+    }
+    int rc = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        if (!sylva_is_output_name(e->d_name)) continue;
+        struct stat st;
+        bool input = false;
+        if (fstatat(dirfd(d), e->d_name, &st, 0) == 0)
+            for (size_t i = 0; i < n && !input; i++) {
+                struct stat si;
+                input = stat(inputs[i], &si) == 0 && si.st_dev == st.st_dev &&
+                        si.st_ino == st.st_ino;
+            }
+        if (input) continue;
+        if (unlinkat(dirfd(d), e->d_name, 0) != 0 && errno != ENOENT) {
+            fprintf(stderr, "sylva-bake: cannot remove the stale %s/%s: %s\n", dir, e->d_name,
+                    strerror(errno));
+            rc = -1;
+        }
+    }
+    closedir(d);
+    return rc;
+}
+
 static int cmd_bake(int argc, char **argv)
 {
     char *paths[MAX_FILES];
@@ -440,18 +491,12 @@ static int cmd_bake(int argc, char **argv)
         fprintf(stderr, "sylva-bake: bake needs MESH and --out DIR\n%s", usage);
         return 2;
     }
-    if (mkdir(out_dir, 0755) != 0 && errno != EEXIST) {
-        fprintf(stderr, "sylva-bake: cannot create %s: %s\n", out_dir, strerror(errno));
-        return 1;
-    }
-    /* A failed bake's error.json would outlive a later success in the same
-     * folder and tell scripts the bake failed (issue 23). */
-    char stale[4200];
-    snprintf(stale, sizeof stale, "%s/error.json", out_dir);
-    if (unlink(stale) != 0 && errno != ENOENT) {
-        fprintf(stderr, "sylva-bake: cannot remove the stale %s: %s\n", stale, strerror(errno));
-        return 1;
-    }
+    /* --out as a user expects it: parents created, and the files of an
+     * earlier bake there (sylva's names only: out_names.h) removed, so the
+     * folder describes this bake alone, a stale error.json included. Before
+     * the sandbox, which allows neither mkdir of parents nor directory
+     * listing. */
+    if (prepare_out_dir(out_dir, paths, n) != 0) return 1;
     /* Before the sandbox, which does not allow setrlimit. */
     cpu_guard(cpu_limit, paths[0], out_dir);
     sv_error e = {0};

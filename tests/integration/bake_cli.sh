@@ -65,8 +65,17 @@ set -e
 grep -q "scene.viewer" "$tmp/err2.txt" || fail "bad spec: message does not name scene.viewer"
 # a later success in the same folder removes the failure's error.json (issue 23)
 echo '{"method": "crossed_quads", "lod": {"chain": false}, "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/quick.json"
+# and the files of an earlier bake it does not write go too; a file sylva does
+# not name stays
+touch "$tmp/c/lod7_old.glb" "$tmp/c/atlas_old_albedo.png" "$tmp/c/notes.txt" "$tmp/c/lod_x.glb"
 "$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/c" > /dev/null || fail "quick bake into a failed bake's folder"
 [ ! -e "$tmp/c/error.json" ] || fail "a stale error.json survived a successful bake"
+[ ! -e "$tmp/c/lod7_old.glb" ] && [ ! -e "$tmp/c/atlas_old_albedo.png" ] ||
+    fail "an earlier bake's level or atlas survived in --out"
+[ -e "$tmp/c/notes.txt" ] && [ -e "$tmp/c/lod_x.glb" ] || fail "--out lost a file sylva does not write"
+# --out's parents are created
+"$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/d/e/f" > /dev/null || fail "--out with missing parents"
+[ -s "$tmp/d/e/f/model.glb" ] || fail "--out with missing parents: no model.glb"
 set +e
 "$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
 set -e

@@ -149,8 +149,13 @@ check "  state done with a manifest" \
     test "$(json_get "$T/status.json" 'd["state"] + str(len(d["manifest"]["artifacts"]) > 0)')" = doneTrue
 "$SYLVA" status "$KEY" >"$T/status.txt"
 check "status prints the state" grep -q "done" "$T/status.txt"
+mkdir -p "$T/fetched"
+touch "$T/fetched/lod9_stale.glb" "$T/fetched/atlas_stale_albedo.png" "$T/fetched/mine.txt"
 "$SYLVA" fetch "$KEY" --out "$T/fetched" --json >"$T/fetch.json"
 check "fetch exits 0" test $? -eq 0
+check "  an earlier bake's files left in --out are removed" \
+    test ! -e "$T/fetched/lod9_stale.glb" -a ! -e "$T/fetched/atlas_stale_albedo.png"
+check "  a file sylva does not write is kept" test -e "$T/fetched/mine.txt"
 check "  fetched files equal the baked ones" cmp -s "$T/out/model.glb" "$T/fetched/model.glb"
 ZERO=0000000000000000000000000000000000000000000000000000000000000000
 "$SYLVA" status $ZERO >/dev/null 2>"$T/nf.err"

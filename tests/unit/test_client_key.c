@@ -17,6 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "out_names.h"
 #include "sylva.h"
 
 static const char KEY_FULL[] = "9207de668be070a3c0789675f160f56da87fcee0ef08aeb3de533abc2a55757e";
@@ -183,6 +184,25 @@ static void status_table_has_a_name_and_message_for_every_code(void **state)
     assert_string_equal(sylva_status_name(SYLVA_STATUS_COUNT), "unknown");
 }
 
+/* The names a reused --out folder is cleaned of (out_names.h): sylva's own
+ * outputs, never a user's file that merely looks alike. */
+static void output_names_are_sylvas_own_only(void **state)
+{
+    (void)state;
+    const char *ours[] = {"model.glb", "planes.json", "report.json", "preview.png",
+                          "error.json", "impostor.json", "lod0_full.glb",
+                          "lod12_clusters32.glb", "atlas_clusters32_albedo.png", "atlas_x_normal.png"};
+    const char *theirs[] = {"tree.glb", "model.gltf", "lod_x.glb", "lodA_x.glb", "lod3.glb",
+                            "atlas_.png", "atlas.png", "notes.txt", "report.json.bak",
+                            "spec.json", "a/model.glb"};
+    for (size_t i = 0; i < sizeof ours / sizeof ours[0]; i++)
+        assert_true(sylva_is_output_name(ours[i]));
+    for (size_t i = 0; i < sizeof theirs / sizeof theirs[0]; i++) {
+        if (sylva_is_output_name(theirs[i])) print_error("%s\n", theirs[i]);
+        assert_false(sylva_is_output_name(theirs[i]));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -194,6 +214,7 @@ int main(void)
         cmocka_unit_test(key_refuses_names_that_are_not_base_names),
         cmocka_unit_test(key_reports_a_missing_file_by_name),
         cmocka_unit_test(status_table_has_a_name_and_message_for_every_code),
+        cmocka_unit_test(output_names_are_sylvas_own_only),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

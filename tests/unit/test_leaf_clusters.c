@@ -220,6 +220,9 @@ static void default_settings_are_accepted(void **state)
                     "\"iterations\":10,\"seed_tries\":1,\"trunk_ratio\":[1,0.5,0.2,0.1]}");
     assert_int_equal(sv_method_leaf_clusters.check(j, NULL), SV_OK);
     cJSON_Delete(j);
+    j = json("{\"clusters\":16}"); /* one integer: one level (sylva --set clusters=16) */
+    assert_int_equal(sv_method_leaf_clusters.check(j, NULL), SV_OK);
+    cJSON_Delete(j);
     assert_string_equal(sv_method_leaf_clusters.name, "leaf_clusters");
     assert_ptr_equal(sv_method_find("leaf_clusters"), &sv_method_leaf_clusters);
 }
@@ -232,7 +235,8 @@ static void bad_settings_fail_naming_the_key(void **state)
         {"{\"clusters\":[8,8]}", "leaf_clusters.clusters[1]"},
         {"{\"clusters\":[8,16]}", "leaf_clusters.clusters[1]"},
         {"{\"clusters\":[]}", "leaf_clusters.clusters"},
-        {"{\"clusters\":32}", "leaf_clusters.clusters"},
+        {"{\"clusters\":\"32\"}", "leaf_clusters.clusters"},
+        {"{\"clusters\":0}", "leaf_clusters.clusters[0]"},
         {"{\"clusters\":[0]}", "leaf_clusters.clusters[0]"},
         {"{\"clusters\":[2.5]}", "leaf_clusters.clusters[0]"},
         {"{\"clusters\":[5000]}", "leaf_clusters.clusters[0]"},
