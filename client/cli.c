@@ -835,7 +835,8 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
 }
 
 size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction,
-                                 bool bar, char *buf, size_t len)
+                                 int try_k, int tries, double elapsed_s, bool bar, char *buf,
+                                 size_t len)
 {
     if (!(fraction >= 0))
         fraction = 0;
@@ -852,8 +853,16 @@ size_t sylva_cli_progress_format(const char *label, const char *stage, double fr
             b[i] = i < fill ? '#' : '.';
         b[20] = '\0';
         put(&o, "%s [%s] %3d%% %-9s", label, b, pct, stage);
+        if (try_k > 0)
+            put(&o, " try %d/%d", try_k, tries);
+        if (elapsed_s >= 0)
+            put(&o, " %6.1f s", elapsed_s);
     } else {
         put(&o, "%s: %s %d%%", label, stage, pct);
+        if (try_k > 0)
+            put(&o, " (try %d of at most %d)", try_k, tries);
+        if (elapsed_s >= 0)
+            put(&o, ", %.1f s", elapsed_s);
     }
     if (buf && len && o.used >= len)
         buf[len - 1] = '\0';

@@ -131,9 +131,12 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json,
  * always NUL-terminated, truncated to len). Returns the length it wanted. */
 size_t sylva_cli_summary_format(const cJSON *summary, char *buf, size_t len);
 
-/* Formats one progress line: "label: stage  42%" with a bar when bar is true. */
+/* Formats one progress line, "label: stage 42% (try 2 of at most 4), 3.1 s",
+ * or with bar "label [########............]  42% stage  try 2/4  3.1 s";
+ * the try part only when try_k > 0, the time only when elapsed_s >= 0. */
 size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction,
-                                 bool bar, char *buf, size_t len);
+                                 int try_k, int tries, double elapsed_s, bool bar, char *buf,
+                                 size_t len);
 
 /* The exit code for a libsylva status. */
 int sylva_cli_exit_code(sylva_status st);

@@ -572,6 +572,13 @@ sylva_status sylva_job_parse(const char *body, size_t len, sylva_job *job)
                         : progress->valuedouble > 1 ? 1 : progress->valuedouble;
     if (job->state == SYLVA_STATE_DONE)
         job->progress = 1;
+    const cJSON *tk = cJSON_GetObjectItemCaseSensitive(doc, "try");
+    const cJSON *tn = cJSON_GetObjectItemCaseSensitive(doc, "tries");
+    if (cJSON_IsNumber(tk) && cJSON_IsNumber(tn) && tk->valueint >= 1 &&
+        tk->valueint <= tn->valueint && tn->valueint <= 1000) {
+        job->search_try = tk->valueint;
+        job->search_tries = tn->valueint;
+    }
     const cJSON *err = cJSON_GetObjectItemCaseSensitive(doc, "error");
     const cJSON *ec = cJSON_GetObjectItemCaseSensitive(err, "code");
     const cJSON *em = cJSON_GetObjectItemCaseSensitive(err, "message");

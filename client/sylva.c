@@ -199,8 +199,10 @@ typedef struct bake {
     char error_code[32];
     char last_stage[32];       /* for plain progress lines */
     int last_pct;
+    int last_try;
     char cur_stage[32];        /* as last reported by the progress callback */
     double cur_progress;
+    double t0;                 /* submitted (monotonic s), for the elapsed time */
     int refetch_resubmits;     /* submitted again after a 404 on download */
 } bake;
 
@@ -215,13 +217,15 @@ typedef struct display {
 static void show_plain(bake *b, const char *stage, double fraction)
 {
     int pct = (int)(fraction * 100 + 1e-9);
-    /* Plain lines: one per stage, not per percent (logs stay short). */
-    if (strcmp(stage, b->last_stage) == 0)
+    /* Plain lines: one per stage or target try, not per percent (logs stay short). */
+    if (strcmp(stage, b->last_stage) == 0 && b->job.search_try == b->last_try)
         return;
     snprintf(b->last_stage, sizeof b->last_stage, "%s", stage);
     b->last_pct = pct;
+    b->last_try = b->job.search_try;
     char line[256];
-    sylva_cli_progress_format(b->label, stage, fraction, false, line, sizeof line);
+    sylva_cli_progress_format(b->label, stage, fraction, b->job.search_try, b->job.search_tries,
+                              now_s() - b->t0, false, line, sizeof line);
     printf("%s\n", line);
     fflush(stdout);
 }
@@ -236,7 +240,11 @@ static void show_bar(display *d, bake *bakes, size_t n)
                                 ? (bakes[i].st == SYLVA_OK ? "done" : "failed")
                                 : bakes[i].cur_stage[0] ? bakes[i].cur_stage
                                                         : "upload";
-        sylva_cli_progress_format(bakes[i].label, stage, bakes[i].cur_progress, n == 1, one,
+        bool running = !bakes[i].finished;
+        sylva_cli_progress_format(bakes[i].label, stage, bakes[i].cur_progress,
+                                  running ? bakes[i].job.search_try : 0,
+                                  bakes[i].job.search_tries,
+                                  n == 1 ? now_s() - bakes[i].t0 : -1, n == 1, one,
                                   sizeof one);
         int w = snprintf(line + used, sizeof line - used, "%s%s", i ? "  " : "", one);
         if (w > 0)
@@ -419,6 +427,7 @@ static int cmd_bake(const sylva_cli *cli)
      * and the server bakes them concurrently. */
     for (size_t i = 0; i < ng; i++) {
         bake *b = &bakes[i];
+        b->t0 = now_s();
         sylva_status st = sylva_submit(c, &b->in, &b->job);
         if (st != SYLVA_OK) {
             record_failure(b, c, st);

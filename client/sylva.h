@@ -184,6 +184,8 @@ typedef struct sylva_job {
     sylva_state state;
     char stage[32];            /* current or last stage, "" when unknown */
     double progress;           /* 0..1 */
+    int search_try;            /* running a target search: try k (1..search_tries), else 0 */
+    int search_tries;          /* the search's bound on tries (it often needs fewer) */
     char error_code[32];       /* when failed */
     char error_message[512];
     bool target_unmet;         /* done, but the spec's "target" was not met: the outputs

@@ -59,6 +59,7 @@ typedef struct run {
     double t0;
     int stage;
     double pa, pb;            /* progress is mapped into [pa, pb] (the target search) */
+    int search_most;          /* the target search's bound on tries (sv_search_fn) */
     bool trial;               /* stop after evaluation, write nothing, fill tout */
     trial_out tout;
     cJSON *target_json;       /* report "target" (deterministic part), owned */
@@ -1839,6 +1840,7 @@ static sv_status try_step(run *r, const sv_spec *goal, const char *method, const
         return sv_fail(err, SV_ERR_NOMEM, "out of memory");
     }
     memset(r->times, 0, sizeof r->times);
+    if (r->req->search) r->req->search(r->req->user, n + 1, r->search_most);
     r->pa = 0.1 + 0.5 * (1 - ldexp(1, -n));
     r->pb = 0.1 + 0.5 * (1 - ldexp(1, -(n + 1)));
     r->trial = true;
@@ -1913,6 +1915,12 @@ static sv_status target_search(run *r, sv_error *err)
         while (scratch && steps < 64 && ladder_step(method, steps, scratch)) steps++;
         cJSON_Delete(scratch);
     }
+    /* at most one try per halving, per bisection (budget, then IoU) */
+    int halvings = 0;
+    while ((1 << halvings) <= steps) halvings++;
+    r->search_most = halvings * ((goal.target_max_planes || goal.target_max_triangles ? 1 : 0) +
+                                 (goal.target_iou > 0 ? 1 : 0));
+    if (r->search_most < 1) r->search_most = 1;
     step_try *sr = sv_calloc(steps ? (size_t)steps : 1, sizeof *sr);
     if (!sr) {
         st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
@@ -2021,6 +2029,7 @@ static sv_status target_search(run *r, sv_error *err)
             goto out;
         }
         memcpy(r->times, base, sizeof base);
+        if (r->req->search) r->req->search(r->req->user, 0, r->search_most);
         r->pa = 0.6;
         r->pb = 1.0;
         st = bake_with(r, json, err);

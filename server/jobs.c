@@ -21,6 +21,7 @@ struct svd_job {
     unsigned attempts;        /* attempts in the current run */
     int stage;                /* -1 before the first progress line */
     double progress;
+    int try_k, tries;         /* target search: try k of at most tries; 0 = none */
     double stage_start;
     double times[SVD_STAGE_COUNT];
     double t_started;
@@ -423,6 +424,10 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
     cJSON_AddNumberToObject(r, "progress", j->state == SVD_JOB_DONE ? 1.0 : j->progress);
     cJSON_AddNumberToObject(r, "attempts", j->attempts);
     if (j->state == SVD_JOB_RUNNING && j->cancel) cJSON_AddTrueToObject(r, "cancel_requested");
+    if (j->state == SVD_JOB_RUNNING && j->try_k > 0) {
+        cJSON_AddNumberToObject(r, "try", j->try_k);
+        cJSON_AddNumberToObject(r, "tries", j->tries);
+    }
     if (j->state == SVD_JOB_QUEUED) {
         unsigned pos = 0;
         for (size_t b = 0; b < NBUCKETS; b++)
@@ -896,6 +901,7 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
             best->cancel = false;
             best->stage = -1;
             best->progress = 0;
+            best->try_k = best->tries = 0;
             memset(best->times, 0, sizeof best->times);
             best->t_started = sv_now();
             best->stage_start = best->t_started;
@@ -910,7 +916,8 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
     }
 }
 
-void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress)
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress,
+                       int try_k, int tries)
 {
     int s = svd_stage_index(stage);
     pthread_mutex_lock(&jobs->mu);
@@ -927,6 +934,9 @@ void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double 
         wake_all(j);
     }
     if (progress >= 0 && progress <= 1) j->progress = progress;
+    bool searching = try_k > 0 && try_k <= tries && tries <= 1000;
+    j->try_k = searching ? try_k : 0;
+    j->tries = searching ? tries : 0;
     pthread_mutex_unlock(&jobs->mu);
 }
 

@@ -133,8 +133,10 @@ typedef struct svd_ticket {
  * (returns false). */
 bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t);
 
-/* Progress line from the worker: stage name and overall fraction. */
-void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress);
+/* Progress line from the worker: stage name, overall fraction, and during a
+ * target search try k of at most `tries` (k = 0: not searching). */
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress,
+                       int try_k, int tries);
 
 /* True if the job was cancelled (the worker must stop the process). */
 bool svd_jobs_cancelled(svd_jobs *jobs, svd_ticket *t);

@@ -101,7 +101,11 @@ static void handle_line(svd_jobs *jobs, svd_ticket *t, const char *line)
     cJSON *j = cJSON_Parse(line);
     const char *stage = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(j, "stage"));
     const cJSON *pr = cJSON_GetObjectItemCaseSensitive(j, "progress");
-    if (stage) svd_jobs_progress(jobs, t, stage, cJSON_IsNumber(pr) ? pr->valuedouble : -1);
+    const cJSON *tk = cJSON_GetObjectItemCaseSensitive(j, "try");
+    const cJSON *tn = cJSON_GetObjectItemCaseSensitive(j, "tries");
+    if (stage)
+        svd_jobs_progress(jobs, t, stage, cJSON_IsNumber(pr) ? pr->valuedouble : -1,
+                          cJSON_IsNumber(tk) ? tk->valueint : 0, cJSON_IsNumber(tn) ? tn->valueint : 0);
     cJSON_Delete(j);
 }
 

@@ -33,6 +33,7 @@
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
@@ -49,7 +50,8 @@
 static const char usage[] =
     "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json] [--cpu-limit S]\n"
     "       sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N]\n"
-    "                       [--sandbox] [--cpu-limit S]\n"
+    "                       [--progress auto|bar|plain|none] [--quiet] [--sandbox]\n"
+    "                       [--cpu-limit S]\n"
     "       sylva-bake check-spec SPEC.json\n"
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
@@ -57,6 +59,15 @@ static const char usage[] =
     "ever read; one that MESH references but FILES lack refuses the input (code\n"
     "\"missing\") unless the spec says \"import\": {\"missing_files\": \"warn\"}.\n"
     "See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
+    "\n"
+    "--out DIR  created with its parents; files an earlier bake left there (sylva's\n"
+    "           names only) are removed first.\n"
+    "--progress auto|bar|plain|none  on stderr: a bar with the stage, the target\n"
+    "           search's try k of at most n and the elapsed time on a terminal\n"
+    "           (auto), one line per stage or try otherwise (auto when stderr is\n"
+    "           not a terminal), or nothing (auto with --progress-fd).\n"
+    "--quiet    no progress and no warnings: errors and an unmet target only.\n"
+    "--progress-fd N  JSON lines {\"stage\",\"progress\"[,\"try\",\"tries\"]} on fd N.\n"
     "\n"
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
@@ -262,22 +273,68 @@ static void cpu_guard(long requested, const char *mesh, const char *out_dir)
         fprintf(stderr, "sylva-bake: cannot set the CPU time limit: %s\n", strerror(errno));
 }
 
+/* How progress shows on stderr (--progress; docs/client.md's rules): a bar
+ * redrawn with \r on a terminal, one plain line per stage or target try
+ * otherwise, nothing with --quiet or --progress none. */
+typedef enum { PROGRESS_AUTO, PROGRESS_BAR, PROGRESS_PLAIN, PROGRESS_NONE } progress_mode;
+
 typedef struct progress_ctx {
-    int fd;
-    bool tty;
+    int fd;                   /* --progress-fd: JSON lines for sylvad, or -1 */
+    progress_mode mode;       /* resolved: BAR, PLAIN or NONE */
+    double t0;                /* start, for the elapsed time */
+    int try_k, try_most;      /* target search: try k of at most try_most; 0 = none */
+    char last[48];            /* the last plain line's stage and try */
+    bool drawn;               /* a bar is on the terminal line */
 } progress_ctx;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static void on_search(void *user, int k, int most)
+{
+    progress_ctx *p = user;
+    p->try_k = k;
+    p->try_most = most;
+}
 
 static bool on_progress(void *user, const char *stage, double fraction)
 {
     progress_ctx *p = user;
+    char tries[48] = "";
     if (p->fd >= 0) {
-        char line[128];
-        int n = snprintf(line, sizeof line, "{\"stage\":\"%s\",\"progress\":%.3f}\n", stage,
-                         fraction);
+        char line[192];
+        if (p->try_k > 0)
+            snprintf(tries, sizeof tries, ",\"try\":%d,\"tries\":%d", p->try_k, p->try_most);
+        int n = snprintf(line, sizeof line, "{\"stage\":\"%s\",\"progress\":%.3f%s}\n", stage,
+                         fraction, tries);
         if (n > 0 && write(p->fd, line, (size_t)n) < 0) { /* the reader went away: go on */
         }
     }
-    if (p->tty) fprintf(stderr, "\r%-10s %3d%%", stage, (int)(fraction * 100 + 0.5));
+    if (p->mode == PROGRESS_NONE) return true;
+    int pct = (int)(fraction * 100 + 0.5);
+    double el = now_s() - p->t0;
+    if (p->try_k > 0) snprintf(tries, sizeof tries, "try %d of at most %d", p->try_k, p->try_most);
+    else tries[0] = '\0';
+    if (p->mode == PROGRESS_BAR) {
+        char bar[21];
+        int fill = pct / 5;
+        for (int i = 0; i < 20; i++) bar[i] = i < fill ? '#' : '.';
+        bar[20] = '\0';
+        fprintf(stderr, "\r[%s] %3d%% %-9s %-20s %6.1f s", bar, pct, stage, tries, el);
+        p->drawn = true;
+    } else {
+        char key[48];
+        snprintf(key, sizeof key, "%s|%d", stage, p->try_k);
+        if (strcmp(key, p->last) == 0) return true;
+        snprintf(p->last, sizeof p->last, "%s", key);
+        fprintf(stderr, "sylva-bake: %s %d%%%s%s%s, %.1f s\n", stage, pct, tries[0] ? " (" : "",
+                tries, tries[0] ? ")" : "", el);
+    }
+    fflush(stderr);
     return true;
 }
 
@@ -383,10 +440,10 @@ static int cmd_info(int argc, char **argv)
 
 /* The outcome of a finished bake, from out_dir/report.json, so a degraded
  * result is not silent (issue 19): prints every input warning on stderr as
- * "sylva-bake: warning: ...", and when the spec's target was not met
+ * "sylva-bake: warning: ..." (not when quiet), and when the spec's target was not met
  * (target.met false) why, and returns EXIT_TARGET_UNMET; else 0. Prints
  * nothing and returns 0 when there is no report. */
-static int report_outcome(const char *out_dir)
+static int report_outcome(const char *out_dir, bool quiet)
 {
     char path[4200];
     snprintf(path, sizeof path, "%s/report.json", out_dir);
@@ -395,7 +452,8 @@ static int report_outcome(const char *out_dir)
     cJSON *rep = text ? cJSON_ParseWithLength(text, len) : NULL;
     const cJSON *w;
     cJSON_ArrayForEach(w, cJSON_GetObjectItem(cJSON_GetObjectItem(rep, "input"), "warnings"))
-        if (cJSON_IsString(w)) fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
+        if (cJSON_IsString(w) && !quiet)
+            fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
     const cJSON *t = cJSON_GetObjectItem(rep, "target");
     int rc = 0;
     if (cJSON_IsFalse(cJSON_GetObjectItem(t, "met"))) {
@@ -465,6 +523,8 @@ static int cmd_bake(int argc, char **argv)
     size_t n = 0;
     const char *spec_path = NULL, *out_dir = NULL;
     int progress_fd = -1;
+    progress_mode mode = PROGRESS_AUTO;
+    bool quiet = false;
     bool sandbox = false;
     long cpu_limit = -1;
     for (int i = 0; i < argc; i++) {
@@ -474,6 +534,19 @@ static int cmd_bake(int argc, char **argv)
         }
         else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
+        else if (strcmp(argv[i], "--quiet") == 0) quiet = true;
+        else if (strcmp(argv[i], "--progress") == 0 && i + 1 < argc) {
+            const char *m = argv[++i];
+            if (strcmp(m, "auto") == 0) mode = PROGRESS_AUTO;
+            else if (strcmp(m, "bar") == 0) mode = PROGRESS_BAR;
+            else if (strcmp(m, "plain") == 0) mode = PROGRESS_PLAIN;
+            else if (strcmp(m, "none") == 0) mode = PROGRESS_NONE;
+            else {
+                fprintf(stderr, "sylva-bake: --progress: expected auto, bar, plain or none, not "
+                                "'%s'\n", m);
+                return 2;
+            }
+        }
         else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
             char *end;
             long fd = strtol(argv[++i], &end, 10);
@@ -526,10 +599,15 @@ static int cmd_bake(int argc, char **argv)
         free_files(&l);
         return 1;
     }
-    progress_ctx pc = {progress_fd, isatty(2) && progress_fd < 0};
-    sv_bake_request req = {l.files, l.count, spec, spec_len, out_dir, on_progress, &pc};
+    /* auto: a bar on a terminal, plain lines otherwise; nothing as sylvad's
+     * worker (--progress-fd), whose stderr is the daemon's log. */
+    if (quiet) mode = PROGRESS_NONE;
+    if (mode == PROGRESS_AUTO)
+        mode = progress_fd >= 0 ? PROGRESS_NONE : isatty(2) ? PROGRESS_BAR : PROGRESS_PLAIN;
+    progress_ctx pc = {.fd = progress_fd, .mode = mode, .t0 = now_s()};
+    sv_bake_request req = {l.files, l.count, spec, spec_len, out_dir, on_progress, &pc, on_search};
     sv_status st = sv_pipeline_run(&req, &e);
-    if (pc.tty) fputc('\n', stderr);
+    if (pc.drawn) fputc('\n', stderr);
     free(spec);
     free_files(&l);
     if (st) {
@@ -537,7 +615,7 @@ static int cmd_bake(int argc, char **argv)
         write_error_json(out_dir, &e);
         return 1;
     }
-    return report_outcome(out_dir);
+    return report_outcome(out_dir, quiet);
 }
 
 static int cmd_check_spec(int argc, char **argv)

@@ -14,6 +14,10 @@
 
 /* Progress: stage name and overall fraction in [0, 1]. Return false to cancel. */
 typedef bool (*sv_progress_fn)(void *user, const char *stage, double fraction);
+/* A target search (docs/spec.md "target") starts try k of at most `most`
+ * (the bisections' bound; the search often needs fewer); k = 0 once the
+ * search is over and the chosen setting is baked for the outputs. */
+typedef void (*sv_search_fn)(void *user, int k, int most);
 
 typedef struct sv_bake_request {
     const sv_file *files;     /* files[0] is the main mesh */
@@ -23,6 +27,7 @@ typedef struct sv_bake_request {
     const char *out_dir;      /* must exist */
     sv_progress_fn progress;  /* may be NULL */
     void *user;
+    sv_search_fn search;      /* may be NULL; called with user */
 } sv_bake_request;
 
 /* Runs the bake. On failure nothing but partial files may remain in out_dir

@@ -73,6 +73,22 @@ touch "$tmp/c/lod7_old.glb" "$tmp/c/atlas_old_albedo.png" "$tmp/c/notes.txt" "$t
 [ ! -e "$tmp/c/lod7_old.glb" ] && [ ! -e "$tmp/c/atlas_old_albedo.png" ] ||
     fail "an earlier bake's level or atlas survived in --out"
 [ -e "$tmp/c/notes.txt" ] && [ -e "$tmp/c/lod_x.glb" ] || fail "--out lost a file sylva does not write"
+# progress on stderr: plain lines when it is not a terminal, nothing with
+# --quiet or --progress none, a usage error for an unknown mode (issue 23)
+"$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/c" 2> "$tmp/plain.err" > /dev/null ||
+    fail "quick bake (plain progress)"
+grep -q "^sylva-bake: import 0%, [0-9.]* s$" "$tmp/plain.err" && grep -q "^sylva-bake: write " "$tmp/plain.err" ||
+    fail "no plain progress lines: $(cat "$tmp/plain.err")"
+for q in --quiet "--progress none"; do
+    # shellcheck disable=SC2086
+    "$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/c" $q 2> "$tmp/quiet.err" > /dev/null ||
+        fail "quick bake $q"
+    [ ! -s "$tmp/quiet.err" ] || fail "$q still printed: $(cat "$tmp/quiet.err")"
+done
+set +e
+"$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/c" --progress loud 2> "$tmp/loud.err"; rc=$?
+set -e
+[ $rc = 2 ] && grep -q "expected auto, bar, plain or none" "$tmp/loud.err" || fail "--progress loud: exit $rc"
 # --out's parents are created
 "$bake" bake $files --spec "$tmp/quick.json" --out "$tmp/d/e/f" > /dev/null || fail "--out with missing parents"
 [ -s "$tmp/d/e/f/model.glb" ] || fail "--out with missing parents: no model.glb"

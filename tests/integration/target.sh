@@ -53,6 +53,11 @@ j["method"]["settings"] == j["target"]["tries"][j["target"]["chosen"]]["settings
 check "... and each try has its cost in times.target_tries" True "$(target met '
 len(j["times"]["target_tries"]) == len(j["target"]["tries"]) and all(s >= 0 for s in j["times"]["target_tries"])')"
 [ -s "$T/met/model.glb" ] && ok "... model.glb written" || bad "no model.glb"
+# the progress lines (stderr not a terminal: plain) count the tries (issue 23)
+ntries=$(stmts met 'print(len(tr))')
+grep -q "^sylva-bake: method [0-9]*% (try 1 of at most 4), [0-9.]* s$" "$T/met.log" &&
+    grep -q "(try $ntries of at most 4)" "$T/met.log" && ok "... progress says try k of at most 4" ||
+    bad "no try count in the progress lines: $(head -c 600 "$T/met.log")"
 # the search keeps its renderer and reference renders across tries (issue 19
 # item 6): what it bakes must still be exactly a bake of the chosen setting
 chosen=$(json_get "$T/met/report.json" 'json.dumps(j["method"]["settings"])')
@@ -124,6 +129,9 @@ if [ -x "$SYLVAD" ] && [ -x "$SYLVA" ]; then
     "$SYLVA" --server "http://127.0.0.1:$(cat "$T/port")" bake $MESH --spec "$T/met.json" \
         --out "$T/via-daemon" > "$T/client.log" 2>&1
     check "sylva bake with a target through the daemon exits 0" 0 "$?"
+    grep -q "tree.obj: [a-z]* [0-9]*% (try [1-4] of at most 4), [0-9.]* s$" "$T/client.log" &&
+        ok "... the client's progress says the daemon's try k of at most 4" ||
+        bad "no try count in the client's progress: $(head -c 600 "$T/client.log")"
     cmp -s "$T/via-daemon/model.glb" "$T/met/model.glb" &&
         ok "... its model.glb is the offline bake's" || bad "daemon's model.glb differs: $(cat "$T/client.log")"
     check "... its report has the search" True "$(target via-daemon 'j["target"]["met"]')"

@@ -386,14 +386,19 @@ static void progress_lines_show_stage_and_percent(void **state)
 {
     (void)state;
     char buf[128];
-    sylva_cli_progress_format("oak.glb", "bake", 0.42, false, buf, sizeof buf);
+    sylva_cli_progress_format("oak.glb", "bake", 0.42, 0, 0, -1, false, buf, sizeof buf);
     assert_string_equal(buf, "oak.glb: bake 42%");
-    sylva_cli_progress_format("oak.glb", "pack", 0.5, true, buf, sizeof buf);
+    sylva_cli_progress_format("oak.glb", "pack", 0.5, 0, 0, -1, true, buf, sizeof buf);
     assert_non_null(strstr(buf, "[##########..........]"));
     assert_non_null(strstr(buf, " 50%"));
     assert_null(strchr(buf, '\r'));
-    sylva_cli_progress_format("x", "write", 7.0, false, buf, sizeof buf);
+    sylva_cli_progress_format("x", "write", 7.0, 0, 0, -1, false, buf, sizeof buf);
     assert_string_equal(buf, "x: write 100%");
+    /* a target search's try and the elapsed time (issue 23) */
+    sylva_cli_progress_format("t.obj", "bake", 0.3, 2, 4, 3.14, false, buf, sizeof buf);
+    assert_string_equal(buf, "t.obj: bake 30% (try 2 of at most 4), 3.1 s");
+    sylva_cli_progress_format("t.obj", "bake", 0.3, 2, 4, 12.0, true, buf, sizeof buf);
+    assert_non_null(strstr(buf, "bake      try 2/4   12.0 s"));
 }
 
 static void exit_codes_separate_input_service_integrity_and_cancel(void **state)

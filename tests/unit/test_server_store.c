@@ -361,8 +361,8 @@ static void status_reports_stage_progress_and_manifest(void **state)
     assert_int_equal(submit(f, "v 8 8 8\n", "addr:a", k), 202);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
-    svd_jobs_progress(f->jobs, &t, "import", 0.0);
-    svd_jobs_progress(f->jobs, &t, "bake", 0.5);
+    svd_jobs_progress(f->jobs, &t, "import", 0.0, 0, 0);
+    svd_jobs_progress(f->jobs, &t, "bake", 0.5, 2, 4);
     char *body = NULL;
     svd_jobs_status(f->jobs, k, &body);
     cJSON *j = cJSON_Parse(body);
@@ -371,6 +371,15 @@ static void status_reports_stage_progress_and_manifest(void **state)
     assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "stage")), "bake");
     assert_true(cJSON_GetObjectItem(j, "progress")->valuedouble == 0.5);
     assert_non_null(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "times"), "import"));
+    /* a target search's try k of at most n (issue 23) */
+    assert_int_equal(cJSON_GetObjectItem(j, "try")->valueint, 2);
+    assert_int_equal(cJSON_GetObjectItem(j, "tries")->valueint, 4);
+    cJSON_Delete(j);
+    svd_jobs_progress(f->jobs, &t, "write", 0.9, 0, 4); /* the search is over */
+    svd_jobs_status(f->jobs, k, &body);
+    j = cJSON_Parse(body);
+    free(body);
+    assert_null(cJSON_GetObjectItem(j, "try"));
     cJSON_Delete(j);
     fake_done(f, &t, "X");
     svd_jobs_status(f->jobs, k, &body);
