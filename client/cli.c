@@ -546,7 +546,20 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
         }
         cJSON *obj = root;
         char *path = key;
-        if (!strchr(key, '.')) {
+        /* The root: a leading dot (".lod={...}"), or an undotted key naming one
+         * of the spec's top-level scalars (docs/spec.md). */
+        bool at_root = key[0] == '.' || strcmp(key, "seed") == 0 || strcmp(key, "method") == 0;
+        if (key[0] == '.')
+            path = key + 1;
+        if (at_root && (!path[0] || strchr(path, '.'))) {
+            cJSON_Delete(v);
+            set_err(err, errlen, "--set %.*s: a root key is one name after the dot", (int)kl,
+                    sets[i]);
+            goto out;
+        }
+        if (at_root) {
+            /* obj stays the root */
+        } else if (!strchr(key, '.')) {
             if (!mname) {
                 cJSON_Delete(v);
                 set_err(err, errlen, "--set %s needs --method (or a spec naming the method)", key);
