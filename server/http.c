@@ -162,6 +162,13 @@ static int on_part_begin(void *user, const svd_part_info *info)
     if (!is_mesh && strcmp(info->name, "file") != 0)
         return upload_fail(u, 400, "bad_request",
                            "unknown form field '%s' (expected spec, mesh, file)", info->name), 1;
+    if (info->has_filename && info->filename_len > SVD_NAME_MAX) {
+        char head[48];
+        snprintf(head, sizeof head, "%.40s", info->filename);
+        return upload_fail(u, 400, "bad_name",
+                           "file name '%s...' is longer than 255 bytes (names are never truncated)",
+                           head), 1;
+    }
     if (!info->has_filename || !svd_name_valid(info->filename))
         return upload_fail(u, 400, "bad_name",
                            "invalid file name '%s': a base name without '/', '\\\\', spaces or control "
@@ -881,6 +888,48 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     }
 }
 
+/* Issue 22 item 13: libmicrohttpd 0.9.75 stores every query argument in the
+ * connection's memory pool; ~1000 of them exhaust it, and the 431 it then
+ * means to send needs that pool too: the connection hung until the idle
+ * timeout (30 s) with no answer. MHD calls this with the raw request line
+ * before it parses the arguments: a request with more arguments than any
+ * route takes gets its 431 here, written on the socket, which is then shut
+ * for writing (MHD's own failing answer finds it closed and drops the
+ * connection at once). Returns NULL: the per-request context stays on_request's. */
+#define URI_ARGS_MAX 64
+static void *on_uri(void *cls, const char *uri, struct MHD_Connection *c)
+{
+    svd_http *h = cls;
+    const char *qm = uri ? strchr(uri, '?') : NULL;
+    size_t args = 0;
+    if (qm) {
+        args = 1;
+        for (const char *p = qm; *p; p++) args += *p == '&' || *p == ';';
+    }
+    if (args <= URI_ARGS_MAX) return NULL;
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    if (ci) {
+        static const char body[] =
+            "{\"error\":{\"code\":\"too_large\",\"message\":\"more than 64 query arguments: no "
+            "route takes more than 3\"}}";
+        char resp[512];
+        int n = snprintf(resp, sizeof resp,
+                         "HTTP/1.1 431 Request Header Fields Too Large\r\n"
+                         "Content-Type: application/json\r\nConnection: close\r\n"
+                         "Content-Length: %zu\r\n\r\n%s",
+                         sizeof body - 1, body);
+        if (n > 0 && send(ci->connect_fd, resp, (size_t)n, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) {
+            /* the client is gone: MHD closes the connection anyway */
+        }
+        shutdown(ci->connect_fd, SHUT_WR);
+    }
+    char msg[96];
+    snprintf(msg, sizeof msg, "refused a request line with %zu query arguments (431)", args);
+    svd_log_kv(h->log, SVD_LOG_WARN, "http", "msg", msg, (const char *)NULL);
+    return NULL;
+}
+
 static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls,
                          enum MHD_RequestTerminationCode toe)
 {
@@ -965,6 +1014,7 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
+        MHD_OPTION_URI_LOG_CALLBACK, on_uri, h,
         MHD_OPTION_END);
     if (!h->d) {
         close(lfd);

@@ -107,24 +107,28 @@ static sv_status mp_error(svd_multipart *mp, sv_status st, const char *msg)
     return st;
 }
 
-/* Copies a header parameter value (quoted-string or token) into out. */
-static void param_value(const char *v, const char *end, char out[SVD_MP_FIELD_MAX])
+/* Copies a header parameter value (quoted-string or token) into out,
+ * truncated to what out holds; returns the value's whole length. */
+static size_t param_value(const char *v, const char *end, char out[SVD_MP_FIELD_MAX])
 {
-    size_t n = 0;
+    size_t n = 0, total = 0;
     if (v < end && *v == '"') {
         v++;
         while (v < end && *v != '"') {
             if (*v == '\\' && v + 1 < end) v++;
             if (n + 1 < SVD_MP_FIELD_MAX) out[n++] = *v;
+            total++;
             v++;
         }
     } else {
         while (v < end && *v != ';' && *v != ' ' && *v != '\t') {
             if (n + 1 < SVD_MP_FIELD_MAX) out[n++] = *v;
+            total++;
             v++;
         }
     }
     out[n] = '\0';
+    return total;
 }
 
 /* Parses "form-data; name=...; filename=..." into info. */
@@ -146,7 +150,7 @@ static int parse_disposition(const char *v, const char *end, svd_part_info *info
             param_value(val, end, info->name);
             have_name = 1;
         } else if (klen == 8 && strncasecmp(p, "filename", 8) == 0) {
-            param_value(val, end, info->filename);
+            info->filename_len = param_value(val, end, info->filename);
             info->has_filename = 1;
         }
         /* skip the value */

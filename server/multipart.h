@@ -21,6 +21,8 @@ typedef struct svd_part_info {
     char filename[SVD_MP_FIELD_MAX];      /* "" when the part has no filename */
     char content_type[SVD_MP_FIELD_MAX];  /* "" when absent */
     int has_filename;
+    size_t filename_len;                  /* the whole value's length: longer than
+                                             filename holds = truncated, refuse it */
 } svd_part_info;
 
 /* Callbacks return 0 to continue; any other value stops the parser with

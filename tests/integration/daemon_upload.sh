@@ -146,5 +146,13 @@ code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filenam
 check "a path in a file name is 400" 400 "$code"
 code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3" -F "file=@$m3;filename=put.obj" "$URL/v1/bakes")
 check "a duplicate file name is 400" 400 "$code"
+# issue 22 item 10: a name over 255 bytes is refused, not truncated to 255
+long=$(printf 'a%.0s' $(seq 1 300)).obj
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filename=$long" "$URL/v1/bakes")
+check "a 304-byte file name is 400" 400 "$code"
+contains "  saying it is longer than 255 bytes" "longer than 255 bytes" "$(cat "$T/b")"
+long=$(printf 'b%.0s' $(seq 1 251)).obj
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filename=$long" "$URL/v1/bakes")
+check "a 255-byte file name is taken" 202 "$code"
 check "daemon still healthy" 200 "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/health")"
 finish
