@@ -4,6 +4,9 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdbool.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -32,6 +35,7 @@ struct svd_store {
     uint64_t counter;
     vcache_entry *cache; /* direct-mapped cache of verified files */
     int lock_fd;         /* <root>/lock, flock()ed for the store's lifetime */
+    int stray_workers;   /* killed at open: workers of a dead daemon (sweep_stray_workers) */
 };
 
 /* One daemon per store (issue 23): two sylvad on one --store both recovered
@@ -128,6 +132,70 @@ static sv_status mkdir_p1(const char *path, sv_error *err)
 }
 
 
+/* Issue 22 item 9: workers of a daemon that was SIGKILLed (or crashed)
+ * outlived it and wrote into the next daemon's tmp/. Workers now die with
+ * their daemon (sylva-bake --parent-pid: PR_SET_PDEATHSIG); this sweep, run
+ * with the store's lock held and before tmp/ is emptied, kills any that is
+ * still there (a worker of an older sylvad, or one whose daemon died between
+ * the spawn and its prctl): a process whose command line is a worker's
+ * (`bake`, `--progress-fd`) with `--out` inside this store's tmp/. Returns
+ * how many were killed. */
+static int sweep_stray_workers(const char *root)
+{
+    pid_t pids[64];
+    char tmp[SVD_STORE_PATH], real_tmp[PATH_MAX];
+    snprintf(tmp, sizeof tmp, "%s/tmp", root);
+    if (!realpath(tmp, real_tmp)) return 0;
+    size_t tl = strlen(real_tmp);
+    DIR *d = opendir("/proc");
+    if (!d) return 0;
+    int killed = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        char *end;
+        long pid = strtol(e->d_name, &end, 10);
+        if (*end || pid <= 1 || pid == (long)getpid()) continue;
+        char path[64], cmd[8192];
+        snprintf(path, sizeof path, "/proc/%ld/cmdline", pid);
+        int fd = open(path, O_RDONLY | O_CLOEXEC);
+        if (fd < 0) continue;
+        ssize_t n = read(fd, cmd, sizeof cmd - 1);
+        close(fd);
+        if (n <= 0) continue;
+        cmd[n] = '\0';
+        bool bake = false, pfd = false;
+        const char *out = NULL;
+        for (const char *a = cmd; a < cmd + n; a += strlen(a) + 1) {
+            if (strcmp(a, "bake") == 0) bake = true;
+            else if (strcmp(a, "--progress-fd") == 0) pfd = true;
+            else if (strcmp(a, "--out") == 0 && a + strlen(a) + 1 < cmd + n) out = a + strlen(a) + 1;
+        }
+        if (!bake || !pfd || !out) continue;
+        char where[PATH_MAX + 64], real_out[PATH_MAX];
+        if (out[0] == '/') snprintf(where, sizeof where, "%s", out);
+        else snprintf(where, sizeof where, "/proc/%ld/cwd/%s", pid, out);
+        if (!realpath(where, real_out)) continue;
+        if (strncmp(real_out, real_tmp, tl) == 0 && real_out[tl] == '/' &&
+            kill((pid_t)pid, SIGKILL) == 0 && killed < 64)
+            pids[killed++] = (pid_t)pid;
+    }
+    closedir(d);
+    /* gone (or a zombie, which writes nothing) before tmp/ is emptied: ≤ 2 s */
+    for (int i = 0; i < killed; i++)
+        for (int k = 0; k < 200 && kill(pids[i], 0) == 0; k++) {
+            char path[64], st[256] = "";
+            snprintf(path, sizeof path, "/proc/%d/stat", (int)pids[i]);
+            FILE *f = fopen(path, "re");
+            if (f) {
+                if (!fgets(st, sizeof st, f)) st[0] = '\0';
+                fclose(f);
+            }
+            const char *rp = strrchr(st, ')');
+            if (rp && rp[1] == ' ' && rp[2] == 'Z') break;
+            usleep(10000);
+        }
+    return killed;
+}
+
 svd_store *svd_store_open(const char *root, sv_error *err)
 {
     if (strlen(root) > 900) {
@@ -138,6 +206,7 @@ svd_store *svd_store_open(const char *root, sv_error *err)
     if (mkdir_p1(root, err) != SV_OK) return NULL;
     int lock_fd = lock_store(root, err); /* before tmp/ is emptied */
     if (lock_fd < 0) return NULL;
+    int stray = sweep_stray_workers(root);
     const char *subs[] = {"tmp", "jobs", "quarantine"};
     for (int i = 0; i < 3; i++) {
         snprintf(p, sizeof p, "%s/%s", root, subs[i]);
@@ -158,9 +227,15 @@ svd_store *svd_store_open(const char *root, sv_error *err)
         return NULL;
     }
     s->lock_fd = lock_fd;
+    s->stray_workers = stray;
     snprintf(s->root, sizeof s->root, "%s", root);
     pthread_mutex_init(&s->mu, NULL);
     return s;
+}
+
+int svd_store_stray_workers(const svd_store *s)
+{
+    return s ? s->stray_workers : 0;
 }
 
 void svd_store_close(svd_store *s)

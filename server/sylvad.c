@@ -97,6 +97,12 @@ int main(int argc, char **argv)
 
     if (cfg.tokens[0] && !(tokens = svd_tokens_load(cfg.tokens, &err))) goto fail;
     if (!(store = svd_store_open(cfg.store, &err))) goto fail;
+    if (svd_store_stray_workers(store) > 0) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", svd_store_stray_workers(store));
+        svd_log_kv(log, SVD_LOG_WARN, "stray_workers_killed", "count", n, "msg",
+                   "workers of a previous daemon were still baking into tmp/", (const char *)NULL);
+    }
     if (!(metrics = svd_metrics_create())) {
         sv_fail(&err, SV_ERR_NOMEM, "out of memory");
         goto fail;

@@ -422,6 +422,11 @@ static void run_job(svd_workers *w, svd_ticket *t)
     argv[ac++] = outdir;
     argv[ac++] = "--progress-fd";
     argv[ac++] = "3";
+    /* the worker dies with the daemon (PR_SET_PDEATHSIG; issue 22 item 9) */
+    char ppid[24];
+    snprintf(ppid, sizeof ppid, "%ld", (long)getpid());
+    argv[ac++] = "--parent-pid";
+    argv[ac++] = ppid;
     if (c->worker_sandbox) argv[ac++] = "--sandbox"; /* seccomp filter (core/sandbox.h) */
     argv[ac] = NULL;
 #undef OWN

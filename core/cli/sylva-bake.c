@@ -30,6 +30,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/personality.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -68,6 +69,8 @@ static const char usage[] =
     "           not a terminal), or nothing (auto with --progress-fd).\n"
     "--quiet    no progress and no warnings: errors and an unmet target only.\n"
     "--progress-fd N  JSON lines {\"stage\",\"progress\"[,\"try\",\"tries\"]} on fd N.\n"
+    "--parent-pid P  die with process P, the parent (sylvad passes its pid): a\n"
+    "           worker never outlives its daemon.\n"
     "\n"
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
@@ -525,6 +528,7 @@ static int cmd_bake(int argc, char **argv)
     int progress_fd = -1;
     progress_mode mode = PROGRESS_AUTO;
     bool quiet = false;
+    long parent = 0;
     bool sandbox = false;
     long cpu_limit = -1;
     for (int i = 0; i < argc; i++) {
@@ -535,6 +539,14 @@ static int cmd_bake(int argc, char **argv)
         else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
         else if (strcmp(argv[i], "--quiet") == 0) quiet = true;
+        else if (strcmp(argv[i], "--parent-pid") == 0 && i + 1 < argc) {
+            char *end;
+            parent = strtol(argv[++i], &end, 10);
+            if (*end || parent <= 0) {
+                fprintf(stderr, "sylva-bake: --parent-pid: expected a process id\n");
+                return 2;
+            }
+        }
         else if (strcmp(argv[i], "--progress") == 0 && i + 1 < argc) {
             const char *m = argv[++i];
             if (strcmp(m, "auto") == 0) mode = PROGRESS_AUTO;
@@ -563,6 +575,14 @@ static int cmd_bake(int argc, char **argv)
     if (n == 0 || !out_dir) {
         fprintf(stderr, "sylva-bake: bake needs MESH and --out DIR\n%s", usage);
         return 2;
+    }
+    /* sylvad's worker dies with it (issue 22 item 9): SIGKILL when the parent
+     * goes; a parent already gone before the prctl is caught by getppid. */
+    if (parent > 0) {
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != (pid_t)parent) {
+            fprintf(stderr, "sylva-bake: the daemon (pid %ld) is gone: not baking\n", parent);
+            return 1;
+        }
     }
     /* --out as a user expects it: parents created, and the files of an
      * earlier bake there (sylva's names only: out_names.h) removed, so the
