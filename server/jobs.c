@@ -30,6 +30,7 @@ struct svd_job {
     cJSON *manifest;          /* when done */
     uint64_t bytes;           /* on disk: inputs + result */
     bool cancel;
+    bool resubmitted;         /* uploaded again while a DELETE was stopping it: run it again */
     svd_waiter *waiters;
     svd_job *hnext;
 };
@@ -601,6 +602,15 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
     svd_job *j = find(jobs, up->key);
     if (j) {
         j->lru = ++jobs->lru_clock;
+        /* Issue 22 item 11: a re-upload racing a DELETE of the running bake
+         * was answered "running" and then the bake ended cancelled: the
+         * upload was lost. The upload wins: the cancel is withdrawn (the
+         * worker has not stopped yet) or, if the worker already stopped, the
+         * bake is queued again when it reports (svd_jobs_finish). */
+        if (j->state == SVD_JOB_RUNNING && j->cancel) {
+            j->cancel = false;
+            j->resubmitted = true;
+        }
         if (j->state == SVD_JOB_CANCELLED) {
             if (journal_json(jobs, record("requeue", j), &e) == SV_OK) {
                 j->state = SVD_JOB_QUEUED;
@@ -1012,6 +1022,12 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         break;
     }
     case SVD_OUT_CANCELLED:
+        if (j->resubmitted) { /* uploaded again after the DELETE: run it again */
+            j->state = SVD_JOB_QUEUED;
+            j->attempts = 0;
+            j->seq = ++jobs->seq_next;
+            break;
+        }
         if (journal_json(jobs, record("cancel", j), &e) != SV_OK) log_journal_error(jobs, j->key, &e);
         j->state = SVD_JOB_CANCELLED;
         set_message(j, "cancelled", "cancelled by DELETE");
@@ -1027,6 +1043,7 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
     }
     j->stage = out == SVD_OUT_DONE ? j->stage : -1;
     j->cancel = false;
+    j->resubmitted = false;
     if (final) svd_metrics_job_final(jobs->metrics, final, now - j->t_started);
     /* Logged before anyone can see the new state: a reader of the log that
      * finds no job_finished line knows no client has seen the job finish. */

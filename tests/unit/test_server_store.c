@@ -247,6 +247,42 @@ static void delete_cancels_queued_and_removes_finished(void **state)
     free(body);
 }
 
+/* Issue 22 item 11: an upload of a running bake that a DELETE is stopping is
+ * not lost: before the worker stops, the cancel is withdrawn; after, the
+ * bake is queued again. */
+static void reupload_racing_a_delete_of_a_running_bake_wins(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    char *body = NULL;
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", k), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 202);
+    free(body);
+    assert_true(svd_jobs_cancelled(f->jobs, &t));
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", NULL), 200); /* before the worker stops */
+    assert_false(svd_jobs_cancelled(f->jobs, &t));
+    fake_done(f, &t, "X");
+    assert_state(f, k, "done");
+    /* the worker had stopped already: the bake runs again */
+    char k2[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k2), 202);
+    assert_true(svd_jobs_take(f->jobs, &t));
+    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body), 202);
+    free(body);
+    assert_true(svd_jobs_cancelled(f->jobs, &t)); /* the worker kills the process ... */
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", NULL), 200);
+    svd_jobs_finish(f->jobs, &t, SVD_OUT_CANCELLED, NULL, "cancelled", NULL); /* ... reports */
+    assert_state(f, k2, "queued");
+    /* and a DELETE alone still cancels */
+    assert_true(svd_jobs_take(f->jobs, &t));
+    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body), 202);
+    free(body);
+    svd_jobs_finish(f->jobs, &t, SVD_OUT_CANCELLED, NULL, "cancelled", NULL);
+    assert_state(f, k2, "cancelled");
+}
+
 static void corrupt_artifact_is_quarantined_and_job_requeued(void **state)
 {
     fx *f = *state;
@@ -554,6 +590,7 @@ int main(void)
         T(accepted_jobs_survive_a_crash_and_are_requeued),
         T(crashing_job_fails_after_three_attempts_with_reason),
         T(delete_cancels_queued_and_removes_finished),
+        T(reupload_racing_a_delete_of_a_running_bake_wins),
         T(corrupt_artifact_is_quarantined_and_job_requeued),
         T(eviction_drops_least_recent_finished_job_never_a_queued_one),
         T(fresh_result_is_not_the_eviction_victim),
