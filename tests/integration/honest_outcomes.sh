@@ -31,7 +31,7 @@ echo "{$CHEAP,\"target\":{\"iou\":0.999}}" > "$T/unmet.json"
 echo "{$CHEAP,\"target\":{\"iou\":0.3}}" > "$T/met.json"
 
 # ---- 1. missing files, offline
-"$BAKE" bake "$T/tree.obj" --spec "$T/spec.json" --out "$T/nomtl" 2> "$T/nomtl.err"
+"$BAKE" bake "$T/tree.obj" --spec "$T/spec.json" --out "$T/nomtl" --progress none 2> "$T/nomtl.err"
 check "sylva-bake without the .mtl exits 1" 1 $?
 check "  one line on stderr" 1 "$(wc -l < "$T/nomtl.err")"
 contains "  naming the missing file" "references a file that was not supplied: tree.mtl" "$(cat "$T/nomtl.err")"
@@ -41,22 +41,22 @@ check "  no outputs beside error.json" error.json "$(ls "$T/nomtl")"
 "$BAKE" info "$T/tree.obj" > /dev/null 2> "$T/info.err"
 check "sylva-bake info without the .mtl exits 1" 1 $?
 contains "  naming it" "not supplied: tree.mtl" "$(cat "$T/info.err")"
-"$BAKE" bake "$T/tex/tex.obj" "$T/tex/tex.mtl" --spec "$T/spec.json" --out "$T/notex" 2> "$T/notex.err"
+"$BAKE" bake "$T/tex/tex.obj" "$T/tex/tex.mtl" --spec "$T/spec.json" --out "$T/notex" --progress none 2> "$T/notex.err"
 check "sylva-bake without a texture the .mtl names exits 1" 1 $?
 contains "  naming the texture" "not supplied: leaf.png" "$(cat "$T/notex.err")"
-"$BAKE" bake "$T/tree.obj" --spec "$T/warn.json" --out "$T/warn" 2> "$T/warn.err"
+"$BAKE" bake "$T/tree.obj" --spec "$T/warn.json" --out "$T/warn" --progress none 2> "$T/warn.err"
 check "missing_files warn: the bake goes on (exit 0)" 0 $?
 contains "  warning on stderr" "sylva-bake: warning: 'tree.mtl' was not supplied: its materials are plain grey" \
     "$(cat "$T/warn.err")"
 contains "  and in report.json input.warnings" "'tree.mtl' was not supplied" \
     "$(jget "$T/warn/report.json" "d['input']['warnings']")"
 [ -s "$T/warn/model.glb" ] && ok "  model.glb written" || bad "  no model.glb"
-"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/spec.json" --out "$T/full" 2> "$T/full.err"
+"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/spec.json" --out "$T/full" --progress none 2> "$T/full.err"
 check "with its .mtl the same tree bakes (exit 0)" 0 $?
 check "  without a warning" "" "$(cat "$T/full.err")"
 
 # ---- 2. targets, offline
-"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/unmet.json" --out "$T/unmet" 2> "$T/unmet.err"
+"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/unmet.json" --out "$T/unmet" --progress none 2> "$T/unmet.err"
 check "an unmet target: sylva-bake exits 3" 3 $?
 contains "  says so on stderr" "sylva-bake: target not met: goal IoU 0.999 at 64 px" "$(cat "$T/unmet.err")"
 contains "  with the best IoU reached and the try baked" "reached IoU" "$(cat "$T/unmet.err")"
@@ -69,7 +69,7 @@ check "  report.json target.reason is what stderr said" True "$(python3 -c '
 import json, sys
 r = json.load(open(sys.argv[1]))["target"]["reason"]
 print("sylva-bake: target not met: " + r in open(sys.argv[2]).read())' "$T/unmet/report.json" "$T/unmet.err")"
-"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/met.json" --out "$T/met" 2> "$T/met.err"
+"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/met.json" --out "$T/met" --progress none 2> "$T/met.err"
 check "a target that is met: exit 0" 0 $?
 check "  no reason in the report" False "$(jget "$T/met/report.json" "'reason' in d['target']")"
 

@@ -33,7 +33,7 @@ run_one() {
     if [ "$mode" = info ]; then
         (cd "$tmp" && exec "$bake" info "in/$name" --json) > "$so" 2> "$se"
     else
-        (cd "$tmp" && exec "$bake" bake "in/$name" --spec spec.json --out "$out") > "$so" 2> "$se"
+        (cd "$tmp" && exec "$bake" bake "in/$name" --spec spec.json --out "$out" --progress none) > "$so" 2> "$se"
     fi
     rc=$?
     if [ $rc -gt 128 ]; then
@@ -100,7 +100,7 @@ echo "issue 25 header refused in $(echo "$t1 - $t0" | bc) s (wall, with process 
 # --cpu-limit: a real bake stopped after 1 s of CPU: exit 1, one line naming
 # the file and the limit, error.json with code "limit", no signal.
 mesh="$root/examples/oak_large/oak_large.glb"
-(cd "$tmp" && exec "$bake" bake "$mesh" --spec spec.json --out out_cpu --cpu-limit 1) \
+(cd "$tmp" && exec "$bake" bake "$mesh" --spec spec.json --out out_cpu --cpu-limit 1 --progress none) \
     > "$tmp/cpu_out" 2> "$tmp/cpu_err"
 rc=$?
 echo "bake --cpu-limit 1: exit $rc  $(head -c 200 "$tmp/cpu_err")"
