@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -129,6 +130,59 @@ static enum MHD_Result send_error(svd_http *h, struct MHD_Connection *c, svd_rou
 }
 
 /* ---- upload streaming ---- */
+
+/* The import's pre-check (sv_gltf_precheck / sv_mesh_precheck) over the
+ * uploaded files, mapped read-only. SV_OK, SV_ERR_NOMEM, or the check's
+ * failure with err naming the file and the problem. */
+static sv_status precheck_upload(const upload *u, sv_format fmt, sv_error *err)
+{
+    size_t n = 1 + u->nfiles;
+    sv_file *files = sv_calloc(n, sizeof *files);
+    size_t *lens = sv_calloc(n, sizeof *lens);
+    if (!files || !lens) {
+        free(files);
+        free(lens);
+        return SV_ERR_NOMEM;
+    }
+    sv_status st = SV_OK;
+    for (size_t i = 0; i < n && st == SV_OK; i++) {
+        const char *name = i == 0 ? u->mesh : u->files[i - 1];
+        char path[SVD_STORE_PATH + 300];
+        snprintf(path, sizeof path, "%s/in/%s", u->tmpdir, name);
+        files[i].name = name;
+        int fd = open(path, O_RDONLY | O_CLOEXEC);
+        struct stat sb;
+        if (fd < 0 || fstat(fd, &sb) != 0) {
+            st = sv_fail(err, SV_ERR_IO, "cannot read the upload %s", name);
+        } else if (sb.st_size > 0) {
+            void *m = mmap(NULL, (size_t)sb.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+            if (m == MAP_FAILED) st = sv_fail(err, SV_ERR_IO, "cannot map the upload %s", name);
+            else {
+                files[i].data = m;
+                files[i].size = lens[i] = (size_t)sb.st_size;
+            }
+        }
+        if (fd >= 0) close(fd);
+    }
+    if (st == SV_OK) {
+        if (fmt == SV_FORMAT_GLTF || fmt == SV_FORMAT_GLB) {
+            st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB, files, n, NULL,
+                                  err);
+            if (st != SV_OK) {
+                char msg[sizeof err->message];
+                snprintf(msg, sizeof msg, "%s", err->message);
+                sv_fail(err, st, "'%s': %s", u->mesh, msg);
+            }
+        } else {
+            st = sv_mesh_precheck(fmt, files[0].data, files[0].size, u->mesh, NULL, err);
+        }
+    }
+    for (size_t i = 0; i < n; i++)
+        if (lens[i]) munmap((void *)files[i].data, lens[i]);
+    free(files);
+    free(lens);
+    return st == SV_ERR_IO ? SV_OK : st; /* an unreadable file is the worker's to report */
+}
 
 static void upload_fail(upload *u, int status, const char *code, const char *fmt, const char *arg)
 {
@@ -401,6 +455,18 @@ static enum MHD_Result upload_end(req *q)
         snprintf(msg, sizeof msg, "'%.255s' is not a mesh format sylva accepts (glTF/GLB, OBJ, PLY, FBX, COLLADA)",
                  u->mesh);
         return send_error(h, c, route, 415, "format", msg);
+    }
+
+    /* Issue 22 item 12: what the import's pre-checks decide (structure,
+     * declared counts against the limits, glTF buffers and URIs against the
+     * uploaded files) is answered now, 422 with the worker's code, instead of
+     * a 202 and a bake that fails. Same functions, same default limits as the
+     * worker's import; bounded by the file's size and iterative (fuzzed). */
+    {
+        sv_error pe = {0};
+        sv_status pst = precheck_upload(u, fmt, &pe);
+        if (pst == SV_ERR_NOMEM) return send_error(h, c, route, 500, "nomem", "out of memory");
+        if (pst != SV_OK) return send_error(h, c, route, 422, sv_status_code(pst), pe.message);
     }
 
     /* The key over exactly the uploaded bytes. */

@@ -146,6 +146,18 @@ code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filenam
 check "a path in a file name is 400" 400 "$code"
 code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3" -F "file=@$m3;filename=put.obj" "$URL/v1/bakes")
 check "a duplicate file name is 400" 400 "$code"
+# issue 22 item 12: what the import's pre-check decides is answered at upload
+# (422, the worker's code), not with a 202 and a bake that fails
+printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n' > "$T/cut.ply"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$T/cut.ply" "$URL/v1/bakes")
+check "a PLY cut before end_header is 422 at upload" 422 "$code"
+contains "  naming the file and the problem" "cut.ply" "$(cat "$T/b")"
+contains "  with the worker's code" '"code":"parse"' "$(cat "$T/b")"
+printf '{"asset":{"version":"2.0"},"buffers":[{"uri":"tree.bin","byteLength":64}]}' > "$T/nobin.gltf"
+code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$T/nobin.gltf" "$URL/v1/bakes")
+check "a glTF whose buffer was not uploaded is 422 at upload" 422 "$code"
+contains "  naming the buffer's file" "tree.bin" "$(cat "$T/b")"
+check "  nothing of either is stored" "" "$(ls -A "$T/store/tmp")"
 # issue 22 item 10: a name over 255 bytes is refused, not truncated to 255
 long=$(printf 'a%.0s' $(seq 1 300)).obj
 code=$(curl -s -o "$T/b" -w '%{http_code}' -F "spec=$SPEC" -F "mesh=@$m3;filename=$long" "$URL/v1/bakes")
