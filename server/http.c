@@ -54,6 +54,9 @@ typedef struct upload {
     int part;                    /* 0 none, 1 spec, 2 mesh, 3 file */
     char part_name[SVD_NAME_MAX + 1];
     uint64_t part_bytes, total;
+    uint64_t file_bytes;         /* of every mesh/file part so far */
+    uint64_t reserved;           /* held against store_max_bytes (svd_jobs_reserve) */
+    svd_jobs *jobs;
     char *spec;
     size_t spec_len;
     char mesh[SVD_NAME_MAX + 1];
@@ -267,6 +270,16 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
     u->part_bytes += size;
     if (u->part_bytes > q->h->cfg->max_mesh_bytes)
         return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name), 1;
+    /* Bytes are held against store_max_bytes before they are written (issue
+     * 22 item 5). */
+    u->file_bytes += size;
+    if (u->file_bytes > u->reserved) {
+        uint64_t more = u->file_bytes - u->reserved;
+        char why[300];
+        if (!svd_jobs_reserve(u->jobs, more, why, sizeof why))
+            return upload_fail(u, 507, "store_full", "%s", why), 1;
+        u->reserved += more;
+    }
     EVP_DigestUpdate(u->md, data, size);
     while (size) {
         ssize_t w = write(u->fd, data, size);
@@ -308,6 +321,7 @@ static int on_part_end(void *user)
 static void upload_free(upload *u)
 {
     if (!u) return;
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->reserved);
     if (u->fd >= 0) close(u->fd);
     svd_multipart_destroy(u->mp);
     EVP_MD_CTX_free(u->md);
@@ -349,6 +363,7 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (atomic_load(&h->draining))
         return send_error(h, c, q->m.route, 503, "draining", "the server is shutting down; retry later");
     const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    uint64_t body_len = 0;
     if (cl) {
         uint64_t n;
         if (!svd_parse_size(cl, &n) || strpbrk(cl, "KkMmGg"))
@@ -359,6 +374,7 @@ static enum MHD_Result upload_begin(req *q, int *answered)
                      (unsigned long long)n, (unsigned long long)h->cfg->max_upload_bytes);
             return send_error(h, c, q->m.route, 413, "too_large", msg);
         }
+        body_len = n;
     }
     /* A PUT of a key we already hold does not need its body. With
      * "Expect: 100-continue" the client has not sent it yet: answer at once
@@ -388,7 +404,17 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     upload *u = calloc(1, sizeof *u);
     if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     u->fd = -1;
+    u->jobs = h->jobs;
     q->up = u;
+    /* A declared length is held against store_max_bytes before the body is
+     * read (issue 22 item 5): concurrent uploads cannot each take a part of
+     * the room and all fail; a chunked body reserves as it streams. */
+    if (body_len) {
+        char why[300];
+        if (!svd_jobs_reserve(h->jobs, body_len, why, sizeof why))
+            return send_error(h, c, q->m.route, 507, "store_full", why);
+        u->reserved = body_len;
+    }
     u->md = EVP_MD_CTX_new();
     u->objects = cJSON_CreateObject();
     u->mp = svd_multipart_create(boundary, &mp_cb, q);
@@ -516,6 +542,9 @@ static enum MHD_Result upload_end(req *q)
     }
     up.bytes = svd_dir_bytes(u->tmpdir);
     char *body = NULL;
+    /* the reservation becomes the job's bytes in submit (make_room again) */
+    svd_jobs_unreserve(h->jobs, u->reserved);
+    u->reserved = 0;
     int status = svd_jobs_submit(h->jobs, &up, &body);
     u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
     if (status < 200 || status > 202) return send_json(h, c, route, (unsigned)status, body);

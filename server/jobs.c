@@ -48,6 +48,7 @@ struct svd_jobs {
     size_t count;
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
+    uint64_t uploading;       /* bytes reserved by uploads in progress (svd_jobs_reserve) */
     bool stopping, aborting;
 };
 
@@ -575,7 +576,7 @@ static unsigned count_state(svd_jobs *jobs, svd_job_state s)
 static bool make_room(svd_jobs *jobs, uint64_t need)
 {
     uint64_t limit = jobs->cfg->store_max_bytes;
-    while (jobs->store_bytes + need > limit) {
+    while (jobs->store_bytes + jobs->uploading + need > limit) {
         svd_job *victim = NULL;
         for (size_t b = 0; b < NBUCKETS; b++)
             for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
@@ -591,6 +592,45 @@ static bool make_room(svd_jobs *jobs, uint64_t need)
         unlink_job(jobs, victim);
     }
     return true;
+}
+
+/* How the store's bytes are used, for an exact 507 (issue 22 item 5). */
+static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
+{
+    uint64_t unfinished = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            if (!is_final(o->state)) unfinished += o->bytes;
+    snprintf(out, cap,
+             "the store cannot take %llu more bytes: store_max_bytes is %llu, bakes not finished "
+             "(never evicted) hold %llu, uploads in progress %llu",
+             (unsigned long long)need, (unsigned long long)jobs->cfg->store_max_bytes,
+             (unsigned long long)unfinished, (unsigned long long)jobs->uploading);
+}
+
+bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap)
+{
+    /* the common case, room without eviction: the table lock only */
+    pthread_mutex_lock(&jobs->mu);
+    bool fits = jobs->store_bytes + jobs->uploading + bytes <= jobs->cfg->store_max_bytes;
+    if (fits) jobs->uploading += bytes;
+    pthread_mutex_unlock(&jobs->mu);
+    if (fits) return true;
+    pthread_mutex_lock(&jobs->commit_mu); /* evictions are journaled: commit_mu, then mu */
+    pthread_mutex_lock(&jobs->mu);
+    bool ok = make_room(jobs, bytes);
+    if (ok) jobs->uploading += bytes;
+    else if (why && cap) store_use(jobs, bytes, why, cap);
+    pthread_mutex_unlock(&jobs->mu);
+    pthread_mutex_unlock(&jobs->commit_mu);
+    return ok;
+}
+
+void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes)
+{
+    pthread_mutex_lock(&jobs->mu);
+    jobs->uploading -= bytes < jobs->uploading ? bytes : jobs->uploading;
+    pthread_mutex_unlock(&jobs->mu);
 }
 
 int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
@@ -640,7 +680,9 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
                                    "this client has too many bakes queued or running; retry later");
     } else if (!make_room(jobs, up->bytes)) {
         status = 507;
-        *json_out = svd_error_json("store_full", "the store is full of jobs that are not finished");
+        char why[300];
+        store_use(jobs, up->bytes, why, sizeof why);
+        *json_out = svd_error_json("store_full", why);
     } else {
         status = 0;
     }

@@ -80,6 +80,16 @@ typedef struct svd_upload {
  * response body (malloc'ed). Returns the HTTP status. */
 int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out);
 
+/* Uploads in progress hold their bytes against store_max_bytes as they stream
+ * (issue 22 item 5: three concurrent 15 MB uploads filled a 10 MiB store
+ * 4.5 times over). Reserves `bytes` more, evicting finished bakes LRU-first
+ * if needed; false when even that cannot make room: nothing is reserved and
+ * why (cap bytes) says how the store is used. */
+bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap);
+/* Gives back bytes reserved by svd_jobs_reserve (an upload that ended:
+ * committed, refused or aborted). */
+void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes);
+
 /* True if a job with this key exists (and its inputs are kept). */
 bool svd_jobs_has(svd_jobs *jobs, const char *key);
 
