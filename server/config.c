@@ -16,6 +16,7 @@ void svd_config_defaults(svd_config *c)
     c->log_level = SVD_LOG_INFO;
     c->http_threads = 4;
     c->connection_limit = 1024;
+    c->max_conns_per_ip = 64;
     c->connection_memory = 64 * 1024;
     c->connection_timeout = 30;
     c->max_upload_bytes = (uint64_t)1 << 30;
@@ -97,6 +98,7 @@ static const struct setting {
     S("workers", K_U32, workers),
     S("http_threads", K_U32, http_threads),
     S("connection_limit", K_U32, connection_limit),
+    S("max_conns_per_ip", K_U32, max_conns_per_ip),
     S("reuse_port", K_BOOL, reuse_port),
     S("connection_memory", K_SIZE, connection_memory),
     S("connection_timeout", K_U32, connection_timeout),

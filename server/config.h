@@ -31,6 +31,8 @@ typedef struct svd_config {
     uint32_t workers;             /* 0 = number of cores */
     uint32_t http_threads;        /* thread pool size, default 4 */
     uint32_t connection_limit;    /* default 1024 */
+    uint32_t max_conns_per_ip;    /* concurrent connections from one address, default 64;
+                                     0 = no limit (behind a proxy) */
     bool reuse_port;              /* SO_REUSEPORT on the listening socket, default off: a
                                      second daemon on the same port fails to start */
     uint64_t connection_memory;   /* per connection, default 64K */

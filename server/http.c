@@ -1106,6 +1106,9 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         MHD_OPTION_LISTEN_SOCKET, (MHD_socket)lfd,
         MHD_OPTION_THREAD_POOL_SIZE, (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
         MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
+        /* issue 22 item 6: one address holding 1,100 slow-header or
+         * long-poll connections stopped /v1/health for everyone */
+        MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned int)cfg->max_conns_per_ip,
         MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
         MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,

@@ -110,7 +110,7 @@ NODES=""
 for i in 1 2 3; do
     mkdir -p "$T/n$i"
     "$SYLVAD" --listen 127.0.0.1:0 --store "$T/n$i/store" --port-file "$T/n$i/port" \
-        --worker "$BAKE" --workers 1 --log-level info 2>"$T/n$i/log" &
+        --worker "$BAKE" --workers 1 --log-level info --max-conns-per-ip 0 2>"$T/n$i/log" &
     echo $! > "$T/n$i/pid"
     NPIDS="$NPIDS $!"
 done

@@ -110,6 +110,36 @@ check "1000 query arguments: 431" 431 "$code"
 contains "  with a JSON error naming the arguments" "query arguments" "$(cat "$T/many")"
 code=$(curl -s -o /dev/null -w '%{http_code}' --max-time 10 "$URL/v1/bakes?limit=2&before=5")
 check "  while two are fine" 200 "$code"
+# issue 22 item 6: one address holding 200 slow-header connections (over
+# max_conns_per_ip, 64) leaves the server to the others: /v1/health from
+# another address answers at once, and the connections over the limit are
+# closed by the server
+python3 - "$PORT" > "$T/perip" <<'PY' &
+import socket, sys, time
+port = int(sys.argv[1])
+socks, closed = [], 0
+for i in range(200):
+    s = socket.create_connection(("127.0.0.1", port))
+    s.sendall(b"GET /v1/health HTTP/1.1\r\nHost: x\r\n")  # never finished
+    socks.append(s)
+time.sleep(1.0)
+for s in socks:
+    s.settimeout(0.05)
+    try:
+        closed += s.recv(1) == b""
+    except socket.timeout:
+        pass
+    except OSError:
+        closed += 1
+print(closed)
+time.sleep(2.0)
+PY
+perip=$!
+sleep 0.6
+code=$(curl -s -o /dev/null -w '%{http_code}' --max-time 5 --interface 127.0.0.2 "$URL/v1/health")
+check "200 slow connections from one address: /v1/health from another answers" 200 "$code"
+wait "$perip"
+check "  the 136 over max_conns_per_ip were closed" 136 "$(cat "$T/perip")"
 check "daemon healthy after hostile HTTP" 200 "$(health)"
 
 # The canary: its marker in no byte the daemon answered, logged or stored.

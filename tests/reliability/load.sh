@@ -124,7 +124,7 @@ cd "$T" || exit 1
     2>>"$T/hello.log" &
 HPID=$!
 "$SYLVAD" --listen 127.0.0.1:0 --store "$T/store" --port-file "$T/port" --worker "$BAKE" \
-    --workers 2 --drain-timeout 1 --log-level info $DFLAGS 2>>"$T/daemon.log" &
+    --workers 2 --drain-timeout 1 --log-level info --max-conns-per-ip 0 $DFLAGS 2>>"$T/daemon.log" &
 DPID=$!
 PORT=$(wait_port "$T/port")
 [ -n "$PORT" ] || { say "sylvad did not start"; cat "$T/daemon.log" >&2; exit 1; }

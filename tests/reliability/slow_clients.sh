@@ -54,7 +54,7 @@ ip netns exec "$NS" ip link set lo up
 
 # ---- one node (fake worker: no bakes are needed) and nginx in front
 "$B/sylvad" --listen 127.0.0.1:0 --store "$T/store" --port-file "$T/port" \
-    --worker "$SYLVA_ROOT/tests/integration/fake-worker" 2>"$T/daemon.log" &
+    --worker "$SYLVA_ROOT/tests/integration/fake-worker" --max-conns-per-ip 0 2>"$T/daemon.log" &
 DPID=$!
 k=0
 while [ ! -s "$T/port" ] && [ $k -lt 100 ]; do sleep 0.1; k=$((k + 1)); done
