@@ -3,7 +3,9 @@
 #include "jobs.h"
 
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <pthread.h>
+#include <time.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,6 +33,7 @@ struct svd_job {
     uint64_t bytes;           /* on disk: inputs + result */
     bool cancel;
     bool resubmitted;         /* uploaded again while a DELETE was stopping it: run it again */
+    double not_before;        /* a retry waits until then (sv_now() clock; backoff) */
     svd_waiter *waiters;
     svd_job *hnext;
 };
@@ -594,6 +597,16 @@ static bool make_room(svd_jobs *jobs, uint64_t need)
     return true;
 }
 
+/* Failure codes the server caused, not the input (docs/api.md): such a
+ * failed bake is baked again when it is uploaded again. */
+static bool server_side_code(const char *code)
+{
+    static const char *const codes[] = {"crash", "io", "internal", "corrupt"};
+    for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++)
+        if (strcmp(code, codes[i]) == 0) return true;
+    return false;
+}
+
 /* How the store's bytes are used, for an exact 507 (issue 22 item 5). */
 static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
 {
@@ -651,7 +664,13 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
             j->cancel = false;
             j->resubmitted = true;
         }
-        if (j->state == SVD_JOB_CANCELLED) {
+        /* Issue 22 item 2: a bake that failed for the server's sake (crashed
+         * or timed out on every attempt, the store's disk, memory) is not the
+         * input's verdict: uploading it again runs it again, as a cancelled
+         * one. A failure the input caused stays (baking it again would fail
+         * the same way). */
+        if (j->state == SVD_JOB_CANCELLED ||
+            (j->state == SVD_JOB_FAILED && server_side_code(j->code))) {
             if (journal_json(jobs, record("requeue", j), &e) == SV_OK) {
                 j->state = SVD_JOB_QUEUED;
                 j->attempts = 0;
@@ -936,9 +955,14 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
                 if (j->state == SVD_JOB_RUNNING) run[k++] = j->client;
         svd_job *best = NULL;
         unsigned best_load = 0;
+        double now = sv_now(), next = 0; /* the earliest retry still backing off */
         for (size_t b = 0; b < NBUCKETS; b++)
             for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) {
                 if (j->state != SVD_JOB_QUEUED) continue;
+                if (j->not_before > now) {
+                    if (!next || j->not_before < next) next = j->not_before;
+                    continue;
+                }
                 unsigned load = 0;
                 for (size_t r = 0; r < nrun; r++) load += strcmp(run[r], j->client) == 0;
                 if (!best || load < best_load || (load == best_load && j->seq < best->seq)) {
@@ -963,6 +987,16 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
             wake_all(best);
             pthread_mutex_unlock(&jobs->mu);
             return true;
+        }
+        if (next > 0) { /* a retry becomes due: wake then, or at a change */
+            struct timespec ts;
+            clock_gettime(CLOCK_REALTIME, &ts);
+            double d = next - now + 0.001;
+            ts.tv_sec += (time_t)d;
+            ts.tv_nsec += (long)((d - (double)(time_t)d) * 1e9);
+            if (ts.tv_nsec >= 1000000000L) ts.tv_sec++, ts.tv_nsec -= 1000000000L;
+            pthread_cond_timedwait(&jobs->cv, &jobs->mu, &ts);
+            continue;
         }
         pthread_cond_wait(&jobs->cv, &jobs->mu);
     }
@@ -1020,7 +1054,7 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
     if (out == SVD_OUT_RETRY && t->attempt >= jobs->cfg->attempts) {
         snprintf(msg, sizeof msg, "%s on %u attempts", message ? message : "worker failed", t->attempt);
         out = SVD_OUT_FAILED;
-        code = "crash";
+        code = code ? code : "crash";
     }
     if (out == SVD_OUT_FAILED) { /* error.json beside the inputs, for operators */
         char *ej = svd_error_json(code ? code : "failed", msg);
@@ -1075,9 +1109,14 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         set_message(j, "cancelled", "cancelled by DELETE");
         final = "cancelled";
         break;
-    case SVD_OUT_RETRY:
-        j->state = SVD_JOB_QUEUED; /* keeps its seq: first in line again */
+    case SVD_OUT_RETRY: {
+        j->state = SVD_JOB_QUEUED; /* keeps its seq: first in line again, */
+        /* after a backoff: 0.5 s, 1 s, 2 s ... 8 s (a full disk or a memory
+         * squeeze may pass; an instant retry meets it again) */
+        double wait = 0.5 * ldexp(1.0, t->attempt > 1 ? (int)t->attempt - 1 : 0);
+        j->not_before = now + (wait < 8 ? wait : 8);
         break;
+    }
     case SVD_OUT_REQUEUE:
         j->state = SVD_JOB_QUEUED;
         if (j->attempts) j->attempts--;

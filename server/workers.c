@@ -469,8 +469,16 @@ static void run_job(svd_workers *w, svd_ticket *t)
         const char *m = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(e, "message"));
         char tail[300];
         if (!m) tail_of_log(logpath, tail, sizeof tail);
-        snprintf(msg, sizeof msg, "%s", m ? m : (tail[0] ? tail : "the worker refused the input"));
-        svd_jobs_finish(jobs, t, SVD_OUT_FAILED, code ? code : "failed", msg, NULL);
+        /* Issue 22 item 2: the input's fault fails the bake; the server's (an
+         * I/O error in the store, or no error.json at all because the disk
+         * was full) is retried with backoff like a crash. "nomem" is the
+         * input's: what it asks for does not fit the worker's limits, and
+         * would not fit them on the next attempt either. */
+        bool transient = !code || strcmp(code, "io") == 0;
+        snprintf(msg, sizeof msg, "%s",
+                 m ? m : (tail[0] ? tail : "the worker failed without saying why (no error.json)"));
+        svd_jobs_finish(jobs, t, transient ? SVD_OUT_RETRY : SVD_OUT_FAILED,
+                        code ? code : (transient ? "io" : "failed"), msg, NULL);
         cJSON_Delete(ej);
     } else if (WEXITSTATUS(rr.status) == 2) {
         char tail[300];

@@ -31,6 +31,18 @@ kf=$(post "$fail" | json_str key)
 wait_state "$kf" failed 10 && ok "input failure fails at once" || bad "input failure"
 contains "worker's error code is kept" '"code":"unbakeable"' "$(curl -s "$URL/v1/bakes/$kf")"
 check "input failure is not retried" 1 "$(grep -c '^refused.obj ' "$FAKE_WORKER_LOG")"
+check "  and uploading it again does not bake it again" failed "$(post "$fail" | json_str state)"
+
+# issue 22 item 2: a failure of the server's (exit 1 without error.json, as on
+# a full disk) is retried after a backoff, not "the worker refused the input"
+printf '# mode=flaky\n# state=%s\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' "$T/flaky.state" > "$T/flaky.obj"
+kl=$(post "$T/flaky.obj" | json_str key)
+wait_state "$kl" done 20 && ok "a transient worker failure is retried and the bake is done" ||
+    bad "transient failure: $(curl -s "$URL/v1/bakes/$kl")"
+contains "  on its second attempt" '"attempts":2' "$(curl -s "$URL/v1/bakes/$kl")"
+# and a bake that crashed on every attempt runs again when uploaded again
+check "a bake failed by crashes is queued again by a new upload" queued \
+    "$(post "$poison" | json_str state)"
 stop_daemon
 
 # DELETE of a running bake stops the worker.

@@ -225,6 +225,31 @@ static void crashing_job_fails_after_three_attempts_with_reason(void **state)
     close_all(f);
     open_all(f);
     assert_state(f, k, "failed");
+    /* issue 22 item 2: the server's failure (a crash on every attempt) is not
+     * the input's verdict: uploading the same bytes again bakes it again */
+    assert_int_equal(submit(f, "# poison\n", "addr:a", NULL), 200);
+    assert_state(f, k, "queued");
+}
+
+/* Issue 22 item 2: a retry waits (0.5 s, then 1 s, ... 8 s) instead of
+ * meeting a full disk again at once; a failure the input caused is final,
+ * also when uploaded again. */
+static void retries_back_off_and_input_failures_stay(void **state)
+{
+    fx *f = *state;
+    char k[SVD_KEY_HEX];
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), 202);
+    svd_ticket t;
+    assert_true(svd_jobs_take(f->jobs, &t));
+    svd_jobs_finish(f->jobs, &t, SVD_OUT_RETRY, "io", "no space left on device", NULL);
+    double t0 = sv_now();
+    assert_true(svd_jobs_take(f->jobs, &t)); /* blocks until the backoff is over */
+    assert_true(sv_now() - t0 >= 0.45);
+    assert_int_equal(t.attempt, 2u);
+    svd_jobs_finish(f->jobs, &t, SVD_OUT_FAILED, "parse", "'x.obj' line 1: bad vertex", NULL);
+    assert_state(f, k, "failed");
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", NULL), 200);
+    assert_state(f, k, "failed");
 }
 
 static void delete_cancels_queued_and_removes_finished(void **state)
@@ -590,6 +615,7 @@ int main(void)
         T(accepted_jobs_survive_a_crash_and_are_requeued),
         T(crashing_job_fails_after_three_attempts_with_reason),
         T(delete_cancels_queued_and_removes_finished),
+        T(retries_back_off_and_input_failures_stay),
         T(reupload_racing_a_delete_of_a_running_bake_wins),
         T(corrupt_artifact_is_quarantined_and_job_requeued),
         T(eviction_drops_least_recent_finished_job_never_a_queued_one),
