@@ -385,7 +385,10 @@ static enum MHD_Result upload_begin(req *q, int *answered)
      * as a failed node: nginx marks a healthy node down for fail_timeout and
      * sends its keys to another node, which bakes them again. So the body is
      * read and dropped first (REQ_DRAIN), then answered on a live connection. */
-    if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key)) {
+    /* (with tokens only for an owner: anyone else proves possession by
+     * sending the bytes, issue 22 item 8) */
+    if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key) &&
+        (!h->tokens || svd_jobs_owned(h->jobs, q->m.key, q->client))) {
         const char *ex = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_EXPECT);
         if (!ex || strcasecmp(ex, "100-continue") != 0) {
             q->kind = REQ_DRAIN;
@@ -958,6 +961,16 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return upload_end(q);
     }
     if (q->kind == REQ_WAIT) return handle_status(q, 0); /* resumed */
+    /* Issue 22 item 8: with tokens, a bake is its uploaders' alone; anyone
+     * else gets the unknown key's own 404, so a key cannot be probed. */
+    if (h->tokens &&
+        (q->m.route == SVD_R_STATUS || q->m.route == SVD_R_ARTIFACT || q->m.route == SVD_R_DELETE) &&
+        !svd_jobs_owned(h->jobs, q->m.key, q->client)) {
+        if (*upload_data_size) *upload_data_size = 0;
+        return send_error(h, c, q->m.route, 404, "not_found",
+                          q->m.route == SVD_R_ARTIFACT ? "no such bake or artifact"
+                                                       : "no bake with this key");
+    }
     if (q->m.route == SVD_R_STATUS && !*upload_data_size) return handle_status(q, 1);
     if (*upload_data_size) { /* a small body on a GET/DELETE (at most SMALL_BODY): dropped */
         *upload_data_size = 0;

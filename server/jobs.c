@@ -34,6 +34,8 @@ struct svd_job {
     bool cancel;
     bool resubmitted;         /* uploaded again while a DELETE was stopping it: run it again */
     double not_before;        /* a retry waits until then (sv_now() clock; backoff) */
+    char **owners;            /* callers besides `client` who uploaded these bytes too */
+    uint32_t nowners;
     svd_waiter *waiters;
     svd_job *hnext;
 };
@@ -125,6 +127,8 @@ static void wake_all(svd_job *j)
 
 static void job_free(svd_job *j)
 {
+    for (uint32_t i = 0; i < j->nowners; i++) free(j->owners[i]);
+    free(j->owners);
     free(j->message);
     cJSON_Delete(j->manifest);
     free(j);
@@ -139,6 +143,29 @@ static void unlink_job(svd_jobs *jobs, svd_job *j)
     wake_all(j);
     jobs->store_bytes -= j->bytes < jobs->store_bytes ? j->bytes : jobs->store_bytes;
     job_free(j);
+}
+
+/* Issue 22 item 8: a bake belongs to every caller who uploaded its bytes
+ * (holding them proves the right to them); others do not see it. */
+static bool owned_by(const svd_job *j, const char *client)
+{
+    if (strcmp(j->client, client) == 0) return true;
+    for (uint32_t i = 0; i < j->nowners; i++)
+        if (strcmp(j->owners[i], client) == 0) return true;
+    return false;
+}
+
+/* Adds client to j's owners; false only when out of memory (or already 1024). */
+static bool add_owner(svd_job *j, const char *client)
+{
+    if (owned_by(j, client)) return true;
+    if (j->nowners >= 1024) return false;
+    char **no = realloc(j->owners, (j->nowners + 1) * sizeof *no);
+    if (!no) return false;
+    j->owners = no;
+    if (!(no[j->nowners] = strdup(client))) return false;
+    j->nowners++;
+    return true;
 }
 
 static void set_message(svd_job *j, const char *code, const char *msg)
@@ -173,6 +200,11 @@ static cJSON *accept_record(const svd_job *j)
 {
     cJSON *r = record("accept", j);
     cJSON_AddStringToObject(r, "client", j->client);
+    if (j->nowners) {
+        cJSON *o = cJSON_AddArrayToObject(r, "owners");
+        for (uint32_t i = 0; o && i < j->nowners; i++)
+            cJSON_AddItemToArray(o, cJSON_CreateString(j->owners[i]));
+    }
     cJSON_AddStringToObject(r, "state", j->state == SVD_JOB_RUNNING ? "queued" : svd_job_state_name(j->state));
     if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
         cJSON_AddStringToObject(r, "code", j->code);
@@ -260,6 +292,9 @@ static void replay_one(void *user, const char *payload, size_t size)
         if (j) {
             const char *client = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "client"));
             snprintf(j->client, sizeof j->client, "%s", client ? client : "unknown");
+            const cJSON *ow;
+            cJSON_ArrayForEach(ow, cJSON_GetObjectItemCaseSensitive(r, "owners"))
+                if (cJSON_IsString(ow)) add_owner(j, ow->valuestring);
             j->state = state_from_name(cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "state")));
             if (j->state == SVD_JOB_RUNNING) j->state = SVD_JOB_QUEUED;
             if (code || msg) set_message(j, code, msg);
@@ -272,6 +307,9 @@ static void replay_one(void *user, const char *payload, size_t size)
     } else if (j && strcmp(op, "cancel") == 0) {
         j->state = SVD_JOB_CANCELLED;
         set_message(j, "cancelled", "cancelled by DELETE");
+    } else if (j && strcmp(op, "own") == 0) {
+        const char *client = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "client"));
+        if (client) add_owner(j, client);
     } else if (j && strcmp(op, "requeue") == 0) {
         j->state = SVD_JOB_QUEUED;
         set_message(j, NULL, NULL);
@@ -502,7 +540,7 @@ int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned 
     size_t n = 0;
     for (size_t b = 0; b < NBUCKETS; b++)
         for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
-            n += strcmp(o->client, client) == 0 && o->seq < before;
+            n += owned_by(o, client) && o->seq < before;
     svd_job **v = malloc((n ? n : 1) * sizeof *v);
     cJSON *r = cJSON_CreateObject(), *a = r ? cJSON_AddArrayToObject(r, "bakes") : NULL;
     if (!v || !a) {
@@ -515,7 +553,7 @@ int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned 
     n = 0;
     for (size_t b = 0; b < NBUCKETS; b++)
         for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
-            if (strcmp(o->client, client) == 0 && o->seq < before) v[n++] = o;
+            if (owned_by(o, client) && o->seq < before) v[n++] = o;
     qsort(v, n, sizeof *v, by_seq_desc);
     size_t k = n < limit ? n : limit;
     char cur[24];
@@ -655,6 +693,12 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
     svd_job *j = find(jobs, up->key);
     if (j) {
         j->lru = ++jobs->lru_clock;
+        if (!owned_by(j, up->client)) { /* these bytes make this caller an owner too */
+            cJSON *rec = record("own", j);
+            cJSON_AddStringToObject(rec, "client", up->client);
+            if (journal_json(jobs, rec, &e) != SV_OK || !add_owner(j, up->client))
+                log_journal_error(jobs, j->key, &e);
+        }
         /* Issue 22 item 11: a re-upload racing a DELETE of the running bake
          * was answered "running" and then the bake ended cancelled: the
          * upload was lost. The upload wins: the cancel is withdrawn (the
@@ -806,6 +850,15 @@ void svd_jobs_sweep(svd_jobs *jobs, double now, bool all)
 }
 
 /* ---- delete / artifacts ---- */
+
+bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client)
+{
+    pthread_mutex_lock(&jobs->mu);
+    svd_job *j = find(jobs, key);
+    bool ok = !j || owned_by(j, client); /* an unknown key is the route's 404 */
+    pthread_mutex_unlock(&jobs->mu);
+    return ok;
+}
 
 int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
 {

@@ -118,6 +118,12 @@ void svd_jobs_sweep(svd_jobs *jobs, double now, bool all);
  * deletes a finished one (200). 404 if unknown. */
 int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out);
 
+/* True when `client` (svd_client_id) uploaded the bake's bytes (first or
+ * later: each upload of the same bytes adds its caller, journaled), or the
+ * key is unknown. sylvad with --tokens answers 404 to anyone else on the
+ * bake's status, artifacts and DELETE (issue 22 item 8). */
+bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client);
+
 /* Looks up an artifact of a done job in its manifest: path, size, SHA-256.
  * 200, 404 (no job / no such artifact) or 409 (job not done). */
 int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
