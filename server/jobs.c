@@ -38,6 +38,8 @@ struct svd_job {
     uint32_t nowners;
     svd_waiter *waiters;
     svd_job *hnext;
+    svd_job *lprev, *lnext;   /* in the queue (QUEUED, by seq) or the running list */
+    bool listed;              /* in one of them */
 };
 
 struct svd_jobs {
@@ -55,6 +57,15 @@ struct svd_jobs {
     uint64_t store_bytes;
     uint64_t uploading;       /* bytes reserved by uploads in progress (svd_jobs_reserve) */
     bool stopping, aborting;
+    /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
+     * taking work, a queue position, the queue's length and a client's load
+     * are O(queued + running), not a scan of every stored job (30,000 stored
+     * and 1,000 queued: 60 jobs/s dispatched, status p99 2.5 ms before). Valid
+     * once recovery is done (lists_ready); every state change after that goes
+     * through set_state. */
+    svd_job *qhead, *qtail, *rhead;
+    unsigned nqueued, nrunning;
+    bool lists_ready;
 };
 
 static const char *const state_names[] = {"queued", "running", "done", "failed", "cancelled"};
@@ -67,6 +78,82 @@ const char *svd_job_state_name(svd_job_state s)
 static bool is_final(svd_job_state s)
 {
     return s == SVD_JOB_DONE || s == SVD_JOB_FAILED || s == SVD_JOB_CANCELLED;
+}
+
+/* Takes j out of the list its state puts it in (queue or running), if any. */
+static void list_out(svd_jobs *jobs, svd_job *j)
+{
+    if (!j->listed) return;
+    bool q = j->state == SVD_JOB_QUEUED;
+    if (j->lprev) j->lprev->lnext = j->lnext;
+    else if (q) jobs->qhead = j->lnext;
+    else jobs->rhead = j->lnext;
+    if (j->lnext) j->lnext->lprev = j->lprev;
+    else if (q) jobs->qtail = j->lprev;
+    j->lprev = j->lnext = NULL;
+    j->listed = false;
+    if (q) jobs->nqueued--;
+    else jobs->nrunning--;
+}
+
+/* Puts j into the list of its state: the queue by seq (a retry keeps its old
+ * seq and goes back near the front), or the running list. */
+static void list_in(svd_jobs *jobs, svd_job *j)
+{
+    if (!jobs->lists_ready || j->listed) return;
+    j->lprev = j->lnext = NULL;
+    j->listed = j->state == SVD_JOB_RUNNING || j->state == SVD_JOB_QUEUED;
+    if (j->state == SVD_JOB_RUNNING) {
+        j->lnext = jobs->rhead;
+        if (jobs->rhead) jobs->rhead->lprev = j;
+        jobs->rhead = j;
+        jobs->nrunning++;
+    } else if (j->state == SVD_JOB_QUEUED) {
+        svd_job *after = jobs->qtail;
+        while (after && after->seq > j->seq) after = after->lprev;
+        j->lprev = after;
+        j->lnext = after ? after->lnext : jobs->qhead;
+        if (j->lnext) j->lnext->lprev = j;
+        else jobs->qtail = j;
+        if (after) after->lnext = j;
+        else jobs->qhead = j;
+        jobs->nqueued++;
+    }
+}
+
+/* Every state change after recovery: keeps the queue and running lists. */
+static void set_state(svd_jobs *jobs, svd_job *j, svd_job_state s)
+{
+    list_out(jobs, j);
+    j->state = s;
+    list_in(jobs, j);
+}
+
+static int by_seq_asc(const void *a, const void *b)
+{
+    uint64_t x = (*(svd_job *const *)a)->seq, y = (*(svd_job *const *)b)->seq;
+    return x < y ? -1 : x > y;
+}
+
+/* After recovery: the queue in seq order (no job is running then). */
+static void build_lists(svd_jobs *jobs)
+{
+    size_t n = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j; j = j->hnext)
+            n += j->state == SVD_JOB_QUEUED || j->state == SVD_JOB_RUNNING;
+    svd_job **v = n ? malloc(n * sizeof *v) : NULL;
+    jobs->lists_ready = true;
+    size_t k = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *j = jobs->buckets[b]; j; j = j->hnext)
+            if (j->state == SVD_JOB_QUEUED || j->state == SVD_JOB_RUNNING) {
+                if (v) v[k++] = j;
+                else list_in(jobs, j); /* out of memory: insertion by seq, slower */
+            }
+    if (k > 1) qsort(v, k, sizeof *v, by_seq_asc);
+    for (size_t i = 0; i < k; i++) list_in(jobs, v[i]); /* in seq order: O(1) each */
+    free(v);
 }
 
 char *svd_error_json(const char *code, const char *message)
@@ -139,6 +226,7 @@ static void unlink_job(svd_jobs *jobs, svd_job *j)
     svd_job **pp = &jobs->buckets[bucket_of(j->key)];
     while (*pp && *pp != j) pp = &(*pp)->hnext;
     if (*pp) *pp = j->hnext;
+    list_out(jobs, j);
     jobs->count--;
     wake_all(j);
     jobs->store_bytes -= j->bytes < jobs->store_bytes ? j->bytes : jobs->store_bytes;
@@ -417,6 +505,7 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
         }
     }
     drop_orphans(jobs);
+    build_lists(jobs);
     /* Compact: one record per live job, ordered by seq so FIFO order survives.
      * A failure here is not fatal: the journal as it is replays to the same
      * jobs (what reconciliation changed above, it finds again at the next
@@ -472,10 +561,9 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
         cJSON_AddNumberToObject(r, "tries", j->tries);
     }
     if (j->state == SVD_JOB_QUEUED) {
-        unsigned pos = 0;
-        for (size_t b = 0; b < NBUCKETS; b++)
-            for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
-                pos += o->state == SVD_JOB_QUEUED && o->seq < j->seq;
+        unsigned pos = 0; /* the queued jobs before it: the queue is in seq order */
+        for (const svd_job *o = j->lprev; o; o = o->lprev) pos++;
+        (void)jobs;
         cJSON_AddNumberToObject(r, "queue_position", pos);
     }
     cJSON *t = cJSON_AddObjectToObject(r, "times");
@@ -592,19 +680,20 @@ bool svd_jobs_has(svd_jobs *jobs, const char *key)
 
 /* ---- submit ---- */
 
+/* Queued + running (or running only) jobs of a client: the two lists. */
 static unsigned client_load(svd_jobs *jobs, const char *client, bool running_only)
 {
     unsigned n = 0;
-    for (size_t b = 0; b < NBUCKETS; b++)
-        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
-            if (strcmp(o->client, client) == 0 &&
-                (o->state == SVD_JOB_RUNNING || (!running_only && o->state == SVD_JOB_QUEUED)))
-                n++;
+    for (svd_job *o = jobs->rhead; o; o = o->lnext) n += strcmp(o->client, client) == 0;
+    if (!running_only)
+        for (svd_job *o = jobs->qhead; o; o = o->lnext) n += strcmp(o->client, client) == 0;
     return n;
 }
 
 static unsigned count_state(svd_jobs *jobs, svd_job_state s)
 {
+    if (s == SVD_JOB_QUEUED) return jobs->nqueued;
+    if (s == SVD_JOB_RUNNING) return jobs->nrunning;
     unsigned n = 0;
     for (size_t b = 0; b < NBUCKETS; b++)
         for (svd_job *o = jobs->buckets[b]; o; o = o->hnext) n += o->state == s;
@@ -716,9 +805,9 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
         if (j->state == SVD_JOB_CANCELLED ||
             (j->state == SVD_JOB_FAILED && server_side_code(j->code))) {
             if (journal_json(jobs, record("requeue", j), &e) == SV_OK) {
-                j->state = SVD_JOB_QUEUED;
+                j->seq = ++jobs->seq_next; /* before set_state: the queue is by seq */
+                set_state(jobs, j, SVD_JOB_QUEUED);
                 j->attempts = 0;
-                j->seq = ++jobs->seq_next;
                 set_message(j, NULL, NULL);
                 pthread_cond_broadcast(&jobs->cv);
             } else {
@@ -789,7 +878,7 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
     }
     snprintf(j->client, sizeof j->client, "%s", up->client);
     j->bytes = up->bytes;
-    j->state = SVD_JOB_QUEUED;
+    set_state(jobs, j, SVD_JOB_QUEUED);
     pthread_cond_broadcast(&jobs->cv);
     *json_out = print_free(status_json(jobs, j));
     pthread_mutex_unlock(&jobs->mu);
@@ -880,7 +969,7 @@ int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
             *json_out = svd_error_json("io", "could not record the cancellation");
             status = 500;
         } else {
-            j->state = SVD_JOB_CANCELLED;
+            set_state(jobs, j, SVD_JOB_CANCELLED);
             set_message(j, "cancelled", "cancelled by DELETE");
             wake_all(j);
             svd_metrics_job_final(jobs->metrics, "cancelled", 0);
@@ -953,7 +1042,7 @@ void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
         j->bytes -= rb < j->bytes ? rb : j->bytes;
         jobs->store_bytes -= rb < jobs->store_bytes ? rb : jobs->store_bytes;
         if (journal_json(jobs, record("requeue", j), &e) != SV_OK) log_journal_error(jobs, key, &e);
-        j->state = SVD_JOB_QUEUED;
+        set_state(jobs, j, SVD_JOB_QUEUED);
         j->attempts = 0;
         cJSON_Delete(j->manifest);
         j->manifest = NULL;
@@ -989,43 +1078,28 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
             pthread_mutex_unlock(&jobs->mu);
             return false;
         }
-        /* Oldest queued job among the clients with the fewest running jobs.
-         * The running jobs (at most the worker count) are gathered once: the
-         * load of each queued job's client was a scan of the whole table,
-         * O(jobs × queued) per take (issue 22: 30,000 done and 600 queued
-         * jobs held the table lock at 100 % CPU, 2-3 starts per second). */
-        size_t nrun = 0;
-        for (size_t b = 0; b < NBUCKETS; b++)
-            for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) nrun += j->state == SVD_JOB_RUNNING;
-        const char **run = nrun ? malloc(nrun * sizeof *run) : NULL;
-        if (nrun && !run) { /* out of memory: wait for a change and try again */
-            pthread_cond_wait(&jobs->cv, &jobs->mu);
-            continue;
-        }
-        size_t k = 0;
-        for (size_t b = 0; b < NBUCKETS; b++)
-            for (svd_job *j = jobs->buckets[b]; j; j = j->hnext)
-                if (j->state == SVD_JOB_RUNNING) run[k++] = j->client;
+        /* Oldest queued job among the clients with the fewest running jobs,
+         * from the queue (in seq order) and the running list: the first job
+         * whose client runs nothing is the answer. Once a scan of every
+         * stored job per take (issue 22 item 4). */
         svd_job *best = NULL;
         unsigned best_load = 0;
         double now = sv_now(), next = 0; /* the earliest retry still backing off */
-        for (size_t b = 0; b < NBUCKETS; b++)
-            for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) {
-                if (j->state != SVD_JOB_QUEUED) continue;
-                if (j->not_before > now) {
-                    if (!next || j->not_before < next) next = j->not_before;
-                    continue;
-                }
-                unsigned load = 0;
-                for (size_t r = 0; r < nrun; r++) load += strcmp(run[r], j->client) == 0;
-                if (!best || load < best_load || (load == best_load && j->seq < best->seq)) {
-                    best = j;
-                    best_load = load;
-                }
+        for (svd_job *j = jobs->qhead; j; j = j->lnext) {
+            if (j->not_before > now) {
+                if (!next || j->not_before < next) next = j->not_before;
+                continue;
             }
-        free(run);
+            unsigned load = 0;
+            for (svd_job *r = jobs->rhead; r; r = r->lnext) load += strcmp(r->client, j->client) == 0;
+            if (!best || load < best_load) {
+                best = j;
+                best_load = load;
+                if (load == 0) break;
+            }
+        }
         if (best) {
-            best->state = SVD_JOB_RUNNING;
+            set_state(jobs, best, SVD_JOB_RUNNING);
             best->attempts++;
             best->cancel = false;
             best->stage = -1;
@@ -1129,7 +1203,7 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         if (journal_json(jobs, rec, &e) != SV_OK) log_journal_error(jobs, j->key, &e);
         cJSON_Delete(j->manifest);
         j->manifest = manifest_json ? cJSON_Parse(manifest_json) : NULL;
-        j->state = SVD_JOB_DONE;
+        set_state(jobs, j, SVD_JOB_DONE);
         j->progress = 1;
         /* A fresh result is a use: else make_room() below picks it as the LRU
          * victim (its last use was its upload) and it is gone before its
@@ -1145,25 +1219,26 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         cJSON_AddStringToObject(rec, "code", code ? code : "failed");
         cJSON_AddStringToObject(rec, "message", msg);
         if (journal_json(jobs, rec, &e) != SV_OK) log_journal_error(jobs, j->key, &e);
-        j->state = SVD_JOB_FAILED;
+        set_state(jobs, j, SVD_JOB_FAILED);
         set_message(j, code ? code : "failed", msg);
         final = "failed";
         break;
     }
     case SVD_OUT_CANCELLED:
         if (j->resubmitted) { /* uploaded again after the DELETE: run it again */
-            j->state = SVD_JOB_QUEUED;
+            list_out(jobs, j);
+            j->seq = ++jobs->seq_next; /* the queue is by seq: out, renumbered, in */
+            set_state(jobs, j, SVD_JOB_QUEUED);
             j->attempts = 0;
-            j->seq = ++jobs->seq_next;
             break;
         }
         if (journal_json(jobs, record("cancel", j), &e) != SV_OK) log_journal_error(jobs, j->key, &e);
-        j->state = SVD_JOB_CANCELLED;
+        set_state(jobs, j, SVD_JOB_CANCELLED);
         set_message(j, "cancelled", "cancelled by DELETE");
         final = "cancelled";
         break;
     case SVD_OUT_RETRY: {
-        j->state = SVD_JOB_QUEUED; /* keeps its seq: first in line again, */
+        set_state(jobs, j, SVD_JOB_QUEUED); /* keeps its seq: first in line again, */
         /* after a backoff: 0.5 s, 1 s, 2 s ... 8 s (a full disk or a memory
          * squeeze may pass; an instant retry meets it again) */
         double wait = 0.5 * ldexp(1.0, t->attempt > 1 ? (int)t->attempt - 1 : 0);
@@ -1171,7 +1246,7 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         break;
     }
     case SVD_OUT_REQUEUE:
-        j->state = SVD_JOB_QUEUED;
+        set_state(jobs, j, SVD_JOB_QUEUED);
         if (j->attempts) j->attempts--;
         break;
     }

@@ -4,6 +4,8 @@
 #   poison.sh        alloc / spin / hang poisons and the real-worker absurd atlas
 #                    (GET p99 reported, not asserted)
 #   eviction.sh      a 4 MiB store filled to 120 %
+#   scale.sh         3,000 stored + 300 queued bakes: status p99 < 10 ms while
+#                    a no-op worker dispatches >= 50 jobs/s (30,000 + 1,000 long)
 # About 2 minutes on a 2-core machine; also runs with the ASan build
 # (BUILD=build/asan: generous timeouts; no RLIMIT_AS on the real ASan worker).
 # The long forms: sh tests/reliability/worker_kills.sh (100 trials),
@@ -41,6 +43,7 @@ case "${BUILD:-build}" in *asan*) kt=2 ;; *) kt=5 ;; esac
 run worker_kills KILL_TRIALS=${KILL_TRIALS:-$kt} KILL_MAX_TRIS=${KILL_MAX_TRIS:-10000}
 run poison POISON_SHORT=1
 run eviction EVICT_SHORT=1
+run scale SCALE_SHORT=1
 echo "figures:$figures total_s=$(( $(date +%s) - t0 ))"
 [ "$fails" -eq 0 ] || exit 1
 [ "$skips" -eq 0 ] || exit 77

@@ -43,6 +43,7 @@ suite eviction "$R/eviction.sh"
 suite store_faults "$I/store_faults.sh"
 suite daemon_faults "$I/daemon_faults.sh"
 suite daemon_kills "$R/daemon_kills.sh"
+suite scale "$R/scale.sh"
 # bad input
 suite hostile_cli "$I/hostile_cli.sh"
 suite hostile_http "$I/hostile_http.sh"
