@@ -44,6 +44,13 @@ suite store_faults "$I/store_faults.sh"
 suite daemon_faults "$I/daemon_faults.sh"
 suite daemon_kills "$R/daemon_kills.sh"
 suite scale "$R/scale.sh"
+# issue 22's probes (docs/reliability.md, "Second campaign")
+suite bounded_reads "$I/bounded_reads.sh"
+suite startup_full_disk "$I/startup_full_disk.sh"
+suite daemon_upload "$I/daemon_upload.sh"
+suite owners "$I/list_bakes.sh"
+suite orphans "$I/daemon_orphans.sh"
+suite store_quota "$I/daemon_store_quota.sh"
 # bad input
 suite hostile_cli "$I/hostile_cli.sh"
 suite hostile_http "$I/hostile_http.sh"
