@@ -2,13 +2,15 @@
  * stored bakes and a long queue, through the same API sylvad's HTTP threads
  * and workers use (server/jobs.h), without HTTP or a worker process.
  *
- * usage: bench_jobs DIR N_DONE N_QUEUED
+ * usage: bench_jobs DIR N_DONE N_QUEUED [--prepare]
  *   1. N_DONE bakes are submitted, taken and finished (a one-file result):
  *      the stored history;
  *   2. N_QUEUED more are submitted: the queue;
  *   3. a no-op worker thread takes and finishes every queued bake as fast as
  *      the table lets it, while this thread asks for the status of random
  *      keys (stored and queued) without pause.
+ * --prepare stops after step 2 and prints the queued keys, one per line: the
+ * store (DIR/store) is then sylvad's to dispatch (scale.sh's HTTP form).
  * Prints one JSON line: dispatch rate (jobs/s), status latency p50/p99/max
  * (ms) during the dispatch, and the set-up time. DIR should be on tmpfs
  * (/dev/shm): the journal fsyncs every record, and the figure is the table's,
@@ -16,6 +18,7 @@
  * short form in reliability_short.sh).
  */
 #include <pthread.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -101,8 +104,9 @@ static int cmp_d(const void *a, const void *b)
 
 int main(int argc, char **argv)
 {
-    if (argc != 4) {
-        fprintf(stderr, "usage: bench_jobs DIR N_DONE N_QUEUED\n");
+    bool prepare = argc == 5 && strcmp(argv[4], "--prepare") == 0;
+    if (argc != 4 && !prepare) {
+        fprintf(stderr, "usage: bench_jobs DIR N_DONE N_QUEUED [--prepare]\n");
         return 2;
     }
     unsigned ndone = (unsigned)strtoul(argv[2], NULL, 10), nq = (unsigned)strtoul(argv[3], NULL, 10);
@@ -144,6 +148,16 @@ int main(int argc, char **argv)
         }
     }
     double setup = sv_now() - t0;
+    if (prepare) {
+        for (unsigned i = ndone; i < ndone + nq; i++) printf("%.64s\n", keys[i]);
+        fprintf(stderr, "bench_jobs: %u stored, %u queued in %.1f s\n", ndone, nq, setup);
+        free(keys);
+        svd_jobs_destroy(jobs);
+        svd_store_close(store);
+        svd_metrics_destroy(metrics);
+        svd_log_close(log);
+        return 0;
+    }
 
     ctx c = {jobs, store, nq, 0};
     pthread_t th;
