@@ -96,6 +96,14 @@ static void *worker(void *arg)
     return NULL;
 }
 
+static void close_all(svd_jobs *jobs, svd_store *store, svd_metrics *metrics, svd_log *log)
+{
+    svd_jobs_destroy(jobs);
+    svd_store_close(store);
+    svd_metrics_destroy(metrics);
+    svd_log_close(log);
+}
+
 static int cmp_d(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -152,10 +160,7 @@ int main(int argc, char **argv)
         for (unsigned i = ndone; i < ndone + nq; i++) printf("%.64s\n", keys[i]);
         fprintf(stderr, "bench_jobs: %u stored, %u queued in %.1f s\n", ndone, nq, setup);
         free(keys);
-        svd_jobs_destroy(jobs);
-        svd_store_close(store);
-        svd_metrics_destroy(metrics);
-        svd_log_close(log);
+        close_all(jobs, store, metrics, log);
         return 0;
     }
 
@@ -191,9 +196,6 @@ int main(int argc, char **argv)
            lat[n - 1]);
     free(lat);
     free(keys);
-    svd_jobs_destroy(jobs);
-    svd_store_close(store);
-    svd_metrics_destroy(metrics);
-    svd_log_close(log);
+    close_all(jobs, store, metrics, log);
     return 0;
 }
