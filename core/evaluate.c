@@ -31,6 +31,7 @@ struct sv_evaluator {
     sv_eval_image full;                /* scratch: one render at base resolution */
     float *depth;                      /* scratch: base × base depth buffer */
     sv_eval_image tmp[SV_EVAL_MAX_SIZES]; /* scratch: one subset, per size */
+    double *ftmp;                      /* scratch: the fused filter's rows (filter_render) */
 };
 
 /* ---- view placement and cameras ----------------------------------------- */
@@ -201,10 +202,42 @@ static void box1d_free(box1d *b)
 }
 
 /* Filters one plane with `ch` interleaved channels: src W×H → dst w×h, through
- * tmp (w×H×ch doubles). */
+ * tmp (w×H×ch doubles). An integer ratio (the evaluator's case: 1024 → 256 →
+ * 128 …) takes a loop over exactly its f taps: the same products in the same
+ * order as the general loop (every tap weighs box1d's ov/s = 1/f, and the
+ * general loop's extra tap weighs 0 and adds +0.0), so the same bits, without
+ * the index arithmetic and the wasted tap (issue 20: this filter was a third
+ * of a small bake). */
 static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, uint32_t w,
                          uint32_t h, uint32_t ch, const box1d *bx, const box1d *by, double *tmp)
 {
+    if (W % w == 0 && H % h == 0 && W >= w && H >= h) {
+        uint32_t fx = W / w, fy = H / h;
+        const double wx = bx->w[0], wy = by->w[0];
+        for (uint32_t y = 0; y < H; y++) {
+            const float *row = src + (size_t)y * W * ch;
+            double *out = tmp + (size_t)y * w * ch;
+            for (uint32_t x = 0; x < w; x++) {
+                const float *p = row + (size_t)x * fx * ch;
+                for (uint32_t c = 0; c < ch; c++) {
+                    double acc = 0;
+                    for (uint32_t k = 0; k < fx; k++) acc += wx * p[(size_t)k * ch + c];
+                    out[(size_t)x * ch + c] = acc;
+                }
+            }
+        }
+        size_t rowlen = (size_t)w * ch;
+        for (uint32_t y = 0; y < h; y++) {
+            const double *t = tmp + (size_t)y * fy * rowlen;
+            float *d = dst + (size_t)y * rowlen;
+            for (size_t i = 0; i < rowlen; i++) {
+                double acc = 0;
+                for (uint32_t k = 0; k < fy; k++) acc += wy * t[(size_t)k * rowlen + i];
+                d[i] = (float)acc;
+            }
+        }
+        return;
+    }
     for (uint32_t y = 0; y < H; y++) {
         const float *row = src + (size_t)y * W * ch;
         for (uint32_t x = 0; x < w; x++) {
@@ -229,6 +262,71 @@ static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, u
                 dst[((size_t)y * w + x) * ch + c] = (float)acc;
             }
     }
+}
+
+/* from_render_into followed by the box filter to out's size by the integer
+ * factor f = W / out->width, in one pass over the render (issue 20: the float
+ * image at base resolution was 20 MB written and read again per view). Every
+ * channel gets the same values (a covered pixel's p/255.0f, its depth; 0
+ * elsewhere) multiplied by the same weights in the same order as the two
+ * steps did, so the result has the same bits. tmp: out->width × H × 5. */
+static void filter_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                          double *tmp)
+{
+    uint32_t W = rgba->width, H = rgba->height, w = out->width, h = out->height;
+    uint32_t fx = W / w, fy = H / h;
+    const double wx = 1.0 / ((double)W / w), wy = 1.0 / ((double)H / h); /* box1d's ov/s */
+    for (uint32_t y = 0; y < H; y++) {
+        const uint8_t *row = (const uint8_t *)rgba->data + (size_t)y * W * 4;
+        const float *drow = depth ? depth + (size_t)y * W : NULL;
+        double *t = tmp + (size_t)y * w * 5;
+        for (uint32_t x = 0; x < w; x++) {
+            double a = 0, r = 0, g = 0, b = 0, z = 0;
+            for (uint32_t k = 0; k < fx; k++) {
+                size_t i = (size_t)x * fx + k;
+                const uint8_t *p = row + 4 * i;
+                bool on = p[3] >= 128;
+                a += wx * (on ? 1.0f : 0.0f);
+                r += wx * (on ? p[0] / 255.0f : 0.0f);
+                g += wx * (on ? p[1] / 255.0f : 0.0f);
+                b += wx * (on ? p[2] / 255.0f : 0.0f);
+                z += wx * (drow && on && isfinite(drow[i]) ? drow[i] : 0.0f);
+            }
+            t[5 * x] = a, t[5 * x + 1] = r, t[5 * x + 2] = g, t[5 * x + 3] = b, t[5 * x + 4] = z;
+        }
+    }
+    for (uint32_t y = 0; y < h; y++) {
+        const double *t = tmp + (size_t)y * fy * w * 5;
+        for (uint32_t x = 0; x < w; x++) {
+            double s[5] = {0, 0, 0, 0, 0};
+            for (uint32_t k = 0; k < fy; k++)
+                for (int c = 0; c < 5; c++) s[c] += wy * t[((size_t)k * w + x) * 5 + c];
+            size_t o = (size_t)y * w + x;
+            out->coverage[o] = (float)s[0];
+            out->color[3 * o] = (float)s[1];
+            out->color[3 * o + 1] = (float)s[2];
+            out->color[3 * o + 2] = (float)s[3];
+            out->depth[o] = (float)s[4];
+        }
+    }
+}
+
+sv_status sv_eval_image_from_render_filtered(const sv_image *rgba, const float *depth, uint32_t w,
+                                             uint32_t h, sv_eval_image *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (rgba->channels != 4 || rgba->bits != 8 || !rgba->data || !w || !h ||
+        rgba->width % w || rgba->height % h)
+        return sv_fail(err, SV_ERR_INVALID, "evaluate: cannot filter a %ux%u render to %ux%u in one pass",
+                       rgba->width, rgba->height, w, h);
+    size_t n;
+    double *tmp = NULL;
+    if (!sv_mul_size((size_t)w * 5, rgba->height, &n) || !(tmp = sv_calloc(n, sizeof *tmp)))
+        return sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+    sv_status st = sv_eval_image_alloc(out, w, h, err);
+    if (st == SV_OK) filter_render(rgba, depth, out, tmp);
+    free(tmp);
+    return st;
 }
 
 /* Box-filters src into out (already allocated at its target size). */
@@ -325,6 +423,7 @@ void sv_evaluator_destroy(sv_evaluator *e)
             sv_eval_image_free(&e->orig[i]);
     for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&e->tmp[s]);
     sv_eval_image_free(&e->full);
+    free(e->ftmp);
     free(e->depth);
     free(e->orig);
     free(e->dirs);
@@ -344,8 +443,15 @@ static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32
     sv_image color = {0};
     sv_status st = sv_render(e->r, g, tris, tri_count, &cam, &e->ropt, e->base, e->base, &color,
                              e->depth, err);
-    if (st == SV_OK) st = from_render_into(&color, e->depth, &e->full, err);
-    for (uint32_t s = 0; st == SV_OK && s < e->size_count; s++) {
+    uint32_t s0 = 0;
+    if (st == SV_OK && e->ftmp && color.channels == 4 && color.bits == 8 && color.data &&
+        color.width == e->base && color.height == e->base) {
+        filter_render(&color, e->depth, &out[0], e->ftmp); /* the largest size, fused */
+        s0 = 1;
+    } else if (st == SV_OK) {
+        st = from_render_into(&color, e->depth, &e->full, err);
+    }
+    for (uint32_t s = s0; st == SV_OK && s < e->size_count; s++) {
         const sv_eval_image *src = &e->full;
         for (uint32_t p = s; p-- > 0;)
             if (e->base % out[p].width == 0 && out[p].width % e->sizes[s] == 0) {
@@ -413,7 +519,12 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
         goto out;
     }
     sv_eval_place_views(o.viewer, e->view_count, e->dirs);
-    if ((st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
+    if (e->base % e->sizes[0] == 0) { /* the fused filter's rows; else the float image */
+        size_t nt;
+        if (sv_mul_size((size_t)e->sizes[0] * 5, e->base, &nt))
+            e->ftmp = sv_calloc(nt, sizeof *e->ftmp);
+    }
+    if (!e->ftmp && (st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
     if (!(e->depth = sv_calloc((size_t)e->base * e->base, sizeof *e->depth))) {
         st = sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a depth buffer");
         goto out;

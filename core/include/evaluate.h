@@ -178,6 +178,12 @@ void sv_eval_image_free(sv_eval_image *img);  /* NULL is fine; zeroes the struct
 sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth,
                                     sv_eval_image *out, sv_error *err);
 
+/* sv_eval_image_from_render then sv_eval_image_downsample to w × h, in one
+ * pass over the render when w and h divide its size (the evaluator's case),
+ * with the same bits as the two steps. out is allocated. */
+sv_status sv_eval_image_from_render_filtered(const sv_image *rgba, const float *depth, uint32_t w,
+                                             uint32_t h, sv_eval_image *out, sv_error *err);
+
 /* Box-filters src to w × h (each output pixel is the area-weighted mean of the
  * source pixels it covers; sizes need not divide). out is allocated. */
 sv_status sv_eval_image_downsample(const sv_eval_image *src, uint32_t w, uint32_t h,

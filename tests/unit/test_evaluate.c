@@ -230,6 +230,51 @@ static void box_filter_averages_blocks_and_preserves_total_coverage(void **state
     sv_eval_image_free(NULL);
 }
 
+/* Issue 20: the evaluator filters a render to its largest size in one pass;
+ * it must give the very bits of the two steps it replaces (conversion to float
+ * planes, then the box filter), on a render with every alpha and colour value,
+ * depths, and infinite depths. */
+static void fused_filter_has_the_bits_of_convert_then_filter(void **state)
+{
+    (void)state;
+    const uint32_t W = 64, H = 48;
+    sv_image rgba = {.width = W, .height = H, .channels = 4, .bits = 8};
+    uint8_t *px = malloc((size_t)W * H * 4);
+    rgba.data = px;
+    float *depth = malloc((size_t)W * H * sizeof *depth);
+    assert_non_null(px);
+    assert_non_null(depth);
+    uint32_t s = 12345;
+    for (size_t i = 0; i < (size_t)W * H; i++) {
+        for (int c = 0; c < 4; c++) {
+            s = s * 1103515245u + 12345u;
+            px[4 * i + c] = (uint8_t)(s >> 16);
+        }
+        s = s * 1103515245u + 12345u;
+        depth[i] = (s >> 8) % 97 == 0 ? INFINITY : (float)((s >> 8) % 1000) / 7.0f;
+    }
+    const uint32_t sizes[][2] = {{16, 12}, {8, 6}, {64, 48}, {32, 24}};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        sv_eval_image full, two, one;
+        assert_int_equal(sv_eval_image_from_render(&rgba, depth, &full, NULL), SV_OK);
+        assert_int_equal(sv_eval_image_downsample(&full, sizes[k][0], sizes[k][1], &two, NULL), SV_OK);
+        assert_int_equal(sv_eval_image_from_render_filtered(&rgba, depth, sizes[k][0], sizes[k][1],
+                                                            &one, NULL), SV_OK);
+        size_t n = (size_t)sizes[k][0] * sizes[k][1];
+        assert_memory_equal(one.coverage, two.coverage, n * sizeof(float));
+        assert_memory_equal(one.color, two.color, 3 * n * sizeof(float));
+        assert_memory_equal(one.depth, two.depth, n * sizeof(float));
+        sv_eval_image_free(&full);
+        sv_eval_image_free(&two);
+        sv_eval_image_free(&one);
+    }
+    sv_eval_image one;
+    assert_int_equal(sv_eval_image_from_render_filtered(&rgba, depth, 10, 10, &one, NULL),
+                     SV_ERR_INVALID); /* 64 / 10: not in one pass */
+    free(px);
+    free(depth);
+}
+
 static void filtering_in_integer_steps_equals_filtering_once(void **state)
 {
     (void)state;
@@ -692,6 +737,7 @@ static void bad_options_and_empty_meshes_are_refused(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(fused_filter_has_the_bits_of_convert_then_filter),
         cmocka_unit_test(ground_views_stay_near_the_horizon),
         cmocka_unit_test(aerial_views_look_from_above),
         cmocka_unit_test(orbit_views_cover_the_whole_sphere_evenly),
