@@ -29,6 +29,7 @@
 #include "atlas.h"
 #include "bake.h"
 #include "classify.h"
+#include "vec3.h"
 
 #define SV_BAKE_TILE_SAMPLES 2048u
 #define SV_BAKE_MAX_SS 16u
@@ -62,18 +63,7 @@ void sv_baked_lod_free(sv_baked_lod *b)
     memset(b, 0, sizeof *b);
 }
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static void normalize3(double v[3])
-{
-    double l = sqrt(dot3(v, v));
-    if (l > 0)
-        for (int k = 0; k < 3; k++)
-            v[k] /= l;
-}
 
 /* Per quad: the faces to render and the depth range that holds them. */
 typedef struct quad_job {
@@ -97,9 +87,9 @@ static void vertex_frame(const sv_mesh *m, const sv_quad *q, uint32_t v, double 
     const float *p = m->positions + 3 * (size_t)v;
     double r[3] = {(double)p[0] - q->centre[0], (double)p[1] - q->centre[1],
                    (double)p[2] - q->centre[2]};
-    out[0] = dot3(r, q->normal);
-    out[1] = dot3(r, q->axis_u);
-    out[2] = dot3(r, q->axis_v);
+    out[0] = sv_dot3(r, q->normal);
+    out[1] = sv_dot3(r, q->axis_u);
+    out[2] = sv_dot3(r, q->axis_v);
 }
 
 static sv_status select_faces(const sv_mesh *src, const sv_quad *q, uint32_t qi,
@@ -259,7 +249,7 @@ static sv_status ao_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mesh 
         sv_camera *cam = &a->cam[i];
         double rt[3] = {fwd[1] * h[2] - fwd[2] * h[1], fwd[2] * h[0] - fwd[0] * h[2],
                         fwd[0] * h[1] - fwd[1] * h[0]};
-        normalize3(rt);
+        sv_normalize3(rt);
         /* up = right × fwd, so that up × right = fwd */
         double up[3] = {rt[1] * fwd[2] - rt[2] * fwd[1], rt[2] * fwd[0] - rt[0] * fwd[2],
                         rt[0] * fwd[1] - rt[1] * fwd[0]};
@@ -292,9 +282,9 @@ static double ao_visibility(const ao_views *a, uint32_t res, const double p[3])
         double d[3] = {p[0] - c->origin[0], p[1] - c->origin[1], p[2] - c->origin[2]};
         double fwd[3];
         sv_camera_forward(c, fwd);
-        double x = (dot3(d, c->right) / c->half_width * 0.5 + 0.5) * res;
-        double y = (0.5 - dot3(d, c->up) / c->half_height * 0.5) * res;
-        double z = dot3(d, fwd);
+        double x = (sv_dot3(d, c->right) / c->half_width * 0.5 + 0.5) * res;
+        double y = (0.5 - sv_dot3(d, c->up) / c->half_height * 0.5) * res;
+        double z = sv_dot3(d, fwd);
         if (x < 0 || y < 0 || x >= res || y >= res) {
             vis++;
             continue;
@@ -490,12 +480,12 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     if (opt.alpha_threshold > 1) opt.alpha_threshold = 1;
     if (!opt.padding) opt.padding = 4;
     if (!opt.dilate) opt.dilate = 8;
-    if (!(dot3(opt.light_dir, opt.light_dir) > 0)) {
+    if (!(sv_dot3(opt.light_dir, opt.light_dir) > 0)) {
         opt.light_dir[0] = 0.2;
         opt.light_dir[1] = 0.9;
         opt.light_dir[2] = 0.4;
     }
-    normalize3(opt.light_dir);
+    sv_normalize3(opt.light_dir);
 
     uint32_t n = lod->quad_count;
     sv_status st = SV_OK;

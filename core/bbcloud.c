@@ -41,6 +41,7 @@
 
 #include "classify.h"
 #include "stand_in.h"
+#include "vec3.h"
 
 #define MAX_THREADS 16
 #define FAILSAFE_CAP 64    /* supporting planes tried by the fail-safe */
@@ -50,32 +51,9 @@
 
 /* ---------------------------------------------------------------- helpers */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static void cross3(const double a[3], const double b[3], double o[3])
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
 
-static double norm3(const double a[3])
-{
-    return sqrt(dot3(a, a));
-}
 
-static bool normalize3(double v[3])
-{
-    double l = norm3(v);
-    if (!(l > 0) || !isfinite(l)) return false;
-    v[0] /= l;
-    v[1] /= l;
-    v[2] /= l;
-    return true;
-}
 
 /* acos on [0, 1] (Abramowitz & Stegun 4.4.45, |error| <= 6.7e-5 rad): the
  * angular contribution is evaluated ~10^7 times per plane set. Pure
@@ -95,9 +73,9 @@ static void plane_basis(const double n[3], double b1[3], double b2[3])
     for (int i = 1; i < 3; i++)
         if (fabs(n[i]) < fabs(n[k])) k = i;
     ax[k] = 1;
-    cross3(n, ax, b1);
-    normalize3(b1);
-    cross3(n, b1, b2);
+    sv_cross3(n, ax, b1);
+    sv_normalize3(b1);
+    sv_cross3(n, b1, b2);
 }
 
 static void dir_of(double th, double ph, double n[3])
@@ -162,8 +140,8 @@ static double tri_geom(const base *b, const double *pos, uint32_t t, double n[3]
     const double *p2 = &pos[3 * (size_t)b->canon[ix[2]]];
     double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
     double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    cross3(e1, e2, n);
-    double l = norm3(n);
+    sv_cross3(e1, e2, n);
+    double l = sv_norm3(n);
     if (!(l > 0)) {
         n[0] = n[1] = n[2] = 0;
         return 0;
@@ -193,7 +171,7 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
         uint32_t t = e->tris[k];
         double n[3];
         double a = tri_geom(b, pos, t, n);
-        double s = dot3(n, n0) < 0 ? -a : a;
+        double s = sv_dot3(n, n0) < 0 ? -a : a;
         const uint32_t *ix = &b->in->indices[3 * (size_t)t];
         for (int c = 0; c < 3; c++) {
             m[c] += s * n[c];
@@ -210,7 +188,7 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
             for (int c = 0; c < 3; c++) s[c] += pos[3 * (size_t)e->verts[k] + c];
         for (int c = 0; c < 3; c++) e->g[c] = e->vcount ? s[c] / e->vcount : 0;
     }
-    if (!(norm3(m) > 1e-9 * area) || !normalize3(m)) {
+    if (!(sv_norm3(m) > 1e-9 * area) || !sv_normalize3(m)) {
         if (amax > 0) {
             memcpy(m, n0, sizeof m);
         } else {
@@ -221,13 +199,13 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
                     const double *a = &pos[3 * (size_t)e->verts[i]];
                     const double *c = &pos[3 * (size_t)e->verts[j]];
                     double d[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-                    double l = dot3(d, d);
+                    double l = sv_dot3(d, d);
                     if (l > best) {
                         best = l;
                         memcpy(dir, d, sizeof dir);
                     }
                 }
-            if (best > 0 && normalize3(dir)) {
+            if (best > 0 && sv_normalize3(dir)) {
                 double b1[3], b2[3];
                 plane_basis(dir, b1, b2);
                 memcpy(m, b1, sizeof m);
@@ -244,8 +222,8 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
     double mean[2] = {0, 0}, cxx = 0, cxy = 0, cyy = 0;
     for (uint32_t k = 0; k < e->vcount; k++) {
         const double *p = &pos[3 * (size_t)e->verts[k]];
-        mean[0] += dot3(p, b1);
-        mean[1] += dot3(p, b2);
+        mean[0] += sv_dot3(p, b1);
+        mean[1] += sv_dot3(p, b2);
     }
     if (e->vcount) {
         mean[0] /= e->vcount;
@@ -253,7 +231,7 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
     }
     for (uint32_t k = 0; k < e->vcount; k++) {
         const double *p = &pos[3 * (size_t)e->verts[k]];
-        double x = dot3(p, b1) - mean[0], y = dot3(p, b2) - mean[1];
+        double x = sv_dot3(p, b1) - mean[0], y = sv_dot3(p, b2) - mean[1];
         cxx += x * x;
         cxy += x * y;
         cyy += y * y;
@@ -264,12 +242,12 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
         e->ax[0][c] = m[c];
         e->ax[1][c] = ca * b1[c] + sa * b2[c];
     }
-    cross3(e->ax[0], e->ax[1], e->ax[2]);
+    sv_cross3(e->ax[0], e->ax[1], e->ax[2]);
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t k = 0; k < e->vcount; k++) {
         const double *p = &pos[3 * (size_t)e->verts[k]];
         for (int a = 0; a < 3; a++) {
-            double v = dot3(p, e->ax[a]);
+            double v = sv_dot3(p, e->ax[a]);
             if (v < lo[a]) lo[a] = v;
             if (v > hi[a]) hi[a] = v;
         }
@@ -283,7 +261,7 @@ static void elem_geometry(const base *b, const double *pos, elem *e)
         e->sumext += e->ext[a];
         for (int c = 0; c < 3; c++) e->c[c] += mid * e->ax[a][c];
     }
-    e->cn = norm3(e->c);
+    e->cn = sv_norm3(e->c);
 }
 
 /* ---------------------------------------------------------------- one pass */
@@ -350,7 +328,7 @@ static bool weight_of(const pass *p, const elem *e, const double n[3], double *w
         *w = 0;
         return true;
     }
-    double ang = acos_fast(fabs(dot3(e->ax[0], n)));
+    double ang = acos_fast(fabs(sv_dot3(e->ax[0], n)));
     if (ang > p->max_angle) return false;
     double f = 1.0 - ang / HALF_PI;
     *w = e->area * (f > 0 ? f : 0);
@@ -364,9 +342,9 @@ static bool weight_of(const pass *p, const elem *e, const double n[3], double *w
 static bool cell_core(const pass *p, const double n[3], double delta, const elem *e, double *cc,
                       double *half, double *wgt)
 {
-    double d0 = dot3(e->ax[0], n);
-    double h = e->ext[0] * fabs(d0) + e->ext[1] * fabs(dot3(e->ax[1], n)) +
-               e->ext[2] * fabs(dot3(e->ax[2], n));
+    double d0 = sv_dot3(e->ax[0], n);
+    double h = e->ext[0] * fabs(d0) + e->ext[1] * fabs(sv_dot3(e->ax[1], n)) +
+               e->ext[2] * fabs(sv_dot3(e->ax[2], n));
     double hmin = h - e->sumext * delta;
     if (hmin < 0) hmin = 0;
     double slack = p->eps + p->tol - hmin;
@@ -375,7 +353,7 @@ static bool cell_core(const pass *p, const double n[3], double delta, const elem
     if (e->area > 0 && ang - delta > p->max_angle) return false;
     double f = 1.0 - ang / HALF_PI;
     *wgt = e->w * (f > 0 ? f : 0);
-    *cc = dot3(e->c, n);
+    *cc = sv_dot3(e->c, n);
     *half = e->cn * delta + slack;
     return true;
 }
@@ -540,7 +518,7 @@ static void extent_along(const pass *p, const elem *e, const double n[3], double
 {
     double lo = INFINITY, hi = -INFINITY;
     for (uint32_t k = 0; k < e->vcount; k++) {
-        double v = dot3(&p->pos[3 * (size_t)e->verts[k]], n);
+        double v = sv_dot3(&p->pos[3 * (size_t)e->verts[k]], n);
         if (v < lo) lo = v;
         if (v > hi) hi = v;
     }
@@ -689,17 +667,17 @@ static bool averaged_plane(const pass *p, const uint32_t *list, uint32_t nl, con
     double m[3] = {0, 0, 0}, g[3] = {0, 0, 0}, a = 0;
     for (uint32_t k = 0; k < nl; k++) {
         const elem *e = &p->el[list[k]];
-        double s = dot3(e->ax[0], ref) < 0 ? -e->area : e->area;
+        double s = sv_dot3(e->ax[0], ref) < 0 ? -e->area : e->area;
         for (int c = 0; c < 3; c++) {
             m[c] += s * e->ax[0][c];
             g[c] += e->area * e->g[c];
         }
         a += e->area;
     }
-    if (!(a > 0) || !normalize3(m)) return false;
+    if (!(a > 0) || !sv_normalize3(m)) return false;
     for (int c = 0; c < 3; c++) g[c] /= a;
     memcpy(n, m, sizeof m);
-    *rho = dot3(m, g);
+    *rho = sv_dot3(m, g);
     return true;
 }
 
@@ -735,7 +713,7 @@ static uint8_t failsafe(pass *p, const uint32_t *list, uint32_t nl, const double
     uint8_t origin = SV_BBC_FAILSAFE_SUPPORT;
     for (uint32_t k = 0; k < nt; k++) {
         const elem *e = &p->el[top[k]];
-        double r = dot3(e->c, e->ax[0]);
+        double r = sv_dot3(e->c, e->ax[0]);
         uint32_t c = count_faces(p, list, nl, e->ax[0], r);
         if (c > best) {
             best = c;
@@ -765,7 +743,7 @@ static double projected_area(const pass *p, const uint32_t *list, uint32_t nl, c
         for (uint32_t t = 0; t < e->tcount; t++) {
             double tn[3];
             double a = tri_geom(p->b, p->pos, e->tris[t], tn);
-            s += a * fabs(dot3(tn, n));
+            s += a * fabs(sv_dot3(tn, n));
         }
     }
     return s;
@@ -895,24 +873,24 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
     sv_quad_fit_points(&q, pts, npts);
     free(pts);
     for (int i = 0; i < 3; i++) g[i] /= a;
-    double off = dot3(g, n) - rho;
+    double off = sv_dot3(g, n) - rho;
     for (int i = 0; i < 3; i++) g[i] -= off * n[i];
 
     double best = -1, bn[3] = {0, 0, 0}, brho = 0;
     for (int which = 0; which < 2; which++) {
         const double *cn = which ? q.axis_v : q.axis_u;
-        double cr = dot3(cn, g), cov = 0;
+        double cr = sv_dot3(cn, g), cov = 0;
         for (uint32_t k = 0; k < ns; k++) {
             const elem *e = &p->el[set[k]];
             for (uint32_t t = 0; t < e->tcount; t++) {
                 const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
                 bool ok = true;
                 for (int v = 0; v < 3 && ok; v++)
-                    ok = fabs(dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], cn) - cr) <= p->eps + p->tol;
+                    ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], cn) - cr) <= p->eps + p->tol;
                 if (!ok) continue;
                 double tn[3];
                 double ta = tri_geom(b, p->pos, e->tris[t], tn);
-                cov += ta * fabs(dot3(tn, cn));
+                cov += ta * fabs(sv_dot3(tn, cn));
             }
         }
         if (cov / prim > best) {
@@ -943,7 +921,7 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
             const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
             bool ok = true;
             for (int v = 0; v < 3 && ok; v++)
-                ok = fabs(dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], bn) - brho) <= p->eps + p->tol;
+                ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], bn) - brho) <= p->eps + p->tol;
             if (!ok) continue;
             double tn[3];
             cp->area += tri_geom(b, b->rel, e->tris[t], tn);
@@ -1090,7 +1068,7 @@ static void weld(pass *p, const uint32_t *set, uint32_t ns, const double n[3], d
             uint32_t cv = e->verts[v];
             if (p->welded[cv]) continue;
             double *x = &p->wpos[3 * (size_t)cv];
-            double d = dot3(x, n) - rho;
+            double d = sv_dot3(x, n) - rho;
             for (int c = 0; c < 3; c++) x[c] -= d * n[c];
             p->welded[cv] = 1;
             r->welded++;
@@ -1448,7 +1426,7 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
         for (int k = 0; k < 8; k++) {
             double q[3];
             dir_of(pts[k][0], pts[k][1], q);
-            double d = acos(fmax(-1.0, fmin(1.0, dot3(c, q))));
+            double d = acos(fmax(-1.0, fmin(1.0, sv_dot3(c, q))));
             if (d > dmax) dmax = d;
         }
         b->delta[j] = dmax * 1.001;
@@ -1519,7 +1497,7 @@ static sv_status emit(const base *b, const runout *r, uint32_t max_planes, sv_bb
                 if (s->part != parts[pi] || (card && !take[k])) continue;
                 sv_bbc_plane *d = &out->planes[np];
                 memcpy(d->normal, s->n, sizeof d->normal);
-                d->d = -(s->rho + dot3(s->n, b->in->centre));
+                d->d = -(s->rho + sv_dot3(s->n, b->in->centre));
                 d->part = s->part;
                 d->origin = s->origin;
                 d->tweaked = s->tweaked;
@@ -1684,7 +1662,7 @@ sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res, doubl
             if (t >= in->triangle_count) continue;
             for (int v = 0; v < 3; v++) {
                 double *x = &pos[3 * (3 * (size_t)t + v)];
-                double d = dot3(pl->normal, x) + pl->d;
+                double d = sv_dot3(pl->normal, x) + pl->d;
                 for (int c = 0; c < 3; c++) x[c] -= d * pl->normal[c];
             }
         }

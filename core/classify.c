@@ -28,6 +28,7 @@
  */
 #include "classify.h"
 #include "eigen3.h"
+#include "vec3.h"
 
 #include <ctype.h>
 #include <fnmatch.h>
@@ -56,10 +57,6 @@ static const char *const TRUNK_WORDS[] = {
 
 /* ---------- small linear algebra ---------- */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 /* Eigen-decomposition of the symmetric 3×3 matrix m (row-major) through the
  * shared Jacobi solver (eigen3.h): val[] descending, vec[i] the unit eigenvector
@@ -588,7 +585,7 @@ static void piece_compute(const sv_mesh *m, const uint32_t *tris, uint32_t n, pi
     for (uint32_t i = 0; i < n; i++) {
         double a = sv_tri_area(m, tris[i]), nv[3], c[3];
         sv_tri_normal(m, tris[i], nv);
-        double s = dot3(nv, e) < 0 ? -1 : 1;
+        double s = sv_dot3(nv, e) < 0 ? -1 : 1;
         for (int k = 0; k < 3; k++) flip_n[k] += s * a * nv[k];
         tri_centroid(m, tris[i], c);
         for (int k = 0; k < 3; k++) c[k] -= ref[k] + cl[k];
@@ -611,14 +608,14 @@ static void piece_compute(const sv_mesh *m, const uint32_t *tris, uint32_t n, pi
     }
     double cm[9] = {cov[0], cov[1], cov[2], cov[1], cov[3], cov[4], cov[2], cov[4], cov[5]};
     eigen_sym3(cm, ps->cval, ps->cvec);
-    double l = sqrt(dot3(flip_n, flip_n));
+    double l = sqrt(sv_dot3(flip_n, flip_n));
     if (l > 0) {
         for (int k = 0; k < 3; k++) ps->normal[k] = flip_n[k] / l;
     } else {
         memcpy(ps->normal, e, sizeof ps->normal);
-        if (!(dot3(e, e) > 0)) ps->normal[1] = 1;
+        if (!(sv_dot3(e, e) > 0)) ps->normal[1] = 1;
     }
-    double maj = dot3(raw_n, ps->normal);
+    double maj = sv_dot3(raw_n, ps->normal);
     double tie = 1e-9 * (area > 0 ? area : 1);
     bool flip;
     if (fabs(maj) > tie) {
@@ -785,12 +782,12 @@ sv_status sv_leaves_build(const sv_mesh *mesh, const sv_classification *c, sv_le
                         if (spread) {
                             double nv[3];
                             sv_tri_normal(mesh, w[i], nv);
-                            side[i] = fabs(dot3(nv, ps.nvec[0])) < fabs(dot3(nv, ps.nvec[1]));
+                            side[i] = fabs(sv_dot3(nv, ps.nvec[0])) < fabs(sv_dot3(nv, ps.nvec[1]));
                         } else {
                             double cc[3];
                             tri_centroid(mesh, w[i], cc);
                             for (int k = 0; k < 3; k++) cc[k] -= ps.centre[k];
-                            side[i] = dot3(cc, ps.cvec[0]) >= 0;
+                            side[i] = sv_dot3(cc, ps.cvec[0]) >= 0;
                         }
                     }
                     first = partition(w, s.count, side, tmp);

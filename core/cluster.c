@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "eigen3.h"
+#include "vec3.h"
 
 #define DEFAULT_ITERATIONS 50u
 #define DEFAULT_SEED_TRIES 4u
@@ -65,15 +66,11 @@ static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0
 
 /* ---- small geometry ---- */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 static double rec_error(const leaf_rec *r, const plane_l *pl, double alpha)
 {
-    double dist = dot3(r->p, pl->n) + pl->d;
-    double c = dot3(r->n, pl->n);
+    double dist = sv_dot3(r->p, pl->n) + pl->d;
+    double c = sv_dot3(r->n, pl->n);
     double ang = 1.0 - c * c;
     if (ang < 0.0) ang = 0.0;
     return r->w * (dist * dist + alpha * ang);
@@ -81,8 +78,8 @@ static double rec_error(const leaf_rec *r, const plane_l *pl, double alpha)
 
 double sv_cluster_leaf_error(const sv_leaf *leaf, const double normal[3], double d, double alpha)
 {
-    double dist = dot3(leaf->centre, normal) + d;
-    double c = dot3(leaf->normal, normal);
+    double dist = sv_dot3(leaf->centre, normal) + d;
+    double c = sv_dot3(leaf->normal, normal);
     double ang = 1.0 - c * c;
     if (ang < 0.0) ang = 0.0;
     return dist * dist + alpha * ang;
@@ -90,7 +87,7 @@ double sv_cluster_leaf_error(const sv_leaf *leaf, const double normal[3], double
 
 void sv_plane_orient(double normal[3], double *d, const double ref[3], double tol)
 {
-    double s = dot3(normal, ref) + *d;
+    double s = sv_dot3(normal, ref) + *d;
     bool flip;
     if (fabs(s) > tol) {
         flip = s > 0.0; /* ref must be behind the plane */
@@ -137,9 +134,9 @@ static double stats_fit(const stats *s, double alpha, plane_l *pl)
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++) a[i][j] = s->m[i][j] - alpha * s->nn[i][j];
     sv_eigen3_symmetric(a, val, vec);
-    double len = sqrt(dot3(vec[0], vec[0]));
+    double len = sqrt(sv_dot3(vec[0], vec[0]));
     for (int j = 0; j < 3; j++) pl->n[j] = vec[0][j] / len;
-    pl->d = -dot3(s->c, pl->n);
+    pl->d = -sv_dot3(s->c, pl->n);
     double mn = 0.0, nnn = 0.0;
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++) {
@@ -199,7 +196,7 @@ static sv_status make_records(const sv_leaf *leaves, const uint32_t *idx, uint32
             if (!isfinite(l->centre[j]) || !isfinite(l->normal[j]))
                 return sv_fail(err, SV_ERR_INVALID, "cluster: leaf %u has a non-finite centre or normal",
                                id);
-        double len = sqrt(dot3(l->normal, l->normal));
+        double len = sqrt(sv_dot3(l->normal, l->normal));
         if (!(len > 1e-12) || !isfinite(len))
             return sv_fail(err, SV_ERR_INVALID, "cluster: leaf %u has a zero normal", id);
         if (area_weighted && !(l->area >= 0.0 && isfinite(l->area)))
@@ -224,7 +221,7 @@ static sv_status make_records(const sv_leaf *leaves, const uint32_t *idx, uint32
     if (!(mean > 0.0)) mean = 1.0; /* all areas zero: every weight is the floor */
     for (uint32_t i = 0; i < n; i++) {
         const sv_leaf *l = &leaves[idx ? idx[i] : i];
-        double len = sqrt(dot3(l->normal, l->normal));
+        double len = sqrt(sv_dot3(l->normal, l->normal));
         for (int j = 0; j < 3; j++) {
             r[i].p[j] = l->centre[j] - origin[j];
             r[i].n[j] = l->normal[j] / len;
@@ -245,7 +242,7 @@ static void plane_to_world(const plane_l *pl, const double origin[3], const doub
     double n[3] = {pl->n[0], pl->n[1], pl->n[2]}, dl = pl->d;
     sv_plane_orient(n, &dl, ref_local, orient_tol(extent));
     for (int j = 0; j < 3; j++) normal[j] = n[j];
-    *d = dl - dot3(n, origin);
+    *d = dl - sv_dot3(n, origin);
     *d += 0.0;
 }
 
@@ -285,7 +282,7 @@ sv_status sv_cluster_fit_plane(const sv_leaf *leaves, const uint32_t *idx, uint3
 static void leaf_plane(const leaf_rec *r, plane_l *pl)
 {
     for (int j = 0; j < 3; j++) pl->n[j] = r->n[j];
-    pl->d = -dot3(r->p, r->n);
+    pl->d = -sv_dot3(r->p, r->n);
 }
 
 /* Index i with the cumulative sum of w[0..i] first exceeding target; only

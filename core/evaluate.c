@@ -10,6 +10,7 @@
  * elevation band, uniform in sin(elevation) (equal area per view).
  */
 #include "evaluate.h"
+#include "vec3.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -65,31 +66,20 @@ void sv_eval_place_views(sv_viewer viewer, uint32_t n, double *dirs)
     }
 }
 
-static void cross3(const double a[3], const double b[3], double o[3])
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
 
-static void normalize3(double v[3])
-{
-    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (l > 0) v[0] /= l, v[1] /= l, v[2] /= l;
-}
 
 void sv_eval_camera(const double centre[3], double radius, const double dir[3], sv_camera *cam)
 {
     /* forward = up × right must equal -dir: right = ref × dir, up = dir × right. */
     double d[3] = {dir[0], dir[1], dir[2]};
-    normalize3(d);
+    sv_normalize3(d);
     double ref[3] = {0, 1, 0};
     if (fabs(d[1]) > 0.999) ref[1] = 0, ref[2] = d[1] > 0 ? -1 : 1;
     memset(cam, 0, sizeof *cam);
-    cross3(ref, d, cam->right);
-    normalize3(cam->right);
-    cross3(d, cam->right, cam->up);
-    normalize3(cam->up);
+    sv_cross3(ref, d, cam->right);
+    sv_normalize3(cam->right);
+    sv_cross3(d, cam->right, cam->up);
+    sv_normalize3(cam->up);
     memcpy(cam->origin, centre, sizeof cam->origin);
     cam->half_width = cam->half_height = radius;
     /* a stand-in may stick out of the original's sphere towards or away

@@ -50,6 +50,7 @@
 #include <string.h>
 
 #include "method.h"
+#include "vec3.h"
 
 #define SL_NAME "slicing"
 #define SL_DEFAULT_SPACING SV_SPACING_UNIFORM
@@ -57,10 +58,6 @@
 
 /* ---------- pure geometry ---------- */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 void sv_slicing_direction(uint32_t j, uint32_t count, double n[3])
 {
@@ -95,7 +92,7 @@ double sv_polygon_area(const double (*poly)[3], uint32_t n)
         acc[1] += a[2] * b[0] - a[0] * b[2];
         acc[2] += a[0] * b[1] - a[1] * b[0];
     }
-    return 0.5 * sqrt(dot3(acc, acc));
+    return 0.5 * sqrt(sv_dot3(acc, acc));
 }
 
 /* Sutherland–Hodgman against sign·(n·p − c) <= 0; returns the new count. */
@@ -105,7 +102,7 @@ static uint32_t clip_half(const double (*in)[3], uint32_t n, const double nrm[3]
     uint32_t m = 0;
     for (uint32_t i = 0; i < n; i++) {
         const double *p = in[i], *q = in[(i + 1) % n];
-        double dp = sign * (dot3(nrm, p) - c), dq = sign * (dot3(nrm, q) - c);
+        double dp = sign * (sv_dot3(nrm, p) - c), dq = sign * (sv_dot3(nrm, q) - c);
         if (dp <= 0) memcpy(out[m++], p, sizeof out[0]);
         if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) {
             double t = dp / (dp - dq);
@@ -446,7 +443,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
         double p[3][3];
         tri_rel(w, w->tris[i], p);
         for (int j = 0; j < 3; j++) {
-            double x = dot3(n, p[j]);
+            double x = sv_dot3(n, p[j]);
             w->proj[3 * (size_t)i + j] = x;
             if (x < lo) lo = x;
             if (x > hi) hi = x;
@@ -498,7 +495,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
             if (w->kmin[i] == UINT16_MAX) w->kmin[i] = (uint16_t)k;
             w->kmax[i] = (uint16_t)k;
             for (uint32_t j = 0; j < c; j++) {
-                double a = dot3(poly[j], u), e = dot3(poly[j], v);
+                double a = sv_dot3(poly[j], u), e = sv_dot3(poly[j], v);
                 if (a < u0[k]) u0[k] = a;
                 if (a > u1[k]) u1[k] = a;
                 if (e < v0[k]) v0[k] = e;
@@ -510,7 +507,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
     L->first[s] = lod->quad_count;
     L->count[s] = 0;
     memcpy(L->dir[s], n, sizeof L->dir[s]);
-    double nc = dot3(n, w->centre), margin = 1e-5 * w->radius;
+    double nc = sv_dot3(n, w->centre), margin = 1e-5 * w->radius;
     for (uint32_t k = 0; k < K; k++) {
         if (nf[k] == 0) continue;
         sv_quad q;

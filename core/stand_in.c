@@ -22,6 +22,7 @@
  *     allocated the rectangle falls back to the bounding box in the plane basis.
  */
 #include "stand_in.h"
+#include "vec3.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -101,24 +102,8 @@ sv_status sv_lod_add_quad(sv_lod_plan *lod, const sv_quad *q, sv_error *err)
 
 /* ---------- quad geometry ---------- */
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static void cross3(const double a[3], const double b[3], double o[3])
-{
-    double r[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                   a[0] * b[1] - a[1] * b[0]};
-    memcpy(o, r, sizeof r);
-}
 
-static void normalize3(double v[3])
-{
-    double l = sqrt(dot3(v, v));
-    if (l > 0 && isfinite(l))
-        for (int k = 0; k < 3; k++) v[k] /= l;
-}
 
 /* Deterministic orthonormal basis (b1, b2) of the plane with unit normal n:
  * b1 is the world axis least aligned with n, made orthogonal to n. */
@@ -129,10 +114,10 @@ static void plane_basis(const double n[3], double b1[3], double b2[3])
         if (fabs(n[i]) < fabs(n[k])) k = i;
     double ref[3] = {0, 0, 0};
     ref[k] = 1;
-    double t = dot3(ref, n);
+    double t = sv_dot3(ref, n);
     for (int i = 0; i < 3; i++) b1[i] = ref[i] - t * n[i];
-    normalize3(b1);
-    cross3(n, b1, b2);
+    sv_normalize3(b1);
+    sv_cross3(n, b1, b2);
 }
 
 typedef struct pt2 {
@@ -245,7 +230,7 @@ static rect2 box2(const pt2 *p, size_t n)
 void sv_quad_fit_points(sv_quad *q, const double *points, size_t n)
 {
     double nrm[3] = {q->normal[0], q->normal[1], q->normal[2]};
-    normalize3(nrm);
+    sv_normalize3(nrm);
     double b1[3], b2[3];
     plane_basis(nrm, b1, b2);
 
@@ -261,7 +246,7 @@ void sv_quad_fit_points(sv_quad *q, const double *points, size_t n)
     }
     if (used)
         for (int k = 0; k < 3; k++) m[k] /= (double)used;
-    double off = dot3(nrm, m) + q->d;
+    double off = sv_dot3(nrm, m) + q->d;
     double o[3];
     for (int k = 0; k < 3; k++) o[k] = m[k] - off * nrm[k];
 
@@ -280,7 +265,7 @@ void sv_quad_fit_points(sv_quad *q, const double *points, size_t n)
             const double *s = &points[3 * i];
             if (!isfinite(s[0]) || !isfinite(s[1]) || !isfinite(s[2])) continue;
             double dv[3] = {s[0] - o[0], s[1] - o[1], s[2] - o[2]};
-            pt2 v = {dot3(dv, b1), dot3(dv, b2)};
+            pt2 v = {sv_dot3(dv, b1), sv_dot3(dv, b2)};
             if (p) {
                 p[c++] = v;
             } else {
@@ -330,20 +315,20 @@ void sv_quad_fit_points(sv_quad *q, const double *points, size_t n)
         u[k] = u2.x * b1[k] + u2.y * b2[k];
         q->centre[k] = o[k] + c2.x * b1[k] + c2.y * b2[k];
     }
-    normalize3(u);
+    sv_normalize3(u);
     int big = 0;
     for (int k = 1; k < 3; k++)
         if (fabs(u[k]) > fabs(u[big])) big = k;
     if (u[big] < 0)
         for (int k = 0; k < 3; k++) u[k] = -u[k];
     memcpy(q->axis_u, u, sizeof u);
-    cross3(nrm, u, q->axis_v);
+    sv_cross3(nrm, u, q->axis_v);
     memcpy(q->normal, nrm, sizeof nrm);
 
     if (used) {
         double min_half = 1e-3 * hu;
         if (!(hu > 0)) {
-            min_half = 1e-6 * sqrt(dot3(q->centre, q->centre));
+            min_half = 1e-6 * sqrt(sv_dot3(q->centre, q->centre));
             if (!(min_half > 0)) min_half = 1e-9;
         }
         if (hu < min_half) hu = min_half;
