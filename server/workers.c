@@ -381,10 +381,20 @@ static void run_job(svd_workers *w, svd_ticket *t)
     int nfiles = cJSON_GetArraySize(files);
     size_t argc_max = 24 + (size_t)nfiles;
     char **argv = sv_calloc(argc_max + 1, sizeof *argv);
+    char **inpaths = sv_calloc((size_t)nfiles + 1, sizeof *inpaths);
+    if (!argv || !inpaths) { /* a NULL in argv would end the command line early */
+        free(argv);
+        free(inpaths);
+        cJSON_Delete(inputs);
+        svd_rm_rf(outdir);
+        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "out of memory building the worker's command line", NULL);
+        return;
+    }
     char *owned[8] = {0};
     size_t no = 0, ac = 0;
+    bool oom = false;
     char buf[SVD_STORE_PATH + 300];
-#define OWN(s) (owned[no++] = strdup(s))
+#define OWN(s) (owned[no] = strdup(s), oom |= !owned[no], owned[no++])
     if (c->prlimit[0]) {
         argv[ac++] = (char *)c->prlimit;
         if (c->worker_as_bytes) { /* 0 = no address-space limit */
@@ -402,17 +412,18 @@ static void run_job(svd_workers *w, svd_ticket *t)
     }
     argv[ac++] = w->path;
     argv[ac++] = "bake";
-    char **inpaths = sv_calloc((size_t)nfiles + 1, sizeof *inpaths);
     snprintf(buf, sizeof buf, "in/%s", mesh ? mesh : "");
     char p[SVD_STORE_PATH];
     svd_store_job_path(store, t->key, buf, p);
     inpaths[0] = strdup(p);
+    oom |= !inpaths[0];
     argv[ac++] = inpaths[0];
     for (int i = 0; i < nfiles; i++) {
         const char *fname = cJSON_GetStringValue(cJSON_GetArrayItem(files, i));
         snprintf(buf, sizeof buf, "in/%s", fname ? fname : "");
         svd_store_job_path(store, t->key, buf, p);
         inpaths[i + 1] = strdup(p);
+        oom |= !inpaths[i + 1];
         argv[ac++] = inpaths[i + 1];
     }
     svd_store_job_path(store, t->key, "spec.json", p);
@@ -431,7 +442,13 @@ static void run_job(svd_workers *w, svd_ticket *t)
     argv[ac] = NULL;
 #undef OWN
     run_result rr;
-    run_process(w, t, argv, logpath, &rr);
+    memset(&rr, 0, sizeof rr);
+    if (oom) { /* as a spawn that could not happen: retried */
+        rr.spawn_failed = 1;
+        snprintf(rr.spawn_error, sizeof rr.spawn_error, "out of memory building the worker's command line");
+    } else {
+        run_process(w, t, argv, logpath, &rr);
+    }
     for (size_t i = 0; i < no; i++) free(owned[i]);
     for (int i = 0; i <= nfiles; i++) free(inpaths[i]);
     free(inpaths);
