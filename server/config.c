@@ -92,6 +92,7 @@ static const struct setting {
     S("store", K_STR, store),
     S("worker", K_STR, worker),
     S("prlimit", K_STR, prlimit),
+    S("viewer_dir", K_STR, viewer_dir),
     S("tokens", K_STR, tokens),
     S("log_file", K_STR, log_file),
     S("log_level", K_LEVEL, log_level),

@@ -25,6 +25,8 @@ typedef struct svd_config {
     char store[SVD_PATH_MAX];     /* default ./sylva-store */
     char worker[SVD_PATH_MAX];    /* "" = dirname(/proc/self/exe)/sylva-bake */
     char prlimit[SVD_PATH_MAX];   /* rlimit wrapper, default /usr/bin/prlimit; "" = prlimit(2) after spawn */
+    char viewer_dir[SVD_PATH_MAX]; /* the viewer page's files; "" = dirname(sylvad)/viewer if it
+                                     exists (build tree), else dirname(sylvad)/../share/sylva/viewer */
     char tokens[SVD_PATH_MAX];    /* bearer tokens file, "" = no auth (loopback only) */
     char log_file[SVD_PATH_MAX];  /* "" = stderr */
     svd_log_level log_level;      /* default info */

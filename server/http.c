@@ -615,6 +615,13 @@ static const char *content_type_of(const char *name)
     if (strcmp(dot, ".png") == 0) return "image/png";
     if (strcmp(dot, ".jpg") == 0) return "image/jpeg";
     if (strcmp(dot, ".ktx2") == 0) return "image/ktx2";
+    if (strcmp(dot, ".html") == 0) return "text/html; charset=utf-8";
+    if (strcmp(dot, ".js") == 0 || strcmp(dot, ".mjs") == 0) return "text/javascript; charset=utf-8";
+    if (strcmp(dot, ".css") == 0) return "text/css; charset=utf-8";
+    if (strcmp(dot, ".glsl") == 0 || strcmp(dot, ".mtl") == 0 || strcmp(dot, ".obj") == 0 ||
+        strcmp(dot, ".txt") == 0)
+        return "text/plain; charset=utf-8";
+    if (strcmp(dot, ".gltf") == 0) return "model/gltf+json";
     return "application/octet-stream";
 }
 
@@ -652,58 +659,42 @@ static int parse_range(const char *v, uint64_t size, uint64_t *off, uint64_t *le
     return 1;
 }
 
-static enum MHD_Result handle_artifact(req *q)
+/* The 409 of a route that needs a finished bake: 422 with the bake's own
+ * error when it failed, else 409 not_ready naming its state. */
+static enum MHD_Result answer_not_done(req *q)
+{
+    svd_http *h = q->h;
+    char *body = NULL;
+    svd_jobs_status(h->jobs, q->m.key, &body);
+    cJSON *s = body ? cJSON_Parse(body) : NULL;
+    free(body);
+    const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(s, "state"));
+    const cJSON *err = cJSON_GetObjectItemCaseSensitive(s, "error");
+    enum MHD_Result r;
+    if (state && strcmp(state, "failed") == 0 && err) {
+        const char *code = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "code"));
+        const char *msg = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "message"));
+        r = send_error(h, q->conn, q->m.route, 422, code ? code : "failed", msg ? msg : "the bake failed");
+    } else {
+        char msg[80];
+        snprintf(msg, sizeof msg, "the bake is %s, not done", state ? state : "not done");
+        r = send_error(h, q->conn, q->m.route, 409, "not_ready", msg);
+    }
+    cJSON_Delete(s);
+    return r;
+}
+
+/* Serves a stored file whose SHA-256 was verified (vs: svd_store_verify's
+ * answer, SV_OK or SV_ERR_IO) with its ETag, If-None-Match (304) and one
+ * byte range (206/416), as docs/api.md says for artifacts; `missing` is the
+ * 404 message when it cannot be opened. */
+static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, const char *sha,
+                                    sv_status vs, const char *missing)
 {
     svd_http *h = q->h;
     struct MHD_Connection *c = q->conn;
-    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
-    uint64_t size = 0;
-    int st = svd_jobs_artifact(h->jobs, q->m.key, q->m.name, path, &size, sha);
-    if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no such bake or artifact");
-    if (st == 409) {
-        char *body = NULL;
-        svd_jobs_status(h->jobs, q->m.key, &body);
-        cJSON *s = body ? cJSON_Parse(body) : NULL;
-        free(body);
-        const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(s, "state"));
-        const cJSON *err = cJSON_GetObjectItemCaseSensitive(s, "error");
-        enum MHD_Result r;
-        if (state && strcmp(state, "failed") == 0 && err) {
-            const char *code = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "code"));
-            const char *msg = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "message"));
-            r = send_error(h, c, q->m.route, 422, code ? code : "failed", msg ? msg : "the bake failed");
-        } else {
-            char msg[80];
-            snprintf(msg, sizeof msg, "the bake is %s, not done", state ? state : "not done");
-            r = send_error(h, c, q->m.route, 409, "not_ready", msg);
-        }
-        cJSON_Delete(s);
-        return r;
-    }
     char etag[SVD_KEY_HEX + 2];
     snprintf(etag, sizeof etag, "\"%s\"", sha);
-    const char *inm = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_NONE_MATCH);
-    if (inm && (strstr(inm, sha) || strcmp(inm, "*") == 0)) {
-        struct MHD_Response *r = MHD_create_response_from_buffer(0, (void *)"", MHD_RESPMEM_PERSISTENT);
-        if (!r) return MHD_NO;
-        MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
-        /* RFC 9110 §8.6 wants no Content-Length on a 304, or the 200's;
-         * libmicrohttpd 0.9.75 writes "Content-Length: 0" and, given the
-         * artifact's length as well, sends both: its 0 is left (clients
-         * ignore a 304's length; the connection stays usable, tested). */
-        MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
-        enum MHD_Result ret = MHD_queue_response(c, MHD_HTTP_NOT_MODIFIED, r);
-        MHD_destroy_response(r);
-        svd_metrics_request(h->metrics, q->m.route, 304);
-        return ret;
-    }
-    sv_error e = {0};
-    sv_status vs = svd_store_verify(svd_jobs_store(h->jobs), path, size, sha, &e);
-    if (vs == SV_ERR_INVALID) {
-        svd_jobs_result_corrupt(h->jobs, q->m.key, path);
-        return send_error(h, c, q->m.route, 503, "corrupt",
-                          "the stored artifact failed its SHA-256 check; it was quarantined and the bake requeued");
-    }
     /* Range (one range; If-Range must name this ETag, else the whole file) */
     uint64_t off = 0, len = size;
     int ranged = 0;
@@ -714,11 +705,11 @@ static enum MHD_Result handle_artifact(req *q)
     if (ranged < 0) {
         snprintf(crange, sizeof crange, "bytes */%llu", (unsigned long long)size);
         return send_json_with(h, c, q->m.route, MHD_HTTP_RANGE_NOT_SATISFIABLE,
-                              svd_error_json("range", "the range starts at or past the end of the artifact"),
+                              svd_error_json("range", "the range starts at or past the end of the file"),
                               MHD_HTTP_HEADER_CONTENT_RANGE, crange);
     }
     int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
-    if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", "artifact missing from the store");
+    if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", missing);
     struct MHD_Response *r = MHD_create_response_from_fd_at_offset64(len, fd, off); /* closes fd */
     if (!r) {
         close(fd);
@@ -737,6 +728,125 @@ static enum MHD_Result handle_artifact(req *q)
     MHD_destroy_response(r);
     svd_metrics_request(h->metrics, q->m.route, code);
     return ret;
+}
+
+/* If-None-Match naming sha (or *): answers 304 and returns 1; else 0. */
+static int answer_not_modified(req *q, const char *sha, enum MHD_Result *ret)
+{
+    struct MHD_Connection *c = q->conn;
+    const char *inm = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_NONE_MATCH);
+    if (!inm || !(strstr(inm, sha) || strcmp(inm, "*") == 0)) return 0;
+    char etag[SVD_KEY_HEX + 2];
+    snprintf(etag, sizeof etag, "\"%s\"", sha);
+    struct MHD_Response *r = MHD_create_response_from_buffer(0, (void *)"", MHD_RESPMEM_PERSISTENT);
+    if (!r) {
+        *ret = MHD_NO;
+        return 1;
+    }
+    MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+    /* RFC 9110 §8.6 wants no Content-Length on a 304, or the 200's;
+     * libmicrohttpd 0.9.75 writes "Content-Length: 0" and, given the
+     * artifact's length as well, sends both: its 0 is left (clients
+     * ignore a 304's length; the connection stays usable, tested). */
+    MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
+    *ret = MHD_queue_response(c, MHD_HTTP_NOT_MODIFIED, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(q->h->metrics, q->m.route, 304);
+    return 1;
+}
+
+static enum MHD_Result handle_artifact(req *q)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size = 0;
+    int st = svd_jobs_artifact(h->jobs, q->m.key, q->m.name, path, &size, sha);
+    if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no such bake or artifact");
+    if (st == 409) return answer_not_done(q);
+    enum MHD_Result ret;
+    if (answer_not_modified(q, sha, &ret)) return ret;
+    sv_error e = {0};
+    sv_status vs = svd_store_verify(svd_jobs_store(h->jobs), path, size, sha, &e);
+    if (vs == SV_ERR_INVALID) {
+        svd_jobs_result_corrupt(h->jobs, q->m.key, path);
+        return send_error(h, c, q->m.route, 503, "corrupt",
+                          "the stored artifact failed its SHA-256 check; it was quarantined and the bake requeued");
+    }
+    return serve_stored(q, path, size, sha, vs, "artifact missing from the store");
+}
+
+/* GET /v1/bakes/{key}/inputs/{name}: a file the bake was uploaded with, as
+ * an artifact is served (ETag, ranges), in any state. A file that fails its
+ * SHA-256 check is left where it is (the worker refuses it as `corrupt` if
+ * the bake runs again) and answered 500 corrupt: nothing will mend it. */
+static enum MHD_Result handle_input(req *q)
+{
+    svd_http *h = q->h;
+    struct MHD_Connection *c = q->conn;
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size = 0;
+    if (svd_jobs_input(h->jobs, q->m.key, q->m.name, path, &size, sha) != 200)
+        return send_error(h, c, q->m.route, 404, "not_found", "no such bake or input file");
+    enum MHD_Result ret;
+    if (answer_not_modified(q, sha, &ret)) return ret;
+    sv_error e = {0};
+    sv_status vs = svd_store_verify(svd_jobs_store(h->jobs), path, size, sha, &e);
+    if (vs == SV_ERR_INVALID) {
+        svd_log_kv(h->log, SVD_LOG_ERROR, "input_corrupt", "key", q->m.key, "path", path, "msg",
+                   "SHA-256 mismatch of an uploaded file", (const char *)NULL);
+        return send_error(h, c, q->m.route, 500, "corrupt",
+                          "the stored input failed its SHA-256 check; upload the bake again");
+    }
+    return serve_stored(q, path, size, sha, vs, "input missing from the store");
+}
+
+/* A file of the viewer directory (cfg->viewer_dir): rel is a path that
+ * svd_viewer_path_valid accepted. Regular files only; no range, no ETag
+ * (they are small and change only with a deployment). */
+static enum MHD_Result serve_viewer_file(req *q, const char *rel, const char *ctype)
+{
+    svd_http *h = q->h;
+    char path[SVD_PATH_MAX + SVD_NAME_MAX + 2];
+    int n = snprintf(path, sizeof path, "%s/%s", h->cfg->viewer_dir, rel);
+    int fd = n > 0 && (size_t)n < sizeof path ? open(path, O_RDONLY | O_CLOEXEC) : -1;
+    struct stat sb;
+    if (fd >= 0 && (fstat(fd, &sb) != 0 || !S_ISREG(sb.st_mode))) {
+        close(fd);
+        fd = -1;
+    }
+    if (fd < 0)
+        return send_error(h, q->conn, q->m.route, 404, "not_found",
+                          q->m.route == SVD_R_VIEW ? "the viewer page is not installed (viewer_dir)"
+                                                   : "no such viewer file");
+    struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)sb.st_size, fd); /* closes fd */
+    if (!r) {
+        close(fd);
+        return MHD_NO;
+    }
+    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
+    MHD_add_response_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
+    MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+    enum MHD_Result ret = MHD_queue_response(q->conn, MHD_HTTP_OK, r);
+    MHD_destroy_response(r);
+    svd_metrics_request(h->metrics, q->m.route, MHD_HTTP_OK);
+    return ret;
+}
+
+/* GET /v1/bakes/{key}/view: the viewer page (viewer_dir/index.html), for a
+ * finished bake only; the page reads the key from its own address. */
+static enum MHD_Result handle_view(req *q)
+{
+    char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
+    uint64_t size = 0;
+    int st = svd_jobs_artifact(q->h->jobs, q->m.key, "report.json", path, &size, sha);
+    if (st == 409) return answer_not_done(q);
+    if (st != 200)
+        return send_error(q->h, q->conn, q->m.route, 404, "not_found",
+                          st == 404 && svd_jobs_has(q->h->jobs, q->m.key)
+                              ? "the bake has no report.json to view"
+                              : "no bake with this key");
+    return serve_viewer_file(q, "index.html", "text/html; charset=utf-8");
 }
 
 /* GET /v1/bakes[?limit=N][&before=CURSOR]: the caller's bakes, newest first
@@ -964,11 +1074,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     /* Issue 22 item 8: with tokens, a bake is its uploaders' alone; anyone
      * else gets the unknown key's own 404, so a key cannot be probed. */
     if (h->tokens &&
-        (q->m.route == SVD_R_STATUS || q->m.route == SVD_R_ARTIFACT || q->m.route == SVD_R_DELETE) &&
+        (q->m.route == SVD_R_STATUS || q->m.route == SVD_R_ARTIFACT || q->m.route == SVD_R_DELETE ||
+         q->m.route == SVD_R_VIEW || q->m.route == SVD_R_INPUT || q->m.route == SVD_R_INPUTS) &&
         !svd_jobs_owned(h->jobs, q->m.key, q->client)) {
         if (*upload_data_size) *upload_data_size = 0;
         return send_error(h, c, q->m.route, 404, "not_found",
                           q->m.route == SVD_R_ARTIFACT ? "no such bake or artifact"
+                          : q->m.route == SVD_R_INPUT  ? "no such bake or input file"
                                                        : "no bake with this key");
     }
     if (q->m.route == SVD_R_STATUS && !*upload_data_size) return handle_status(q, 1);
@@ -985,6 +1097,16 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     case SVD_R_METRICS: return handle_metrics(q);
     case SVD_R_INFO: return handle_info(q);
     case SVD_R_ARTIFACT: return handle_artifact(q);
+    case SVD_R_INPUT: return handle_input(q);
+    case SVD_R_INPUTS: {
+        char *body = NULL;
+        int st = svd_jobs_inputs(h->jobs, q->m.key, &body);
+        if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no bake with this key");
+        if (st != 200) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
+        return send_json(h, c, q->m.route, 200, body);
+    }
+    case SVD_R_VIEW: return handle_view(q);
+    case SVD_R_VIEWER: return serve_viewer_file(q, q->m.name, content_type_of(q->m.name));
     case SVD_R_DELETE: {
         char *body = NULL;
         int st = svd_jobs_delete(h->jobs, q->m.key, &body);

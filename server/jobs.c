@@ -1026,6 +1026,70 @@ int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name, char pa
     return status;
 }
 
+int svd_jobs_input(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
+                   uint64_t *size, char sha[SVD_KEY_HEX])
+{
+    char ipath[SVD_STORE_PATH];
+    pthread_mutex_lock(&jobs->mu);
+    bool has = find(jobs, key) != NULL;
+    pthread_mutex_unlock(&jobs->mu);
+    if (!has || !svd_name_valid(name)) return 404;
+    /* read outside the lock: a job deleted meanwhile has no inputs.json (404),
+     * or no in/NAME by the time it is opened (the caller's 404) */
+    svd_store_job_path(jobs->store, key, "inputs.json", ipath);
+    cJSON *in = read_json_file(ipath);
+    const cJSON *o = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(in, "objects"), name);
+    const char *h = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(o, "sha256"));
+    const cJSON *sz = cJSON_GetObjectItemCaseSensitive(o, "size");
+    int status = 404;
+    if (h && strlen(h) == SVD_KEY_HEX - 1 && cJSON_IsNumber(sz) && sz->valuedouble >= 0) {
+        char sub[SVD_NAME_MAX + 8];
+        snprintf(sub, sizeof sub, "in/%s", name);
+        svd_store_job_path(jobs->store, key, sub, path);
+        *size = (uint64_t)sz->valuedouble;
+        snprintf(sha, SVD_KEY_HEX, "%s", h);
+        status = 200;
+    }
+    cJSON_Delete(in);
+    return status;
+}
+
+int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out)
+{
+    *json_out = NULL;
+    if (!svd_jobs_has(jobs, key)) return 404;
+    char ipath[SVD_STORE_PATH];
+    svd_store_job_path(jobs->store, key, "inputs.json", ipath);
+    cJSON *in = read_json_file(ipath);
+    const char *mesh = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(in, "mesh"));
+    const cJSON *objs = cJSON_GetObjectItemCaseSensitive(in, "objects");
+    if (!mesh || !cJSON_IsObject(objs)) {
+        cJSON_Delete(in);
+        return 404;
+    }
+    cJSON *out = cJSON_CreateObject(), *files = cJSON_AddArrayToObject(out, "files");
+    cJSON_AddStringToObject(out, "mesh", mesh);
+    /* the mesh first, then every other object in upload order */
+    for (int pass = 0; pass < 2; pass++) {
+        const cJSON *o;
+        cJSON_ArrayForEach(o, objs)
+        {
+            if (!o->string || (strcmp(o->string, mesh) == 0) != (pass == 0)) continue;
+            const cJSON *sz = cJSON_GetObjectItemCaseSensitive(o, "size");
+            cJSON *f = cJSON_CreateObject();
+            cJSON_AddStringToObject(f, "name", o->string);
+            cJSON_AddNumberToObject(f, "size", cJSON_IsNumber(sz) ? sz->valuedouble : 0);
+            const char *h = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(o, "sha256"));
+            cJSON_AddStringToObject(f, "sha256", h ? h : "");
+            cJSON_AddItemToArray(files, f);
+        }
+    }
+    cJSON_Delete(in);
+    *json_out = cJSON_PrintUnformatted(out);
+    cJSON_Delete(out);
+    return *json_out ? 200 : 500;
+}
+
 void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
 {
     sv_error e = {0};

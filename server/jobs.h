@@ -129,6 +129,20 @@ bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client);
 int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
                       char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX]);
 
+/* Looks up a file the job was uploaded with (the mesh or a companion) in
+ * its inputs.json: path (ROOT/jobs/KEY/in/NAME), size, SHA-256, in any
+ * state (inputs are kept while the job exists). 200, or 404 (no job, no
+ * such input, an inputs.json that cannot be read). The file is not opened:
+ * the caller verifies it (svd_store_verify) as it serves it. */
+int svd_jobs_input(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
+                   uint64_t *size, char sha[SVD_KEY_HEX]);
+
+/* The files a job was uploaded with, into *json_out:
+ * {"mesh": NAME, "files": [{"name", "size", "sha256"}...]} (the mesh first,
+ * then the companions as uploaded). 200, 404 (no job, or its inputs.json
+ * cannot be read) or 500 (no memory). */
+int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out);
+
 /* A stored artifact failed verification: quarantines the job's result and
  * requeues the job so it is rebaked. */
 void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path);

@@ -8,7 +8,8 @@ static const char *const labels[SVD_R_COUNT] = {
     [SVD_R_NONE] = "other",     [SVD_R_HEALTH] = "health", [SVD_R_METRICS] = "metrics",
     [SVD_R_INFO] = "info",      [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
     [SVD_R_STATUS] = "status",  [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
-    [SVD_R_LIST] = "list",
+    [SVD_R_LIST] = "list",      [SVD_R_VIEW] = "view",     [SVD_R_INPUT] = "input",
+    [SVD_R_INPUTS] = "inputs",  [SVD_R_VIEWER] = "viewer",
 };
 
 const char *svd_route_label(svd_route r)
@@ -24,6 +25,25 @@ static void fail(svd_route_match *m, int status, const char *msg, const char *al
     m->allow = allow;
 }
 
+bool svd_viewer_path_valid(const char *path)
+{
+    size_t n = path ? strlen(path) : 0, seg = 0, segs = 1;
+    if (n == 0 || n > SVD_NAME_MAX) return false;
+    for (size_t i = 0; i <= n; i++) {
+        char c = path[i];
+        if (c == '/' || c == '\0') {
+            if (seg == 0 || seg > 128 || ++segs > 9) return false;
+            seg = 0;
+            continue;
+        }
+        bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                  c == '-' || c == '_' || (c == '.' && seg > 0);
+        if (!ok) return false;
+        seg++;
+    }
+    return true;
+}
+
 void svd_route_find(const char *method, const char *path, svd_route_match *m)
 {
     memset(m, 0, sizeof *m);
@@ -32,6 +52,13 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
         strcmp(path, "/v1/info") == 0) {
         if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
         m->route = path[4] == 'h' ? SVD_R_HEALTH : path[4] == 'm' ? SVD_R_METRICS : SVD_R_INFO;
+        return;
+    }
+    if (strncmp(path, "/v1/viewer/", 11) == 0) {
+        if (!svd_viewer_path_valid(path + 11)) return fail(m, 404, "no such viewer file", NULL);
+        if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
+        snprintf(m->name, sizeof m->name, "%s", path + 11);
+        m->route = SVD_R_VIEWER;
         return;
     }
     if (strcmp(path, "/v1/bakes") == 0 || strcmp(path, "/v1/bakes/") == 0) {
@@ -55,10 +82,20 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
         else return fail(m, 405, "method not allowed", "GET, HEAD, PUT, DELETE");
         return;
     }
-    if (strncmp(slash, "/artifacts/", 11) != 0) return fail(m, 404, "no such resource", NULL);
-    const char *name = slash + 11;
-    if (!svd_name_valid(name)) return fail(m, 404, "no such artifact: invalid artifact name", NULL);
+    if (strcmp(slash, "/view") == 0 || strcmp(slash, "/inputs") == 0 || strcmp(slash, "/inputs/") == 0) {
+        if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
+        m->route = slash[1] == 'v' ? SVD_R_VIEW : SVD_R_INPUTS;
+        return;
+    }
+    svd_route route;
+    const char *name;
+    if (strncmp(slash, "/artifacts/", 11) == 0) route = SVD_R_ARTIFACT, name = slash + 11;
+    else if (strncmp(slash, "/inputs/", 8) == 0) route = SVD_R_INPUT, name = slash + 8;
+    else return fail(m, 404, "no such resource", NULL);
+    if (!svd_name_valid(name))
+        return fail(m, 404, route == SVD_R_ARTIFACT ? "no such artifact: invalid artifact name"
+                                                    : "no such input: invalid file name", NULL);
     if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
     snprintf(m->name, sizeof m->name, "%s", name);
-    m->route = SVD_R_ARTIFACT;
+    m->route = route;
 }

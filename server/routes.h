@@ -16,6 +16,10 @@ typedef enum svd_route {
     SVD_R_DELETE,       /* DELETE /v1/bakes/{key} */
     SVD_R_ARTIFACT,     /* GET /v1/bakes/{key}/artifacts/{name} */
     SVD_R_LIST,         /* GET /v1/bakes: the caller's bakes */
+    SVD_R_VIEW,         /* GET /v1/bakes/{key}/view: the viewer page */
+    SVD_R_INPUT,        /* GET /v1/bakes/{key}/inputs/{name}: an uploaded file */
+    SVD_R_INPUTS,       /* GET /v1/bakes/{key}/inputs: the list of them */
+    SVD_R_VIEWER,       /* GET /v1/viewer/{path}: the viewer page's own files */
     SVD_R_COUNT
 } svd_route;
 
@@ -25,11 +29,18 @@ typedef struct svd_route_match {
     const char *allow;               /* for 405: the Allow header value */
     const char *message;             /* for errors: why */
     char key[SVD_KEY_HEX];           /* for bake routes */
-    char name[SVD_NAME_MAX + 1];     /* for SVD_R_ARTIFACT */
+    char name[SVD_NAME_MAX + 1];     /* SVD_R_ARTIFACT, SVD_R_INPUT: a valid name;
+                                        SVD_R_VIEWER: a path (svd_viewer_path_valid) */
 } svd_route_match;
 
 /* Matches a request. HEAD is treated as GET. Never fails to fill *m. */
 void svd_route_find(const char *method, const char *path, svd_route_match *m);
+
+/* True if path (relative, below the viewer directory) is 1..SVD_NAME_MAX
+ * bytes of at most 8 '/'-separated segments, each 1..128 bytes of
+ * [A-Za-z0-9._-] not starting with '.': no empty, "." or ".." segment, no
+ * absolute path, nothing a shell or a URL would read otherwise. */
+bool svd_viewer_path_valid(const char *path);
 
 /* Stable label of a route for metrics and logs ("health", "artifact", ...). */
 const char *svd_route_label(svd_route r);

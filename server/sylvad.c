@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -34,6 +35,26 @@ static void default_worker(char *out, size_t cap)
     char *slash = strrchr(exe, '/');
     if (slash) *slash = '\0';
     snprintf(out, cap, "%.1000s/sylva-bake", exe);
+}
+
+/* viewer_dir's default: dirname(exe)/viewer when that directory exists (the
+ * build tree: build/sylvad beside build/viewer), else
+ * dirname(exe)/../share/sylva/viewer (`make install`'s layout). */
+static void default_viewer_dir(char *out, size_t cap)
+{
+    char exe[SVD_PATH_MAX];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0) {
+        snprintf(out, cap, "viewer");
+        return;
+    }
+    exe[n] = '\0';
+    char *slash = strrchr(exe, '/');
+    if (slash) *slash = '\0';
+    struct stat sb;
+    snprintf(out, cap, "%.1000s/viewer", exe);
+    if (stat(out, &sb) == 0 && S_ISDIR(sb.st_mode)) return;
+    snprintf(out, cap, "%.1000s/../share/sylva/viewer", exe);
 }
 
 int main(int argc, char **argv)
@@ -73,6 +94,7 @@ int main(int argc, char **argv)
         goto out;
     }
     if (!cfg.worker[0]) default_worker(cfg.worker, sizeof cfg.worker);
+    if (!cfg.viewer_dir[0]) default_viewer_dir(cfg.viewer_dir, sizeof cfg.viewer_dir);
     if (cfg.workers == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         cfg.workers = n > 0 ? (uint32_t)n : 1;
@@ -85,6 +107,11 @@ int main(int argc, char **argv)
     if (access(cfg.worker, X_OK) != 0)
         svd_log_kv(log, SVD_LOG_WARN, "worker_missing", "path", cfg.worker, "msg",
                    "the worker is not executable; bakes will fail until it is", (const char *)NULL);
+    char viewer_index[SVD_PATH_MAX + 16];
+    snprintf(viewer_index, sizeof viewer_index, "%s/index.html", cfg.viewer_dir);
+    if (access(viewer_index, R_OK) != 0)
+        svd_log_kv(log, SVD_LOG_WARN, "viewer_missing", "path", cfg.viewer_dir, "msg",
+                   "no viewer page there: GET /v1/bakes/{key}/view answers 404", (const char *)NULL);
 
     /* Block the signals we take synchronously before any thread starts. */
     sigset_t sigs;
