@@ -60,10 +60,21 @@ TOOL_BINS := $(TOOL_SRC:tests/tools/%.c=$(BUILD)/tools/%)
 
 DEPS_STAMP := $(BUILD)/.deps-ok
 
+# The viewer page sylvad serves (GET /v1/bakes/{key}/view, docs/runtime.md):
+# our page and shaders (server/viewer/) beside three.js, installed by npm from
+# server/viewer/package-lock.json (never a copy in the repo) and reduced to
+# the module and the loaders the page imports. sylvad finds it as
+# dirname(sylvad)/viewer in the build tree, $(PREFIX)/share/sylva/viewer
+# when installed (setting viewer_dir, docs/operations.md).
+VIEWER_SRC   := $(wildcard server/viewer/*.html server/viewer/*.js server/viewer/*.glsl server/viewer/*.css)
+VIEWER_DIR   := $(BUILD)/viewer
+VIEWER_STAMP := $(VIEWER_DIR)/.stamp
+THREE_NPM    := $(BUILD)/viewer-npm/node_modules/three
+
 .PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench reliability soak clean install
 # keep object files of tests and tools (make would delete them as intermediates)
 .SECONDARY:
-all: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS)
+all: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS) $(VIEWER_STAMP)
 
 # Installs missing Debian packages (non-interactive). Every build depends on it.
 deps:
@@ -148,6 +159,20 @@ sanitize-full: sanitize-build
 # same time, sharing the -j slots (`make -j2 ci-build`).
 ci-build: all sanitize-build fuzz-build
 
+$(BUILD)/viewer-npm/.stamp: server/viewer/package.json server/viewer/package-lock.json | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	cp server/viewer/package.json server/viewer/package-lock.json $(@D)/
+	cd $(@D) && npm ci --no-audit --no-fund --loglevel=error
+	@touch $@
+$(VIEWER_STAMP): $(VIEWER_SRC) $(BUILD)/viewer-npm/.stamp
+	@rm -rf $(VIEWER_DIR) && mkdir -p $(VIEWER_DIR)/three/addons/libs
+	cp $(VIEWER_SRC) $(VIEWER_DIR)/
+	cp $(THREE_NPM)/build/three.module.js $(THREE_NPM)/LICENSE $(VIEWER_DIR)/three/
+	cp -r $(THREE_NPM)/examples/jsm/loaders $(THREE_NPM)/examples/jsm/utils \
+	    $(THREE_NPM)/examples/jsm/curves $(THREE_NPM)/examples/jsm/controls $(VIEWER_DIR)/three/addons/
+	cp $(THREE_NPM)/examples/jsm/libs/fflate.module.js $(VIEWER_DIR)/three/addons/libs/
+	@touch $@
+
 demo: all
 	@./examples/demo.sh $(BUILD)
 
@@ -180,12 +205,13 @@ BINDIR := $(PREFIX)/bin
 LIBDIR ?= $(PREFIX)/lib
 INCLUDEDIR ?= $(PREFIX)/include
 DOCDIR := $(PREFIX)/share/doc/sylva
+VIEWERDIR := $(PREFIX)/share/sylva/viewer
 MANDIR := $(PREFIX)/share/man/man1
 UNITDIR := $(PREFIX)/lib/systemd/system
 SYSUSERSDIR := $(PREFIX)/lib/sysusers.d
 MAN_SED := -e 's\#@SYSCONFDIR@\#$(SYSCONFDIR)\#g' -e 's\#@DOCDIR@\#$(DOCDIR)\#g' \
            -e 's\#@VERSION@\#$(SYLVA_VER)\#g'
-install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO)
+install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
 	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(SYSCONFDIR)/sylva $(DESTDIR)$(DOCDIR)/nginx \
 	    $(DESTDIR)$(MANDIR) $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSUSERSDIR) \
 	    $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)
@@ -210,6 +236,8 @@ install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO)
 	    -e 's#/usr/local/share/doc/sylva#$(DOCDIR)#g' deploy/sylvad.service \
 	    > $(DESTDIR)$(UNITDIR)/sylvad.service
 	install -m 644 deploy/sylva.sysusers $(DESTDIR)$(SYSUSERSDIR)/sylva.conf
+	rm -rf $(DESTDIR)$(VIEWERDIR) && install -d $(DESTDIR)$(VIEWERDIR)
+	cp -R $(VIEWER_DIR)/. $(DESTDIR)$(VIEWERDIR)/ && rm -f $(DESTDIR)$(VIEWERDIR)/.stamp
 	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v ldconfig >/dev/null; then ldconfig; fi
 
 # libFuzzer targets (tests/fuzz/fuzz_*.c) under ASan+UBSan, built with clang into
