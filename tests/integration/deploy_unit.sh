@@ -57,6 +57,10 @@ for d in operations.md api.md client.md spec.md deploy.md nginx/sylva.conf nginx
     [ -s "$P/share/doc/sylva/$d" ] || bad "share/doc/sylva/$d missing"
 done
 ok "guides and nginx example in share/doc/sylva/"
+V=$P/share/sylva/viewer
+[ -s "$V/index.html" ] && [ -s "$V/octahedral.frag.glsl" ] && [ -s "$V/three/three.module.js" ] &&
+    [ -s "$V/three/addons/loaders/GLTFLoader.js" ] && [ ! -e "$V/.stamp" ] &&
+    ok "viewer page, shaders and three.js in share/sylva/viewer/" || bad "viewer files missing from $V"
 U=$P/lib/systemd/system/sylvad.service
 has "unit starts the installed daemon with the installed config" "$U" \
     'ExecStart=/usr/local/bin/sylvad --config /usr/local/etc/sylva/sylvad.conf'
