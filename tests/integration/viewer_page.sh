@@ -1,0 +1,50 @@
+#!/bin/sh
+# The viewer page in a real browser (issue 21 items 3-4; docs/runtime.md):
+# a real sylvad and sylva-bake worker, a small tree (the aspen, 3.6k
+# triangles) baked through the `sylva` client with a slicing level in its
+# chain, then Debian's chromium, headless with WebGL2 on SwiftShader, driven by
+# playwright-core (npm, tests/viewer/package.json) through
+# GET /v1/bakes/{key}/view: the page loads with no error and no failed
+# request, draws covered pixels for the original and every level (the
+# slicing level through slicing.*.glsl), and its distance slider walks the
+# chain by report.json's switch distances (tests/viewer/viewer_check.mjs).
+# Screenshots stay in $T/shots when the test fails.
+# sylva-test: no-sanitize (a browser and a real bake; the daemon's routes run under ASan in viewer_routes.sh) cost=25
+. "$(dirname "$0")/daemon_lib.inc"
+BAKE=$B/sylva-bake
+CLIENT=$B/sylva
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+D=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/eztree_aspen_small
+[ -x "$BAKE" ] && [ -x "$CLIENT" ] || { echo "skipped: $BAKE or $CLIENT not built"; exit 77; }
+[ -f "$D/aspen_small.obj" ] || { echo "skipped: $D/aspen_small.obj missing (shared data)"; exit 77; }
+[ -x "$CHROMIUM" ] || { echo "skipped: no chromium at $CHROMIUM (deploy/apt-packages.txt installs it)"; exit 77; }
+command -v node >/dev/null || { echo "skipped: node missing"; exit 77; }
+VT=$SYLVA_ROOT/tests/viewer
+if [ ! -f "$VT/node_modules/playwright-core/package.json" ]; then
+    echo "installing playwright-core into $VT"
+    npm ci --prefix "$VT" --no-audit --no-fund --loglevel=error || { bad "npm ci of playwright-core failed"; finish; }
+fi
+export CHROMIUM
+
+start_daemon --workers 1 --worker "$BAKE"
+SPEC_FILE=$T/spec.json
+printf '%s\n' '{"method":"slicing","evaluate":{"views":4,"sizes":[64]}}' > "$SPEC_FILE"
+t0=$(date +%s)
+"$CLIENT" --server "$URL" --json bake "$D/aspen_small.obj" "$D/aspen_small.mtl" "$D/bark_birch_color_1k.jpg" \
+    "$D/leaves_aspen_color.png" --spec "$SPEC_FILE" --out "$T/out" --quiet > "$T/bake.json" 2> "$T/bake.err" \
+    || { bad "sylva bake failed: $(tail -3 "$T/bake.err")"; finish; }
+key=$(sed -n 's/.*"key":"\([0-9a-f]\{64\}\)".*/\1/p' "$T/bake.json" | head -n 1)
+[ -n "$key" ] && ok "aspen baked through sylvad in $(( $(date +%s) - t0 )) s" || { bad "no key in $(head -c 300 "$T/bake.json")"; finish; }
+grep -q '"slicing"' "$T/out/planes.json" && ok "the chain has a slicing level" || bad "no slicing level in planes.json"
+
+mkdir -p "$T/shots"
+t0=$(date +%s)
+node "$VT/viewer_check.mjs" "$URL" "$key" "$T/shots" > "$T/check.log" 2>&1
+rc=$?
+cat "$T/check.log"
+grep -q '^levels: .*slicing=slicing' "$T/check.log" && ok "the slicing level is drawn by slicing.*.glsl" \
+    || bad "the page did not draw the slicing level with its shader"
+[ "$rc" = 0 ] && ok "viewer checks passed in $(( $(date +%s) - t0 )) s" || { bad "viewer checks failed (exit $rc)"; KEEP_T=1; }
+[ -s "$T/shots/view.png" ] && ok "screenshot of the page" || bad "no screenshot"
+[ "$fails" = 0 ] || echo "screenshots kept in $T/shots"
+finish

@@ -1,0 +1,177 @@
+#!/usr/bin/env node
+// viewer_check.mjs — drives Debian's chromium (headless, through playwright-core)
+// through sylvad's viewer page for tests/integration/viewer_page.sh.
+//
+//   node viewer_check.mjs BASE_URL KEY OUT_DIR [--compare LOD X,Y,Z SIZE REF.png]...
+//
+// 1. GET BASE_URL/v1/bakes/KEY/view: the page must load without an error and
+//    draw covered pixels in every panel (the original and each level), and its
+//    distance slider must walk the chain: at each level's switch distance the
+//    page draws that level. A screenshot goes to OUT_DIR/view.png.
+// 2. For each --compare: the page's test mode draws level LOD from direction
+//    X,Y,Z at SIZE x SIZE (the evaluator's framing); its coverage (alpha > 0)
+//    is compared with REF.png's (alpha >= 128; `sylva-bake view` of the same
+//    view): IoU = |A ∩ B| / |A ∪ B|, printed, and must be >= 0.95. The page's
+//    render goes to OUT_DIR/test_LOD.png.
+// Prints "ok - ..." / "FAIL - ..." lines; exits 1 on any failure.
+import fs from 'node:fs';
+import path from 'node:path';
+import zlib from 'node:zlib';
+import { chromium } from 'playwright-core';
+
+const [base, key, outDir, ...rest] = process.argv.slice(2);
+if (!base || !key || !outDir) {
+    console.error('usage: viewer_check.mjs BASE_URL KEY OUT_DIR [--compare LOD X,Y,Z SIZE REF.png]...');
+    process.exit(2);
+}
+const compares = [];
+for (let i = 0; i < rest.length; i++) {
+    if (rest[i] !== '--compare' || i + 4 >= rest.length) {
+        console.error(`viewer_check.mjs: bad argument ${rest[i]}`);
+        process.exit(2);
+    }
+    compares.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
+    i += 4;
+}
+let failures = 0;
+const ok = (m) => console.log(`ok   - ${m}`);
+const bad = (m) => { console.log(`FAIL - ${m}`); failures++; };
+
+// A PNG's alpha channel (8-bit RGBA or gray+alpha, non-interlaced), for the
+// reference renders: {width, height, alpha: Uint8Array}.
+function pngAlpha(file) {
+    const b = fs.readFileSync(file);
+    if (b.readUInt32BE(0) !== 0x89504e47) throw new Error(`${file}: not a PNG`);
+    let off = 8, w = 0, h = 0, depth = 0, ctype = 0, interlace = 0;
+    const idat = [];
+    while (off < b.length) {
+        const len = b.readUInt32BE(off), type = b.toString('latin1', off + 4, off + 8);
+        const data = b.subarray(off + 8, off + 8 + len);
+        if (type === 'IHDR') {
+            w = data.readUInt32BE(0); h = data.readUInt32BE(4);
+            depth = data[8]; ctype = data[9]; interlace = data[12];
+        } else if (type === 'IDAT') idat.push(data);
+        else if (type === 'IEND') break;
+        off += 12 + len;
+    }
+    const channels = { 6: 4, 4: 2 }[ctype];
+    if (depth !== 8 || !channels || interlace) throw new Error(`${file}: want 8-bit RGBA or gray+alpha, non-interlaced`);
+    const raw = zlib.inflateSync(Buffer.concat(idat));
+    const stride = w * channels, out = Buffer.alloc(h * stride), alpha = new Uint8Array(w * h);
+    for (let y = 0; y < h; y++) {
+        const f = raw[y * (stride + 1)], src = raw.subarray(y * (stride + 1) + 1, (y + 1) * (stride + 1));
+        const row = out.subarray(y * stride, (y + 1) * stride), prev = y ? out.subarray((y - 1) * stride, y * stride) : null;
+        for (let x = 0; x < stride; x++) {
+            const a = x >= channels ? row[x - channels] : 0, up = prev ? prev[x] : 0;
+            const c = prev && x >= channels ? prev[x - channels] : 0;
+            let v = src[x];
+            if (f === 1) v += a;
+            else if (f === 2) v += up;
+            else if (f === 3) v += (a + up) >> 1;
+            else if (f === 4) {
+                const p = a + up - c, pa = Math.abs(p - a), pb = Math.abs(p - up), pc = Math.abs(p - c);
+                v += pa <= pb && pa <= pc ? a : pb <= pc ? up : c;
+            }
+            row[x] = v & 255;
+        }
+        for (let x = 0; x < w; x++) alpha[y * w + x] = row[x * channels + channels - 1];
+    }
+    return { width: w, height: h, alpha };
+}
+
+async function waitReady(page, what) {
+    try {
+        await page.waitForFunction(() => window.sylvaViewer && (window.sylvaViewer.ready || window.sylvaViewer.error),
+            null, { timeout: 30000 });
+    } catch (e) {
+        bad(`${what}: not ready after 30 s`);
+        return null;
+    }
+    const st = await page.evaluate(() => window.sylvaViewer);
+    if (st.error) { bad(`${what}: page error: ${st.error}`); return null; }
+    ok(`${what}: page ready`);
+    return st;
+}
+
+const browser = await chromium.launch({
+    executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+    // WebGL2 on the CPU (SwiftShader): CI has no GPU
+    args: ['--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--no-sandbox'],
+});
+try {
+    const page = await browser.newPage({ viewport: { width: 1400, height: 1000 }, deviceScaleFactor: 1 });
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    // every request the page makes must succeed (the browser's own favicon aside)
+    page.on('response', (r) => {
+        if (r.status() >= 400 && !r.url().endsWith('/favicon.ico')) errors.push(`${r.status()} ${r.url()}`);
+    });
+    await page.goto(`${base}/v1/bakes/${key}/view`);
+    const st = await waitReady(page, 'view page');
+    if (st) {
+        for (const p of st.panels) {
+            if (p.covered > 0 && p.covered < p.pixels) ok(`panel ${p.name}: ${p.covered} of ${p.pixels} pixels drawn`);
+            else bad(`panel ${p.name}: ${p.covered} of ${p.pixels} pixels drawn (want some, not all)`);
+        }
+        console.log(`levels: ${st.lods.map((l) => `${l.name}=${l.kind}`).join(' ')}`);
+        const names = st.panels.map((p) => p.name);
+        if (names[0] === 'original' && names.length === st.lods.length + 1) ok(`panels: ${names.join(', ')}`);
+        else bad(`panels ${names.join(', ')} are not the original and ${st.lods.length} levels`);
+        // the slider walks the chain: at each switch distance, that level
+        for (const l of st.lods) {
+            const got = await page.evaluate((d) => window.sylvaViewer.setDistance(d), l.switch_distance);
+            // the slider's step is 1/1000 of the range: at the first step past
+            // the switch the level drawn is this one unless the next level
+            // starts within that step
+            const want = await page.evaluate((d) => window.sylvaViewer.lodAt(d).name, got.distance);
+            if (got.lod === want && got.distance >= l.switch_distance * (1 - 1e-9))
+                ok(`slider at ${got.distance.toFixed(1)} m (switch ${l.switch_distance.toFixed(1)} m) draws ${got.lod}`);
+            else bad(`slider at ${got.distance.toFixed(1)} m draws ${got.lod}, want ${want} (switch of ${l.name}: ${l.switch_distance})`);
+            if (got.lod !== l.name) console.log(`note - ${l.name}'s band is thinner than a slider step`);
+        }
+        const last = st.lods[st.lods.length - 1].name;
+        const far = await page.evaluate(() => window.sylvaViewer.setDistance(Infinity).lod);
+        if (far === last) ok(`slider at the far end draws the last level, ${last}`);
+        else bad(`slider at the far end draws ${far}, want ${last}`);
+        await page.evaluate(() => window.sylvaViewer.setDistance(0));
+        await page.screenshot({ path: path.join(outDir, 'view.png'), fullPage: true });
+    }
+    if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
+    else ok('no page error, no failed request');
+
+    for (const c of compares) {
+        const p = await browser.newPage({ viewport: { width: c.size + 16, height: c.size + 16 }, deviceScaleFactor: 1 });
+        const u = `${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(c.lod)}&dir=${c.dir}&size=${c.size}`;
+        await p.goto(u);
+        const ts = await waitReady(p, `test view of ${c.lod} from ${c.dir}`);
+        if (!ts) continue;
+        const shot = await p.evaluate(() => {
+            const cv = document.getElementById('test');
+            const px = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
+            const a = new Array(cv.width * cv.height);
+            for (let i = 0; i < a.length; i++) a[i] = px[4 * i + 3];
+            return { w: cv.width, h: cv.height, alpha: a, png: cv.toDataURL('image/png') };
+        });
+        fs.writeFileSync(path.join(outDir, `test_${c.lod}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
+        const ref = pngAlpha(c.ref);
+        if (ref.width !== shot.w || ref.height !== shot.h) {
+            bad(`${c.lod}: reference is ${ref.width}x${ref.height}, the page drew ${shot.w}x${shot.h}`);
+            continue;
+        }
+        let inter = 0, uni = 0, nPage = 0, nRef = 0;
+        for (let i = 0; i < ref.alpha.length; i++) {
+            const a = shot.alpha[i] > 0, b = ref.alpha[i] >= 128;
+            nPage += a; nRef += b;
+            if (a && b) inter++;
+            if (a || b) uni++;
+        }
+        const iou = uni ? inter / uni : 1;
+        const msg = `${c.lod} from ${c.dir} at ${c.size} px: coverage IoU ${iou.toFixed(4)} against the evaluator's render (page ${nPage} px, reference ${nRef} px)`;
+        if (iou >= 0.95 && nRef > 0) ok(msg);
+        else bad(msg);
+        await p.close();
+    }
+} finally {
+    await browser.close();
+}
+process.exit(failures ? 1 : 0);
