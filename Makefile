@@ -229,7 +229,7 @@ install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
 	else install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; fi
 	set -e; for b in $(notdir $(BINS)); do \
 	    sed $(MAN_SED) deploy/man/$$b.1 > $(DESTDIR)$(MANDIR)/$$b.1; done
-	install -m 644 docs/operations.md docs/api.md docs/client.md docs/spec.md docs/outputs.md \
+	install -m 644 docs/operations.md docs/api.md docs/client.md docs/spec.md docs/outputs.md docs/runtime.md \
 	    docs/deploy.md $(DESTDIR)$(DOCDIR)/
 	install -m 644 deploy/nginx/sylva.conf deploy/nginx/sylva-nodes.conf $(DESTDIR)$(DOCDIR)/nginx/
 	sed -e 's#/usr/local/bin#$(BINDIR)#g' -e 's#/usr/local/etc/sylva#$(SYSCONFDIR)/sylva#g' \
