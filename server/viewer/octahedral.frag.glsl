@@ -4,8 +4,10 @@
 // frame selection, ray-plane sampling of three frames, blend, alpha test.
 // Optional parts, each behind a #define prepended by the engine:
 //   SV_OCTA_NORMAL  lights the blend with the normal atlas (Lambert + ambient)
-//   SV_OCTA_DEPTH   writes gl_FragDepth from the depth atlas (parallax-correct
-//                   depth for shadows and intersections)
+//   SV_OCTA_DEPTH   reads the depth atlas: each frame is sampled where the ray
+//                   meets the surface it stores (SV_OCTA_PARALLAX_STEPS fixed-point
+//                   steps from the frame plane, as sv_octa_render does), and
+//                   gl_FragDepth is the blended surface point's depth
 // Uniforms and the impostor.json fields they come from: docs/runtime.md.
 precision highp float;
 precision highp int;
@@ -86,38 +88,66 @@ void frameBasis(vec3 d, out vec3 right, out vec3 up) {
     up = cross(d, right);
 }
 
+#ifndef SV_OCTA_PARALLAX_STEPS
+#define SV_OCTA_PARALLAX_STEPS 3
+#endif
+
 struct Sample {
     vec4 albedo;    // straight rgb, a (0 when the ray misses the frame)
     vec3 normal;    // object space (SV_OCTA_NORMAL)
-    float t;        // ray parameter of the surface: P = vPos - t D (SV_OCTA_DEPTH)
+    vec3 pos;       // the surface point, relative to the centre (SV_OCTA_DEPTH)
 };
+
+// atlas uv of frame point st in frame ij, frames of F texels: bilinear with
+// texel centres clamped inside the frame
+vec2 atlasUv(ivec2 ij, vec2 st, float F) {
+    vec2 xy = clamp(st * F, vec2(0.5), vec2(F - 0.5));
+    return (vec2(ij) * F + xy) / (float(uGrid) * F);
+}
 
 Sample sampleFrame(ivec2 ij, vec3 D) {
     Sample s;
     s.albedo = vec4(0.0);
     s.normal = vec3(0.0);
-    s.t = 0.0;
+    s.pos = vec3(0.0);
     vec3 d = frameDir(ij);
     float dd = dot(D, d);
     if (dd <= 1e-4) return s;
-    float t = dot(vPos - uCentre, d) / dd;
-    vec3 rel = vPos - t * D - uCentre;
     vec3 right, up;
     frameBasis(d, right, up);
-    vec2 st = vec2(dot(rel, right) / uHalf * 0.5 + 0.5, 0.5 - dot(rel, up) / uHalf * 0.5);
-    if (any(lessThan(st, vec2(0.0))) || any(greaterThan(st, vec2(1.0)))) return s;
-    // bilinear, texel centres clamped inside the frame at the sampled mip
-    float F = max(floor(uFramePixels / exp2(float(uMip))), 1.0);
-    vec2 xy = clamp(st * F, vec2(0.5), vec2(F - 0.5));
-    vec2 uv = (vec2(ij) * F + xy) / (float(uGrid) * F);
-    s.albedo = textureLod(uAlbedo, uv, 0.0);
+    vec3 q = vPos - uCentre;
+    float a0 = dot(q, d), off = 0.0;
+    float F = max(floor(uFramePixels / exp2(float(uMip))), 1.0), F0 = uFramePixels;
+    vec3 P;
+    vec2 st;
+    bool inside = false;
+    // start on the frame plane; with a depth map, move SV_OCTA_PARALLAX_STEPS
+    // times to the ray's point at the height stored where the last point projects
+    for (int it = 0; it <= SV_OCTA_PARALLAX_STEPS; it++) {
+        float tt = (a0 - off) / dd;
+        P = q - tt * D - off * d;
+        st = vec2(dot(P, right) / uHalf * 0.5 + 0.5, 0.5 - dot(P, up) / uHalf * 0.5);
+        inside = all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)));
+#ifdef SV_OCTA_DEPTH
+        if (!inside || it == SV_OCTA_PARALLAX_STEPS) break;
+        off = (textureLod(uDepth, atlasUv(ij, st, F0), 0.0).r - 0.5) * 2.0 * uHalf;
+#else
+        break;
+#endif
+    }
+    if (!inside) return s;
+    s.albedo = textureLod(uAlbedo, atlasUv(ij, st, F), 0.0);
+    if (!(s.albedo.a > 0.0)) {
+        s.albedo = vec4(0.0);
+        return s;
+    }
 #ifdef SV_OCTA_NORMAL
-    vec3 n = textureLod(uNormal, uv, 0.0).xyz * 2.0 - 1.0;
+    vec3 n = textureLod(uNormal, atlasUv(ij, st, F0), 0.0).xyz * 2.0 - 1.0;
     s.normal = n.x * right + n.y * up + n.z * d;
 #endif
 #ifdef SV_OCTA_DEPTH
-    float sd = (textureLod(uDepth, uv, 0.0).r * 2.0 - 1.0) * uHalf;
-    s.t = (dot(vPos - uCentre, d) - sd) / dd;
+    float h = (textureLod(uDepth, atlasUv(ij, st, F0), 0.0).r - 0.5) * 2.0 * uHalf;
+    s.pos = P + h * d;
 #endif
     return s;
 }
@@ -147,8 +177,8 @@ void main() {
     rgb *= uAmbient + (1.0 - uAmbient) * max(dot(n, uLightDir), 0.0);
 #endif
 #ifdef SV_OCTA_DEPTH
-    float t = (wa.x * s0.t + wa.y * s1.t + wa.z * s2.t) / a;
-    vec4 clip = projectionMatrix * viewMatrix * modelMatrix * vec4(vPos - t * D, 1.0);
+    vec3 surface = uCentre + (wa.x * s0.pos + wa.y * s1.pos + wa.z * s2.pos) / a;
+    vec4 clip = projectionMatrix * viewMatrix * modelMatrix * vec4(surface, 1.0);
     gl_FragDepth = 0.5 + 0.5 * clip.z / clip.w;
 #endif
     fragColor = vec4(rgb, 1.0);

@@ -5,10 +5,12 @@
 //
 // Draws the LOD's proxy quad (model.glb, node impostor.json "node") as a
 // square of half-size billboard_half about the frame centre, facing the
-// viewer. Only the quad's TEXCOORD_0 is read: corner = (2u - 1, 1 - 2v), so
-// any quad whose uvs are the unit square's corners works, whatever its
-// positions. Everything the fragment stage needs is in object space, where
-// impostor.json's centre, half and directions live (+Y up).
+// viewer. The quad's attributes are not read: its four vertices are taken in
+// sylva's quad corner order, vertex k = gl_VertexID % 4 at corner
+// (-u,-v), (+u,-v), (+u,+v), (-u,+v) (planes.json "corners", triangles
+// 0 1 2, 0 2 3), which is how sylva writes every quad. Everything the
+// fragment stage needs is in object space, where impostor.json's centre,
+// half and directions live (+Y up).
 precision highp float;
 
 uniform mat4 modelMatrix;       // object -> world (rotation, translation, uniform scale)
@@ -19,7 +21,7 @@ uniform bool uOrtho;            // orthographic camera: every ray has the camera
 uniform vec3 uCentre;           // impostor.json lods[].centre
 uniform float uBillboardHalf;   // impostor.json lods[].billboard_half
 
-in vec2 uv;
+in vec3 position;               // not read (three.js needs an attribute to count vertices)
 
 out vec3 vPos;                  // the point of the quad, object space
 flat out vec3 vViewDir;         // unit, from the centre towards the viewer (frame selection)
@@ -34,7 +36,8 @@ void main() {
     vec3 toViewer = uOrtho ? camBack : normalize(camPos - uCentre);
     vec3 right = normalize(camRight - dot(camRight, toViewer) * toViewer);
     vec3 up = cross(toViewer, right);
-    vec2 corner = vec2(2.0 * uv.x - 1.0, 1.0 - 2.0 * uv.y);
+    const vec2 corners[4] = vec2[4](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(1.0, 1.0), vec2(-1.0, 1.0));
+    vec2 corner = corners[gl_VertexID % 4];
     vPos = uCentre + uBillboardHalf * (corner.x * right + corner.y * up);
     vViewDir = toViewer;
     vCamPos = camPos;

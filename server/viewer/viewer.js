@@ -188,8 +188,7 @@ async function makeImpostor(entry, light) {
     }
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.Float32BufferAttribute(new Float32Array(12), 3));
-    g.setAttribute('uv', new THREE.Float32BufferAttribute([0, 0, 1, 0, 1, 1, 0, 1], 2));
-    g.setIndex([0, 1, 2, 0, 2, 3]);
+    g.setIndex([0, 1, 2, 0, 2, 3]); // sylva's quad: corners (-u,-v) (+u,-v) (+u,+v) (-u,+v)
     const mat = rawMaterial('octahedral', defines, uniforms);
     const mesh = new THREE.Mesh(g, mat);
     mesh.frustumCulled = false; // its positions are made in the vertex shader

@@ -102,6 +102,10 @@ try {
     const page = await browser.newPage({ viewport: { width: 1400, height: 1000 }, deviceScaleFactor: 1 });
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));
+    // three.js reports a shader that does not build on the console
+    page.on('console', (m) => {
+        if (m.type() === 'error' && !/^Failed to load resource/.test(m.text())) errors.push(m.text().slice(0, 300));
+    });
     // every request the page makes must succeed (the browser's own favicon aside)
     page.on('response', (r) => {
         if (r.status() >= 400 && !r.url().endsWith('/favicon.ico')) errors.push(`${r.status()} ${r.url()}`);
@@ -135,6 +139,36 @@ try {
         else bad(`slider at the far end draws ${far}, want ${last}`);
         await page.evaluate(() => window.sylvaViewer.setDistance(0));
         await page.screenshot({ path: path.join(outDir, 'view.png'), fullPage: true });
+    }
+    // every shader pair compiles and links in WebGL2 with each set of its
+    // #defines (docs/runtime.md), whether or not this bake uses it
+    const combos = [['octahedral', []], ['octahedral', ['SV_OCTA_NORMAL']], ['octahedral', ['SV_OCTA_DEPTH']],
+        ['octahedral', ['SV_OCTA_NORMAL', 'SV_OCTA_DEPTH']], ['slicing', []], ['slicing', ['SV_SLICING_BLEND']],
+        ['stochastic', []]];
+    const logs = await page.evaluate(async (combos) => {
+        const gl = document.createElement('canvas').getContext('webgl2');
+        const src = async (n) => (await fetch(new URL(`../../viewer/${n}.glsl`, location.href))).text();
+        const out = [];
+        for (const [name, defs] of combos) {
+            const head = '#version 300 es\n' + defs.map((d) => `#define ${d}\n`).join('');
+            const prog = gl.createProgram();
+            let log = '';
+            for (const [type, stage] of [[gl.VERTEX_SHADER, 'vert'], [gl.FRAGMENT_SHADER, 'frag']]) {
+                const sh = gl.createShader(type);
+                gl.shaderSource(sh, head + await src(`${name}.${stage}`));
+                gl.compileShader(sh);
+                if (!gl.getShaderParameter(sh, gl.COMPILE_STATUS)) log += `${stage}: ${gl.getShaderInfoLog(sh)} `;
+                gl.attachShader(prog, sh);
+            }
+            gl.linkProgram(prog);
+            if (!log && !gl.getProgramParameter(prog, gl.LINK_STATUS)) log = `link: ${gl.getProgramInfoLog(prog)}`;
+            out.push({ name: `${name}${defs.length ? ' + ' + defs.join(' + ') : ''}`, log });
+        }
+        return out;
+    }, combos);
+    for (const l of logs) {
+        if (l.log) bad(`shader ${l.name} does not build: ${l.log}`);
+        else ok(`shader ${l.name} compiles and links`);
     }
     if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
     else ok('no page error, no failed request');
