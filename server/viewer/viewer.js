@@ -311,7 +311,7 @@ async function loadOriginal(report) {
     const ext = mesh.toLowerCase().split('.').pop();
     // sylva serves uploaded files by base name only: map every URL a loader
     // asks for below inputs/ (a texture in a sub-folder, say) to its base name
-    const manager = new THREE.LoadingManager();
+    const manager = trackedManager();
     manager.setURLModifier((u) => {
         if (!u.startsWith(inputsBase)) return u;
         const name = decodeURIComponent(u.slice(inputsBase.length)).split(/[\\/]/).pop();
@@ -345,7 +345,7 @@ async function loadOriginal(report) {
     } else {
         throw new Error(`original ${mesh}: no three.js loader for .${ext}`);
     }
-    await waitForTextures(manager);
+    await manager.idle(); // the textures the materials asked for
     toUnlit(obj, true);
     // into sylva's frame: the import's unit scale, then Z-up rotated to +Y
     // (sv_mesh_rotate_up: "Z": y' = z, z' = -y; "-Z": y' = -z, z' = y)
@@ -361,15 +361,20 @@ async function loadOriginal(report) {
     return wrap;
 }
 
-function waitForTextures(manager) {
-    return new Promise((resolve) => {
-        let pending = false;
-        manager.onStart = () => { pending = true; };
-        manager.onLoad = () => resolve();
-        // nothing queued (or already finished): give the loaders one tick
-        setTimeout(() => { if (!pending) resolve(); }, 50);
-        setTimeout(resolve, 20000);
-    });
+// A LoadingManager that can say when everything it was handed has loaded
+// (or failed): idle() resolves once as many items ended as started.
+function trackedManager() {
+    const m = new THREE.LoadingManager();
+    let started = 0, ended = 0, wake = [];
+    const start = m.itemStart.bind(m), end = m.itemEnd.bind(m);
+    m.itemStart = (u) => { started++; start(u); };
+    m.itemEnd = (u) => {
+        ended++;
+        end(u);
+        if (ended >= started) { for (const w of wake) w(); wake = []; }
+    };
+    m.idle = () => new Promise((resolve) => { if (ended >= started) resolve(); else wake.push(resolve); });
+    return m;
 }
 
 // ---- drawing ------------------------------------------------------------

@@ -12,7 +12,8 @@
 //    X,Y,Z at SIZE x SIZE (the evaluator's framing); its coverage (alpha > 0)
 //    is compared with REF.png's (alpha >= 128; `sylva-bake view` of the same
 //    view): IoU = |A ∩ B| / |A ∪ B|, printed, and must be >= 0.95. The page's
-//    render goes to OUT_DIR/test_LOD.png.
+//    render goes to OUT_DIR/test_LOD.png. REF may also be page:OTHER, the
+//    page's own test render of OTHER (a level or `original`) from the same view.
 // Prints "ok - ..." / "FAIL - ..." lines; exits 1 on any failure.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -173,37 +174,47 @@ try {
     if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
     else ok('no page error, no failed request');
 
+    // the page's test render of one level: {w, h, alpha[], png}
+    const testRender = async (lod, dir, size) => {
+        const p = await browser.newPage({ viewport: { width: size + 16, height: size + 16 }, deviceScaleFactor: 1 });
+        try {
+            await p.goto(`${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(lod)}&dir=${dir}&size=${size}`);
+            if (!(await waitReady(p, `test view of ${lod} from ${dir}`))) return null;
+            const shot = await p.evaluate(() => {
+                const cv = document.getElementById('test');
+                const px = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
+                const a = new Array(cv.width * cv.height);
+                for (let i = 0; i < a.length; i++) a[i] = px[4 * i + 3];
+                return { width: cv.width, height: cv.height, alpha: a, png: cv.toDataURL('image/png') };
+            });
+            fs.writeFileSync(path.join(outDir, `test_${lod}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
+            return shot;
+        } finally {
+            await p.close();
+        }
+    };
     for (const c of compares) {
-        const p = await browser.newPage({ viewport: { width: c.size + 16, height: c.size + 16 }, deviceScaleFactor: 1 });
-        const u = `${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(c.lod)}&dir=${c.dir}&size=${c.size}`;
-        await p.goto(u);
-        const ts = await waitReady(p, `test view of ${c.lod} from ${c.dir}`);
-        if (!ts) continue;
-        const shot = await p.evaluate(() => {
-            const cv = document.getElementById('test');
-            const px = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
-            const a = new Array(cv.width * cv.height);
-            for (let i = 0; i < a.length; i++) a[i] = px[4 * i + 3];
-            return { w: cv.width, h: cv.height, alpha: a, png: cv.toDataURL('image/png') };
-        });
-        fs.writeFileSync(path.join(outDir, `test_${c.lod}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
-        const ref = pngAlpha(c.ref);
-        if (ref.width !== shot.w || ref.height !== shot.h) {
-            bad(`${c.lod}: reference is ${ref.width}x${ref.height}, the page drew ${shot.w}x${shot.h}`);
+        const shot = await testRender(c.lod, c.dir, c.size);
+        if (!shot) continue;
+        const fromPage = c.ref.startsWith('page:');
+        const ref = fromPage ? await testRender(c.ref.slice(5), c.dir, c.size) : pngAlpha(c.ref);
+        if (!ref) continue;
+        if (ref.width !== shot.width || ref.height !== shot.height) {
+            bad(`${c.lod}: reference is ${ref.width}x${ref.height}, the page drew ${shot.width}x${shot.height}`);
             continue;
         }
         let inter = 0, uni = 0, nPage = 0, nRef = 0;
         for (let i = 0; i < ref.alpha.length; i++) {
-            const a = shot.alpha[i] > 0, b = ref.alpha[i] >= 128;
+            const a = shot.alpha[i] > 0, b = fromPage ? ref.alpha[i] > 0 : ref.alpha[i] >= 128;
             nPage += a; nRef += b;
             if (a && b) inter++;
             if (a || b) uni++;
         }
         const iou = uni ? inter / uni : 1;
-        const msg = `${c.lod} from ${c.dir} at ${c.size} px: coverage IoU ${iou.toFixed(4)} against the evaluator's render (page ${nPage} px, reference ${nRef} px)`;
+        const what = fromPage ? `the page's ${c.ref.slice(5)}` : `the evaluator's render (${path.basename(c.ref)})`;
+        const msg = `${c.lod} from ${c.dir} at ${c.size} px: coverage IoU ${iou.toFixed(4)} against ${what} (${nPage} and ${nRef} px)`;
         if (iou >= 0.95 && nRef > 0) ok(msg);
         else bad(msg);
-        await p.close();
     }
 } finally {
     await browser.close();
