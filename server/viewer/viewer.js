@@ -94,7 +94,10 @@ function dirFromAngles(azDeg, elDeg) {
 // ---- materials ----------------------------------------------------------
 
 // the evaluator compares unlit albedo: every material becomes a
-// MeshBasicMaterial with the same texture, colour, cutoff and sides
+// MeshBasicMaterial with the same texture, colour, cutoff and sides, and
+// textures are sampled as sylva's renderer samples them, bilinear without
+// mipmaps (core/render_osmesa.c: mipmaps average alpha and erode
+// alpha-tested leaves; each level's atlas is sized for where it is drawn)
 function toUnlit(root, original) {
     root.traverse((o) => {
         if (!o.isMesh && !o.isPoints) return;
@@ -107,6 +110,11 @@ function toUnlit(root, original) {
                 side: m.side,
                 vertexColors: !!m.vertexColors,
             });
+            if (b.map) {
+                b.map.generateMipmaps = false;
+                b.map.minFilter = THREE.LinearFilter;
+                b.map.needsUpdate = true;
+            }
             if (original) {
                 // sylva's import: a texture with alpha means alpha MASK with
                 // cutoff 0.5, and masked materials are double-sided

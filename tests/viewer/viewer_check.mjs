@@ -175,11 +175,20 @@ try {
     else ok('no page error, no failed request');
 
     // the page's test render of one level: {w, h, alpha[], png}
-    const testRender = async (lod, dir, size) => {
+    // (LOD may carry more page parameters after a '?': stochastic50?fade=1)
+    const rendered = new Map(); // one render per (spec, dir, size)
+    const testRender = async (spec, dir, size) => {
+        const id = `${spec} ${dir} ${size}`;
+        if (!rendered.has(id)) rendered.set(id, testRenderOnce(spec, dir, size));
+        return rendered.get(id);
+    };
+    const testRenderOnce = async (spec, dir, size) => {
+        const [lod, extra] = spec.split('?');
         const p = await browser.newPage({ viewport: { width: size + 16, height: size + 16 }, deviceScaleFactor: 1 });
         try {
-            await p.goto(`${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(lod)}&dir=${dir}&size=${size}`);
-            if (!(await waitReady(p, `test view of ${lod} from ${dir}`))) return null;
+            await p.goto(`${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(lod)}&dir=${dir}&size=${size}` +
+                (extra ? `&${extra}` : ''));
+            if (!(await waitReady(p, `test view of ${spec} from ${dir}`))) return null;
             const shot = await p.evaluate(() => {
                 const cv = document.getElementById('test');
                 const px = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
@@ -187,7 +196,7 @@ try {
                 for (let i = 0; i < a.length; i++) a[i] = px[4 * i + 3];
                 return { width: cv.width, height: cv.height, alpha: a, png: cv.toDataURL('image/png') };
             });
-            fs.writeFileSync(path.join(outDir, `test_${lod}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
+            fs.writeFileSync(path.join(outDir, `test_${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
             return shot;
         } finally {
             await p.close();
