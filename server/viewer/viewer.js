@@ -12,7 +12,8 @@
 // framing report.json's evaluation.frame sphere as sylva's evaluator does
 // (sv_eval_camera), on a transparent background; &mip=M picks an impostor mip
 // (default 0). window.sylvaViewer reports progress: {ready, error, panels:
-// [{name, covered, pixels}]}.
+// [{name, covered, pixels}]}; in test mode its draw(NAME, [x,y,z], S, {fade})
+// draws another view on the same page (levels load once).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
@@ -434,60 +435,73 @@ async function main() {
     const light = params.get('light') === '1';
     const fade = params.get('fade') === '1';
 
-    // the levels, in chain order
-    const levels = [];
-    for (const lod of report.lods) {
-        const pl = planesOf.get(lod.name) || {};
-        const oct = impostorOf.get(lod.name);
-        const lv = { name: lod.name, source: lod.source || '', switch_distance: lod.switch_distance, lod, obj: null };
-        if (testMode && params.get('lod') !== lod.name && !(fade && lod.source === 'stochastic')) {
-            levels.push(lv);
-            continue;
-        }
-        if (oct) {
-            lv.kind = 'octahedral';
-            lv.obj = await makeImpostor(oct, light);
-        } else {
+    // a level's drawable: the impostor, or its glb (slicing: through the
+    // slicing shader); with fade, a stochastic level below lambda = 1 is the
+    // full level through the fade shader at the level's mu. Loaded once.
+    const loaded = new Map();
+    const loadLevel = (lod, withFade) => {
+        const id = lod.name + (withFade ? '?fade' : '');
+        if (!loaded.has(id)) loaded.set(id, (async () => {
+            const pl = planesOf.get(lod.name) || {};
+            const oct = impostorOf.get(lod.name);
+            if (withFade && lod.source === 'stochastic' && lod.lambda !== 1) {
+                const full = report.lods.find((l) => l.source === 'stochastic' && l.lambda === 1);
+                if (full) {
+                    const obj = makeStochasticFade((await loadLevel(full, false)).obj, report);
+                    obj.userData.setMu(lod.leaf_fraction ?? lod.lambda);
+                    return { kind: 'stochastic fade', obj };
+                }
+            }
+            if (oct) return { kind: 'octahedral', obj: await makeImpostor(oct, light) };
             const gltf = await gltfLoader.loadAsync(art(lod.file || pl.file));
             toUnlit(gltf.scene, false);
-            lv.kind = pl.slicing ? 'slicing' : 'mesh';
             if (pl.slicing) makeSlicing(gltf.scene, pl, sphere);
-            lv.obj = gltf.scene;
-        }
-        levels.push(lv);
-    }
-    if (fade) {
-        const full = levels.find((l) => l.source === 'stochastic' && l.lod.lambda === 1 && l.obj);
-        if (full) {
-            for (const lv of levels) {
-                if (lv.source !== 'stochastic' || lv.lod.lambda === 1) continue;
-                lv.obj = makeStochasticFade(full.obj, report);
-                lv.obj.userData.setMu(lv.lod.leaf_fraction ?? lv.lod.lambda);
-                lv.kind = 'stochastic fade';
-            }
-        }
-    }
-    state.lods = levels.map((l) => ({ name: l.name, kind: l.kind, switch_distance: l.switch_distance }));
-    const wantOriginal = !testMode || params.get('lod') === 'original';
-    const original = wantOriginal ? await loadOriginal(report) : null;
+            return { kind: pl.slicing ? 'slicing' : 'mesh', obj: gltf.scene };
+        })());
+        return loaded.get(id);
+    };
+    let originalP = null;
+    const loadOriginalOnce = () => (originalP = originalP || loadOriginal(report));
 
     if (testMode) {
+        // draw(NAME, [x, y, z], S, {fade}): one level ('original' for the
+        // original) from direction x,y,z with the evaluator's camera into the
+        // S x S canvas#test; returns its alpha and a PNG of it
         document.body.classList.add('test');
-        const size = Number(params.get('size')) || 256;
-        const dir = (params.get('dir') || '0,0,1').split(',').map(Number);
         const canvas = document.createElement('canvas');
         canvas.id = 'test';
-        canvas.width = canvas.height = size;
-        canvas.style.width = canvas.style.height = size + 'px';
         document.body.appendChild(canvas);
-        const name = params.get('lod');
-        const obj = name === 'original' ? original : (levels.find((l) => l.name === name) || {}).obj;
-        if (!obj) throw new Error(`no level named ${name}`);
-        const cam = evalCamera(sphere, new V3(...dir));
-        state.panels = [{ name, covered: draw(canvas, obj, cam, (2 * sphere.radius) / size), pixels: size * size }];
+        state.draw = async (name, dir, size, opts) => {
+            const lod = report.lods.find((l) => l.name === name);
+            if (name !== 'original' && !lod) throw new Error(`no level named ${name}`);
+            const obj = name === 'original' ? await loadOriginalOnce()
+                : (await loadLevel(lod, !!(opts && opts.fade))).obj;
+            canvas.width = canvas.height = size;
+            canvas.style.width = canvas.style.height = size + 'px';
+            const cam = evalCamera(sphere, new V3(...dir));
+            const covered = draw(canvas, obj, cam, (2 * sphere.radius) / size);
+            const px = canvas.getContext('2d').getImageData(0, 0, size, size).data;
+            const alpha = new Array(size * size);
+            for (let i = 0; i < alpha.length; i++) alpha[i] = px[4 * i + 3];
+            state.panels = [{ name, covered, pixels: size * size }];
+            return { width: size, height: size, covered, alpha, png: canvas.toDataURL('image/png') };
+        };
+        if (params.has('lod')) {
+            const dir = (params.get('dir') || '0,0,1').split(',').map(Number);
+            await state.draw(params.get('lod'), dir, Number(params.get('size')) || 256, { fade });
+        }
         state.ready = true;
         return;
     }
+
+    // the levels, in chain order
+    const levels = [];
+    for (const lod of report.lods) {
+        const { kind, obj } = await loadLevel(lod, fade);
+        levels.push({ name: lod.name, source: lod.source || '', switch_distance: lod.switch_distance, lod, kind, obj });
+    }
+    state.lods = levels.map((l) => ({ name: l.name, kind: l.kind, switch_distance: l.switch_distance }));
+    const original = await loadOriginalOnce();
 
     // every level, orthographic from the chosen direction
     const levelsEl = document.getElementById('levels');

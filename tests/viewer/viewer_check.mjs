@@ -174,8 +174,9 @@ try {
     if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
     else ok('no page error, no failed request');
 
-    // the page's test render of one level: {w, h, alpha[], png}
-    // (LOD may carry more page parameters after a '?': stochastic50?fade=1)
+    // the page's test render of one level, all on one test-mode page (each
+    // level loads once): {width, height, alpha[], png}
+    let testPage = null;
     const rendered = new Map(); // one render per (spec, dir, size)
     const testRender = async (spec, dir, size) => {
         const id = `${spec} ${dir} ${size}`;
@@ -183,24 +184,25 @@ try {
         return rendered.get(id);
     };
     const testRenderOnce = async (spec, dir, size) => {
+        // (SPEC: a level, or a level with page parameters: stochastic50?fade=1)
         const [lod, extra] = spec.split('?');
-        const p = await browser.newPage({ viewport: { width: size + 16, height: size + 16 }, deviceScaleFactor: 1 });
-        try {
-            await p.goto(`${base}/v1/bakes/${key}/view?test=1&lod=${encodeURIComponent(lod)}&dir=${dir}&size=${size}` +
-                (extra ? `&${extra}` : ''));
-            if (!(await waitReady(p, `test view of ${spec} from ${dir}`))) return null;
-            const shot = await p.evaluate(() => {
-                const cv = document.getElementById('test');
-                const px = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
-                const a = new Array(cv.width * cv.height);
-                for (let i = 0; i < a.length; i++) a[i] = px[4 * i + 3];
-                return { width: cv.width, height: cv.height, alpha: a, png: cv.toDataURL('image/png') };
-            });
-            fs.writeFileSync(path.join(outDir, `test_${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}.png`), Buffer.from(shot.png.split(',')[1], 'base64'));
-            return shot;
-        } finally {
-            await p.close();
+        if (!testPage) {
+            testPage = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+            testPage.on('pageerror', (e) => bad(`test page: ${e}`));
+            await testPage.goto(`${base}/v1/bakes/${key}/view?test=1`);
+            if (!(await waitReady(testPage, 'test-mode page'))) return null;
         }
+        let shot;
+        try {
+            shot = await testPage.evaluate(([l, d, s, f]) => window.sylvaViewer.draw(l, d, s, { fade: f }),
+                [lod, dir.split(',').map(Number), size, /(^|&)fade=1(&|$)/.test(extra || '')]);
+        } catch (e) {
+            bad(`test view of ${spec} from ${dir}: ${e.message.split('\n')[0]}`);
+            return null;
+        }
+        fs.writeFileSync(path.join(outDir, `test_${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}_${dir}.png`),
+            Buffer.from(shot.png.split(',')[1], 'base64'));
+        return shot;
     };
     for (const c of compares) {
         const shot = await testRender(c.lod, c.dir, c.size);
