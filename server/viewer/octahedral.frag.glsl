@@ -33,7 +33,9 @@ uniform vec3 uLightDir;         // unit, towards the light, object space
 uniform float uAmbient;
 #endif
 #ifdef SV_OCTA_DEPTH
-uniform sampler2D uDepth;       // maps.depth (uMip 0 only): 0.5 + 0.5 s/half, s along d towards the viewer
+uniform sampler2D uDepth;       // maps.depth (uMip 0 only): 0.5 + 0.5 s/half, s along d towards the viewer;
+                                // 16-bit R (unorm16 or float), or with SV_OCTA_DEPTH_RG8 two bytes
+                                // R = high, G = low (WebGL2 has no filterable 16-bit unorm format)
 #endif
 
 in vec3 vPos;
@@ -88,6 +90,17 @@ void frameBasis(vec3 d, out vec3 right, out vec3 up) {
     up = cross(d, right);
 }
 
+#ifdef SV_OCTA_DEPTH
+float depthAt(vec2 uv) {
+    vec4 t = textureLod(uDepth, uv, 0.0);
+#ifdef SV_OCTA_DEPTH_RG8
+    return dot(t.rg, vec2(65280.0, 255.0) / 65535.0);
+#else
+    return t.r;
+#endif
+}
+#endif
+
 #ifndef SV_OCTA_PARALLAX_STEPS
 #define SV_OCTA_PARALLAX_STEPS 3
 #endif
@@ -130,7 +143,7 @@ Sample sampleFrame(ivec2 ij, vec3 D) {
         inside = all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)));
 #ifdef SV_OCTA_DEPTH
         if (!inside || it == SV_OCTA_PARALLAX_STEPS) break;
-        off = (textureLod(uDepth, atlasUv(ij, st, F0), 0.0).r - 0.5) * 2.0 * uHalf;
+        off = (depthAt(atlasUv(ij, st, F0)) - 0.5) * 2.0 * uHalf;
 #else
         break;
 #endif
@@ -146,7 +159,7 @@ Sample sampleFrame(ivec2 ij, vec3 D) {
     s.normal = n.x * right + n.y * up + n.z * d;
 #endif
 #ifdef SV_OCTA_DEPTH
-    float h = (textureLod(uDepth, atlasUv(ij, st, F0), 0.0).r - 0.5) * 2.0 * uHalf;
+    float h = (depthAt(atlasUv(ij, st, F0)) - 0.5) * 2.0 * uHalf;
     s.pos = P + h * d;
 #endif
     return s;

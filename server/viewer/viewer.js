@@ -192,8 +192,11 @@ async function makeImpostor(entry, light) {
         uniforms.uAmbient = { value: 0.35 };
     }
     if (entry.maps.depth) {
+        // 16 bits: a browser decodes a 16-bit PNG to 8 bits, a parallax
+        // error of half/128; the page decodes it itself into RG8 (high, low)
         defines.SV_OCTA_DEPTH = '';
-        uniforms.uDepth = { value: rawTexture(await texLoader.loadAsync(art(entry.maps.depth))) };
+        defines.SV_OCTA_DEPTH_RG8 = '';
+        uniforms.uDepth = { value: await loadGray16(art(entry.maps.depth)) };
     }
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.Float32BufferAttribute(new Float32Array(12), 3));
@@ -262,6 +265,51 @@ function makeSlicing(root, planesLod, sphere) {
     atlasMesh.geometry = geo;
     atlasMesh.material = rawMaterial('slicing', {}, uniforms);
     root.userData.prepare = (camera) => { uniforms.uOrtho.value = !!camera.isOrthographicCamera; };
+}
+
+// A 16-bit grayscale PNG (sylva's depth maps) as an RG8 texture, R = high
+// byte, G = low byte: bilinear filtering is linear, so the shader's
+// R * 65280 + G * 255 is the filtered 16-bit value.
+async function loadGray16(url) {
+    const r = await fetch(url);
+    if (!r.ok) throw new Error(`${url}: ${r.status}`);
+    const b = new Uint8Array(await r.arrayBuffer());
+    const dv = new DataView(b.buffer);
+    let off = 8, w = 0, h = 0;
+    const idat = [];
+    while (off + 8 <= b.length) {
+        const len = dv.getUint32(off), type = String.fromCharCode(...b.subarray(off + 4, off + 8));
+        if (type === 'IHDR') {
+            w = dv.getUint32(off + 8);
+            h = dv.getUint32(off + 12);
+            if (b[off + 16] !== 16 || b[off + 17] !== 0 || b[off + 20] !== 0)
+                throw new Error(`${url}: not a non-interlaced 16-bit gray PNG`);
+        } else if (type === 'IDAT') idat.push(b.subarray(off + 8, off + 8 + len));
+        else if (type === 'IEND') break;
+        off += 12 + len;
+    }
+    const z = new Blob(idat).stream().pipeThrough(new DecompressionStream('deflate'));
+    const raw = new Uint8Array(await new Response(z).arrayBuffer());
+    const stride = 2 * w, bpp = 2, out = new Uint8Array(h * stride);
+    for (let y = 0; y < h; y++) {
+        const f = raw[y * (stride + 1)], src = y * (stride + 1) + 1, row = y * stride, prev = row - stride;
+        for (let x = 0; x < stride; x++) {
+            const a = x >= bpp ? out[row + x - bpp] : 0, up = y ? out[prev + x] : 0;
+            const c = y && x >= bpp ? out[prev + x - bpp] : 0;
+            let v = raw[src + x];
+            if (f === 1) v += a;
+            else if (f === 2) v += up;
+            else if (f === 3) v += (a + up) >> 1;
+            else if (f === 4) {
+                const p = a + up - c, pa = Math.abs(p - a), pb = Math.abs(p - up), pc = Math.abs(p - c);
+                v += pa <= pb && pa <= pc ? a : pb <= pc ? up : c;
+            }
+            out[row + x] = v & 255;
+        }
+    }
+    // PNG is big-endian: each sample is already (high, low)
+    const tex = new THREE.DataTexture(out, w, h, THREE.RGFormat, THREE.UnsignedByteType);
+    return rawTexture(tex);
 }
 
 let white = null;

@@ -144,7 +144,7 @@ try {
     // every shader pair compiles and links in WebGL2 with each set of its
     // #defines (docs/runtime.md), whether or not this bake uses it
     const combos = [['octahedral', []], ['octahedral', ['SV_OCTA_NORMAL']], ['octahedral', ['SV_OCTA_DEPTH']],
-        ['octahedral', ['SV_OCTA_NORMAL', 'SV_OCTA_DEPTH']], ['slicing', []], ['slicing', ['SV_SLICING_BLEND']],
+        ['octahedral', ['SV_OCTA_NORMAL', 'SV_OCTA_DEPTH']], ['octahedral', ['SV_OCTA_DEPTH', 'SV_OCTA_DEPTH_RG8']], ['slicing', []], ['slicing', ['SV_SLICING_BLEND']],
         ['stochastic', []]];
     const logs = await page.evaluate(async (combos) => {
         const gl = document.createElement('canvas').getContext('webgl2');
