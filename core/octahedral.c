@@ -18,6 +18,7 @@
 #include "vec3.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -203,6 +204,111 @@ static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j
     return alpha;
 }
 
+/* Bilinear depth value in [0,1] of frame (i, j) at (s, t), as sample_frame. */
+static double sample_depth(const uint16_t *dp, uint32_t W, uint32_t F, uint32_t i, uint32_t j,
+                           double s, double t)
+{
+    double x = s * F - 0.5, y = t * F - 0.5;
+    if (x < 0) x = 0;
+    if (y < 0) y = 0;
+    if (x > F - 1) x = F - 1;
+    if (y > F - 1) y = F - 1;
+    uint32_t x0 = (uint32_t)x, y0 = (uint32_t)y;
+    uint32_t x1 = x0 + 1 < F ? x0 + 1 : x0, y1 = y0 + 1 < F ? y0 + 1 : y0;
+    double fx = x - x0, fy = y - y0;
+    const uint16_t *r0 = dp + (size_t)(j * F + y0) * W + i * F, *r1 = dp + (size_t)(j * F + y1) * W + i * F;
+    double v = (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x1]);
+    return v / 65535.0;
+}
+
+typedef struct render_job {
+    const sv_octa_grid *g;
+    const sv_image *albedo, *depth_map;
+    const sv_camera *cam;
+    octa_frame f[3];
+    double base[3][3], ex[3][3], ey[3][3], dr[3], du[3], dd[3], fwd[3], cut;
+    uint32_t w, h, y0, y1;
+    uint8_t *out;
+    float *depth;
+} render_job;
+
+/* Rows [y0, y1) of sv_octa_render. */
+static void render_rows(const render_job *J)
+{
+    const sv_octa_grid *g = J->g;
+    const sv_image *albedo = J->albedo, *depth_map = J->depth_map;
+    const sv_camera *cam = J->cam;
+    const octa_frame *f = J->f;
+    const double(*base)[3] = J->base, (*ex)[3] = J->ex, (*ey)[3] = J->ey;
+    const double *dr = J->dr, *du = J->du, *dd = J->dd, *fwd = J->fwd, cut = J->cut;
+    uint32_t w = J->w, h = J->h, F = g->frame_pixels;
+    uint8_t *out = J->out;
+    float *depth = J->depth;
+    const double inv = 0.5 / g->half;
+    const uint16_t *dp = depth_map ? depth_map->data : NULL;
+    for (uint32_t y = J->y0; y < J->y1; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            double sx = (2.0 * (x + 0.5) / w - 1.0) * cam->half_width;
+            double sy = (1.0 - 2.0 * (y + 0.5) / h) * cam->half_height;
+            double a = 0, prem[3] = {0, 0, 0}, hsum = 0, psum[3] = {0, 0, 0};
+            for (int k = 0; k < 3; k++) {
+                if (f[k].w <= 0 || dd[k] <= 1e-4) continue;
+                double a0 = base[k][0] + sx * ex[k][0] + sy * ey[k][0];
+                double qr = base[k][1] + sx * ex[k][1] + sy * ey[k][1];
+                double qu = base[k][2] + sx * ex[k][2] + sy * ey[k][2];
+                /* parallax (octahedral.h): start on the frame plane, move to
+                 * the ray's point at the height the depth map gives where the
+                 * last point projects, SV_OCTA_PARALLAX_STEPS times */
+                double hgt = 0, s = 0, t = 0, pr = 0, pu = 0;
+                bool inside = true;
+                for (int it = 0; it <= (dp ? SV_OCTA_PARALLAX_STEPS : 0); it++) {
+                    double tt = (a0 - hgt) / dd[k];
+                    pr = qr - tt * dr[k];
+                    pu = qu - tt * du[k];
+                    s = pr * inv + 0.5;
+                    t = 0.5 - pu * inv;
+                    inside = s >= 0 && s <= 1 && t >= 0 && t <= 1;
+                    if (!inside || !dp || it == SV_OCTA_PARALLAX_STEPS) break;
+                    hgt = (sample_depth(dp, depth_map->width, F, f[k].i, f[k].j, s, t) - 0.5) *
+                          2.0 * g->half;
+                }
+                if (!inside) continue;
+                double c[3], dv = 0.5;
+                double ak = sample_frame(albedo, F, f[k].i, f[k].j, s, t, c, depth_map, &dv);
+                if (!(ak > 0)) continue;
+                a += f[k].w * ak;
+                for (int m = 0; m < 3; m++) prem[m] += f[k].w * c[m];
+                /* the surface point, relative to the centre: P + h·d_k with P
+                 * on the frame plane (right, up coordinates pr, pu) */
+                double hh = (dv - 0.5) * 2.0 * g->half, wk = f[k].w * ak;
+                for (int m = 0; m < 3; m++)
+                    psum[m] += wk * (pr * f[k].r[m] + pu * f[k].u[m] + hh * f[k].d[m]);
+                hsum += wk;
+            }
+            size_t oi = (size_t)y * w + x;
+            if (a >= cut) {
+                for (int m = 0; m < 3; m++) {
+                    double v = prem[m] / a;
+                    out[4 * oi + m] = (uint8_t)lrint(fmin(1.0, fmax(0.0, v)) * 255.0);
+                }
+                out[4 * oi + 3] = 255;
+                if (depth) {
+                    double wp[3];
+                    for (int m = 0; m < 3; m++) wp[m] = psum[m] / hsum + g->centre[m] - cam->origin[m];
+                    depth[oi] = (float)sv_dot3(wp, fwd);
+                }
+            } else if (depth) {
+                depth[oi] = INFINITY;
+            }
+        }
+}
+
+static void *render_rows_thread(void *arg)
+{
+    render_rows(arg);
+    return NULL;
+}
+
 sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv_image *depth_map,
                          const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba,
                          float *depth, sv_error *err)
@@ -232,63 +338,46 @@ sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv
         sv_octa_frame_dir(g, f[k].i, f[k].j, f[k].d);
         sv_octa_frame_basis(f[k].d, f[k].r, f[k].u);
     }
-    double dd[3];
-    for (int k = 0; k < 3; k++) dd[k] = sv_dot3(D, f[k].d);
-    double cut = g->cutoff > 0 ? g->cutoff : 0.5;
-    uint8_t *out = rgba->data;
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++) {
-            double sx = (2.0 * (x + 0.5) / w - 1.0) * cam->half_width;
-            double sy = (1.0 - 2.0 * (y + 0.5) / h) * cam->half_height;
-            double q[3];
-            for (int k = 0; k < 3; k++)
-                q[k] = cam->origin[k] + sx * cam->right[k] + sy * cam->up[k] - g->centre[k];
-            double a = 0, prem[3] = {0, 0, 0}, pos[3] = {0, 0, 0};
-            for (int k = 0; k < 3; k++) {
-                if (f[k].w <= 0 || dd[k] <= 1e-4) continue;
-                /* parallax: find where the ray meets the surface the frame
-                 * stores (height `off` over the frame plane along d_k):
-                 * start on the plane, then SV_OCTA_PARALLAX_STEPS times move
-                 * to the ray's point at the height read where the last
-                 * point projects, and sample there */
-                double a0 = sv_dot3(q, f[k].d), off = 0, P[3], s = 0, t = 0;
-                bool inside = true;
-                for (int it = 0; it <= (depth_map ? SV_OCTA_PARALLAX_STEPS : 0); it++) {
-                    double tt = (a0 - off) / dd[k];
-                    for (int m = 0; m < 3; m++) P[m] = q[m] - tt * D[m] - off * f[k].d[m];
-                    s = sv_dot3(P, f[k].r) / g->half * 0.5 + 0.5;
-                    t = 0.5 - sv_dot3(P, f[k].u) / g->half * 0.5;
-                    inside = s >= 0 && s <= 1 && t >= 0 && t <= 1;
-                    if (!inside || !depth_map || it == SV_OCTA_PARALLAX_STEPS) break;
-                    double cc[3], dv;
-                    sample_frame(albedo, F, f[k].i, f[k].j, s, t, cc, depth_map, &dv);
-                    off = (dv - 0.5) * 2.0 * g->half;
-                }
-                if (!inside) continue;
-                double c[3], dv = 0.5;
-                double ak = sample_frame(albedo, F, f[k].i, f[k].j, s, t, c, depth_map, &dv);
-                if (!(ak > 0)) continue;
-                a += f[k].w * ak;
-                for (int m = 0; m < 3; m++) prem[m] += f[k].w * c[m];
-                double h = (dv - 0.5) * 2.0 * g->half; /* along d_k, towards the viewer */
-                for (int m = 0; m < 3; m++) pos[m] += f[k].w * ak * (P[m] + h * f[k].d[m]);
-            }
-            size_t o = (size_t)y * w + x;
-            if (a >= cut) {
-                for (int m = 0; m < 3; m++) {
-                    double v = prem[m] / a;
-                    out[4 * o + m] = (uint8_t)lrint(fmin(1.0, fmax(0.0, v)) * 255.0);
-                }
-                out[4 * o + 3] = 255;
-                if (depth) {
-                    double wp[3];
-                    for (int m = 0; m < 3; m++) wp[m] = pos[m] / a + g->centre[m] - cam->origin[m];
-                    depth[o] = (float)sv_dot3(wp, fwd);
-                }
-            } else if (depth) {
-                depth[o] = INFINITY;
-            }
+    /* Per frame, everything along a pixel's ray is linear in the pixel's
+     * offsets (sx, sy) from the camera origin: q·d_k, q·right_k, q·up_k. */
+    render_job J;
+    memset(&J, 0, sizeof J);
+    J.cut = g->cutoff > 0 ? g->cutoff : 0.5;
+    double o[3] = {cam->origin[0] - g->centre[0], cam->origin[1] - g->centre[1],
+                   cam->origin[2] - g->centre[2]};
+    for (int k = 0; k < 3; k++) {
+        const double *ax[3] = {f[k].d, f[k].r, f[k].u};
+        for (int a = 0; a < 3; a++) {
+            J.base[k][a] = sv_dot3(o, ax[a]);
+            J.ex[k][a] = sv_dot3(cam->right, ax[a]);
+            J.ey[k][a] = sv_dot3(cam->up, ax[a]);
         }
+        J.dd[k] = sv_dot3(D, f[k].d);
+        J.dr[k] = sv_dot3(D, f[k].r);
+        J.du[k] = sv_dot3(D, f[k].u);
+    }
+    J.g = g;
+    J.albedo = albedo;
+    J.depth_map = depth_map;
+    J.cam = cam;
+    memcpy(J.f, f, sizeof f);
+    memcpy(J.fwd, fwd, sizeof fwd);
+    J.w = w;
+    J.h = h;
+    J.out = rgba->data;
+    J.depth = depth;
+    /* two halves of the rows on two threads (each pixel on its own: the
+     * same bytes whatever the split); one thread when it cannot start */
+    render_job J2 = J;
+    J.y0 = 0;
+    J.y1 = h / 2;
+    J2.y0 = h / 2;
+    J2.y1 = h;
+    pthread_t th;
+    bool threaded = h >= 64 && pthread_create(&th, NULL, render_rows_thread, &J2) == 0;
+    render_rows(&J);
+    if (threaded) pthread_join(th, NULL);
+    else render_rows(&J2);
     return SV_OK;
 }
 
