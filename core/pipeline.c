@@ -668,13 +668,17 @@ typedef struct lod_out {
 /* ---- octahedral impostors (core/octahedral.c; docs/methods/octahedral.md) ---- */
 
 /* Frame side when the spec leaves it to us: the next power of two at or
- * above the largest evaluated size (a level is never judged, nor planned to
- * be drawn, taller than that), in [16, 1024], lowered until the n × n
- * grid fits bake.max_atlas. shrink_atlases lowers it further for a level
- * drawn only smaller. */
+ * above SV_ATLAS_TEXELS_PER_PIXEL texels per pixel of the largest evaluated
+ * size (a level is never judged, nor planned to be drawn, taller than that;
+ * at one texel per pixel the alpha test's blocks cost ficus 0.06 of IoU at
+ * 64 px), in [16, 1024], lowered until the n × n grid fits bake.max_atlas.
+ * shrink_atlases lowers it further for a level drawn only smaller. */
+#define SV_ATLAS_TEXELS_PER_PIXEL 4.0
 static uint32_t octa_frame_pixels(const sv_spec *spec, uint32_t n)
 {
-    uint32_t f = 16, want = spec->eval_size_count ? spec->eval_sizes[0] : 256;
+    uint32_t f = 16;
+    uint32_t want = (uint32_t)(SV_ATLAS_TEXELS_PER_PIXEL *
+                               (spec->eval_size_count ? spec->eval_sizes[0] : 256));
     while (f < want && f < 1024) f *= 2;
     uint32_t cap = spec->max_atlas ? spec->max_atlas : 2048;
     while (f > 16 && (uint64_t)f * n > cap) f /= 2;
@@ -885,7 +889,6 @@ static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *
  * is calibrated again at the size it is drawn at. The first level is drawn
  * at any size and keeps its atlas. The accuracy the report gives was
  * measured before. */
-#define SV_ATLAS_TEXELS_PER_PIXEL 4.0
 #define SV_ATLAS_MIN_SIDE 16u
 
 static sv_status shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
@@ -1669,8 +1672,26 @@ static sv_status bake_all(run *r, sv_error *err)
         /* slicings (core/slicing.c): each slicing's direction, quads and the blending rule */
         cJSON *slicing = sv_slicing_describe(lp);
         if (slicing) cJSON_AddItemToObject(o, "slicing", slicing);
-        /* octahedral: the quad above is the proxy; impostor.json has the rest */
-        if (lp->octa) cJSON_AddBoolToObject(o, "impostor", true);
+        /* octahedral: the proxy quad (the frame nearest the +Z side view);
+         * impostor.json has the rest */
+        if (lp->octa && b->mesh->vertex_count >= 4 && b->uv_rects) {
+            const float *P = b->mesh->positions, *N = b->mesh->normals;
+            double n[3] = {N[0], N[1], N[2]}, c[4][3];
+            for (int k = 0; k < 4; k++)
+                for (int m = 0; m < 3; m++) c[k][m] = P[3 * k + m];
+            cJSON *qo = cJSON_CreateObject();
+            cJSON_AddItemToObject(qo, "normal", vec3_json(n));
+            cJSON_AddNumberToObject(qo, "d", -(n[0] * lp->octa->centre[0] + n[1] * lp->octa->centre[1] +
+                                               n[2] * lp->octa->centre[2]));
+            cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
+            for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, vec3_json(c[k]));
+            double uvd[4] = {b->uv_rects[0], b->uv_rects[1], b->uv_rects[2], b->uv_rects[3]};
+            cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
+            cJSON_AddNumberToObject(qo, "faces", p->mesh->triangle_count);
+            cJSON_AddStringToObject(qo, "part", "all");
+            cJSON_AddItemToArray(qa, qo);
+            cJSON_AddBoolToObject(o, "impostor", true);
+        }
         cJSON_AddItemToArray(pl, o);
     }
     if ((st = write_json(req->out_dir, "planes.json", planes, err))) goto out;
@@ -1853,6 +1874,12 @@ static bool ladder_step(const char *method, int i, cJSON *set)
         cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
         cJSON_AddNumberToObject(set, "planes", i < 2 ? 2 : 3);
         cJSON_AddBoolToObject(set, "horizontal", i % 2 == 1);
+    } else if (strcmp(method, "octahedral") == 0) {
+        /* grid side: issue 21's ladder; texels grow with it (frames keep their size) */
+        static const int grids[] = {4, 6, 8, 12, 16};
+        if (i >= (int)(sizeof grids / sizeof grids[0])) return false;
+        cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
+        cJSON_AddNumberToObject(set, "grid", grids[i]);
     } else if (strcmp(method, "stochastic") == 0) {
         if (i >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
         cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
