@@ -427,14 +427,16 @@ void sv_evaluator_destroy(sv_evaluator *e)
  * factor of a box filter by an integer factor is the box filter by their
  * product, so each size is filtered from the smallest larger image it divides
  * (exact, and much cheaper than filtering the base image every time). */
-static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
-                             uint32_t tri_count, uint32_t v, sv_eval_image *out, sv_error *err)
+static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
+                                uint32_t tri_count, sv_eval_draw_fn draw, void *user, uint32_t v,
+                                sv_eval_image *out, sv_error *err)
 {
     sv_camera cam;
     sv_eval_camera(e->centre, e->radius, &e->dirs[3 * (size_t)v], &cam);
     sv_image color = {0};
-    sv_status st = sv_render(e->r, g, tris, tri_count, &cam, &e->ropt, e->base, e->base, &color,
-                             e->depth, err);
+    sv_status st = draw ? draw(user, &cam, e->base, e->base, &color, e->depth, err)
+                        : sv_render(e->r, g, tris, tri_count, &cam, &e->ropt, e->base, e->base,
+                                    &color, e->depth, err);
     uint32_t s0 = 0;
     if (st == SV_OK && e->ftmp && color.channels == 4 && color.bits == 8 && color.data &&
         color.width == e->base && color.height == e->base) {
@@ -454,6 +456,12 @@ static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32
     }
     sv_image_free(&color);
     return st;
+}
+
+static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
+                             uint32_t tri_count, uint32_t v, sv_eval_image *out, sv_error *err)
+{
+    return render_view_by(e, g, tris, tri_count, NULL, NULL, v, out, err);
 }
 
 static int cmp_desc(const void *a, const void *b)
@@ -578,8 +586,29 @@ static sv_status alloc_sizes(const sv_evaluator *e, sv_eval_image *imgs, sv_erro
     return SV_OK;
 }
 
+static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                              sv_eval_draw_fn draw, void *user, sv_eval_result *out,
+                              sv_error *err);
+
 sv_status sv_evaluate_subsets(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
                               void *user, sv_eval_result *out, sv_error *err)
+{
+    return evaluate_any(e, result, fn, NULL, user, out, err);
+}
+
+sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user,
+                            sv_eval_result *out, sv_error *err)
+{
+    if (!draw) {
+        memset(out, 0, sizeof *out);
+        return sv_fail(err, SV_ERR_INTERNAL, "evaluate: no draw function");
+    }
+    return evaluate_any(e, NULL, NULL, draw, user, out, err);
+}
+
+static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                              sv_eval_draw_fn draw, void *user, sv_eval_result *out,
+                              sv_error *err)
 {
     memset(out, 0, sizeof *out);
     double t0 = sv_now();
@@ -599,7 +628,9 @@ sv_status sv_evaluate_subsets(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
         out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
     }
     for (uint32_t v = 0; v < e->view_count; v++) {
-        if ((st = render_result(e, result, fn, user, v, acc, err)) != SV_OK) goto out;
+        st = draw ? render_view_by(e, NULL, NULL, 0, draw, user, v, acc, err)
+                  : render_result(e, result, fn, user, v, acc, err);
+        if (st != SV_OK) goto out;
         for (uint32_t s = 0; s < e->size_count; s++) {
             sv_eval_metrics m =
                 sv_eval_compare(&e->orig[(size_t)v * e->size_count + s], &acc[s], e->radius);

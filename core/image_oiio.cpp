@@ -160,7 +160,8 @@ sv_status decode_stb(const uint8_t *data, size_t size, const char *name, uint32_
 /* Returns SV_OK, an error, or SV_ERR_FORMAT with *fallback set when OIIO has no
  * reader for the format that can read from memory. */
 sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const char *name,
-                      uint32_t max_size, sv_image *out, bool *fallback, sv_error *err)
+                      uint32_t max_size, sv_image *out, bool *fallback, sv_error *err,
+                      bool gray16 = false)
 {
     *fallback = false;
     Filesystem::IOMemReader proxy(data, size);
@@ -191,6 +192,18 @@ sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const c
     size_t npx = (size_t)spec.width * (size_t)spec.height, nbytes;
     if (!sv_mul_size(npx, (size_t)ch, &nbytes))
         return sv_fail(err, SV_ERR_NOMEM, "image '%s' size overflows", name);
+    if (gray16) { /* the first channel, 16 bits */
+        st = sv_image_alloc(out, (uint32_t)spec.width, (uint32_t)spec.height, 1, 16, err);
+        if (st != SV_OK) return st;
+        if (!in->read_image(0, 0, 0, 1, TypeDesc::UINT16, out->data)) {
+            std::string e = in->geterror();
+            sv_image_free(out);
+            return sv_fail(err, SV_ERR_PARSE, "cannot decode image '%s' (%s): %s", name, fmt,
+                           e.c_str());
+        }
+        in->close();
+        return SV_OK;
+    }
     std::vector<uint8_t> buf(nbytes);
     if (!in->read_image(0, 0, 0, ch, TypeDesc::UINT8, buf.data())) {
         std::string e = in->geterror();
@@ -316,4 +329,33 @@ extern "C" sv_status sv_image_write_png(const sv_image *img, const char *path, s
     if (w != n || close_failed)
         return sv_fail(err, SV_ERR_IO, "cannot write '%s' (%zu of %zu bytes written)", path, w, n);
     return SV_OK;
+}
+
+extern "C" sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name,
+                                            uint32_t max_size, sv_image *out, sv_error *err)
+{
+    if (!out) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_decode_gray16: out is NULL");
+    std::memset(out, 0, sizeof *out);
+    if (!name) name = "(unnamed)";
+    if (!data || size == 0) return sv_fail(err, SV_ERR_PARSE, "image '%s' is empty", name);
+    if (max_size == 0) max_size = 16384;
+    try {
+        const uint8_t *d = (const uint8_t *)data;
+        const char *fmt = image_format(d, size, name);
+        if (!fmt || std::strcmp(fmt, "png") != 0)
+            return sv_fail(err, SV_ERR_FORMAT, "image '%s' is not a PNG", name);
+        sv_status st = check_png_chunks(d, size, name, err);
+        if (st != SV_OK) return st;
+        bool fallback = false;
+        st = decode_oiio(d, size, fmt, name, max_size, out, &fallback, err, true);
+        if (st != SV_OK) sv_image_free(out);
+        return st;
+    } catch (const std::exception &e) {
+        sv_image_free(out);
+        return sv_fail(err, SV_ERR_INTERNAL, "decoding image '%s' threw: %s", name, e.what());
+    } catch (...) {
+        sv_image_free(out);
+        return sv_fail(err, SV_ERR_INTERNAL, "decoding image '%s' threw an unknown exception",
+                       name);
+    }
 }

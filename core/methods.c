@@ -8,6 +8,7 @@ extern const sv_method sv_method_leaf_clusters;
 extern const sv_method sv_method_stochastic;
 extern const sv_method sv_method_slicing;
 extern const sv_method sv_method_billboard_cloud;
+extern const sv_method sv_method_octahedral;
 
 static const sv_method *const registry[] = {
     &sv_method_crossed_quads,
@@ -15,6 +16,7 @@ static const sv_method *const registry[] = {
     &sv_method_stochastic,
     &sv_method_slicing,
     &sv_method_billboard_cloud,
+    &sv_method_octahedral,
 };
 
 const sv_method *const *sv_method_list(size_t *count)

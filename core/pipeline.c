@@ -17,6 +17,7 @@
 #include "evaluate.h"
 #include "gltf.h"
 #include "method.h"
+#include "octahedral.h"
 #include "plausibility.h"
 #include "preview.h"
 #include "render.h"
@@ -661,7 +662,98 @@ typedef struct lod_out {
     char node[96];          /* its node name (also in model.glb): <asset>_LOD<i> */
     double alpha_cutoff;    /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;       /* mean IoU at SV_CALIB_PIXELS with that cutoff */
+    uint32_t mip_count;     /* octahedral: albedo mips written after level 0 */
 } lod_out;
+
+/* ---- octahedral impostors (core/octahedral.c; docs/methods/octahedral.md) ---- */
+
+/* Frame side when the spec leaves it to us: the next power of two at or
+ * above SV_ATLAS_TEXELS_PER_PIXEL texels per pixel of the largest evaluated
+ * size (a level is never judged, nor planned to be drawn, taller than that;
+ * at one texel per pixel the alpha test's blocks cost ficus 0.06 of IoU at
+ * 64 px), in [16, 1024], lowered until the n × n grid fits bake.max_atlas.
+ * shrink_atlases lowers it further for a level drawn only smaller. */
+#define SV_ATLAS_TEXELS_PER_PIXEL 4.0
+static uint32_t octa_frame_pixels(const sv_spec *spec, uint32_t n)
+{
+    uint32_t f = 16;
+    uint32_t want = (uint32_t)(SV_ATLAS_TEXELS_PER_PIXEL *
+                               (spec->eval_size_count ? spec->eval_sizes[0] : 256));
+    while (f < want && f < 1024) f *= 2;
+    uint32_t cap = spec->max_atlas ? spec->max_atlas : 2048;
+    while (f > 16 && (uint64_t)f * n > cap) f /= 2;
+    return f;
+}
+
+typedef struct octa_draw_ctx {
+    const sv_octa_grid *g;
+    const sv_baked_lod *b;
+} octa_draw_ctx;
+
+/* sv_eval_draw_fn: the C reference runtime (sv_octa_render). */
+static sv_status octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
+                           sv_image *color, float *depth, sv_error *err)
+{
+    const octa_draw_ctx *c = user;
+    return sv_octa_render(c->g, &c->b->albedo, c->b->depth.data ? &c->b->depth : NULL, cam, w, h,
+                          color, depth, err);
+}
+
+/* Writes atlas_<name>_albedo_mip<k>.png for k = 1.. while frames keep at
+ * least 4 texels (Castaño-scaled alpha, sv_octa_mip). */
+static sv_status octa_write_mips(const char *dir, const char *name, const sv_octa_grid *g,
+                                 const sv_image *albedo, uint32_t *count, sv_error *err)
+{
+    sv_image prev = {0}, next = {0};
+    const sv_image *src = albedo;
+    sv_status st = SV_OK;
+    *count = 0;
+    char path[4096];
+    while (st == SV_OK && src->width / g->n >= 8) {
+        if ((st = sv_octa_mip(g, albedo, src, &next, err))) break;
+        snprintf(path, sizeof path, "%s/atlas_%s_albedo_mip%u.png", dir, name, *count + 1);
+        st = sv_image_write_png(&next, path, err);
+        sv_image_free(&prev);
+        prev = next;
+        memset(&next, 0, sizeof next);
+        src = &prev;
+        if (st == SV_OK) (*count)++;
+    }
+    sv_image_free(&prev);
+    sv_image_free(&next);
+    return st;
+}
+
+/* impostor.json's entry for one octahedral level (docs/runtime.md). */
+static cJSON *octa_json(const sv_octa_grid *g, const char *name, const lod_out *l)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "lod", name);
+    cJSON_AddStringToObject(o, "node", l->node);
+    cJSON_AddStringToObject(o, "layout", g->hemi ? "hemi-octahedral" : "octahedral");
+    cJSON_AddBoolToObject(o, "hemi", g->hemi);
+    cJSON_AddNumberToObject(o, "grid", g->n);
+    cJSON_AddNumberToObject(o, "frame_pixels", g->frame_pixels);
+    cJSON_AddItemToObject(o, "centre", cJSON_CreateDoubleArray(g->centre, 3));
+    cJSON_AddNumberToObject(o, "half", g->half);
+    /* a camera-facing square of this half size holds every frame plane's
+     * footprint (a frame square of half `half` seen at any angle) */
+    cJSON_AddNumberToObject(o, "billboard_half", g->half * sqrt(2.0));
+    cJSON_AddNumberToObject(o, "alpha_cutoff", 0.5);
+    cJSON_AddStringToObject(o, "up", "+Y");
+    cJSON *maps = cJSON_AddObjectToObject(o, "maps");
+    static const char *const keys[4] = {"albedo", "normal", "ao", "depth"};
+    for (int k = 0; k < 4; k++)
+        if (l->maps[k][0]) cJSON_AddStringToObject(maps, keys[k], l->maps[k]);
+    cJSON *mips = cJSON_AddArrayToObject(o, "mips");
+    cJSON_AddItemToArray(mips, cJSON_CreateString(l->maps[0]));
+    for (uint32_t k = 1; k <= l->mip_count; k++) {
+        char f[128];
+        snprintf(f, sizeof f, "atlas_%s_albedo_mip%u.png", name, k);
+        cJSON_AddItemToArray(mips, cJSON_CreateString(f));
+    }
+    return o;
+}
 
 /* Alpha calibration (issue 18; Behrendt et al. §3.3.7 threshold the baked
  * coverage "to keep the look of density", but a fixed threshold inflates or
@@ -797,7 +889,6 @@ static sv_status calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *
  * is calibrated again at the size it is drawn at. The first level is drawn
  * at any size and keeps its atlas. The accuracy the report gives was
  * measured before. */
-#define SV_ATLAS_TEXELS_PER_PIXEL 4.0
 #define SV_ATLAS_MIN_SIDE 16u
 
 static sv_status shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
@@ -815,9 +906,12 @@ static sv_status shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
         uint32_t side = b->albedo.width > b->albedo.height ? b->albedo.width : b->albedo.height;
         uint32_t other = b->albedo.width + b->albedo.height - side;
         int k = 0;
-        while (b->texel_size * ldexp(1.0, k + 1) <= want && (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE)
+        sv_octa_grid *og = si->lods[i].octa; /* frames stay whole: at least 16 texels */
+        while (b->texel_size * ldexp(1.0, k + 1) <= want && (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE &&
+               (!og || (og->frame_pixels >> (k + 1)) >= 16))
             k++;
         if (!k) continue;
+        if (og) og->frame_pixels >>= k;
         sv_image *maps[4] = {&b->albedo, &b->normal, &b->ao, &b->depth};
         for (int m = 0; m < 4 && !st; m++)
             if (maps[m]->data) st = sv_image_reduce(maps[m], side >> k, err);
@@ -1283,6 +1377,13 @@ static sv_status bake_all(run *r, sv_error *err)
     for (uint32_t i = 0; i < si.lod_count; i++) {
         const sv_lod_plan *lp = &si.lods[i];
         if ((st = progress(r, ST_BAKE, (double)i / si.lod_count))) goto cancelled;
+        if (lp->octa) {
+            if (!lp->octa->frame_pixels)
+                lp->octa->frame_pixels = octa_frame_pixels(spec, lp->octa->n);
+            if ((st = sv_octa_bake(ren, gsrc, p->mesh, lp->octa, &bo, 0, &lods[i].baked, err)))
+                goto out;
+            continue;
+        }
         sv_mesh *keep = NULL;
         if (lp->trunk != SV_TRUNK_NONE) {
             double ratio = lp->trunk == SV_TRUNK_MESH ? 1.0 : lp->trunk_ratio;
@@ -1352,6 +1453,9 @@ static sv_status bake_all(run *r, sv_error *err)
             if (ch.info[i].stochastic && ch.info[i].lambda >= 1 && !si.lods[i].quad_count) {
                 /* the full level is the original mesh: nothing to measure (issue 20) */
                 st = sv_eval_identity(ev, &lods[i].eval, err);
+            } else if (si.lods[i].octa) {
+                octa_draw_ctx oc = {si.lods[i].octa, &lods[i].baked};
+                st = sv_evaluate_drawn(ev, octa_draw, &oc, &lods[i].eval, err);
             } else if (si.lods[i].select) {
                 view_sets vs;
                 if ((st = view_sets_init(&vs, &si.lods[i], &lods[i].baked, err))) goto out;
@@ -1414,6 +1518,11 @@ static sv_status bake_all(run *r, sv_error *err)
             snprintf(path, sizeof path, "%s/%s", req->out_dir, lods[i].maps[k]);
             if ((st = sv_image_write_png(img, path, err))) goto out;
         }
+    for (uint32_t i = 0; i < si.lod_count; i++)
+        if (si.lods[i].octa &&
+            (st = octa_write_mips(req->out_dir, si.lods[i].name, si.lods[i].octa,
+                                  &lods[i].baked.albedo, &lods[i].mip_count, err)))
+            goto out;
     /* model.glb */
     {
         sv_gltf_lod *gl = sv_calloc(si.lod_count, sizeof *gl);
@@ -1458,11 +1567,16 @@ static sv_status bake_all(run *r, sv_error *err)
         sv_preview_level *pv = sv_calloc(si.lod_count, sizeof *pv);
         view_sets *vs = sv_calloc(si.lod_count, sizeof *vs);
         bool *vs_ok = sv_calloc(si.lod_count, sizeof *vs_ok);
-        if (!pv || !vs || !vs_ok) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        octa_draw_ctx *oc = sv_calloc(si.lod_count, sizeof *oc);
+        if (!pv || !vs || !vs_ok || !oc) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
         for (uint32_t i = 0; i < si.lod_count && st == SV_OK; i++) {
             const sv_baked_lod *b = &lods[i].baked;
             pv[i].gpu = lods[i].gpu;
-            if (si.lods[i].select) {
+            if (si.lods[i].octa) {
+                oc[i] = (octa_draw_ctx){si.lods[i].octa, b};
+                pv[i].draw = octa_draw;
+                pv[i].user = &oc[i];
+            } else if (si.lods[i].select) {
                 if ((st = view_sets_init(&vs[i], &si.lods[i], b, err))) break;
                 vs_ok[i] = true;
                 pv[i].select = select_subsets;
@@ -1499,6 +1613,7 @@ static sv_status bake_all(run *r, sv_error *err)
         }
         for (uint32_t i = 0; vs_ok && i < si.lod_count; i++)
             if (vs_ok[i]) view_sets_free(&vs[i]);
+        free(oc);
         free(vs_ok);
         free(vs);
         free(pv);
@@ -1557,9 +1672,46 @@ static sv_status bake_all(run *r, sv_error *err)
         /* slicings (core/slicing.c): each slicing's direction, quads and the blending rule */
         cJSON *slicing = sv_slicing_describe(lp);
         if (slicing) cJSON_AddItemToObject(o, "slicing", slicing);
+        /* octahedral: the proxy quad (the frame nearest the +Z side view);
+         * impostor.json has the rest */
+        if (lp->octa && b->mesh->vertex_count >= 4 && b->uv_rects) {
+            const float *P = b->mesh->positions, *N = b->mesh->normals;
+            double n[3] = {N[0], N[1], N[2]}, c[4][3];
+            for (int k = 0; k < 4; k++)
+                for (int m = 0; m < 3; m++) c[k][m] = P[3 * k + m];
+            cJSON *qo = cJSON_CreateObject();
+            cJSON_AddItemToObject(qo, "normal", vec3_json(n));
+            cJSON_AddNumberToObject(qo, "d", -(n[0] * lp->octa->centre[0] + n[1] * lp->octa->centre[1] +
+                                               n[2] * lp->octa->centre[2]));
+            cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
+            for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, vec3_json(c[k]));
+            double uvd[4] = {b->uv_rects[0], b->uv_rects[1], b->uv_rects[2], b->uv_rects[3]};
+            cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
+            cJSON_AddNumberToObject(qo, "faces", p->mesh->triangle_count);
+            cJSON_AddStringToObject(qo, "part", "all");
+            cJSON_AddItemToArray(qa, qo);
+            cJSON_AddBoolToObject(o, "impostor", true);
+        }
         cJSON_AddItemToArray(pl, o);
     }
     if ((st = write_json(req->out_dir, "planes.json", planes, err))) goto out;
+    {
+        cJSON *imp = NULL, *il = NULL;
+        for (uint32_t i = 0; i < si.lod_count; i++) {
+            if (!si.lods[i].octa) continue;
+            if (!imp) {
+                imp = cJSON_CreateObject();
+                cJSON_AddStringToObject(imp, "schema", "sylva.impostor/1");
+                il = cJSON_AddArrayToObject(imp, "lods");
+            }
+            cJSON_AddItemToArray(il, octa_json(si.lods[i].octa, si.lods[i].name, &lods[i]));
+        }
+        if (imp) {
+            st = write_json(req->out_dir, "impostor.json", imp, err);
+            cJSON_Delete(imp);
+            if (st) goto out;
+        }
+    }
 
     /* report.json */
     report = cJSON_CreateObject();
@@ -1636,6 +1788,13 @@ static sv_status bake_all(run *r, sv_error *err)
     cJSON_AddNumberToObject(ev_o, "supersample", spec->eval_supersample);
     cJSON_AddNumberToObject(ev_o, "lod_tolerance", spec->lod_tolerance);
     cJSON_AddNumberToObject(ev_o, "lod_tolerance_pixels", spec->lod_tolerance_pixels);
+    {
+        /* the sphere every view frames (evaluate.h): a viewer reproduces a view */
+        cJSON *fo = cJSON_AddObjectToObject(ev_o, "frame");
+        double fcc[3] = {fc[0], fc[1], fc[2]};
+        cJSON_AddItemToObject(fo, "centre", cJSON_CreateDoubleArray(fcc, 3));
+        cJSON_AddNumberToObject(fo, "radius", fr > 0 ? fr : p->radius);
+    }
     if (r->target_json) {
         cJSON_AddItemToObject(report, "target", r->target_json);
         r->target_json = NULL;
@@ -1715,6 +1874,12 @@ static bool ladder_step(const char *method, int i, cJSON *set)
         cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
         cJSON_AddNumberToObject(set, "planes", i < 2 ? 2 : 3);
         cJSON_AddBoolToObject(set, "horizontal", i % 2 == 1);
+    } else if (strcmp(method, "octahedral") == 0) {
+        /* grid side: issue 21's ladder; texels grow with it (frames keep their size) */
+        static const int grids[] = {4, 6, 8, 12, 16};
+        if (i >= (int)(sizeof grids / sizeof grids[0])) return false;
+        cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
+        cJSON_AddNumberToObject(set, "grid", grids[i]);
     } else if (strcmp(method, "stochastic") == 0) {
         if (i >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
         cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");

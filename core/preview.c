@@ -45,11 +45,14 @@ static void text(sv_image *c, int x, int y, const char *s)
     }
 }
 
-/* Renders g (the heaviest subset for view_dir when select is set) at s × s. */
-static sv_status draw(sv_renderer *r, const sv_gpu_mesh *g, sv_eval_subset_fn select, void *user,
-                      const double dir[3], const sv_camera *cam, const sv_render_options *ro,
-                      uint32_t s, sv_image *out, sv_error *err)
+/* Renders g (the heaviest subset for view_dir when select is set; by
+ * drawfn when set) at s × s. */
+static sv_status draw_by(sv_renderer *r, const sv_gpu_mesh *g, sv_eval_subset_fn select,
+                         sv_eval_draw_fn drawfn, void *user, const double dir[3],
+                         const sv_camera *cam, const sv_render_options *ro, uint32_t s,
+                         sv_image *out, sv_error *err)
 {
+    if (drawfn) return drawfn(user, cam, s, s, out, NULL, err);
     const uint32_t *tris = NULL;
     uint32_t count = 0;
     if (select) {
@@ -86,7 +89,7 @@ sv_status sv_preview_chain(sv_renderer *r, const sv_gpu_mesh *original,
     memset(canvas.data, BG, (size_t)canvas.width * canvas.height * 3);
     char line[96];
     /* column 0: the original */
-    if ((st = draw(r, original, NULL, NULL, view_dir, cam, ro, t, &img, err)) == SV_OK) {
+    if ((st = draw_by(r, original, NULL, NULL, NULL, view_dir, cam, ro, t, &img, err)) == SV_OK) {
         blit(&canvas, &img, 0, 0);
         sv_image_free(&img);
         text(&canvas, 4, (int)(t + 4), "below: original | level");
@@ -96,16 +99,16 @@ sv_status sv_preview_chain(sv_renderer *r, const sv_gpu_mesh *original,
     for (uint32_t i = 0; st == SV_OK && i < n; i++) {
         const sv_preview_level *l = &levels[i];
         uint32_t x = t * (i + 1);
-        if ((st = draw(r, l->gpu, l->select, l->user, view_dir, cam, ro, t, &img, err))) break;
+        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, t, &img, err))) break;
         blit(&canvas, &img, x, 0);
         sv_image_free(&img);
         double px = l->pixels;
         uint32_t s = (uint32_t)fmin(fmax(round(isfinite(px) ? px : 0), 4), half - 2);
         uint32_t y = t + (half - s) / 2;
-        if ((st = draw(r, original, NULL, NULL, view_dir, cam, ro, s, &img, err))) break;
+        if ((st = draw_by(r, original, NULL, NULL, NULL, view_dir, cam, ro, s, &img, err))) break;
         blit(&canvas, &img, x + half - 1 - s, y);
         sv_image_free(&img);
-        if ((st = draw(r, l->gpu, l->select, l->user, view_dir, cam, ro, s, &img, err))) break;
+        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, s, &img, err))) break;
         blit(&canvas, &img, x + half + 1, y);
         sv_image_free(&img);
         int ty = (int)(t + half + 4);

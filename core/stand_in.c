@@ -46,6 +46,7 @@ void sv_stand_in_free(sv_stand_in *s)
         free(l->quads);
         sv_mesh_destroy(l->geometry);
         free(l->select_data);
+        free(l->octa);
     }
     free(s->lods);
     memset(s, 0, sizeof *s);

@@ -41,6 +41,7 @@
 
 #include "out_names.h"
 #include "pipeline.h"
+#include "view.h"
 #include "sandbox.h"
 #include "spec.h"
 
@@ -54,6 +55,7 @@ static const char usage[] =
     "                       [--progress auto|bar|plain|none] [--quiet] [--sandbox]\n"
     "                       [--cpu-limit S]\n"
     "       sylva-bake check-spec SPEC.json\n"
+    "       sylva-bake view DIR --lod NAME --dir X,Y,Z [--size S] --out FILE.png\n"
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
     "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
@@ -83,6 +85,12 @@ static const char usage[] =
     "           any, else 600. 0: no limit of its own. Never above the inherited\n"
     "           hard limit; the soft limit sits up to 5 s below a finite hard one\n"
     "           so the message comes before the kernel's SIGKILL.\n"
+    "\n"
+    "view       draws level NAME of the bake in DIR from direction X,Y,Z (towards\n"
+    "           the viewer) as the evaluator does (report.json's evaluation.frame,\n"
+    "           orthographic, S×S px, default 256, one sample per pixel, unlit; an\n"
+    "           octahedral level by the C reference runtime): an RGBA PNG, alpha\n"
+    "           255 where drawn. For comparing a runtime with the evaluator.\n"
     "\n"
     "Exit status: 0 done; 1 input refused or bake failed (DIR/error.json);\n"
     "2 usage; 3 bake done but the spec's \"target\" was not met (outputs written,\n"
@@ -705,6 +713,48 @@ static int cmd_sandbox_selftest(int argc, char **argv)
     return 1;
 }
 
+/* sylva-bake view DIR --lod NAME --dir X,Y,Z [--size S] --out FILE.png */
+static int cmd_view(int argc, char **argv)
+{
+    const char *dir = NULL, *lod = NULL, *out = NULL;
+    double d[3] = {0, 0, 0};
+    bool have_dir = false;
+    long size = 256;
+    for (int i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "--lod") == 0 && i + 1 < argc) lod = argv[++i];
+        else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out = argv[++i];
+        else if (strcmp(argv[i], "--dir") == 0 && i + 1 < argc) {
+            char tail;
+            have_dir = sscanf(argv[++i], "%lf,%lf,%lf%c", &d[0], &d[1], &d[2], &tail) == 3;
+            if (!have_dir) {
+                fprintf(stderr, "sylva-bake view: --dir wants X,Y,Z (three numbers), got '%s'\n",
+                        argv[i]);
+                return 2;
+            }
+        } else if (strcmp(argv[i], "--size") == 0 && i + 1 < argc) {
+            char *end;
+            size = strtol(argv[++i], &end, 10);
+            if (*end || size < 1 || size > 4096) {
+                fprintf(stderr, "sylva-bake view: --size wants 1..4096, got '%s'\n", argv[i]);
+                return 2;
+            }
+        } else if (argv[i][0] == '-' || dir) {
+            fprintf(stderr, "sylva-bake view: unexpected argument '%s'\n%s", argv[i], usage);
+            return 2;
+        } else dir = argv[i];
+    }
+    if (!dir || !lod || !out || !have_dir) {
+        fprintf(stderr, "sylva-bake view: DIR, --lod, --dir and --out are required\n%s", usage);
+        return 2;
+    }
+    sv_error err = {0};
+    if (sv_view_render(dir, lod, d, (uint32_t)size, out, &err) != SV_OK) {
+        fprintf(stderr, "sylva-bake view: %s\n", err.message);
+        return 1;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
@@ -718,6 +768,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "info") == 0) return cmd_info(argc - 2, argv + 2);
     if (strcmp(argv[1], "bake") == 0) return cmd_bake(argc - 2, argv + 2);
     if (strcmp(argv[1], "check-spec") == 0) return cmd_check_spec(argc - 2, argv + 2);
+    if (strcmp(argv[1], "view") == 0) return cmd_view(argc - 2, argv + 2);
     if (strcmp(argv[1], "sandbox-selftest") == 0) return cmd_sandbox_selftest(argc - 2, argv + 2);
     fprintf(stderr, "sylva-bake: unknown command '%s'\n%s", argv[1], usage);
     return 2;

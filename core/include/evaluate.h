@@ -84,6 +84,14 @@ typedef sv_status (*sv_eval_subset_fn)(void *user, const double view_dir[3],
                                        sv_eval_subset subsets[SV_EVAL_MAX_SUBSETS],
                                        uint32_t *count, sv_error *err);
 
+/* Draws a stand-in that is not drawn as triangles (octahedral impostors:
+ * the CPU reference runtime) with camera cam into a w × h RGBA8 image
+ * (allocated by the call; alpha >= 128 = covered) and depth[w·h] (distance
+ * along forward from the camera's origin plane, INFINITY where nothing is
+ * drawn); the same contract as sv_render. */
+typedef sv_status (*sv_eval_draw_fn)(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
+                                     sv_image *color, float *depth, sv_error *err);
+
 /* ---- the evaluator ------------------------------------------------------- */
 
 typedef struct sv_evaluator sv_evaluator;
@@ -104,6 +112,11 @@ void sv_evaluator_destroy(sv_evaluator *e);
  * per_view (sv_eval_result_free); on failure *out is zeroed. */
 sv_status sv_evaluate(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_result *out,
                       sv_error *err);
+
+/* sv_evaluate for a stand-in drawn by `draw` (called once per view at the
+ * base resolution). SV_ERR_INTERNAL when draw is NULL. */
+sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user,
+                            sv_eval_result *out, sv_error *err);
 
 /* The result of evaluating the original against itself (IoU 1, errors 0 at
  * every view and size) without rendering: for a level that is the original

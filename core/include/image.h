@@ -37,6 +37,11 @@ sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
 sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
                                 uint32_t max_size, sv_image *out, sv_error *err);
 
+/* Decodes the first channel of a PNG as 16 bits (8-bit PNGs are widened)
+ * into a 1-channel 16-bit image (depth maps). SV_ERR_FORMAT for other formats. */
+sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name,
+                                 uint32_t max_size, sv_image *out, sv_error *err);
+
 /* Writes img as PNG (8 or 16 bits) to path. Deterministic: same pixels, same bytes. */
 sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *err);
 

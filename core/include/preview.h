@@ -10,7 +10,8 @@
 typedef struct sv_preview_level {
     const sv_gpu_mesh *gpu;   /* the level, uploaded to the same renderer */
     sv_eval_subset_fn select; /* per-view triangle choice (slicings); NULL = all */
-    void *user;
+    sv_eval_draw_fn draw;     /* non-NULL: drawn by this instead of gpu (impostors) */
+    void *user;               /* for select or draw */
     const char *name;
     double pixels;            /* switch size: bounding-sphere diameter in pixels */
     double triangles, texels;

@@ -70,6 +70,8 @@ typedef struct sv_lod_plan {
                                  geometry is always drawn */
     void *select_data;        /* for select's use (owned by the method; freed with
                                  free() by sv_stand_in_free) */
+    struct sv_octa_grid *octa;/* non-NULL: an octahedral impostor (octahedral.h) instead of
+                                 quads; owned, freed with free() */
 } sv_lod_plan;
 
 typedef struct sv_stand_in {
