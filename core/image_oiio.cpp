@@ -252,10 +252,15 @@ sv_status encode_png(const sv_image *img, std::vector<unsigned char> &bytes, sv_
 
 } // namespace
 
-extern "C" sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
-                                           uint32_t max_size, sv_image *out, sv_error *err)
+namespace {
+
+/* The decoders' shared frame: argument checks, the format from the bytes,
+ * PNG chunk check, and no C++ exception escaping. gray16: the first channel
+ * of a PNG at 16 bits; else RGBA8 from any format (stb as the fallback). */
+sv_status decode_any(const void *data, size_t size, const char *name, uint32_t max_size,
+                     sv_image *out, sv_error *err, bool gray16)
 {
-    if (!out) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_decode_rgba8: out is NULL");
+    if (!out) return sv_fail(err, SV_ERR_INTERNAL, "image decode: out is NULL");
     std::memset(out, 0, sizeof *out);
     if (!name) name = "(unnamed)";
     if (!data || size == 0) return sv_fail(err, SV_ERR_PARSE, "image '%s' is empty", name);
@@ -268,13 +273,15 @@ extern "C" sv_status sv_image_decode_rgba8(const void *data, size_t size, const 
                            "image '%s' is not a recognised image format (PNG, JPEG, TGA, BMP, "
                            "GIF, TIFF, WebP, PSD)",
                            name);
+        if (gray16 && std::strcmp(fmt, "png") != 0)
+            return sv_fail(err, SV_ERR_FORMAT, "image '%s' is not a PNG", name);
         if (std::strcmp(fmt, "png") == 0) {
             sv_status st = check_png_chunks(d, size, name, err);
             if (st != SV_OK) return st;
         }
         bool fallback = false;
-        sv_status st = decode_oiio(d, size, fmt, name, max_size, out, &fallback, err);
-        if (st != SV_OK && fallback) st = decode_stb(d, size, name, max_size, out, err);
+        sv_status st = decode_oiio(d, size, fmt, name, max_size, out, &fallback, err, gray16);
+        if (st != SV_OK && fallback && !gray16) st = decode_stb(d, size, name, max_size, out, err);
         if (st != SV_OK) sv_image_free(out);
         return st;
     } catch (const std::exception &e) {
@@ -285,6 +292,14 @@ extern "C" sv_status sv_image_decode_rgba8(const void *data, size_t size, const 
         return sv_fail(err, SV_ERR_INTERNAL, "decoding image '%s' threw an unknown exception",
                        name);
     }
+}
+
+} // namespace
+
+extern "C" sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
+                                           uint32_t max_size, sv_image *out, sv_error *err)
+{
+    return decode_any(data, size, name, max_size, out, err, false);
 }
 
 extern "C" sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size,
@@ -334,28 +349,5 @@ extern "C" sv_status sv_image_write_png(const sv_image *img, const char *path, s
 extern "C" sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name,
                                             uint32_t max_size, sv_image *out, sv_error *err)
 {
-    if (!out) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_decode_gray16: out is NULL");
-    std::memset(out, 0, sizeof *out);
-    if (!name) name = "(unnamed)";
-    if (!data || size == 0) return sv_fail(err, SV_ERR_PARSE, "image '%s' is empty", name);
-    if (max_size == 0) max_size = 16384;
-    try {
-        const uint8_t *d = (const uint8_t *)data;
-        const char *fmt = image_format(d, size, name);
-        if (!fmt || std::strcmp(fmt, "png") != 0)
-            return sv_fail(err, SV_ERR_FORMAT, "image '%s' is not a PNG", name);
-        sv_status st = check_png_chunks(d, size, name, err);
-        if (st != SV_OK) return st;
-        bool fallback = false;
-        st = decode_oiio(d, size, fmt, name, max_size, out, &fallback, err, true);
-        if (st != SV_OK) sv_image_free(out);
-        return st;
-    } catch (const std::exception &e) {
-        sv_image_free(out);
-        return sv_fail(err, SV_ERR_INTERNAL, "decoding image '%s' threw: %s", name, e.what());
-    } catch (...) {
-        sv_image_free(out);
-        return sv_fail(err, SV_ERR_INTERNAL, "decoding image '%s' threw an unknown exception",
-                       name);
-    }
+    return decode_any(data, size, name, max_size, out, err, true);
 }

@@ -168,13 +168,16 @@ typedef struct octa_frame {
     double w;
 } octa_frame;
 
-/* Bilinear sample of frame (i, j) at local (s, t) in [0,1]² (t = 0 at the
- * frame's top), texel centres clamped inside the frame, as a GPU's LINEAR
- * filter does on each channel: straight colour, alpha and depth each
- * interpolated on their own. Returns alpha in [0,1]; prem[3] receives the
- * interpolated colour × that alpha, *depth the interpolated depth value. */
-static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j, double s, double t,
-                           double prem[3], const sv_image *depth_map, double *depth)
+/* The four texels (atlas offsets) and weights a GPU's LINEAR filter uses
+ * at local (s, t) in [0,1]² of frame (i, j) (t = 0 at the frame's top),
+ * texel centres clamped inside the frame. W: the atlas width. */
+typedef struct bilinear {
+    size_t at[4];
+    double w[4];
+} bilinear;
+
+static void bilinear_at(uint32_t W, uint32_t F, uint32_t i, uint32_t j, double s, double t,
+                        bilinear *b)
 {
     double x = s * F - 0.5, y = t * F - 0.5;
     if (x < 0) x = 0;
@@ -184,23 +187,32 @@ static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j
     uint32_t x0 = (uint32_t)x, y0 = (uint32_t)y;
     uint32_t x1 = x0 + 1 < F ? x0 + 1 : x0, y1 = y0 + 1 < F ? y0 + 1 : y0;
     double fx = x - x0, fy = y - y0;
+    size_t r0 = (size_t)(j * F + y0) * W + i * F, r1 = (size_t)(j * F + y1) * W + i * F;
+    b->at[0] = r0 + x0, b->at[1] = r0 + x1, b->at[2] = r1 + x0, b->at[3] = r1 + x1;
+    b->w[0] = (1 - fx) * (1 - fy), b->w[1] = fx * (1 - fy);
+    b->w[2] = (1 - fx) * fy, b->w[3] = fx * fy;
+}
+
+/* Bilinear sample of frame (i, j) at (s, t): straight colour, alpha and
+ * depth each interpolated on their own. Returns alpha in [0,1]; prem[3]
+ * receives the interpolated colour × that alpha, *depth the interpolated
+ * depth value (0.5 without a depth map). */
+static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j, double s, double t,
+                           double prem[3], const sv_image *depth_map, double *depth)
+{
+    bilinear b;
+    bilinear_at(a->width, F, i, j, s, t, &b);
     const uint8_t *px = a->data;
-    size_t stride = (size_t)a->width * 4;
-    uint32_t bx = i * F, by = j * F;
-    double wts[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-    uint32_t xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
+    const uint16_t *dp = depth_map ? depth_map->data : NULL;
     double alpha = 0, dep = 0, c[3] = {0, 0, 0};
     for (int k = 0; k < 4; k++) {
-        const uint8_t *p = px + (size_t)(by + ys[k]) * stride + (size_t)(bx + xs[k]) * 4;
-        alpha += p[3] / 255.0 * wts[k];
-        for (int m = 0; m < 3; m++) c[m] += p[m] / 255.0 * wts[k];
-        if (depth_map) {
-            const uint16_t *dp = depth_map->data;
-            dep += dp[(size_t)(by + ys[k]) * depth_map->width + bx + xs[k]] / 65535.0 * wts[k];
-        }
+        const uint8_t *p = px + 4 * b.at[k];
+        alpha += p[3] / 255.0 * b.w[k];
+        for (int m = 0; m < 3; m++) c[m] += p[m] / 255.0 * b.w[k];
+        if (dp) dep += dp[b.at[k]] / 65535.0 * b.w[k];
     }
     for (int m = 0; m < 3; m++) prem[m] = c[m] * alpha;
-    if (depth) *depth = depth_map ? dep : 0.5;
+    if (depth) *depth = dp ? dep : 0.5;
     return alpha;
 }
 
@@ -208,16 +220,10 @@ static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j
 static double sample_depth(const uint16_t *dp, uint32_t W, uint32_t F, uint32_t i, uint32_t j,
                            double s, double t)
 {
-    double x = s * F - 0.5, y = t * F - 0.5;
-    if (x < 0) x = 0;
-    if (y < 0) y = 0;
-    if (x > F - 1) x = F - 1;
-    if (y > F - 1) y = F - 1;
-    uint32_t x0 = (uint32_t)x, y0 = (uint32_t)y;
-    uint32_t x1 = x0 + 1 < F ? x0 + 1 : x0, y1 = y0 + 1 < F ? y0 + 1 : y0;
-    double fx = x - x0, fy = y - y0;
-    const uint16_t *r0 = dp + (size_t)(j * F + y0) * W + i * F, *r1 = dp + (size_t)(j * F + y1) * W + i * F;
-    double v = (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x1]);
+    bilinear b;
+    bilinear_at(W, F, i, j, s, t, &b);
+    double v = 0;
+    for (int k = 0; k < 4; k++) v += dp[b.at[k]] * b.w[k];
     return v / 65535.0;
 }
 

@@ -16,7 +16,12 @@ set -- "$oak/oak_large.obj" "$oak/oak_large.mtl" "$oak/leaves_oak_color.png" "$o
 spec='{"method": "octahedral", "octahedral": {"grid": 6, "frame_pixels": 64},
   "scene": {"viewer": "ground"}, "lod": {"chain": false}, "evaluate": {"views": 8, "sizes": [64]}}'
 printf '%s\n' "$spec" > "$T/spec.json"
-for run in a b; do
+# under sanitizers one offline bake runs the new code (the method, the
+# reference runtime, view, the writers); determinism and the daemon's bytes
+# are properties of the same code, checked in the plain build
+runs="a b"
+case "$B" in *asan*) runs=a ;; esac
+for run in $runs; do
     "$BAKE" bake "$@" --spec "$T/spec.json" --out "$T/$run" --progress none ||
         { bad "offline bake $run failed"; finish; }
 done
@@ -63,7 +68,7 @@ same_as_a() { # same_as_a DIR WHAT: every file of $T/a in DIR, equal but for rep
     done
     ok "$2: every output identical"
 }
-same_as_a "$T/b" "a second offline bake"
+[ "$runs" = a ] || same_as_a "$T/b" "a second offline bake"
 v=""
 command -v npm > /dev/null 2>&1 && v=$(ensure_validator)
 if [ -n "$v" ]; then
@@ -87,6 +92,7 @@ printf '{"method": "octahedral", "octahedral": {"frame_pixels": 100}}\n' > "$T/b
 "$BAKE" bake "$@" --spec "$T/bad.json" --out "$T/bad" --progress none 2> "$T/err"; rc=$?
 check "frame_pixels 100 refused offline" 1 "$rc"
 contains "naming the key" "octahedral.frame_pixels" "$(cat "$T/err")"
+case "$B" in *asan*) finish ;; esac
 # through the daemon and the client
 start_daemon --workers 1 --worker "$BAKE"
 code=$(curl -s -o "$T/body" -w '%{http_code}' -F 'spec={"method":"octahedral","octahedral":{"grid":1}};type=application/json' \
