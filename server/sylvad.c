@@ -23,18 +23,24 @@
 #include "store.h"
 #include "workers.h"
 
-static void default_worker(char *out, size_t cap)
+/* The directory of this executable into out (false when /proc cannot say). */
+static bool exe_dir(char *out, size_t cap)
 {
     char exe[SVD_PATH_MAX];
     ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) {
-        snprintf(out, cap, "sylva-bake");
-        return;
-    }
+    if (n <= 0) return false;
     exe[n] = '\0';
     char *slash = strrchr(exe, '/');
     if (slash) *slash = '\0';
-    snprintf(out, cap, "%.1000s/sylva-bake", exe);
+    snprintf(out, cap, "%.1000s", exe);
+    return true;
+}
+
+static void default_worker(char *out, size_t cap)
+{
+    char dir[1024];
+    if (!exe_dir(dir, sizeof dir)) snprintf(out, cap, "sylva-bake");
+    else snprintf(out, cap, "%.1000s/sylva-bake", dir);
 }
 
 /* viewer_dir's default: dirname(exe)/viewer when that directory exists (the
@@ -42,19 +48,15 @@ static void default_worker(char *out, size_t cap)
  * dirname(exe)/../share/sylva/viewer (`make install`'s layout). */
 static void default_viewer_dir(char *out, size_t cap)
 {
-    char exe[SVD_PATH_MAX];
-    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) {
+    char dir[1024];
+    if (!exe_dir(dir, sizeof dir)) {
         snprintf(out, cap, "viewer");
         return;
     }
-    exe[n] = '\0';
-    char *slash = strrchr(exe, '/');
-    if (slash) *slash = '\0';
     struct stat sb;
-    snprintf(out, cap, "%.1000s/viewer", exe);
+    snprintf(out, cap, "%.1000s/viewer", dir);
     if (stat(out, &sb) == 0 && S_ISDIR(sb.st_mode)) return;
-    snprintf(out, cap, "%.1000s/../share/sylva/viewer", exe);
+    snprintf(out, cap, "%.1000s/../share/sylva/viewer", dir);
 }
 
 int main(int argc, char **argv)
