@@ -130,8 +130,10 @@ sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, sv_octa_grid *g, 
     if (n < 2 || n > SV_OCTA_MAX_GRID)
         return sv_fail(err, SV_ERR_SPEC, "octahedral.grid: %u outside [2, %d]", n,
                        SV_OCTA_MAX_GRID);
+    memset(g, 0, sizeof *g);
     g->n = n;
     g->hemi = hemi;
+    g->proxy_quads = SV_OCTA_PROXY_QUADS;
     for (int k = 0; k < 3; k++) g->centre[k] = 0.5 * (mn[k] + mx[k]);
     /* the vertices triangles use; a frame's extent is the largest |Δ·right|,
      * |Δ·up| over them, and the square frame takes the largest of every frame */
@@ -459,19 +461,22 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
 
 /* ---- the method ---------------------------------------------------------- */
 
-static const char *const octa_keys[] = {"grid", "hemi", "frame_pixels", NULL};
+static const char *const octa_keys[] = {"grid", "hemi", "frame_pixels", "proxy_quads", NULL};
 
 typedef struct octa_settings {
     long grid;          /* 0 = default by hemi */
     bool hemi, hemi_set;
     long frame_pixels;  /* 0 = from the LOD's largest drawn size */
+    long proxy_quads;   /* quads of the glTF proxy */
 } octa_settings;
 
 static sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err)
 {
     memset(o, 0, sizeof *o);
+    o->proxy_quads = SV_OCTA_PROXY_QUADS;
     sv_status st;
     if ((st = sv_setting_only(s, OCTA_NAME, octa_keys, err))) return st;
+    if ((st = sv_setting_int(s, OCTA_NAME, "proxy_quads", 1, 8, &o->proxy_quads, err))) return st;
     if ((st = sv_setting_int(s, OCTA_NAME, "grid", 2, SV_OCTA_MAX_GRID, &o->grid, err))) return st;
     if (cJSON_GetObjectItemCaseSensitive(s, "hemi")) {
         if ((st = sv_setting_bool(s, OCTA_NAME, "hemi", &o->hemi, err))) return st;
@@ -509,6 +514,7 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
         return st;
     }
     g->frame_pixels = (uint32_t)s.frame_pixels; /* 0: the pipeline sizes it */
+    g->proxy_quads = (uint32_t)s.proxy_quads;
     char name[32];
     snprintf(name, sizeof name, "%s%u", hemi ? "hocta" : "octa", n);
     sv_lod_plan *l = sv_stand_in_add_lod(out, name);

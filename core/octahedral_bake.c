@@ -199,43 +199,52 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
         sv_baked_lod_free(out);
         return st;
     }
-    /* the proxy quad: the frame nearest the +Z side view, so a plain glTF
-     * viewer shows the tree; an engine replaces its material (docs/runtime.md) */
-    double side[3] = {0, 0, 1};
-    uint32_t fr[3][2];
-    double wt[3];
-    sv_octa_select(g, side, fr, wt);
-    int best = 0;
-    for (int k = 1; k < 3; k++)
-        if (wt[k] > wt[best]) best = k;
-    double d[3], rr[3], uu[3];
-    sv_octa_frame_dir(g, fr[best][0], fr[best][1], d);
-    sv_octa_frame_basis(d, rr, uu);
-    out->quad_count = 1;
-    out->uv_rects = sv_calloc(4, sizeof *out->uv_rects);
+    /* the proxy: K quads through the centre, quad q in the plane of the
+     * frame nearest the side view at azimuth 180°·q/K from +Z, textured
+     * with that frame, so a plain glTF viewer shows the tree from every
+     * side (an orthographic frame seen from behind has the silhouette of the
+     * opposite view); an engine draws the first quad with the impostor
+     * shader (docs/runtime.md) */
+    uint32_t K = g->proxy_quads >= 1 && g->proxy_quads <= 8 ? g->proxy_quads : SV_OCTA_PROXY_QUADS;
+    out->quad_count = K;
+    out->uv_rects = sv_calloc(4 * (size_t)K, sizeof *out->uv_rects);
     uint32_t nimg = 1 + (out->normal.data != NULL);
-    sv_mesh *m = out->uv_rects ? sv_mesh_create(4, 2, 1, nimg) : NULL;
+    sv_mesh *m = out->uv_rects ? sv_mesh_create(4 * K, 2 * K, 1, nimg) : NULL;
     if (!m) {
         sv_baked_lod_free(out);
         return sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
     }
-    float *rect = out->uv_rects;
-    rect[0] = (float)fr[best][0] / n;
-    rect[1] = (float)fr[best][1] / n;
-    rect[2] = (float)(fr[best][0] + 1) / n;
-    rect[3] = (float)(fr[best][1] + 1) / n;
-    static const double cu[4] = {-1, 1, 1, -1}, cv[4] = {-1, -1, 1, 1};
-    for (int c = 0; c < 4; c++) {
-        for (int k = 0; k < 3; k++) {
-            m->positions[3 * c + k] =
-                (float)(g->centre[k] + g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
-            m->normals[3 * c + k] = (float)d[k];
+    for (uint32_t q = 0; q < K; q++) {
+        double az = M_PI * q / K;
+        double side[3] = {sin(az), 0, cos(az)};
+        uint32_t fr[3][2];
+        double wt[3];
+        sv_octa_select(g, side, fr, wt);
+        int best = 0;
+        for (int k = 1; k < 3; k++)
+            if (wt[k] > wt[best]) best = k;
+        double d[3], rr[3], uu[3];
+        sv_octa_frame_dir(g, fr[best][0], fr[best][1], d);
+        sv_octa_frame_basis(d, rr, uu);
+        float *rect = out->uv_rects + 4 * q;
+        rect[0] = (float)fr[best][0] / n;
+        rect[1] = (float)fr[best][1] / n;
+        rect[2] = (float)(fr[best][0] + 1) / n;
+        rect[3] = (float)(fr[best][1] + 1) / n;
+        static const double cu[4] = {-1, 1, 1, -1}, cv[4] = {-1, -1, 1, 1};
+        for (int c = 0; c < 4; c++) {
+            uint32_t v = 4 * q + (uint32_t)c;
+            for (int k = 0; k < 3; k++) {
+                m->positions[3 * v + k] =
+                    (float)(g->centre[k] + g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
+                m->normals[3 * v + k] = (float)d[k];
+            }
+            m->uvs[2 * v] = rect[0] + (float)(0.5 * (cu[c] + 1)) * (rect[2] - rect[0]);
+            m->uvs[2 * v + 1] = rect[1] + (float)(0.5 * (1 - cv[c])) * (rect[3] - rect[1]);
         }
-        m->uvs[2 * c] = rect[0] + (float)(0.5 * (cu[c] + 1)) * (rect[2] - rect[0]);
-        m->uvs[2 * c + 1] = rect[1] + (float)(0.5 * (1 - cv[c])) * (rect[3] - rect[1]);
+        static const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++) m->indices[6 * q + k] = 4 * q + tri[k];
     }
-    static const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
-    memcpy(m->indices, tri, sizeof tri);
     sv_material *mat = &m->materials[0];
     sv_material_init(mat);
     snprintf(mat->name, sizeof mat->name, "sylva_impostor");

@@ -1672,24 +1672,27 @@ static sv_status bake_all(run *r, sv_error *err)
         /* slicings (core/slicing.c): each slicing's direction, quads and the blending rule */
         cJSON *slicing = sv_slicing_describe(lp);
         if (slicing) cJSON_AddItemToObject(o, "slicing", slicing);
-        /* octahedral: the proxy quad (the frame nearest the +Z side view);
-         * impostor.json has the rest */
-        if (lp->octa && b->mesh->vertex_count >= 4 && b->uv_rects) {
+        /* octahedral: the proxy's quads (each in its frame's plane, with
+         * that frame's rectangle); impostor.json has the rest */
+        if (lp->octa && b->uv_rects && b->mesh->vertex_count >= 4 * b->quad_count) {
             const float *P = b->mesh->positions, *N = b->mesh->normals;
-            double n[3] = {N[0], N[1], N[2]}, c[4][3];
-            for (int k = 0; k < 4; k++)
-                for (int m = 0; m < 3; m++) c[k][m] = P[3 * k + m];
-            cJSON *qo = cJSON_CreateObject();
-            cJSON_AddItemToObject(qo, "normal", vec3_json(n));
-            cJSON_AddNumberToObject(qo, "d", -(n[0] * lp->octa->centre[0] + n[1] * lp->octa->centre[1] +
-                                               n[2] * lp->octa->centre[2]));
-            cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
-            for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, vec3_json(c[k]));
-            double uvd[4] = {b->uv_rects[0], b->uv_rects[1], b->uv_rects[2], b->uv_rects[3]};
-            cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
-            cJSON_AddNumberToObject(qo, "faces", p->mesh->triangle_count);
-            cJSON_AddStringToObject(qo, "part", "all");
-            cJSON_AddItemToArray(qa, qo);
+            for (uint32_t q = 0; q < b->quad_count; q++) {
+                double n[3] = {N[12 * q], N[12 * q + 1], N[12 * q + 2]}, c[4][3];
+                for (int k = 0; k < 4; k++)
+                    for (int m = 0; m < 3; m++) c[k][m] = P[12 * q + 3 * k + m];
+                cJSON *qo = cJSON_CreateObject();
+                cJSON_AddItemToObject(qo, "normal", vec3_json(n));
+                cJSON_AddNumberToObject(qo, "d", -(n[0] * lp->octa->centre[0] + n[1] * lp->octa->centre[1] +
+                                                   n[2] * lp->octa->centre[2]));
+                cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
+                for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, vec3_json(c[k]));
+                const float *uv = b->uv_rects + 4 * q;
+                double uvd[4] = {uv[0], uv[1], uv[2], uv[3]};
+                cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
+                cJSON_AddNumberToObject(qo, "faces", p->mesh->triangle_count);
+                cJSON_AddStringToObject(qo, "part", "all");
+                cJSON_AddItemToArray(qa, qo);
+            }
             cJSON_AddBoolToObject(o, "impostor", true);
         }
         cJSON_AddItemToArray(pl, o);

@@ -55,6 +55,10 @@
 
 #define SV_OCTA_MAX_GRID 32
 #define SV_OCTA_PARALLAX_STEPS 3
+/* Default quads of the glTF proxy: 3 at 60° (sveval soft IoU at 64 px,
+ * ficus / aspen: 1 quad 0.519 / 0.420, 2: 0.736 / 0.576, 3: 0.777 / 0.618,
+ * 4: 0.794 / 0.606). */
+#define SV_OCTA_PROXY_QUADS 3
 
 typedef struct sv_octa_grid {
     uint32_t n;               /* frames per side, 2..SV_OCTA_MAX_GRID */
@@ -63,6 +67,7 @@ typedef struct sv_octa_grid {
     double centre[3];         /* frame planes pass through it */
     double half;              /* frame half extent, world units */
     double cutoff;            /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
+    uint32_t proxy_quads;     /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
 } sv_octa_grid;
 
 /* uv in [-1,1]² of unit direction d (conventions above). */
@@ -95,7 +100,8 @@ sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv
 /* Fits g for mesh m: n frames a side, hemi or not; centre = the bounds'
  * centre, half = the largest extent of any used vertex along any frame's
  * right or up (a square frame holds the tree from every grid direction),
- * with a 1/128 margin. frame_pixels is left for the caller.
+ * with a 1/128 margin; every other field reset (proxy_quads to
+ * SV_OCTA_PROXY_QUADS, cutoff 0). frame_pixels (0) is left for the caller.
  * SV_ERR_SPEC for n outside [2, SV_OCTA_MAX_GRID], SV_ERR_UNBAKEABLE for an
  * empty mesh. */
 sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, sv_octa_grid *g, sv_error *err);

@@ -47,14 +47,25 @@ for k, m in enumerate(mips):
     assert png(m)[:2] == (384 >> k, 384 >> k), (m, png(m))
 rep = json.load(open(d + "/report.json"))
 (lod,) = rep["lods"]
-assert lod["name"] == "hocta6" and lod["triangles"] == 2 and lod["quads"] == 1, lod
+assert lod["name"] == "hocta6" and lod["triangles"] == 6 and lod["quads"] == 3, lod
 iou = [a["iou_mean"] for a in lod["accuracy"] if a["pixels"] == 64][0]
 print("IoU@64 %.3f" % iou); assert iou > 0.8, "IoU@64 %.3f" % iou
 fr = rep["evaluation"]["frame"]
 assert len(fr["centre"]) == 3 and fr["radius"] > 0
 pl = json.load(open(d + "/planes.json"))
 assert pl["method"] == "octahedral" and pl["lods"][0]["impostor"] is True
-assert len(pl["lods"][0]["quads"]) == 1
+# the proxy: three quads, each in the plane of a near-horizontal frame 60°
+# apart, with that frame's rectangle of the atlas (a plain viewer's fallback)
+qs = pl["lods"][0]["quads"]
+assert len(qs) == 3, len(qs)
+for q in qs:
+    u0, v0, u1, v1 = q["uv"]
+    assert abs((u1 - u0) - 1 / 6) < 1e-6 and abs((v1 - v0) - 1 / 6) < 1e-6, q["uv"]
+    assert abs(q["normal"][1]) < 0.5, q["normal"]      # near the horizon
+for a in range(3):
+    for b in range(a + 1, 3):
+        c = abs(sum(x * y for x, y in zip(qs[a]["normal"], qs[b]["normal"])))
+        assert c < 0.75, (a, b, c)                        # about 60° apart, not one plane
 print("IoU@64 %.3f" % iou)
 PY
 strip='/"times":[[:space:]]*{[^}]*$/,/}/d; s/"times":[[:space:]]*{[^}]*}//'
@@ -92,6 +103,10 @@ printf '{"method": "octahedral", "octahedral": {"frame_pixels": 100}}\n' > "$T/b
 "$BAKE" bake "$@" --spec "$T/bad.json" --out "$T/bad" --progress none 2> "$T/err"; rc=$?
 check "frame_pixels 100 refused offline" 1 "$rc"
 contains "naming the key" "octahedral.frame_pixels" "$(cat "$T/err")"
+printf '{"method": "octahedral", "octahedral": {"proxy_quads": 9}}\n' > "$T/bad.json"
+"$BAKE" bake "$@" --spec "$T/bad.json" --out "$T/bad" --progress none 2> "$T/err"; rc=$?
+check "proxy_quads 9 refused offline" 1 "$rc"
+contains "naming the key" "octahedral.proxy_quads" "$(cat "$T/err")"
 case "$B" in *asan*) finish ;; esac
 # through the daemon and the client
 start_daemon --workers 1 --worker "$BAKE"
