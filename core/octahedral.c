@@ -29,10 +29,11 @@
 
 static double sgn1(double x) { return x < 0 ? -1.0 : 1.0; }
 
-void sv_octa_encode(bool hemi, const double d_in[3], double uv[2])
+void sv_octa_encode(bool hemi, double elev_scale, const double d_in[3], double uv[2])
 {
     double d[3] = {d_in[0], d_in[1], d_in[2]};
     if (hemi && d[1] < 0) d[1] = 0;
+    if (elev_scale > 0 && elev_scale != 1) d[1] /= elev_scale;
     double s = fabs(d[0]) + fabs(d[1]) + fabs(d[2]);
     if (!(s > 0)) {
         uv[0] = uv[1] = 0;
@@ -51,7 +52,7 @@ void sv_octa_encode(bool hemi, const double d_in[3], double uv[2])
     }
 }
 
-void sv_octa_decode(bool hemi, const double uv[2], double d[3])
+void sv_octa_decode(bool hemi, double elev_scale, const double uv[2], double d[3])
 {
     double x, z, y;
     if (hemi) {
@@ -71,6 +72,7 @@ void sv_octa_decode(bool hemi, const double uv[2], double d[3])
     }
     d[0] = x;
     d[1] = y;
+    if (elev_scale > 0) d[1] *= elev_scale;
     d[2] = z;
     sv_normalize3(d);
 }
@@ -79,7 +81,7 @@ void sv_octa_frame_dir(const sv_octa_grid *g, uint32_t i, uint32_t j, double d[3
 {
     double den = g->n > 1 ? (double)(g->n - 1) : 1.0;
     double uv[2] = {2.0 * i / den - 1.0, 2.0 * j / den - 1.0};
-    sv_octa_decode(g->hemi, uv, d);
+    sv_octa_decode(g->hemi, g->elev_scale, uv, d);
 }
 
 void sv_octa_frame_basis(const double d[3], double right[3], double up[3])
@@ -99,7 +101,7 @@ void sv_octa_select(const sv_octa_grid *g, const double view_dir[3], uint32_t fr
                     double w[3])
 {
     double uv[2];
-    sv_octa_encode(g->hemi, view_dir, uv);
+    sv_octa_encode(g->hemi, g->elev_scale, view_dir, uv);
     double m = g->n > 1 ? (double)(g->n - 1) : 0.0;
     double gx = (uv[0] * 0.5 + 0.5) * m, gy = (uv[1] * 0.5 + 0.5) * m;
     double top = g->n >= 2 ? (double)(g->n - 2) : 0.0;
@@ -122,7 +124,8 @@ void sv_octa_select(const sv_octa_grid *g, const double view_dir[3], uint32_t fr
 
 /* ---- fitting ------------------------------------------------------------- */
 
-sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, sv_octa_grid *g, sv_error *err)
+sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, double elev_scale, sv_octa_grid *g,
+                     sv_error *err)
 {
     double mn[3], mx[3];
     if (!m || !sv_mesh_bounds(m, mn, mx))
@@ -134,6 +137,7 @@ sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, sv_octa_grid *g, 
     g->n = n;
     g->hemi = hemi;
     g->proxy_quads = SV_OCTA_PROXY_QUADS;
+    g->elev_scale = elev_scale > 0 && elev_scale <= 1 ? elev_scale : 1.0;
     for (int k = 0; k < 3; k++) g->centre[k] = 0.5 * (mn[k] + mx[k]);
     /* the vertices triangles use; a frame's extent is the largest |Δ·right|,
      * |Δ·up| over them, and the square frame takes the largest of every frame */
@@ -461,13 +465,15 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
 
 /* ---- the method ---------------------------------------------------------- */
 
-static const char *const octa_keys[] = {"grid", "hemi", "frame_pixels", "proxy_quads", NULL};
+static const char *const octa_keys[] = {"grid", "hemi", "frame_pixels", "proxy_quads",
+                                        "elevation_scale", NULL};
 
 typedef struct octa_settings {
     long grid;          /* 0 = default by hemi */
     bool hemi, hemi_set;
     long frame_pixels;  /* 0 = from the LOD's largest drawn size */
     long proxy_quads;   /* quads of the glTF proxy */
+    double elev_scale;  /* 0 = by the scene's viewer */
 } octa_settings;
 
 static sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err)
@@ -477,6 +483,8 @@ static sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err)
     sv_status st;
     if ((st = sv_setting_only(s, OCTA_NAME, octa_keys, err))) return st;
     if ((st = sv_setting_int(s, OCTA_NAME, "proxy_quads", 1, 8, &o->proxy_quads, err))) return st;
+    if ((st = sv_setting_number(s, OCTA_NAME, "elevation_scale", 0.1, 1, &o->elev_scale, err)))
+        return st;
     if ((st = sv_setting_int(s, OCTA_NAME, "grid", 2, SV_OCTA_MAX_GRID, &o->grid, err))) return st;
     if (cJSON_GetObjectItemCaseSensitive(s, "hemi")) {
         if ((st = sv_setting_bool(s, OCTA_NAME, "hemi", &o->hemi, err))) return st;
@@ -509,7 +517,11 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
     uint32_t n = s.grid ? (uint32_t)s.grid : (hemi ? 8u : 12u);
     sv_octa_grid *g = calloc(1, sizeof *g);
     if (!g) return sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
-    if ((st = sv_octa_fit(in->mesh, n, hemi, g, err))) {
+    /* ground viewers look from 0–20°: the rings go nearer the horizon */
+    double es = s.elev_scale > 0 ? s.elev_scale
+                : in->scene && in->scene->viewer == SV_VIEWER_GROUND ? SV_OCTA_GROUND_SCALE
+                                                                    : 1.0;
+    if ((st = sv_octa_fit(in->mesh, n, hemi, es, g, err))) {
         free(g);
         return st;
     }

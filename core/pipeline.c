@@ -732,6 +732,8 @@ static cJSON *octa_json(const sv_octa_grid *g, const char *name, const lod_out *
     cJSON_AddStringToObject(o, "node", l->node);
     cJSON_AddStringToObject(o, "layout", g->hemi ? "hemi-octahedral" : "octahedral");
     cJSON_AddBoolToObject(o, "hemi", g->hemi);
+    /* 1 = Brucks' layout; below 1 the rings lie nearer the horizon (octahedral.h) */
+    cJSON_AddNumberToObject(o, "elevation_scale", g->elev_scale > 0 ? g->elev_scale : 1.0);
     cJSON_AddNumberToObject(o, "grid", g->n);
     cJSON_AddNumberToObject(o, "frame_pixels", g->frame_pixels);
     cJSON_AddItemToObject(o, "centre", cJSON_CreateDoubleArray(g->centre, 3));

@@ -113,6 +113,14 @@ static sv_status load_impostor(const char *dir, const char *lod, sv_octa_grid *g
         g->half = half->valuedouble;
         g->hemi = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(e, "hemi"));
         g->cutoff = cJSON_IsNumber(cut) ? cut->valuedouble : 0.5;
+        /* absent: Brucks' layout (files written before the scale existed) */
+        const cJSON *es = cJSON_GetObjectItemCaseSensitive(e, "elevation_scale");
+        g->elev_scale = cJSON_IsNumber(es) ? es->valuedouble : 1.0;
+        if (!(g->elev_scale > 0 && g->elev_scale <= 1)) {
+            st = sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s: elevation_scale %g "
+                         "outside (0, 1]", lod, g->elev_scale);
+            break;
+        }
         if ((st = decode(dir, alb->valuestring, false, albedo, err))) break;
         if (cJSON_IsString(dep)) st = decode(dir, dep->valuestring, true, depth, err);
         break;

@@ -17,6 +17,12 @@
  *   else ((1-|p.z|)·sgn p.x, (1-|p.x|)·sgn p.z) with sgn 0 = +1.
  *   Hemi: d.y is clamped to >= 0 first; uv = (p.x + p.z, p.x − p.z).
  *   Both give uv in [-1, 1]².
+ * - Elevation scale S in (0, 1] (impostor.json "elevation_scale"; 1, or
+ *   absent, is Brucks' layout): d is replaced by (d.x, d.y/S, d.z) before
+ *   the encoding above, and a decoded direction (x, y, z) becomes
+ *   normalize(x, S·y, z). S < 1 spends the rings of frames nearer the
+ *   horizon, where a ground viewer looks from: hemi 8×8 with S = 0.5 has
+ *   rings at 0°, 11–16°, 34–42° and 72° instead of 0°, 22–29°, 53–61°, 80°.
  * - Grid: g = (uv·0.5 + 0.5)·(N − 1). Frame (i, j) (i along u, j along v) is
  *   the view from the direction that decodes from g = (i, j).
  * - Frame basis for direction d: right = normalize(Y × d), up = d × right;
@@ -59,6 +65,8 @@
  * ficus / aspen: 1 quad 0.519 / 0.420, 2: 0.736 / 0.576, 3: 0.777 / 0.618,
  * 4: 0.794 / 0.606). */
 #define SV_OCTA_PROXY_QUADS 3
+/* Default elevation scale for a ground viewer (scene.viewer "ground"). */
+#define SV_OCTA_GROUND_SCALE 0.5
 
 typedef struct sv_octa_grid {
     uint32_t n;               /* frames per side, 2..SV_OCTA_MAX_GRID */
@@ -68,13 +76,15 @@ typedef struct sv_octa_grid {
     double half;              /* frame half extent, world units */
     double cutoff;            /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
     uint32_t proxy_quads;     /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
+    double elev_scale;        /* S in (0, 1]: directions squashed towards the horizon (1 = Brucks) */
 } sv_octa_grid;
 
-/* uv in [-1,1]² of unit direction d (conventions above). */
-void sv_octa_encode(bool hemi, const double d[3], double uv[2]);
+/* uv in [-1,1]² of unit direction d (conventions above; elev_scale S in
+ * (0, 1], 1 = Brucks' layout). */
+void sv_octa_encode(bool hemi, double elev_scale, const double d[3], double uv[2]);
 
 /* Unit direction for uv in [-1,1]² (the inverse of sv_octa_encode). */
-void sv_octa_decode(bool hemi, const double uv[2], double d[3]);
+void sv_octa_decode(bool hemi, double elev_scale, const double uv[2], double d[3]);
 
 /* Direction of frame (i, j) of grid g. */
 void sv_octa_frame_dir(const sv_octa_grid *g, uint32_t i, uint32_t j, double d[3]);
@@ -97,14 +107,16 @@ sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv
                          const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba,
                          float *depth, sv_error *err);
 
-/* Fits g for mesh m: n frames a side, hemi or not; centre = the bounds'
+/* Fits g for mesh m: n frames a side, hemi or not, elevation scale
+ * elev_scale (outside (0, 1]: 1); centre = the bounds'
  * centre, half = the largest extent of any used vertex along any frame's
  * right or up (a square frame holds the tree from every grid direction),
  * with a 1/128 margin; every other field reset (proxy_quads to
  * SV_OCTA_PROXY_QUADS, cutoff 0). frame_pixels (0) is left for the caller.
  * SV_ERR_SPEC for n outside [2, SV_OCTA_MAX_GRID], SV_ERR_UNBAKEABLE for an
  * empty mesh. */
-sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, sv_octa_grid *g, sv_error *err);
+sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, double elev_scale, sv_octa_grid *g,
+                     sv_error *err);
 
 /* Renders the n × n frames of g (F = g->frame_pixels texels each,
  * supersample² samples per texel, 0 = 2, lowered to fit the renderer) into

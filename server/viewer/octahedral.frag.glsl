@@ -22,6 +22,7 @@ uniform sampler2D uAlbedo;      // one image of mips[]: mips[uMip] (mips[0] = ma
                                 // frames must not bleed into each other)
 uniform int uGrid;              // grid: N frames per side
 uniform bool uHemi;             // hemi
+uniform float uElevScale;       // elevation_scale: S in (0, 1], 1 = Brucks' layout
 uniform float uFramePixels;     // frame_pixels: F, texels per frame side of maps.albedo
 uniform int uMip;               // which mip uAlbedo holds: its frames are F >> uMip texels
 uniform vec3 uCentre;           // centre
@@ -46,6 +47,7 @@ out vec4 fragColor;
 
 // uv in [-1,1]^2 of unit direction d (sv_octa_encode)
 vec2 octaEncode(vec3 d) {
+    d.y /= uElevScale;
     if (uHemi) {
         d.y = max(d.y, 0.0);
         vec3 p = d / (abs(d.x) + abs(d.y) + abs(d.z));
@@ -74,6 +76,7 @@ vec3 octaDecode(vec2 uv) {
             p.z = (1.0 - abs(uv.x)) * s.y;
         }
     }
+    p.y *= uElevScale;
     return normalize(p);
 }
 

@@ -178,6 +178,7 @@ async function makeImpostor(entry, light) {
         uAlbedo: { value: albedo[0] },
         uGrid: { value: entry.grid },
         uHemi: { value: !!entry.hemi },
+        uElevScale: { value: entry.elevation_scale ?? 1.0 },
         uFramePixels: { value: entry.frame_pixels },
         uMip: { value: 0 },
         uCentre: { value: new V3(...entry.centre) },

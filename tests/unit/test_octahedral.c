@@ -43,21 +43,43 @@ static void decode_inverts_encode(void **state)
 {
     (void)state;
     uint64_t s = 3;
-    for (int hemi = 0; hemi < 2; hemi++)
-        for (int i = 0; i < 2000; i++) {
-            double d[3], uv[2], back[3];
-            random_dir(&s, d);
-            if (hemi) d[1] = fabs(d[1]);
-            sv_octa_encode(hemi, d, uv);
-            assert_true(fabs(uv[0]) <= 1 + 1e-12 && fabs(uv[1]) <= 1 + 1e-12);
-            sv_octa_decode(hemi, uv, back);
-            for (int k = 0; k < 3; k++) assert_true(fabs(back[k] - d[k]) < 1e-9);
-        }
+    static const double scales[3] = {1.0, 0.5, 0.2};
+    for (int k3 = 0; k3 < 3; k3++)
+        for (int hemi = 0; hemi < 2; hemi++)
+            for (int i = 0; i < 2000; i++) {
+                double d[3], uv[2], back[3];
+                random_dir(&s, d);
+                if (hemi) d[1] = fabs(d[1]);
+                sv_octa_encode(hemi, scales[k3], d, uv);
+                assert_true(fabs(uv[0]) <= 1 + 1e-12 && fabs(uv[1]) <= 1 + 1e-12);
+                sv_octa_decode(hemi, scales[k3], uv, back);
+                for (int k = 0; k < 3; k++) assert_true(fabs(back[k] - d[k]) < 1e-9);
+            }
     /* hemi: a view from below is seen as from the horizon */
     double below[3] = {0.6, -0.8, 0}, uv[2], back[3];
-    sv_octa_encode(true, below, uv);
-    sv_octa_decode(true, uv, back);
+    sv_octa_encode(true, 1.0, below, uv);
+    sv_octa_decode(true, 1.0, uv, back);
     assert_true(fabs(back[0] - 1) < 1e-12 && fabs(back[1]) < 1e-12);
+    /* the elevation scale moves hemi 8×8's second ring from 22° to 11° (on
+     * the diagonal frame (6, 6)), and keeps the horizon and the zenith */
+    sv_octa_grid g = {.n = 8, .hemi = true, .elev_scale = 1.0};
+    double f[3];
+    sv_octa_frame_dir(&g, 6, 6, f);
+    assert_true(fabs(asin(f[1]) * 180 / M_PI - 21.80) < 0.01);
+    g.elev_scale = 0.5;
+    sv_octa_frame_dir(&g, 6, 6, f);
+    assert_true(fabs(asin(f[1]) * 180 / M_PI - 11.31) < 0.01);
+    sv_octa_frame_dir(&g, 7, 7, f);
+    assert_true(fabs(f[1]) < 1e-12);
+    /* and a frame's own direction selects that frame alone */
+    sv_octa_frame_dir(&g, 6, 5, f);
+    uint32_t fr[3][2];
+    double w[3];
+    sv_octa_select(&g, f, fr, w);
+    int one = -1;
+    for (int k = 0; k < 3; k++)
+        if (w[k] > 0.999) one = k;
+    assert_true(one >= 0 && fr[one][0] == 6 && fr[one][1] == 5);
 }
 
 static void frame_bases_are_right_handed_and_orthonormal(void **state)
@@ -271,7 +293,7 @@ static void baked_impostor_matches_the_tree(void **state)
     assert_int_equal(sv_gpu_mesh_upload(r, m, &g, &err), SV_OK);
     for (int hemi = 0; hemi < 2; hemi++) {
         sv_octa_grid grid;
-        assert_int_equal(sv_octa_fit(m, 8, hemi, &grid, &err), SV_OK);
+        assert_int_equal(sv_octa_fit(m, 8, hemi, 1.0, &grid, &err), SV_OK);
         grid.frame_pixels = 128;
         sv_bake_options bo;
         sv_bake_options_init(&bo);
@@ -290,7 +312,7 @@ static void baked_impostor_matches_the_tree(void **state)
         assert_true(de < 0.05);
         /* between frames (the middle of a grid cell), and from the side */
         double uv[2] = {2.0 * 3.4 / 7 - 1, 2.0 * 4.3 / 7 - 1}, mid[3];
-        sv_octa_decode(hemi, uv, mid);
+        sv_octa_decode(hemi, 1.0, uv, mid);
         double between = iou_from(r, g, m, &grid, &b, mid, NULL);
         printf("hemi %d: between frames: IoU %.3f\n", hemi, between);
         assert_true(between > 0.85);
