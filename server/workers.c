@@ -489,6 +489,16 @@ static void run_process(svd_workers *w, zygote *z, svd_ticket *t, char **argv, s
 {
     const svd_config *c = svd_jobs_config(w->jobs);
     if (c->worker_pool && atomic_load(&w->pool_state) >= 0) {
+        /* an idle zygote says nothing: anything readable on its socket is
+         * its death (EOF) */
+        struct pollfd zp = {.fd = z->fd, .events = POLLIN};
+        if (z->fd >= 0 && poll(&zp, 1, 0) != 0) {
+            char zb[32];
+            snprintf(zb, sizeof zb, "%d", (int)z->pid);
+            svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "zygote_lost", "pid", zb, "msg",
+                       "the idle zygote died: starting another", (const char *)NULL);
+            zygote_stop(z);
+        }
         if (z->fd < 0) {
             sv_error err = {0};
             if (zygote_start(w, z, &err) == SV_OK) {
