@@ -5,6 +5,7 @@
  *                   [--cpu-limit S]
  *   sylva-bake check-spec SPEC.json
  *   sylva-bake sandbox-selftest [socket|exec]     (testing: see cmd_sandbox_selftest)
+ *   sylva-bake zygote --control-fd N --parent-pid P  (sylvad's worker pool: zygote.h)
  *
  * Exit status: 0 success; 1 the input was refused or the bake failed (one line
  * on stderr; with bake, DIR/error.json holds {"error":{"code","message"}});
