@@ -782,14 +782,14 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
         svd_jobs_finish(jobs, t, SVD_OUT_CANCELLED, NULL, NULL, NULL);
     } else if (rr.aborted) {
         svd_jobs_finish(jobs, t, SVD_OUT_REQUEUE, NULL, "stopped by a drain", NULL);
-    } else if (rr.zygote_lost) { /* as a crash: retried */
-        svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
-        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "the worker pool's zygote died during the bake",
-                        NULL);
     } else if (rr.timed_out) {
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 1);
         snprintf(msg, sizeof msg, "worker timed out after %u s", c->job_timeout);
         svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, msg, NULL);
+    } else if (rr.zygote_lost) { /* as a crash: retried */
+        svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
+        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "the worker pool's zygote died during the bake",
+                        NULL);
     } else if (WIFSIGNALED(rr.status)) {
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
         signal_reason(c, &rr, logpath, msg, sizeof msg);

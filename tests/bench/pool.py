@@ -37,9 +37,10 @@ TRI = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
 
 
 def start(tmp, pool):
-    store = os.path.join(tmp, "store-" + pool)
-    portf = os.path.join(tmp, "port-" + pool)
-    log = open(os.path.join(tmp, "daemon-%s.log" % pool), "w")
+    run = tempfile.mkdtemp(prefix="daemon-%s-" % pool, dir=tmp)  # a fresh store and port file
+    store = os.path.join(run, "store")
+    portf = os.path.join(run, "port")
+    log = open(os.path.join(run, "daemon.log"), "w")
     p = subprocess.Popen([os.path.join(build, "sylvad"), "--listen", "127.0.0.1:0", "--store", store,
                           "--port-file", portf, "--worker-pool", pool, "--queue-per-client", "1000",
                           "--log-level", "info"], stderr=log)
