@@ -13,7 +13,7 @@
 #     before ("worker killed by signal 11", a crash in the metrics); a
 #     zygote SIGKILLed mid-bake takes its child with it and the job counts
 #     as a crash.
-# sylva-test: cost=40
+# sylva-test: cost=20
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 OAK=$SYLVA_ROOT/examples/oak_large/oak_large.glb
