@@ -120,7 +120,7 @@ $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
 # The client links libsylva statically and nothing of core.
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm
-$(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(LIBCORE)
+$(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(BUILD)/core/cli/zygote.o $(LIBCORE)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)

@@ -42,6 +42,7 @@ void svd_config_defaults(svd_config *c)
     c->worker_fsize_bytes = (uint64_t)4 << 30;
     c->worker_sandbox = true;
     c->worker_nice = 10;
+    c->worker_pool = true;
 }
 
 bool svd_parse_bool(const char *s, bool *out)
@@ -119,6 +120,7 @@ static const struct setting {
     S("worker_fsize_bytes", K_SIZE, worker_fsize_bytes),
     S("worker_sandbox", K_BOOL, worker_sandbox),
     S("worker_nice", K_U32, worker_nice),
+    S("worker_pool", K_BOOL, worker_pool),
 #undef S
 };
 

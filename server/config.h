@@ -55,6 +55,9 @@ typedef struct svd_config {
     uint64_t worker_fsize_bytes;  /* RLIMIT_FSIZE, default 4G */
     bool worker_sandbox;          /* pass --sandbox (seccomp filter) to workers, default on */
     uint32_t worker_nice;         /* nice value of workers (0..19), default 10 */
+    bool worker_pool;             /* fork workers from a resident `sylva-bake zygote` per
+                                     worker thread instead of exec'ing each, default on
+                                     (workers.h) */
 } svd_config;
 
 /* Fills cfg with the defaults above. */

@@ -14,11 +14,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdatomic.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "zygote_proto.h"
 
 extern char **environ;
 
@@ -27,7 +31,18 @@ struct svd_workers {
     char path[SVD_PATH_MAX];
     unsigned count;
     pthread_t *threads;
+    /* the pool (worker_pool): 0 not tried yet, 1 a zygote said hello, -1
+     * the first zygote failed (a worker that does not speak the protocol,
+     * or threads at fork): one exec per job from then on */
+    atomic_int pool_state;
 };
+
+/* One worker thread's zygote (`sylva-bake zygote`, common/zygote_proto.h),
+ * started at the thread's first job, again after it died. */
+typedef struct zygote {
+    pid_t pid; /* 0 = none; the daemon's own child, reaped by zygote_stop */
+    int fd;    /* the control socket, -1 = none */
+} zygote;
 
 static cJSON *read_json(const char *path, size_t max)
 {
@@ -75,6 +90,7 @@ static sv_status check_inputs(svd_store *store, const char *key, cJSON **inputs_
 typedef struct run_result {
     int status;        /* waitpid status */
     int timed_out, cancelled, aborted, spawn_failed;
+    int zygote_lost;   /* the pool's zygote died mid-bake (and the worker with it) */
     char spawn_error[256];
     struct rusage ru;  /* of the reaped worker (wait4) */
 } run_result;
@@ -109,8 +125,50 @@ static void handle_line(svd_jobs *jobs, svd_ticket *t, const char *line)
     cJSON_Delete(j);
 }
 
-static void run_process(svd_workers *w, svd_ticket *t, char **argv, const char *logpath,
-                        run_result *rr)
+/* The progress pipe's partial line. */
+typedef struct progress_reader {
+    char line[4096];
+    size_t len;
+} progress_reader;
+
+/* Reads what the pipe holds and hands each complete line to the job table.
+ * 1 at EOF (or a read error), else 0. */
+static int read_progress(svd_jobs *jobs, svd_ticket *t, int fd, progress_reader *pr)
+{
+    char buf[4096];
+    ssize_t n = read(fd, buf, sizeof buf);
+    if (n <= 0) return !(n < 0 && (errno == EINTR || errno == EAGAIN));
+    for (ssize_t i = 0; i < n; i++) {
+        if (buf[i] == '\n') {
+            pr->line[pr->len] = '\0';
+            handle_line(jobs, t, pr->line);
+            pr->len = 0;
+        } else if (pr->len + 1 < sizeof pr->line) {
+            pr->line[pr->len++] = buf[i];
+        }
+    }
+    return 0;
+}
+
+/* Whether the running worker must be killed now: past the deadline, the job
+ * cancelled (DELETE) or the daemon draining. Sets rr's flag, logs, returns
+ * the reason; NULL to let it run. */
+static const char *kill_reason(svd_workers *w, svd_ticket *t, double deadline, run_result *rr)
+{
+    const char *why = NULL;
+    if (sv_now() >= deadline) rr->timed_out = 1, why = "timeout";
+    else if (svd_jobs_cancelled(w->jobs, t)) rr->cancelled = 1, why = "cancel";
+    else if (svd_jobs_aborting(w->jobs)) rr->aborted = 1, why = "drain";
+    if (why)
+        svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "worker_killed", "key", t->key, "reason", why,
+                   (const char *)NULL);
+    return why;
+}
+
+/* Runs argv (today's exec path) to its end: posix_spawn, limits, progress,
+ * deadline / cancel / drain kills, wait4. */
+static void run_exec(svd_workers *w, svd_ticket *t, char **argv, const char *logpath,
+                     run_result *rr)
 {
     svd_jobs *jobs = w->jobs;
     const svd_config *c = svd_jobs_config(jobs);
@@ -161,44 +219,21 @@ static void run_process(svd_workers *w, svd_ticket *t, char **argv, const char *
                (const char *)NULL);
 
     double deadline = sv_now() + (c->job_timeout ? c->job_timeout : 1e9);
-    char line[4096];
-    size_t ll = 0;
+    progress_reader pr = {0};
     int eof = 0, killed = 0, reaped = 0;
     while (!reaped) {
         double now = sv_now();
-        if (!killed) {
-            const char *why = NULL;
-            if (now >= deadline) rr->timed_out = 1, why = "timeout";
-            else if (svd_jobs_cancelled(jobs, t)) rr->cancelled = 1, why = "cancel";
-            else if (svd_jobs_aborting(jobs)) rr->aborted = 1, why = "drain";
-            if (why) {
-                kill(-pid, SIGKILL); /* the whole process group */
-                kill(pid, SIGKILL);
-                killed = 1;
-                svd_log_kv(svd_jobs_log(jobs), SVD_LOG_WARN, "worker_killed", "key", t->key,
-                           "reason", why, (const char *)NULL);
-            }
+        if (!killed && kill_reason(w, t, deadline, rr)) {
+            kill(-pid, SIGKILL); /* the whole process group */
+            kill(pid, SIGKILL);
+            killed = 1;
         }
         if (!eof) {
             struct pollfd pfd = {.fd = p[0], .events = POLLIN};
             int ms = (int)((deadline - now) * 1000);
             if (ms > 100) ms = 100;
             if (ms < 0) ms = 0;
-            int pr = poll(&pfd, 1, ms);
-            if (pr > 0) {
-                char buf[4096];
-                ssize_t n = read(p[0], buf, sizeof buf);
-                if (n <= 0 && !(n < 0 && errno == EINTR)) eof = 1;
-                for (ssize_t i = 0; i < n; i++) {
-                    if (buf[i] == '\n') {
-                        line[ll] = '\0';
-                        handle_line(jobs, t, line);
-                        ll = 0;
-                    } else if (ll + 1 < sizeof line) {
-                        line[ll++] = buf[i];
-                    }
-                }
-            }
+            if (poll(&pfd, 1, ms) > 0) eof = read_progress(jobs, t, p[0], &pr);
         } else {
             struct timespec ts = {0, 20 * 1000 * 1000};
             nanosleep(&ts, NULL);
@@ -208,6 +243,290 @@ static void run_process(svd_workers *w, svd_ticket *t, char **argv, const char *
     }
     kill(-pid, SIGKILL); /* leftovers the worker may have started */
     close(p[0]);
+}
+
+/* ---- the pool (worker_pool; common/zygote_proto.h, docs/design.md) ---- */
+
+#define ZYGOTE_HELLO_WAIT 30.0 /* s: loading the libraries takes ~0.5 s, more under ASan */
+#define ZYGOTE_KILL_WAIT 5.0   /* s after a kill request before the zygote itself is killed */
+
+/* Kills and reaps the zygote (the daemon's child) and closes its socket. Its
+ * child, if any, dies with it (PR_SET_PDEATHSIG). A zygote with no pid is a
+ * no-op. */
+static void zygote_stop(zygote *z)
+{
+    if (z->fd >= 0) close(z->fd);
+    if (z->pid > 0) {
+        kill(z->pid, SIGKILL);
+        while (waitpid(z->pid, NULL, 0) < 0 && errno == EINTR) {
+        }
+    }
+    z->pid = 0;
+    z->fd = -1;
+}
+
+/* Receives one message of exactly size bytes within timeout seconds.
+ * 1 done, 0 the zygote closed its end (it died), -1 timeout or a bad
+ * message. */
+static int zygote_recv(int fd, void *m, size_t size, double timeout)
+{
+    struct pollfd pfd = {.fd = fd, .events = POLLIN};
+    int pr;
+    do pr = poll(&pfd, 1, (int)(timeout * 1000));
+    while (pr < 0 && errno == EINTR);
+    if (pr <= 0) return -1;
+    char buf[sizeof(svz_exited) + 64];
+    ssize_t n;
+    do n = recv(fd, buf, sizeof buf, 0);
+    while (n < 0 && errno == EINTR);
+    if (n <= 0) return n == 0 || errno == ECONNRESET ? 0 : -1;
+    if ((size_t)n != size) return -1;
+    memcpy(m, buf, size);
+    return 1;
+}
+
+/* Starts `WORKER zygote --control-fd 3 --parent-pid DAEMON ROOM` with
+ * posix_spawn (the daemon never forks) and waits for its hello. SV_OK with z
+ * set, or an error whose message says why the pool cannot be used. */
+static sv_status zygote_start(svd_workers *w, zygote *z, sv_error *err)
+{
+    int sv[2];
+    z->pid = 0;
+    z->fd = -1;
+    if (socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) != 0)
+        return sv_fail(err, SV_ERR_IO, "socketpair: %s", strerror(errno));
+    char ppid[24], room[SVZ_TITLE_ROOM];
+    snprintf(ppid, sizeof ppid, "%ld", (long)getpid());
+    memset(room, ' ', sizeof room - 1); /* the children's command lines go here (ps) */
+    room[sizeof room - 1] = '\0';
+    char *argv[] = {w->path, "zygote", "--control-fd", "3", "--parent-pid", ppid, room, NULL};
+    posix_spawn_file_actions_t fa;
+    posix_spawnattr_t at;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawnattr_init(&at);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    posix_spawn_file_actions_adddup2(&fa, sv[1], 3); /* clears FD_CLOEXEC on fd 3 */
+    sigset_t none, def;
+    sigemptyset(&none);
+    sigfillset(&def);
+    sigdelset(&def, SIGKILL);
+    sigdelset(&def, SIGSTOP);
+    posix_spawnattr_setsigmask(&at, &none);
+    posix_spawnattr_setsigdefault(&at, &def);
+    posix_spawnattr_setpgroup(&at, 0); /* a terminal's ^C is the daemon's to handle */
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+    pid_t pid;
+    int rc = posix_spawn(&pid, w->path, &fa, &at, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    posix_spawnattr_destroy(&at);
+    close(sv[1]);
+    if (rc != 0) {
+        close(sv[0]);
+        return sv_fail(err, SV_ERR_IO, "cannot start %s zygote: %s", w->path, strerror(rc));
+    }
+    z->pid = pid;
+    z->fd = sv[0];
+    svz_hello h;
+    int got = zygote_recv(z->fd, &h, sizeof h, ZYGOTE_HELLO_WAIT);
+    sv_status st = SV_OK;
+    if (got == 0)
+        st = sv_fail(err, SV_ERR_IO, "%s exited without a zygote's hello (a worker that does not "
+                     "speak the pool protocol)", w->path);
+    else if (got < 0 || h.type != SVZ_HELLO)
+        st = sv_fail(err, SV_ERR_IO, "%s zygote: no valid hello within %.0f s", w->path,
+                     ZYGOTE_HELLO_WAIT);
+    else if (h.version != SVZ_VERSION)
+        st = sv_fail(err, SV_ERR_IO, "%s zygote speaks protocol version %u, not %u", w->path,
+                     h.version, SVZ_VERSION);
+    else if (h.threads != 1)
+        st = sv_fail(err, SV_ERR_IO, "%s zygote has %d threads after loading its libraries: "
+                     "fork() would not be safe", w->path, h.threads);
+    else if (h.pid != pid)
+        st = sv_fail(err, SV_ERR_IO, "%s zygote says it is pid %d, not %d", w->path, h.pid, (int)pid);
+    if (st != SV_OK) zygote_stop(z);
+    return st;
+}
+
+/* The run message: header + argv strings (argv[0] is the worker). 0 and the
+ * length in *len, or -1 when it does not fit SVZ_MAX_MSG. */
+static int build_run(const svd_config *c, char *const *argv, char *msg, size_t *len)
+{
+    svz_run rq = {.type = SVZ_RUN, .as_bytes = c->worker_as_bytes,
+                  .cpu_seconds = c->worker_cpu_seconds, .nofile = c->worker_nofile,
+                  .fsize_bytes = c->worker_fsize_bytes, .nice = (int32_t)c->worker_nice};
+    size_t at = sizeof rq;
+    for (; argv[rq.argc]; rq.argc++) {
+        size_t l = strlen(argv[rq.argc]) + 1;
+        if (at + l > SVZ_MAX_MSG) return -1;
+        memcpy(msg + at, argv[rq.argc], l);
+        at += l;
+    }
+    memcpy(msg, &rq, sizeof rq);
+    *len = at;
+    return 0;
+}
+
+/* Runs argv (no prlimit prefix) as a child of the thread's zygote, with
+ * run_exec's loop. Returns 0 when the job ran (rr filled as run_exec fills
+ * it, rr->zygote_lost if the zygote died under it), -1 when nothing was
+ * started (the zygote is gone or refused; the caller runs the job by exec). */
+static int run_pool(svd_workers *w, zygote *z, svd_ticket *t, char **argv, const char *logpath,
+                    run_result *rr)
+{
+    svd_jobs *jobs = w->jobs;
+    const svd_config *c = svd_jobs_config(jobs);
+    memset(rr, 0, sizeof *rr);
+    char *msg = malloc(SVZ_MAX_MSG);
+    size_t len = 0;
+    if (!msg || build_run(c, argv, msg, &len) != 0) {
+        free(msg);
+        return -1;
+    }
+    int p[2], logfd = -1;
+    if (pipe2(p, O_CLOEXEC) != 0) {
+        free(msg);
+        rr->spawn_failed = 1;
+        snprintf(rr->spawn_error, sizeof rr->spawn_error, "pipe: %s", strerror(errno));
+        return 0;
+    }
+    logfd = open(logpath, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (logfd < 0) {
+        free(msg);
+        close(p[0]);
+        close(p[1]);
+        rr->spawn_failed = 1;
+        snprintf(rr->spawn_error, sizeof rr->spawn_error, "cannot start %s: %s", argv[0],
+                 strerror(errno)); /* as posix_spawn says it when its open fails */
+        return 0;
+    }
+    int fds[2] = {logfd, p[1]};
+    char cbuf[CMSG_SPACE(sizeof fds)];
+    memset(cbuf, 0, sizeof cbuf);
+    struct iovec iov = {msg, len};
+    struct msghdr mh = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = cbuf,
+                        .msg_controllen = sizeof cbuf};
+    struct cmsghdr *cm = CMSG_FIRSTHDR(&mh);
+    cm->cmsg_level = SOL_SOCKET;
+    cm->cmsg_type = SCM_RIGHTS;
+    cm->cmsg_len = CMSG_LEN(sizeof fds);
+    memcpy(CMSG_DATA(cm), fds, sizeof fds);
+    ssize_t sent;
+    do sent = sendmsg(z->fd, &mh, MSG_NOSIGNAL);
+    while (sent < 0 && errno == EINTR);
+    free(msg);
+    close(logfd);
+    close(p[1]);
+    svz_started s = {0};
+    int got = sent == (ssize_t)len ? zygote_recv(z->fd, &s, sizeof s, ZYGOTE_HELLO_WAIT) : 0;
+    if (got <= 0 || s.type != SVZ_STARTED || s.err != 0 || s.pid <= 0) {
+        close(p[0]);
+        char why[96];
+        snprintf(why, sizeof why, "%s", got == 0 ? "the zygote is gone"
+                 : got < 0 ? "no answer from the zygote"
+                 : s.err ? strerror(s.err) : "a bad answer from the zygote");
+        svd_log_kv(svd_jobs_log(jobs), SVD_LOG_WARN, "zygote_failed", "key", t->key, "reason", why,
+                   (const char *)NULL);
+        zygote_stop(z);
+        return -1;
+    }
+    pid_t pid = s.pid;
+    char pbuf[32], zbuf[32];
+    snprintf(pbuf, sizeof pbuf, "%d", (int)pid);
+    snprintf(zbuf, sizeof zbuf, "%d", (int)z->pid);
+    svd_log_kv(svd_jobs_log(jobs), SVD_LOG_DEBUG, "worker_started", "key", t->key, "pid", pbuf,
+               "zygote", zbuf, (const char *)NULL);
+
+    double deadline = sv_now() + (c->job_timeout ? c->job_timeout : 1e9), killed_at = 0;
+    progress_reader pr = {0};
+    int eof = 0, killed = 0, reaped = 0;
+    while (!reaped) {
+        double now = sv_now();
+        if (!killed && kill_reason(w, t, deadline, rr)) {
+            /* only the zygote signals its child: it alone knows whether the
+             * pid is still the worker's (it has not reaped it) */
+            svz_kill k = {.type = SVZ_KILL, .pid = pid};
+            send(z->fd, &k, sizeof k, MSG_NOSIGNAL);
+            killed = 1;
+            killed_at = now;
+        } else if (killed && now - killed_at > ZYGOTE_KILL_WAIT) {
+            zygote_stop(z); /* an unresponsive zygote: the worker dies with it */
+            rr->zygote_lost = 1;
+            break;
+        }
+        struct pollfd pfd[2] = {{.fd = z->fd, .events = POLLIN}, {.fd = eof ? -1 : p[0], .events = POLLIN}};
+        int ms = (int)((deadline - now) * 1000);
+        if (ms > 100) ms = 100;
+        if (ms < 0) ms = 0;
+        if (poll(pfd, 2, ms) <= 0) continue;
+        if (pfd[1].revents) eof = read_progress(jobs, t, p[0], &pr);
+        if (pfd[0].revents) {
+            svz_exited ex;
+            int r = zygote_recv(z->fd, &ex, sizeof ex, 0);
+            if (r == 1 && ex.type == SVZ_EXITED && ex.pid == pid) {
+                rr->status = ex.status;
+                rr->ru = ex.ru;
+                reaped = 1;
+            } else { /* the zygote died (or broke the protocol): so did its child */
+                zygote_stop(z);
+                rr->zygote_lost = 1;
+                break;
+            }
+        }
+    }
+    close(p[0]);
+    return 0;
+}
+
+/* Runs the job's argv: through the thread's zygote when the pool is on and
+ * works, else by exec. argv[base] is the worker (before it: the prlimit
+ * wrapper, which the pool does without: the child sets the same limits with
+ * setrlimit); ppid is the --parent-pid argument's buffer, set here to the
+ * process the worker must die with. */
+static void run_process(svd_workers *w, zygote *z, svd_ticket *t, char **argv, size_t base,
+                        char *ppid, size_t ppid_cap, const char *logpath, run_result *rr)
+{
+    const svd_config *c = svd_jobs_config(w->jobs);
+    if (c->worker_pool && atomic_load(&w->pool_state) >= 0) {
+        /* an idle zygote says nothing: anything readable on its socket is
+         * its death (EOF) */
+        struct pollfd zp = {.fd = z->fd, .events = POLLIN};
+        if (z->fd >= 0 && poll(&zp, 1, 0) != 0) {
+            char zb[32];
+            snprintf(zb, sizeof zb, "%d", (int)z->pid);
+            svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "zygote_lost", "pid", zb, "msg",
+                       "the idle zygote died: starting another", (const char *)NULL);
+            zygote_stop(z);
+        }
+        if (z->fd < 0) {
+            sv_error err = {0};
+            if (zygote_start(w, z, &err) == SV_OK) {
+                int zero = 0;
+                atomic_compare_exchange_strong(&w->pool_state, &zero, 1);
+                char zb[32];
+                snprintf(zb, sizeof zb, "%d", (int)z->pid);
+                svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_INFO, "zygote_started", "pid", zb,
+                           (const char *)NULL);
+            } else {
+                int zero = 0;
+                if (atomic_compare_exchange_strong(&w->pool_state, &zero, -1))
+                    svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "worker_pool_unavailable",
+                               "reason", err.message, "msg",
+                               "worker_pool is on but the first zygote failed: one exec per job",
+                               (const char *)NULL);
+                else
+                    svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "zygote_failed", "key", t->key,
+                               "reason", err.message, (const char *)NULL);
+            }
+        }
+        if (z->fd >= 0) {
+            snprintf(ppid, ppid_cap, "%ld", (long)z->pid);
+            if (run_pool(w, z, t, argv + base, logpath, rr) == 0) return;
+        }
+    }
+    snprintf(ppid, ppid_cap, "%ld", (long)getpid());
+    run_exec(w, t, argv, logpath, rr);
 }
 
 static int cmp_str(const void *a, const void *b)
@@ -354,7 +673,7 @@ static void signal_reason(const svd_config *c, const run_result *rr, const char 
     snprintf(msg, cap, "worker killed by signal %d", sig);
 }
 
-static void run_job(svd_workers *w, svd_ticket *t)
+static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
 {
     svd_jobs *jobs = w->jobs;
     svd_store *store = svd_jobs_store(jobs);
@@ -410,6 +729,7 @@ static void run_job(svd_workers *w, svd_ticket *t)
         argv[ac++] = "--core=0";
         argv[ac++] = "--";
     }
+    size_t base = ac; /* the worker: where the pool's argv starts */
     argv[ac++] = w->path;
     argv[ac++] = "bake";
     snprintf(buf, sizeof buf, "in/%s", mesh ? mesh : "");
@@ -433,9 +753,9 @@ static void run_job(svd_workers *w, svd_ticket *t)
     argv[ac++] = outdir;
     argv[ac++] = "--progress-fd";
     argv[ac++] = "3";
-    /* the worker dies with the daemon (PR_SET_PDEATHSIG; issue 22 item 9) */
-    char ppid[24];
-    snprintf(ppid, sizeof ppid, "%ld", (long)getpid());
+    /* the worker dies with the daemon (PR_SET_PDEATHSIG; issue 22 item 9),
+     * or with its zygote, which dies with the daemon: run_process says */
+    char ppid[24] = "";
     argv[ac++] = "--parent-pid";
     argv[ac++] = ppid;
     if (c->worker_sandbox) argv[ac++] = "--sandbox"; /* seccomp filter (core/sandbox.h) */
@@ -447,7 +767,7 @@ static void run_job(svd_workers *w, svd_ticket *t)
         rr.spawn_failed = 1;
         snprintf(rr.spawn_error, sizeof rr.spawn_error, "out of memory building the worker's command line");
     } else {
-        run_process(w, t, argv, logpath, &rr);
+        run_process(w, z, t, argv, base, ppid, sizeof ppid, logpath, &rr);
     }
     for (size_t i = 0; i < no; i++) free(owned[i]);
     for (int i = 0; i <= nfiles; i++) free(inpaths[i]);
@@ -466,6 +786,10 @@ static void run_job(svd_workers *w, svd_ticket *t)
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 1);
         snprintf(msg, sizeof msg, "worker timed out after %u s", c->job_timeout);
         svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, msg, NULL);
+    } else if (rr.zygote_lost) { /* as a crash: retried */
+        svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
+        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "the worker pool's zygote died during the bake",
+                        NULL);
     } else if (WIFSIGNALED(rr.status)) {
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
         signal_reason(c, &rr, logpath, msg, sizeof msg);
@@ -515,7 +839,9 @@ static void *worker_main(void *arg)
 {
     svd_workers *w = arg;
     svd_ticket t;
-    while (svd_jobs_take(w->jobs, &t)) run_job(w, &t);
+    zygote z = {0, -1}; /* this thread's, started at its first job */
+    while (svd_jobs_take(w->jobs, &t)) run_job(w, &z, &t);
+    zygote_stop(&z);
     return NULL;
 }
 

@@ -15,6 +15,17 @@
  * and renamed into the store. Exit 1: failed with DIR/error.json's reason.
  * A signal, an unexpected exit or a timeout: retried (jobs.h decides when
  * to give up).
+ *
+ * The pool (worker_pool, default on; docs/design.md "The worker pool"):
+ * instead of spawning the command line above, each thread hands it to its
+ * own `sylva-bake zygote` (spawned at the thread's first job, again after it
+ * died), which forks a child that sets the same process group, fds, signal
+ * state, limits (setrlimit: no prlimit wrapper) and nice, and runs the bake;
+ * the zygote reports the pid, then the wait status and rusage, and carries
+ * out kills, so the rest is the same. A zygote that dies mid-bake makes the
+ * job a crash (retried). When the first zygote fails its hello (a worker
+ * that is not sylva-bake) the daemon logs worker_pool_unavailable and
+ * spawns one worker per job.
  */
 #ifndef SVD_WORKERS_H
 #define SVD_WORKERS_H

@@ -5,6 +5,7 @@
  *                   [--cpu-limit S]
  *   sylva-bake check-spec SPEC.json
  *   sylva-bake sandbox-selftest [socket|exec]     (testing: see cmd_sandbox_selftest)
+ *   sylva-bake zygote --control-fd N --parent-pid P  (sylvad's worker pool: zygote.h)
  *
  * Exit status: 0 success; 1 the input was refused or the bake failed (one line
  * on stderr; with bake, DIR/error.json holds {"error":{"code","message"}});
@@ -44,6 +45,8 @@
 #include "view.h"
 #include "sandbox.h"
 #include "spec.h"
+#include "zygote.h"
+#include "zygote_proto.h"
 
 #define MAX_FILES 256
 #define EXIT_TARGET_UNMET 3 /* bake: outputs written, the spec's target not met */
@@ -755,6 +758,35 @@ static int cmd_view(int argc, char **argv)
     return 0;
 }
 
+/* sylva-bake zygote --control-fd N --parent-pid P [ROOM]: sylvad's resident
+ * worker (zygote.h), not for users. ROOM, a long blank argument the daemon
+ * appends, is the space a child writes its job's command line into. */
+static int cmd_zygote(int argc, char **argv, char **all, int all_argc)
+{
+    long fd = -1, parent = 0;
+    for (int i = 0; i < argc; i++) {
+        if (strcmp(argv[i], "--control-fd") == 0 && i + 1 < argc) fd = strtol(argv[++i], NULL, 10);
+        else if (strcmp(argv[i], "--parent-pid") == 0 && i + 1 < argc)
+            parent = strtol(argv[++i], NULL, 10);
+        else if (i != argc - 1 || argv[i][0] != ' ') {
+            fprintf(stderr, "sylva-bake zygote: unexpected argument '%.40s'\n", argv[i]);
+            return 2;
+        }
+    }
+    if (fd < 3 || fd > 1023 || parent <= 0) {
+        fprintf(stderr, "sylva-bake zygote: needs --control-fd N and --parent-pid P (sylvad's)\n");
+        return 2;
+    }
+    /* the argv area, contiguous from argv[0] to the end of the last string */
+    char *title = all[0];
+    char *end = all[all_argc - 1] + strlen(all[all_argc - 1]) + 1;
+    for (int i = 1; i < all_argc; i++)
+        if (all[i] != all[i - 1] + strlen(all[i - 1]) + 1) title = NULL;
+    if (title && all[all_argc - 1][0] == ' ') /* ps shows the zygote without the room */
+        memset(all[all_argc - 1], 0, strlen(all[all_argc - 1]));
+    return sv_zygote_serve((int)fd, parent, title, title ? (size_t)(end - title) : 0, cmd_bake);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
@@ -770,6 +802,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "check-spec") == 0) return cmd_check_spec(argc - 2, argv + 2);
     if (strcmp(argv[1], "view") == 0) return cmd_view(argc - 2, argv + 2);
     if (strcmp(argv[1], "sandbox-selftest") == 0) return cmd_sandbox_selftest(argc - 2, argv + 2);
+    if (strcmp(argv[1], "zygote") == 0) return cmd_zygote(argc - 2, argv + 2, argv, argc);
     fprintf(stderr, "sylva-bake: unknown command '%s'\n%s", argv[1], usage);
     return 2;
 }

@@ -28,3 +28,5 @@ python3 "$here/target_cost.py"
 python3 "$here/default_chains.py"
 # issue 24: every stochastic level against meshoptimizer at equal triangles (sveval)
 python3 "$here/stochastic_peers.py"
+# issue 20 item 1: daemon jobs per minute with and without the worker pool
+python3 "$here/pool.py"

@@ -6,8 +6,9 @@
 # with the real $BUILD/sylva-bake:
 #   per trial: a new key (tree x method cycled, seed = trial number, a small
 #   cheap spec), wait until its worker runs, wait a random delay (seeded RNG,
-#   KILL_SEED), SIGKILL the worker process (a child of the daemon, found by its
-#   command line holding the job's key) — once per job.
+#   KILL_SEED), SIGKILL the worker process (a child of the daemon, or of its
+#   zygote with worker_pool on, found by its command line holding the job's
+#   key: daemon_workers) — once per job.
 # Checks: every job reaches done (attempts 2 when the kill landed); every
 # artifact is byte-identical to an offline `sylva-bake bake` of the same tree
 # and spec (report.json but for its "times"), and matches the manifest's
@@ -130,7 +131,7 @@ code=$(up "$T/trial/cache")
 ckey=$(json_str key < "$T/trial/cache/up.json")
 [ "$code" = 202 ] && ok "cached job accepted" || { bad "cached job: upload got $code $(head -c 300 "$T/trial/cache/up.json")"; finish; }
 n=0
-while ! pgrep -P "$DPID" -f "jobs/$ckey/" > /dev/null && [ $n -lt 600 ]; do sleep 0.05; n=$((n + 1)); done
+while [ -z "$(daemon_workers "jobs/$ckey/")" ] && [ $n -lt 600 ]; do sleep 0.05; n=$((n + 1)); done
 w0=$(date +%s.%N)
 [ "$(wait_final "$ckey" $JOB_WAIT)" = done ] && ok "cached job done" || bad "cached job not done"
 w1=$(date +%s.%N)
@@ -155,10 +156,11 @@ get_loop() {
         sleep 0.05
     done >> "$T/gets"
 }
-zombie_loop() { # "time pid" of each zombie child of the daemon, every 0.5 s
+zombie_loop() { # "time pid" of each zombie child of the daemon or its zygotes, every 0.5 s
     while [ ! -e "$T/stop" ]; do
         now=$(date +%s.%N)
-        ps -o pid=,stat= --ppid "$DPID" 2> /dev/null | awk -v t="$now" '$2 ~ /^Z/ {print t, $1}'
+        ps -o pid=,stat= --ppid "$(echo $DPID $(zygotes) | tr ' ' ',')" 2> /dev/null |
+            awk -v t="$now" '$2 ~ /^Z/ {print t, $1}'
         sleep 0.5
     done >> "$T/zombies"
 }
@@ -179,10 +181,10 @@ while [ $i -lt "$TRIALS" ]; do
         i=$((i + 1)); continue
     fi
     echo "$i $key" >> "$T/keys"
-    # its worker: a child of the daemon whose command line holds the key
+    # its worker: a child of the daemon (or of its zygote) whose command line holds the key
     pid="" n=0
     while [ -z "$pid" ] && [ $n -lt $((JOB_WAIT * 20)) ]; do
-        pid=$(pgrep -P "$DPID" -f "jobs/$key/" | head -n 1)
+        pid=$(daemon_workers "jobs/$key/" | head -n 1)
         [ -n "$pid" ] || { sleep 0.05; n=$((n + 1)); }
     done
     delay=$(sed -n "$((i + 1))p" "$T/delays")
@@ -287,9 +289,9 @@ lingering=$(awk '{ if (!($2 in first)) first[$2] = $1; last[$2] = $1 }
 n_zsamples=$(wc -l < "$T/zombies")
 [ -z "$lingering" ] && ok "no lingering zombie ($n_zsamples transient zombie samples)" ||
     bad "zombie children not reaped: $lingering"
-z_end=$(ps -o pid=,stat= --ppid "$DPID" 2> /dev/null | awk '$2 ~ /^Z/' | wc -l)
+z_end=$(ps -o pid=,stat= --ppid "$(echo $DPID $(zygotes) | tr ' ' ',')" 2> /dev/null | awk '$2 ~ /^Z/' | wc -l)
 check "no zombie child at the end" 0 "$z_end"
-check "no worker left at the end" "" "$(pgrep -P "$DPID" | tr '\n' ' ')"
+check "no worker left at the end (the zygotes stay)" "" "$(daemon_workers . | tr '\n' ' ')"
 check "tmp/ of the store empty" "" "$(ls -A "$T/store/tmp" | head -n 5 | tr '\n' ' ')"
 crashes=$(curl -s "$URL/v1/metrics" | sed -n 's/^sylva_worker_crashes_total{reason="crash"} //p')
 check "crash counter = kills that landed" "$n_landed" "${crashes:-0}"

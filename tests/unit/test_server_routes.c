@@ -139,6 +139,10 @@ static void config_refuses_bad_values(void **state)
     assert_non_null(strstr(e.message, "0..19"));
     assert_int_equal(svd_config_set(&c, "worker-nice", "19", &e), SV_OK);
     assert_int_equal(c.worker_nice, 19);
+    assert_true(c.worker_pool); /* on by default (workers.h) */
+    assert_int_equal(svd_config_set(&c, "worker_pool", "maybe", &e), SV_ERR_SPEC);
+    assert_int_equal(svd_config_set(&c, "worker-pool", "off", &e), SV_OK);
+    assert_false(c.worker_pool);
     assert_int_equal(svd_config_set(&c, "listen", "[::1]:0", &e), SV_OK);
     assert_string_equal(c.listen_host, "::1");
     assert_int_equal(c.port, 0);
