@@ -112,6 +112,37 @@ static void apply_rlimits(pid_t pid, const svd_config *c)
     prlimit(pid, RLIMIT_CORE, &r, NULL);
 }
 
+/* posix_spawn of path with argv: stdin /dev/null, stdout and stderr the
+ * file out (opened with oflags, mode 0600), fd 3 = fd3 (its FD_CLOEXEC
+ * cleared by the dup2), every signal unblocked and at its default, in a
+ * process group of its own (a terminal's ^C is the daemon's to handle).
+ * Returns posix_spawn's result (0, or an errno). */
+static int spawn_child(const char *path, char *const argv[], const char *out, int oflags, int fd3,
+                       pid_t *pid)
+{
+    posix_spawn_file_actions_t fa;
+    posix_spawnattr_t at;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawnattr_init(&at);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 1, out, oflags, 0600);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    posix_spawn_file_actions_adddup2(&fa, fd3, 3);
+    sigset_t none, def;
+    sigemptyset(&none);
+    sigfillset(&def);
+    sigdelset(&def, SIGKILL);
+    sigdelset(&def, SIGSTOP);
+    posix_spawnattr_setsigmask(&at, &none);
+    posix_spawnattr_setsigdefault(&at, &def);
+    posix_spawnattr_setpgroup(&at, 0);
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+    int rc = posix_spawn(pid, path, &fa, &at, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    posix_spawnattr_destroy(&at);
+    return rc;
+}
+
 static void handle_line(svd_jobs *jobs, svd_ticket *t, const char *line)
 {
     cJSON *j = cJSON_Parse(line);
@@ -179,27 +210,8 @@ static void run_exec(svd_workers *w, svd_ticket *t, char **argv, const char *log
         snprintf(rr->spawn_error, sizeof rr->spawn_error, "pipe: %s", strerror(errno));
         return;
     }
-    posix_spawn_file_actions_t fa;
-    posix_spawnattr_t at;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawnattr_init(&at);
-    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 1, logpath, O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    posix_spawn_file_actions_adddup2(&fa, p[1], 3); /* dup2 clears FD_CLOEXEC on fd 3 */
-    sigset_t none, def;
-    sigemptyset(&none);
-    sigfillset(&def);
-    sigdelset(&def, SIGKILL);
-    sigdelset(&def, SIGSTOP);
-    posix_spawnattr_setsigmask(&at, &none);
-    posix_spawnattr_setsigdefault(&at, &def);
-    posix_spawnattr_setpgroup(&at, 0);
-    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
     pid_t pid;
-    int rc = posix_spawn(&pid, argv[0], &fa, &at, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    posix_spawnattr_destroy(&at);
+    int rc = spawn_child(argv[0], argv, logpath, O_WRONLY | O_CREAT | O_TRUNC, p[1], &pid);
     close(p[1]);
     if (rc != 0) {
         close(p[0]);
@@ -300,27 +312,8 @@ static sv_status zygote_start(svd_workers *w, zygote *z, sv_error *err)
     memset(room, ' ', sizeof room - 1); /* the children's command lines go here (ps) */
     room[sizeof room - 1] = '\0';
     char *argv[] = {w->path, "zygote", "--control-fd", "3", "--parent-pid", ppid, room, NULL};
-    posix_spawn_file_actions_t fa;
-    posix_spawnattr_t at;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawnattr_init(&at);
-    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    posix_spawn_file_actions_adddup2(&fa, sv[1], 3); /* clears FD_CLOEXEC on fd 3 */
-    sigset_t none, def;
-    sigemptyset(&none);
-    sigfillset(&def);
-    sigdelset(&def, SIGKILL);
-    sigdelset(&def, SIGSTOP);
-    posix_spawnattr_setsigmask(&at, &none);
-    posix_spawnattr_setsigdefault(&at, &def);
-    posix_spawnattr_setpgroup(&at, 0); /* a terminal's ^C is the daemon's to handle */
-    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
     pid_t pid;
-    int rc = posix_spawn(&pid, w->path, &fa, &at, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    posix_spawnattr_destroy(&at);
+    int rc = spawn_child(w->path, argv, "/dev/null", O_WRONLY, sv[1], &pid);
     close(sv[1]);
     if (rc != 0) {
         close(sv[0]);
