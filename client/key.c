@@ -3,6 +3,8 @@
  * and the retry/backoff policy. No network here. */
 #include "sylva.h"
 
+#include "key_rules.h" /* the rules sylvad applies too (common/) */
+
 #include <openssl/evp.h>
 
 #include <sys/stat.h>
@@ -93,21 +95,12 @@ long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers,
     return delay;
 }
 
+_Static_assert(SYLVA_NAME_MAX == SYLVA_UPLOAD_NAME_MAX, "sylva.h's name limit is the server's");
+_Static_assert(SYLVA_KEY_HEX == SYLVA_KEY_HEX_LEN, "a key is 64 hex digits on both sides");
+
 bool sylva_name_valid(const char *name)
 {
-    if (!name || !name[0])
-        return false;
-    size_t n = strlen(name);
-    if (n > SYLVA_NAME_MAX)
-        return false;
-    if (strcmp(name, ".") == 0 || strcmp(name, "..") == 0)
-        return false;
-    for (size_t i = 0; i < n; i++) {
-        unsigned char ch = (unsigned char)name[i];
-        if (ch == '/' || ch == '\\' || ch == ' ' || ch < 0x20 || ch == 0x7f)
-            return false;
-    }
-    return true;
+    return sylva_upload_name_ok(name);
 }
 
 static void set_err(char *errbuf, size_t errlen, const char *fmt, ...)
@@ -122,15 +115,6 @@ static void set_err(char *errbuf, size_t errlen, const char *fmt, ...)
     va_end(ap);
 }
 
-static void to_hex(const unsigned char *md, char hex[SYLVA_KEY_HEX + 1])
-{
-    static const char digits[] = "0123456789abcdef";
-    for (int i = 0; i < 32; i++) {
-        hex[2 * i] = digits[md[i] >> 4];
-        hex[2 * i + 1] = digits[md[i] & 15];
-    }
-    hex[SYLVA_KEY_HEX] = '\0';
-}
 
 /* Feeds a whole file into the digest; *size receives its length. */
 static sylva_status digest_file(EVP_MD_CTX *md, const char *path, uint64_t *size,
@@ -215,9 +199,8 @@ static sylva_status digest_part(EVP_MD_CTX *md, const char *kind, const sylva_fi
     if (st != SYLVA_OK)
         return st;
     char head[SYLVA_NAME_MAX + 64];
-    int n = snprintf(head, sizeof head, "%s %s %llu\n", kind, upload_name(f),
-                     (unsigned long long)size);
-    if (n < 0 || (size_t)n >= sizeof head || EVP_DigestUpdate(md, head, (size_t)n) != 1) {
+    int n = sylva_key_part_head(head, sizeof head, kind, upload_name(f), (unsigned long long)size);
+    if (n < 0 || EVP_DigestUpdate(md, head, (size_t)n) != 1) {
         set_err(errbuf, errlen, "SHA-256 update failed");
         return SYLVA_ERR_NOMEM;
     }
@@ -316,12 +299,12 @@ sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1
         goto out;
     }
     /* An empty spec part counts as "{}" (the server's rule). */
-    bool empty = !in->spec || in->spec_len == 0;
-    const char *spec = empty ? "{}" : in->spec;
-    size_t spec_len = empty ? 2 : in->spec_len;
+    size_t spec_len = 0;
+    const char *spec = sylva_key_spec(in->spec, in->spec ? in->spec_len : 0, &spec_len);
     char head[64];
-    int n = snprintf(head, sizeof head, "sylva-key-v1\nspec %zu\n", spec_len);
-    if (EVP_DigestUpdate(md, head, (size_t)n) != 1 ||
+    int n = sylva_key_part_head(head, sizeof head, "spec", NULL, (unsigned long long)spec_len);
+    if (n < 0 || EVP_DigestUpdate(md, SYLVA_KEY_MAGIC, SYLVA_KEY_MAGIC_LEN) != 1 ||
+        EVP_DigestUpdate(md, head, (size_t)n) != 1 ||
         (spec_len && EVP_DigestUpdate(md, spec, spec_len) != 1) ||
         EVP_DigestUpdate(md, "\n", 1) != 1) {
         set_err(errbuf, errlen, "SHA-256 update failed");
@@ -340,7 +323,7 @@ sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1
         st = SYLVA_ERR_NOMEM;
         goto out;
     }
-    to_hex(out_md, key);
+    sylva_hex32(out_md, key);
 out:
     EVP_MD_CTX_free(md);
     free(sorted);
@@ -355,7 +338,7 @@ sylva_status sylva_sha256_hex(const void *data, size_t size, char hex[SYLVA_KEY_
     unsigned int len = 0;
     if (EVP_Digest(size ? data : "", size, md, &len, EVP_sha256(), NULL) != 1 || len != 32)
         return SYLVA_ERR_NOMEM;
-    to_hex(md, hex);
+    sylva_hex32(md, hex);
     return SYLVA_OK;
 }
 
@@ -375,7 +358,7 @@ sylva_status sylva_sha256_file(const char *path, char hex[SYLVA_KEY_HEX + 1])
     if (st == SYLVA_OK && (EVP_DigestFinal_ex(md, out, &len) != 1 || len != 32))
         st = SYLVA_ERR_NOMEM;
     if (st == SYLVA_OK)
-        to_hex(out, hex);
+        sylva_hex32(out, hex);
     EVP_MD_CTX_free(md);
     return st;
 }

@@ -1,6 +1,7 @@
 /* libsylva.c — the HTTP side of libsylva (libcurl): one easy handle per client,
  * every request through request_run(), which retries and fails over following
  * sylva_retry_delay(). API v1 as in docs/api.md; contracts in sylva.h. */
+#include "key_rules.h"
 #include "out_names.h"
 #include "sylva.h"
 
@@ -87,14 +88,7 @@ static double now_s(void)
 
 static bool key_valid(const char *key)
 {
-    if (!key || strlen(key) != SYLVA_KEY_HEX)
-        return false;
-    for (size_t i = 0; i < SYLVA_KEY_HEX; i++) {
-        char ch = key[i];
-        if (!((ch >= '0' && ch <= '9') || (ch >= 'a' && ch <= 'f')))
-            return false;
-    }
-    return true;
+    return sylva_key_hex_ok(key);
 }
 
 /* ---- create / destroy ------------------------------------------------------- */
@@ -947,16 +941,11 @@ static sylva_status fetch_one_to_file(sylva_client *c, const char *key,
     unsigned char dg[EVP_MAX_MD_SIZE];
     unsigned int dl = 0;
     char hex[SYLVA_KEY_HEX + 1];
-    static const char digits[] = "0123456789abcdef";
     if (EVP_DigestFinal_ex(md, dg, &dl) != 1 || dl != 32) {
         st = fail(c, SYLVA_ERR_NOMEM, "SHA-256 failed");
         goto out;
     }
-    for (int i = 0; i < 32; i++) {
-        hex[2 * i] = digits[dg[i] >> 4];
-        hex[2 * i + 1] = digits[dg[i] & 15];
-    }
-    hex[64] = '\0';
+    sylva_hex32(dg, hex);
     if (strcmp(hex, a->sha256) != 0 || s.len != a->size) {
         st = fail(c, SYLVA_ERR_INTEGRITY,
                   "%s: downloaded %zu bytes with SHA-256 %.16s..., the manifest says %llu "

@@ -1,5 +1,9 @@
-/* key.c — content key framing and SHA-256 helpers (OpenSSL EVP; see key.h). */
+/* key.c — content key framing and SHA-256 helpers (OpenSSL EVP; see key.h).
+ * The rules themselves (names, framing, hex) are common/key_rules.h's,
+ * shared with libsylva. */
 #include "key.h"
+
+#include "key_rules.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -11,35 +15,12 @@
 
 bool svd_name_valid(const char *name)
 {
-    if (!name) return false;
-    size_t n = strlen(name);
-    if (n == 0 || n > SVD_NAME_MAX) return false;
-    if (strcmp(name, ".") == 0 || strcmp(name, "..") == 0) return false;
-    for (size_t i = 0; i < n; i++) {
-        unsigned char c = (unsigned char)name[i];
-        if (c < 0x20 || c == 0x7f || c == ' ' || c == '/' || c == '\\') return false;
-    }
-    return true;
+    return sylva_upload_name_ok(name);
 }
 
 bool svd_key_valid(const char *s)
 {
-    if (!s || strlen(s) != 64) return false;
-    for (int i = 0; i < 64; i++) {
-        char c = s[i];
-        if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-    }
-    return true;
-}
-
-static void to_hex(const unsigned char *md, char out[SVD_KEY_HEX])
-{
-    static const char digits[] = "0123456789abcdef";
-    for (int i = 0; i < 32; i++) {
-        out[2 * i] = digits[md[i] >> 4];
-        out[2 * i + 1] = digits[md[i] & 15];
-    }
-    out[64] = '\0';
+    return sylva_key_hex_ok(s);
 }
 
 void svd_sha256_hex(const void *data, size_t size, char out[SVD_KEY_HEX])
@@ -47,7 +28,7 @@ void svd_sha256_hex(const void *data, size_t size, char out[SVD_KEY_HEX])
     unsigned char md[32];
     unsigned int mdlen = 0;
     EVP_Digest(data, size, md, &mdlen, EVP_sha256(), NULL);
-    to_hex(md, out);
+    sylva_hex32(md, out);
 }
 
 /* Feeds a file's bytes into ctx; returns its size through *size. */
@@ -88,7 +69,7 @@ sv_status svd_sha256_file(const char *path, char out[SVD_KEY_HEX], uint64_t *siz
         unsigned char md[32];
         unsigned int mdlen = 0;
         EVP_DigestFinal_ex(ctx, md, &mdlen);
-        to_hex(md, out);
+        sylva_hex32(md, out);
         if (size_out) *size_out = size;
     }
     EVP_MD_CTX_free(ctx);
@@ -105,17 +86,10 @@ static sv_status frame_part(EVP_MD_CTX *ctx, const char *prefix, const svd_key_p
     if (p->data || !p->path) {
         const uint8_t *d = p->data;
         size_t n = p->size;
-        if (!d) { /* absent spec */
-            d = (const uint8_t *)"{}";
-            n = 2;
-        }
-        if (n == 0 && strcmp(prefix, "spec") == 0) {
-            d = (const uint8_t *)"{}";
-            n = 2;
-        }
-        int hl = strcmp(prefix, "spec") == 0
-                     ? snprintf(head, sizeof head, "spec %zu\n", n)
-                     : snprintf(head, sizeof head, "%s %s %zu\n", prefix, p->name, n);
+        if (!d || strcmp(prefix, "spec") == 0) /* absent or empty spec: "{}" */
+            d = (const uint8_t *)sylva_key_spec((const char *)d, d ? n : 0, &n);
+        int hl = sylva_key_part_head(head, sizeof head, prefix, p->name, n);
+        if (hl < 0) return sv_fail(err, SV_ERR_SPEC, "%s: name too long", prefix);
         EVP_DigestUpdate(ctx, head, (size_t)hl);
         EVP_DigestUpdate(ctx, d, n);
         EVP_DigestUpdate(ctx, "\n", 1);
@@ -133,10 +107,11 @@ static sv_status frame_part(EVP_MD_CTX *ctx, const char *prefix, const svd_key_p
         svd_key_part empty = {.data = (const uint8_t *)"{}", .size = 2};
         return frame_part(ctx, prefix, &empty, err);
     }
-    int hl = strcmp(prefix, "spec") == 0
-                 ? snprintf(head, sizeof head, "spec %llu\n", (unsigned long long)end)
-                 : snprintf(head, sizeof head, "%s %s %llu\n", prefix, p->name,
-                            (unsigned long long)end);
+    int hl = sylva_key_part_head(head, sizeof head, prefix, p->name, (unsigned long long)end);
+    if (hl < 0) {
+        close(fd);
+        return sv_fail(err, SV_ERR_SPEC, "%s: name too long", prefix);
+    }
     EVP_DigestUpdate(ctx, head, (size_t)hl);
     uint64_t got = 0;
     sv_status st = hash_fd(ctx, fd, p->path, &got, err);
@@ -185,7 +160,7 @@ sv_status svd_key_compute(const svd_key_part *spec, const svd_key_part *mesh,
         goto out;
     }
     EVP_DigestInit_ex(ctx, EVP_sha256(), NULL);
-    EVP_DigestUpdate(ctx, "sylva-key-v1\n", 13);
+    EVP_DigestUpdate(ctx, SYLVA_KEY_MAGIC, SYLVA_KEY_MAGIC_LEN);
     svd_key_part nospec = {0};
     if ((st = frame_part(ctx, "spec", spec ? spec : &nospec, err)) != SV_OK) goto out;
     if ((st = frame_part(ctx, "mesh", mesh, err)) != SV_OK) goto out;
@@ -194,7 +169,7 @@ sv_status svd_key_compute(const svd_key_part *spec, const svd_key_part *mesh,
     unsigned char md[32];
     unsigned int mdlen = 0;
     EVP_DigestFinal_ex(ctx, md, &mdlen);
-    to_hex(md, out);
+    sylva_hex32(md, out);
 out:
     EVP_MD_CTX_free(ctx);
     free(order);

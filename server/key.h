@@ -21,8 +21,10 @@
 
 #include "sv.h"
 
+#include "key_rules.h"
+
 #define SVD_KEY_HEX 65  /* 64 hex digits + NUL */
-#define SVD_NAME_MAX 255
+#define SVD_NAME_MAX SYLVA_UPLOAD_NAME_MAX /* common/key_rules.h */
 
 /* True if name (NUL-terminated) is an acceptable upload/artifact name. */
 bool svd_name_valid(const char *name);
