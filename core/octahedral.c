@@ -521,9 +521,47 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
     return SV_OK;
 }
 
+/* method.h planes_json: the proxy quad (the frame nearest the +Z side view:
+ * the baked mesh's first four vertices) and "impostor": true; impostor.json
+ * has the rest. */
+static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
+                             uint32_t source_triangles, cJSON *entry, cJSON *quads)
+{
+    if (!lod->octa || b->mesh->vertex_count < 4 || !b->uv_rects) return;
+    const float *P = b->mesh->positions, *N = b->mesh->normals;
+    double n[3] = {N[0], N[1], N[2]}, c[4][3];
+    for (int k = 0; k < 4; k++)
+        for (int m = 0; m < 3; m++) c[k][m] = P[3 * k + m];
+    cJSON *qo = cJSON_CreateObject();
+    cJSON_AddItemToObject(qo, "normal", cJSON_CreateDoubleArray(n, 3));
+    cJSON_AddNumberToObject(qo, "d", -(n[0] * lod->octa->centre[0] + n[1] * lod->octa->centre[1] +
+                                       n[2] * lod->octa->centre[2]));
+    cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
+    for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, cJSON_CreateDoubleArray(c[k], 3));
+    double uvd[4] = {b->uv_rects[0], b->uv_rects[1], b->uv_rects[2], b->uv_rects[3]};
+    cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
+    cJSON_AddNumberToObject(qo, "faces", source_triangles);
+    cJSON_AddStringToObject(qo, "part", "all");
+    cJSON_AddItemToArray(quads, qo);
+    cJSON_AddBoolToObject(entry, "impostor", true);
+}
+
+/* method.h ladder: grid N = 4 .. 16 (issue 21; frames keep their size, so
+ * texels grow as N^2; every step is one quad). */
+static bool octa_ladder(int step, cJSON *set)
+{
+    static const int grids[] = {4, 6, 8, 12, 16};
+    if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
+    cJSON_AddNumberToObject(set, "grid", grids[step]);
+    return true;
+}
+
 const sv_method sv_method_octahedral = {
     OCTA_NAME,
     "octahedral impostor: N×N views on an octahedron (or hemi), three blended per view",
     octa_check,
     octa_run,
+    .ladder = octa_ladder,
+    .planes_json = octa_planes_json,
 };

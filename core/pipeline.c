@@ -21,7 +21,6 @@
 #include "plausibility.h"
 #include "preview.h"
 #include "render.h"
-#include "slicing.h"
 #include "spec.h"
 #include "stochastic.h"
 #include "trunk.h"
@@ -1669,29 +1668,9 @@ static sv_status bake_all(run *r, sv_error *err)
             if (qu->parent >= 0) cJSON_AddNumberToObject(qo, "parent", qu->parent);
             cJSON_AddItemToArray(qa, qo);
         }
-        /* slicings (core/slicing.c): each slicing's direction, quads and the blending rule */
-        cJSON *slicing = sv_slicing_describe(lp);
-        if (slicing) cJSON_AddItemToObject(o, "slicing", slicing);
-        /* octahedral: the proxy quad (the frame nearest the +Z side view);
-         * impostor.json has the rest */
-        if (lp->octa && b->mesh->vertex_count >= 4 && b->uv_rects) {
-            const float *P = b->mesh->positions, *N = b->mesh->normals;
-            double n[3] = {N[0], N[1], N[2]}, c[4][3];
-            for (int k = 0; k < 4; k++)
-                for (int m = 0; m < 3; m++) c[k][m] = P[3 * k + m];
-            cJSON *qo = cJSON_CreateObject();
-            cJSON_AddItemToObject(qo, "normal", vec3_json(n));
-            cJSON_AddNumberToObject(qo, "d", -(n[0] * lp->octa->centre[0] + n[1] * lp->octa->centre[1] +
-                                               n[2] * lp->octa->centre[2]));
-            cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
-            for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, vec3_json(c[k]));
-            double uvd[4] = {b->uv_rects[0], b->uv_rects[1], b->uv_rects[2], b->uv_rects[3]};
-            cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
-            cJSON_AddNumberToObject(qo, "faces", p->mesh->triangle_count);
-            cJSON_AddStringToObject(qo, "part", "all");
-            cJSON_AddItemToArray(qa, qo);
-            cJSON_AddBoolToObject(o, "impostor", true);
-        }
+        /* the method's own additions (slicings, the octahedral proxy quad) */
+        const sv_method *lm = sv_method_find(ch.info[i].source);
+        if (lm && lm->planes_json) lm->planes_json(lp, b, p->mesh->triangle_count, o, qa);
         cJSON_AddItemToArray(pl, o);
     }
     if ((st = write_json(req->out_dir, "planes.json", planes, err))) goto out;
@@ -1836,60 +1815,13 @@ out:
 }
 
 /* ---- target search (docs/spec.md "target") ----
- * The knobs of each method, cheapest first: step i of the ladder rewrites the
- * method's settings object. Returns false past the last step. */
+ * Step i of the method's ladder (its sv_method ladder hook) rewrites the
+ * method's settings object. Returns false past the last step, and for a
+ * method without a ladder. */
 static bool ladder_step(const char *method, int i, cJSON *set)
 {
-    static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
-    static const int slicings[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4}, {6, 4}, {6, 5},
-                                      {8, 5}, {8, 6}, {12, 6}, {12, 8}};
-    static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
-    const int nc = (int)(sizeof counts / sizeof counts[0]);
-    if (strcmp(method, "billboard_cloud") == 0) {
-        if (i >= nc) return false;
-        /* a small ε raised until at most P planes remain: the best P planes */
-        cJSON *l = cJSON_CreateObject();
-        cJSON_AddNumberToObject(l, "epsilon", 0.01);
-        cJSON_AddNumberToObject(l, "max_planes", counts[i]);
-        cJSON *a = cJSON_CreateArray();
-        cJSON_AddItemToArray(a, l);
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "lods");
-        cJSON_AddItemToObject(set, "lods", a);
-    } else if (strcmp(method, "leaf_clusters") == 0) {
-        if (i >= nc) return false;
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "clusters");
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "trunk_ratio"); /* one per level */
-        cJSON *a = cJSON_CreateArray();
-        cJSON_AddItemToArray(a, cJSON_CreateNumber(counts[i]));
-        cJSON_AddItemToObject(set, "clusters", a);
-    } else if (strcmp(method, "slicing") == 0) {
-        if (i >= (int)(sizeof slicings / sizeof slicings[0])) return false;
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "slicings");
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "slices");
-        cJSON_AddNumberToObject(set, "slicings", slicings[i][0]);
-        cJSON_AddNumberToObject(set, "slices", slicings[i][1]);
-    } else if (strcmp(method, "crossed_quads") == 0) {
-        if (i >= 4) return false;
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "planes");
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
-        cJSON_AddNumberToObject(set, "planes", i < 2 ? 2 : 3);
-        cJSON_AddBoolToObject(set, "horizontal", i % 2 == 1);
-    } else if (strcmp(method, "octahedral") == 0) {
-        /* grid side: issue 21's ladder; texels grow with it (frames keep their size) */
-        static const int grids[] = {4, 6, 8, 12, 16};
-        if (i >= (int)(sizeof grids / sizeof grids[0])) return false;
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
-        cJSON_AddNumberToObject(set, "grid", grids[i]);
-    } else if (strcmp(method, "stochastic") == 0) {
-        if (i >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
-        cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
-        cJSON *a = cJSON_CreateArray();
-        cJSON_AddItemToArray(a, cJSON_CreateNumber(lambdas[i]));
-        cJSON_AddItemToObject(set, "levels", a);
-    } else {
-        return false;
-    }
-    return true;
+    const sv_method *m = sv_method_find(method);
+    return m && m->ladder && m->ladder(i, set);
 }
 
 /* The user's spec document with the method's settings replaced by `set` (a

@@ -1021,10 +1021,23 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+/* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
+static bool st_ladder(int step, cJSON *set)
+{
+    static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
+    if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
+    cJSON *a = cJSON_CreateArray();
+    cJSON_AddItemToArray(a, cJSON_CreateNumber(lambdas[step]));
+    cJSON_AddItemToObject(set, "levels", a);
+    return true;
+}
+
 const sv_method sv_method_stochastic = {
     .name = ST_NAME,
     .summary = "stochastic simplification of the foliage (Cook et al. 2007): random leaf "
                "subsets, area- and contrast-preserving, as meshes",
     .check = st_check,
     .run = st_run,
+    .ladder = st_ladder,
 };
