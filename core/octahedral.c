@@ -521,6 +521,49 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
     return SV_OK;
 }
 
+uint32_t sv_octa_frame_pixels(uint32_t n, uint32_t largest_pixels, double texels_per_pixel,
+                              uint32_t max_atlas)
+{
+    uint32_t f = 16;
+    uint32_t want = (uint32_t)(texels_per_pixel * largest_pixels);
+    while (f < want && f < 1024) f *= 2;
+    uint32_t cap = max_atlas ? max_atlas : 2048;
+    while (f > 16 && (uint64_t)f * n > cap) f /= 2;
+    return f;
+}
+
+cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char *node,
+                             const char maps[4][64], uint32_t mip_count)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (!o) return NULL;
+    cJSON_AddStringToObject(o, "lod", lod);
+    cJSON_AddStringToObject(o, "node", node);
+    cJSON_AddStringToObject(o, "layout", g->hemi ? "hemi-octahedral" : "octahedral");
+    cJSON_AddBoolToObject(o, "hemi", g->hemi);
+    cJSON_AddNumberToObject(o, "grid", g->n);
+    cJSON_AddNumberToObject(o, "frame_pixels", g->frame_pixels);
+    cJSON_AddItemToObject(o, "centre", cJSON_CreateDoubleArray(g->centre, 3));
+    cJSON_AddNumberToObject(o, "half", g->half);
+    /* a camera-facing square of this half size holds every frame plane's
+     * footprint (a frame square of half `half` seen at any angle) */
+    cJSON_AddNumberToObject(o, "billboard_half", g->half * sqrt(2.0));
+    cJSON_AddNumberToObject(o, "alpha_cutoff", 0.5);
+    cJSON_AddStringToObject(o, "up", "+Y");
+    cJSON *mo = cJSON_AddObjectToObject(o, "maps");
+    static const char *const keys[4] = {"albedo", "normal", "ao", "depth"};
+    for (int k = 0; k < 4; k++)
+        if (maps[k][0]) cJSON_AddStringToObject(mo, keys[k], maps[k]);
+    cJSON *mips = cJSON_AddArrayToObject(o, "mips");
+    cJSON_AddItemToArray(mips, cJSON_CreateString(maps[0]));
+    for (uint32_t k = 1; k <= mip_count; k++) {
+        char f[128];
+        snprintf(f, sizeof f, "atlas_%s_albedo_mip%u.png", lod, k);
+        cJSON_AddItemToArray(mips, cJSON_CreateString(f));
+    }
+    return o;
+}
+
 /* method.h planes_json: the proxy quad (the frame nearest the +Z side view:
  * the baked mesh's first four vertices) and "impostor": true; impostor.json
  * has the rest. */

@@ -33,90 +33,6 @@ static void asset_name(const char *file, char *out, size_t cap)
     if (n == 0) snprintf(out, cap, "tree");
 }
 
-/* Per-vertex attributes and node extras of a stochastic LOD in model.glb:
- * _LEAF_CENTRE (VEC3) and _LEAF_ORDER (SCALAR, (position + 0.5)/N) let a
- * renderer draw any prefix and scale leaves about their centres (Fichtner
- * §4.3.1, §4.3.3); trunk vertices (first in the baked mesh) carry their own
- * position and order 0, so the same shader leaves them alone. */
-typedef struct gltf_extra {
-    float *centre, *order;
-    sv_gltf_attribute attr[2];
-    cJSON *extras;
-} gltf_extra;
-
-static void gltf_extra_free(gltf_extra *g)
-{
-    free(g->centre);
-    free(g->order);
-    cJSON_Delete(g->extras);
-    memset(g, 0, sizeof *g);
-}
-
-static sv_status stochastic_gltf(const chain *c, const chain_lod *x, const sv_mesh *m,
-                                 gltf_extra *g, sv_gltf_lod *gl, sv_error *err)
-{
-    const sv_stoch_level *L = &c->sres.levels[x->level];
-    uint32_t nv = m->vertex_count;
-    if (x->geom_vertices > nv)
-        return sv_fail(err, SV_ERR_INTERNAL, "stochastic LOD: %u vertices, geometry has %u", nv,
-                       x->geom_vertices);
-    uint32_t t0 = nv - x->geom_vertices;
-    g->centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
-    g->order = sv_calloc(nv ? nv : 1, sizeof(float));
-    g->extras = cJSON_CreateObject();
-    if (!g->centre || !g->order || !g->extras) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    memcpy(g->centre, m->positions, 3 * sizeof(float) * (size_t)t0);
-    memcpy(g->centre + 3 * (size_t)t0, L->leaf_centre, 3 * sizeof(float) * x->geom_vertices);
-    memcpy(g->order + t0, L->leaf_order, sizeof(float) * x->geom_vertices);
-    g->attr[0] = (sv_gltf_attribute){"_LEAF_CENTRE", g->centre, 3};
-    g->attr[1] = (sv_gltf_attribute){"_LEAF_ORDER", g->order, 1};
-    gl->attributes = g->attr;
-    gl->attribute_count = 2;
-    cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
-    cJSON_AddNumberToObject(o, "lambda", L->lambda);
-    cJSON_AddNumberToObject(o, "leaves", L->leaves);
-    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
-    cJSON_AddNumberToObject(o, "leaf_total", c->sres.leaf_count);
-    cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
-    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
-    cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
-    double fw[2] = {L->fade_lo, L->fade_hi};
-    cJSON_AddItemToObject(o, "fade_window", cJSON_CreateDoubleArray(fw, 2));
-    cJSON_AddNumberToObject(o, "fade_radius", c->ss.fade);
-    cJSON_AddNumberToObject(o, "visible_ratio", c->sres.r);
-    cJSON_AddNumberToObject(o, "h", c->ss.h);
-    cJSON_AddNumberToObject(o, "d0", c->ss.d0);
-    cJSON_AddStringToObject(o, "order_attribute", "_LEAF_ORDER");
-    cJSON_AddStringToObject(o, "centre_attribute", "_LEAF_CENTRE");
-    gl->extras = g->extras;
-    return SV_OK;
-}
-
-/* Writes atlas_<name>_albedo_mip<k>.png for k = 1.. while frames keep at
- * least 4 texels (Castaño-scaled alpha, sv_octa_mip). */
-static sv_status octa_write_mips(const char *dir, const char *name, const sv_octa_grid *g,
-                                 const sv_image *albedo, uint32_t *count, sv_error *err)
-{
-    sv_image prev = {0}, next = {0};
-    const sv_image *src = albedo;
-    sv_status st = SV_OK;
-    *count = 0;
-    char path[4096];
-    while (st == SV_OK && src->width / g->n >= 8) {
-        if ((st = sv_octa_mip(g, albedo, src, &next, err))) break;
-        snprintf(path, sizeof path, "%s/atlas_%s_albedo_mip%u.png", dir, name, *count + 1);
-        st = sv_image_write_png(&next, path, err);
-        sv_image_free(&prev);
-        prev = next;
-        memset(&next, 0, sizeof next);
-        src = &prev;
-        if (st == SV_OK) (*count)++;
-    }
-    sv_image_free(&prev);
-    sv_image_free(&next);
-    return st;
-}
-
 const char *const svp_map_names[4] = {"albedo", "normal", "ao", "depth"};
 
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
@@ -129,7 +45,7 @@ const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
     }
 }
 
-sv_status svp_write_atlases(const run *r, const bake_state *b, sv_error *err)
+sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
 {
     const sv_stand_in *si = &b->si;
     lod_out *lods = b->lods;
@@ -146,7 +62,7 @@ sv_status svp_write_atlases(const run *r, const bake_state *b, sv_error *err)
         }
     for (uint32_t i = 0; i < si->lod_count; i++)
         if (si->lods[i].octa &&
-            (st = octa_write_mips(r->req->out_dir, si->lods[i].name, si->lods[i].octa,
+            (st = sv_octa_write_mips(r->req->out_dir, si->lods[i].name, si->lods[i].octa,
                                   &lods[i].baked.albedo, &lods[i].mip_count, err)))
             return st;
     return SV_OK;
@@ -161,7 +77,7 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
     char path[4096];
     sv_gltf_lod *gl = sv_calloc(si->lod_count, sizeof *gl);
     if (!gl) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    gltf_extra *gx = sv_calloc(si->lod_count, sizeof *gx);
+    sv_stoch_gltf *gx = sv_calloc(si->lod_count, sizeof *gx);
     if (!gx) {
         free(gl);
         return sv_fail(err, SV_ERR_NOMEM, "out of memory");
@@ -176,7 +92,8 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         if (ch->info[i].stochastic)
-            st = stochastic_gltf(ch, &ch->info[i], lods[i].baked.mesh, &gx[i], &gl[i], err);
+            st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level, ch->info[i].geom_vertices,
+                                    lods[i].baked.mesh, &gx[i], &gl[i], err);
     }
     snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);
@@ -185,7 +102,7 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].file);
         st = sv_gltf_write_level_glb(path, &gl[i], err);
     }
-    for (uint32_t i = 0; i < si->lod_count; i++) gltf_extra_free(&gx[i]);
+    for (uint32_t i = 0; i < si->lod_count; i++) sv_stoch_gltf_free(&gx[i]);
     free(gx);
     free(gl);
     return st;

@@ -103,24 +103,6 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
 
 /* ---- octahedral impostors (core/octahedral.c; docs/methods/octahedral.md) ---- */
 
-/* Frame side when the spec leaves it to us: the next power of two at or
- * above SV_ATLAS_TEXELS_PER_PIXEL texels per pixel of the largest evaluated
- * size (a level is never judged, nor planned to be drawn, taller than that;
- * at one texel per pixel the alpha test's blocks cost ficus 0.06 of IoU at
- * 64 px), in [16, 1024], lowered until the n × n grid fits bake.max_atlas.
- * svp_shrink_atlases (calibrate.c) lowers it further for a level drawn only
- * smaller. */
-static uint32_t octa_frame_pixels(const sv_spec *spec, uint32_t n)
-{
-    uint32_t f = 16;
-    uint32_t want = (uint32_t)(SV_ATLAS_TEXELS_PER_PIXEL *
-                               (spec->eval_size_count ? spec->eval_sizes[0] : 256));
-    while (f < want && f < 1024) f *= 2;
-    uint32_t cap = spec->max_atlas ? spec->max_atlas : 2048;
-    while (f > 16 && (uint64_t)f * n > cap) f /= 2;
-    return f;
-}
-
 /* sv_eval_draw_fn: the C reference runtime (sv_octa_render). */
 sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
                         sv_image *color, float *depth, sv_error *err)
@@ -261,7 +243,12 @@ static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
     const sv_lod_plan *lp = &b->si.lods[i];
     sv_status st;
     if (lp->octa) {
-        if (!lp->octa->frame_pixels) lp->octa->frame_pixels = octa_frame_pixels(spec, lp->octa->n);
+        /* frames sized for the largest evaluated size (svp_shrink_atlases
+         * lowers them for a level drawn only smaller) */
+        if (!lp->octa->frame_pixels)
+            lp->octa->frame_pixels = sv_octa_frame_pixels(
+                lp->octa->n, spec->eval_size_count ? spec->eval_sizes[0] : 256,
+                SV_ATLAS_TEXELS_PER_PIXEL, spec->max_atlas);
         return sv_octa_bake(r->ren, r->gsrc, p->mesh, lp->octa, &b->bo, 0, &b->lods[i].baked, err);
     }
     sv_mesh *keep = NULL;

@@ -154,37 +154,6 @@ static cJSON *chain_json(const run *r, const chain *c)
     return j;
 }
 
-/* impostor.json's entry for one octahedral level (docs/runtime.md). */
-static cJSON *octa_json(const sv_octa_grid *g, const char *name, const lod_out *l)
-{
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "lod", name);
-    cJSON_AddStringToObject(o, "node", l->node);
-    cJSON_AddStringToObject(o, "layout", g->hemi ? "hemi-octahedral" : "octahedral");
-    cJSON_AddBoolToObject(o, "hemi", g->hemi);
-    cJSON_AddNumberToObject(o, "grid", g->n);
-    cJSON_AddNumberToObject(o, "frame_pixels", g->frame_pixels);
-    cJSON_AddItemToObject(o, "centre", cJSON_CreateDoubleArray(g->centre, 3));
-    cJSON_AddNumberToObject(o, "half", g->half);
-    /* a camera-facing square of this half size holds every frame plane's
-     * footprint (a frame square of half `half` seen at any angle) */
-    cJSON_AddNumberToObject(o, "billboard_half", g->half * sqrt(2.0));
-    cJSON_AddNumberToObject(o, "alpha_cutoff", 0.5);
-    cJSON_AddStringToObject(o, "up", "+Y");
-    cJSON *maps = cJSON_AddObjectToObject(o, "maps");
-    static const char *const keys[4] = {"albedo", "normal", "ao", "depth"};
-    for (int k = 0; k < 4; k++)
-        if (l->maps[k][0]) cJSON_AddStringToObject(maps, keys[k], l->maps[k]);
-    cJSON *mips = cJSON_AddArrayToObject(o, "mips");
-    cJSON_AddItemToArray(mips, cJSON_CreateString(l->maps[0]));
-    for (uint32_t k = 1; k <= l->mip_count; k++) {
-        char f[128];
-        snprintf(f, sizeof f, "atlas_%s_albedo_mip%u.png", name, k);
-        cJSON_AddItemToArray(mips, cJSON_CreateString(f));
-    }
-    return o;
-}
-
 static cJSON *effects_json(const sv_spec *s, const sv_bake_options *bo)
 {
     cJSON *a = cJSON_CreateArray();
@@ -318,7 +287,9 @@ sv_status svp_write_planes(const run *r, const bake_state *b, sv_error *err)
             cJSON_AddStringToObject(imp, "schema", "sylva.impostor/1");
             il = cJSON_AddArrayToObject(imp, "lods");
         }
-        cJSON_AddItemToArray(il, octa_json(si->lods[i].octa, si->lods[i].name, &b->lods[i]));
+        const lod_out *l = &b->lods[i];
+        cJSON_AddItemToArray(il, sv_octa_impostor_json(si->lods[i].octa, si->lods[i].name, l->node,
+                                                       l->maps, l->mip_count));
     }
     if (imp) {
         st = svp_write_json(r->req->out_dir, "impostor.json", imp, err);
@@ -339,19 +310,7 @@ static cJSON *report_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON_AddStringToObject(o, "node", l->node);
     cJSON_AddStringToObject(o, "source", ch->info[i].source);
     if (ch->info[i].stochastic) {
-        const sv_stoch_level *L = &ch->sres.levels[ch->info[i].level];
-        cJSON_AddNumberToObject(o, "lambda", L->lambda);
-        cJSON_AddNumberToObject(o, "leaves", L->leaves);
-        uint32_t asked = ch->ss.level_triangles[ch->info[i].level];
-        if (asked) cJSON_AddNumberToObject(o, "triangles_asked", asked);
-        cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
-        cJSON_AddNumberToObject(o, "leaf_triangles", (double)L->leaf_triangles);
-        cJSON_AddNumberToObject(o, "leaf_error", L->leaf_error);
-        cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
-        cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
-        cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
-        cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
-        cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
+        sv_stochastic_level_json(&ch->sres, &ch->ss, ch->info[i].level, o);
         if (isfinite(ch->info[i].distance))
             cJSON_AddNumberToObject(o, "lambda_distance", ch->info[i].distance);
     }
