@@ -71,7 +71,7 @@ VIEWER_DIR   := $(BUILD)/viewer
 VIEWER_STAMP := $(VIEWER_DIR)/.stamp
 THREE_NPM    := $(BUILD)/viewer-npm/node_modules/three
 
-.PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench reliability soak clean install
+.PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench same-outputs reliability soak clean install
 # keep object files of tests and tools (make would delete them as intermediates)
 .SECONDARY:
 all: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS) $(VIEWER_STAMP)
@@ -178,6 +178,16 @@ demo: all
 
 bench: all
 	@BUILD=$(BUILD) ./tests/bench/run.sh
+
+# Byte-identity of two revisions (issue 17: refactors change no output): builds
+# sylva-bake at A and B (git revisions, or paths of sylva-bake binaries), bakes
+# four shared trees (ALL=1: every one; TREES=dir,dir: those) with a spec per method, the default
+# chain, a target and dynamic lighting, and compares every output's sha256
+# (report.json without "times"). tests/tools/same_outputs.sh, docs/testing.md.
+A ?= main
+B ?= HEAD
+same-outputs:
+	@./tests/tools/same_outputs.sh $(if $(filter 1,$(ALL)),--all) $(if $(TREES),--trees $(TREES)) $(A) $(B)
 
 # Issue 12's fault, bad-input and load suites with their figures
 # (docs/reliability.md); RELIABILITY_LONG=1 for the long forms. `make soak` is

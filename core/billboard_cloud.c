@@ -558,10 +558,27 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+/* method.h ladder: lods [{epsilon 0.01, max_planes P}] (a small epsilon
+ * raised until at most P planes remain: the best P planes), P = 4 .. 128. */
+static bool bc_ladder(int step, cJSON *set)
+{
+    static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
+    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
+    cJSON *l = cJSON_CreateObject();
+    cJSON_AddNumberToObject(l, "epsilon", 0.01);
+    cJSON_AddNumberToObject(l, "max_planes", counts[step]);
+    cJSON *a = cJSON_CreateArray();
+    cJSON_AddItemToArray(a, l);
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "lods");
+    cJSON_AddItemToObject(set, "lods", a);
+    return true;
+}
+
 const sv_method sv_method_billboard_cloud = {
     BC_NAME,
     "billboard clouds (Decoret 2003, Behrendt 2005): greedy dual-space plane selection, "
     "incremental LODs",
     bc_check,
     bc_run,
+    .ladder = bc_ladder,
 };

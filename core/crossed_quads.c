@@ -204,10 +204,22 @@ static sv_status cq_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+/* method.h ladder: planes 2, 2 + horizontal, 3, 3 + horizontal. */
+static bool cq_ladder(int step, cJSON *set)
+{
+    if (step < 0 || step >= 4) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "planes");
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
+    cJSON_AddNumberToObject(set, "planes", step < 2 ? 2 : 3);
+    cJSON_AddBoolToObject(set, "horizontal", step % 2 == 1);
+    return true;
+}
+
 const sv_method sv_method_crossed_quads = {
     .name = CQ_NAME,
     .summary = "2 or 3 vertical quads crossing on the trunk axis (+ optional horizontal): "
                "the cardboard baseline",
     .check = cq_check,
     .run = cq_run,
+    .ladder = cq_ladder,
 };

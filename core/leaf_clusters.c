@@ -469,10 +469,25 @@ static sv_status lc_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+/* method.h ladder: clusters [K], K = 4 .. 128 (a given trunk_ratio is
+ * dropped: it is one per level). */
+static bool lc_ladder(int step, cJSON *set)
+{
+    static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
+    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "clusters");
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "trunk_ratio"); /* one per level */
+    cJSON *a = cJSON_CreateArray();
+    cJSON_AddItemToArray(a, cJSON_CreateNumber(counts[step]));
+    cJSON_AddItemToObject(set, "clusters", a);
+    return true;
+}
+
 const sv_method sv_method_leaf_clusters = {
     .name = LC_NAME,
     .summary = "leaf-cluster impostors (Garcia et al.): k-means planes over leaves, "
                "levels 32/16/8 with parent links",
     .check = lc_check,
     .run = lc_run,
+    .ladder = lc_ladder,
 };

@@ -539,9 +539,95 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
     return SV_OK;
 }
 
+uint32_t sv_octa_frame_pixels(uint32_t n, uint32_t largest_pixels, double texels_per_pixel,
+                              uint32_t max_atlas)
+{
+    uint32_t f = 16;
+    uint32_t want = (uint32_t)(texels_per_pixel * largest_pixels);
+    while (f < want && f < 1024) f *= 2;
+    uint32_t cap = max_atlas ? max_atlas : 2048;
+    while (f > 16 && (uint64_t)f * n > cap) f /= 2;
+    return f;
+}
+
+cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char *node,
+                             const char maps[4][64], uint32_t mip_count)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (!o) return NULL;
+    cJSON_AddStringToObject(o, "lod", lod);
+    cJSON_AddStringToObject(o, "node", node);
+    cJSON_AddStringToObject(o, "layout", g->hemi ? "hemi-octahedral" : "octahedral");
+    cJSON_AddBoolToObject(o, "hemi", g->hemi);
+    /* 1 = Brucks' layout; below 1 the rings lie nearer the horizon (octahedral.h) */
+    cJSON_AddNumberToObject(o, "elevation_scale", g->elev_scale > 0 ? g->elev_scale : 1.0);
+    cJSON_AddNumberToObject(o, "grid", g->n);
+    cJSON_AddNumberToObject(o, "frame_pixels", g->frame_pixels);
+    cJSON_AddItemToObject(o, "centre", cJSON_CreateDoubleArray(g->centre, 3));
+    cJSON_AddNumberToObject(o, "half", g->half);
+    /* a camera-facing square of this half size holds every frame plane's
+     * footprint (a frame square of half `half` seen at any angle) */
+    cJSON_AddNumberToObject(o, "billboard_half", g->half * sqrt(2.0));
+    cJSON_AddNumberToObject(o, "alpha_cutoff", 0.5);
+    cJSON_AddStringToObject(o, "up", "+Y");
+    cJSON *mo = cJSON_AddObjectToObject(o, "maps");
+    static const char *const keys[4] = {"albedo", "normal", "ao", "depth"};
+    for (int k = 0; k < 4; k++)
+        if (maps[k][0]) cJSON_AddStringToObject(mo, keys[k], maps[k]);
+    cJSON *mips = cJSON_AddArrayToObject(o, "mips");
+    cJSON_AddItemToArray(mips, cJSON_CreateString(maps[0]));
+    for (uint32_t k = 1; k <= mip_count; k++) {
+        char f[128];
+        snprintf(f, sizeof f, "atlas_%s_albedo_mip%u.png", lod, k);
+        cJSON_AddItemToArray(mips, cJSON_CreateString(f));
+    }
+    return o;
+}
+
+/* method.h planes_json: the proxy's quads (quad q: the baked mesh's
+ * vertices 4q..4q+3, in the plane of its frame, with that frame's atlas
+ * rectangle) and "impostor": true; impostor.json has the rest. */
+static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
+                             uint32_t source_triangles, cJSON *entry, cJSON *quads)
+{
+    if (!lod->octa || !b->uv_rects || b->mesh->vertex_count < 4 * b->quad_count) return;
+    const float *P = b->mesh->positions, *N = b->mesh->normals;
+    for (uint32_t q = 0; q < b->quad_count; q++) {
+        double n[3] = {N[12 * q], N[12 * q + 1], N[12 * q + 2]}, c[4][3];
+        for (int k = 0; k < 4; k++)
+            for (int m = 0; m < 3; m++) c[k][m] = P[12 * q + 3 * k + m];
+        cJSON *qo = cJSON_CreateObject();
+        cJSON_AddItemToObject(qo, "normal", cJSON_CreateDoubleArray(n, 3));
+        cJSON_AddNumberToObject(qo, "d", -(n[0] * lod->octa->centre[0] + n[1] * lod->octa->centre[1] +
+                                           n[2] * lod->octa->centre[2]));
+        cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
+        for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, cJSON_CreateDoubleArray(c[k], 3));
+        const float *uv = b->uv_rects + 4 * q;
+        double uvd[4] = {uv[0], uv[1], uv[2], uv[3]};
+        cJSON_AddItemToObject(qo, "uv", cJSON_CreateDoubleArray(uvd, 4));
+        cJSON_AddNumberToObject(qo, "faces", source_triangles);
+        cJSON_AddStringToObject(qo, "part", "all");
+        cJSON_AddItemToArray(quads, qo);
+    }
+    cJSON_AddBoolToObject(entry, "impostor", true);
+}
+
+/* method.h ladder: grid N = 4 .. 16 (issue 21; frames keep their size, so
+ * texels grow as N^2; every step has the same proxy of proxy_quads quads). */
+static bool octa_ladder(int step, cJSON *set)
+{
+    static const int grids[] = {4, 6, 8, 12, 16};
+    if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
+    cJSON_AddNumberToObject(set, "grid", grids[step]);
+    return true;
+}
+
 const sv_method sv_method_octahedral = {
     OCTA_NAME,
     "octahedral impostor: N×N views on an octahedron (or hemi), three blended per view",
     octa_check,
     octa_run,
+    .ladder = octa_ladder,
+    .planes_json = octa_planes_json,
 };

@@ -638,10 +638,37 @@ static sv_status sl_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+/* method.h planes_json: each slicing's direction, quads and the blending rule
+ * (sv_slicing_describe). */
+static void sl_planes_json(const sv_lod_plan *lod, const struct sv_baked_lod *baked,
+                           uint32_t source_triangles, cJSON *entry, cJSON *quads)
+{
+    (void)baked;
+    (void)source_triangles;
+    (void)quads;
+    cJSON *slicing = sv_slicing_describe(lod);
+    if (slicing) cJSON_AddItemToObject(entry, "slicing", slicing);
+}
+
+/* method.h ladder: slicings x slices, 2x2 .. 12x8. */
+static bool sl_ladder(int step, cJSON *set)
+{
+    static const int steps[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4}, {6, 4}, {6, 5},
+                                   {8, 5}, {8, 6}, {12, 6}, {12, 8}};
+    if (step < 0 || step >= (int)(sizeof steps / sizeof steps[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "slicings");
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "slices");
+    cJSON_AddNumberToObject(set, "slicings", steps[step][0]);
+    cJSON_AddNumberToObject(set, "slices", steps[step][1]);
+    return true;
+}
+
 const sv_method sv_method_slicing = {
     .name = SL_NAME,
     .summary = "slicings (Jakulin): S sets of K parallel textured slices through the crown, "
                "the two nearest the view blended; trunk kept as a mesh",
     .check = sl_check,
     .run = sl_run,
+    .ladder = sl_ladder,
+    .planes_json = sl_planes_json,
 };

@@ -1021,10 +1021,90 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
+void sv_stoch_gltf_free(sv_stoch_gltf *g)
+{
+    free(g->centre);
+    free(g->order);
+    cJSON_Delete(g->extras);
+    memset(g, 0, sizeof *g);
+}
+
+sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
+                             int level, uint32_t geom_vertices, const sv_mesh *m,
+                             sv_stoch_gltf *g, sv_gltf_lod *gl, sv_error *err)
+{
+    const sv_stoch_level *L = &res->levels[level];
+    uint32_t nv = m->vertex_count;
+    if (geom_vertices > nv)
+        return sv_fail(err, SV_ERR_INTERNAL, "stochastic LOD: %u vertices, geometry has %u", nv,
+                       geom_vertices);
+    uint32_t t0 = nv - geom_vertices;
+    g->centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
+    g->order = sv_calloc(nv ? nv : 1, sizeof(float));
+    g->extras = cJSON_CreateObject();
+    if (!g->centre || !g->order || !g->extras) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    memcpy(g->centre, m->positions, 3 * sizeof(float) * (size_t)t0);
+    memcpy(g->centre + 3 * (size_t)t0, L->leaf_centre, 3 * sizeof(float) * geom_vertices);
+    memcpy(g->order + t0, L->leaf_order, sizeof(float) * geom_vertices);
+    g->attr[0] = (sv_gltf_attribute){"_LEAF_CENTRE", g->centre, 3};
+    g->attr[1] = (sv_gltf_attribute){"_LEAF_ORDER", g->order, 1};
+    gl->attributes = g->attr;
+    gl->attribute_count = 2;
+    cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
+    cJSON_AddNumberToObject(o, "lambda", L->lambda);
+    cJSON_AddNumberToObject(o, "leaves", L->leaves);
+    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
+    cJSON_AddNumberToObject(o, "leaf_total", res->leaf_count);
+    cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
+    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
+    cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
+    double fw[2] = {L->fade_lo, L->fade_hi};
+    cJSON_AddItemToObject(o, "fade_window", cJSON_CreateDoubleArray(fw, 2));
+    cJSON_AddNumberToObject(o, "fade_radius", ss->fade);
+    cJSON_AddNumberToObject(o, "visible_ratio", res->r);
+    cJSON_AddNumberToObject(o, "h", ss->h);
+    cJSON_AddNumberToObject(o, "d0", ss->d0);
+    cJSON_AddStringToObject(o, "order_attribute", "_LEAF_ORDER");
+    cJSON_AddStringToObject(o, "centre_attribute", "_LEAF_CENTRE");
+    gl->extras = g->extras;
+    return SV_OK;
+}
+
+void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
+                              int level, cJSON *o)
+{
+    const sv_stoch_level *L = &res->levels[level];
+    cJSON_AddNumberToObject(o, "lambda", L->lambda);
+    cJSON_AddNumberToObject(o, "leaves", L->leaves);
+    if (ss->level_triangles[level])
+        cJSON_AddNumberToObject(o, "triangles_asked", ss->level_triangles[level]);
+    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
+    cJSON_AddNumberToObject(o, "leaf_triangles", (double)L->leaf_triangles);
+    cJSON_AddNumberToObject(o, "leaf_error", L->leaf_error);
+    cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
+    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
+    cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
+    cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
+    cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
+}
+
+/* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
+static bool st_ladder(int step, cJSON *set)
+{
+    static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
+    if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
+    cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
+    cJSON *a = cJSON_CreateArray();
+    cJSON_AddItemToArray(a, cJSON_CreateNumber(lambdas[step]));
+    cJSON_AddItemToObject(set, "levels", a);
+    return true;
+}
+
 const sv_method sv_method_stochastic = {
     .name = ST_NAME,
     .summary = "stochastic simplification of the foliage (Cook et al. 2007): random leaf "
                "subsets, area- and contrast-preserving, as meshes",
     .check = st_check,
     .run = st_run,
+    .ladder = st_ladder,
 };

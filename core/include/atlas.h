@@ -51,7 +51,7 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
  * alpha_threshold <= 0 selects coverage alpha instead: every texel with at
  * least one covered sample gets the median colour and alpha = the covered
  * fraction (rounded to 8 bits, at least 1), for a renderer's alpha test at a
- * cutoff chosen by calibration (pipeline.c). */
+ * cutoff chosen by calibration (calibrate.c). */
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double alpha_threshold, uint8_t *dst);
 

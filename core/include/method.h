@@ -15,6 +15,8 @@
 #include "scene.h"
 #include "stand_in.h"
 
+struct sv_baked_lod; /* bake.h */
+
 typedef struct sv_method_input {
     const sv_mesh *mesh;
     const sv_classification *cls;
@@ -33,6 +35,20 @@ typedef struct sv_method {
     /* Builds the stand-in. out is zero-initialised by the caller. */
     sv_status (*run)(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
                      sv_error *err);
+    /* The target search's ladder (docs/spec.md "target", the table of
+     * ladders), cheapest first: rewrites `settings` — a copy of the user's
+     * settings object of this method, owned by the caller — to step `step`
+     * (0 = cheapest), replacing the knob's keys and keeping the user's
+     * others. Returns false, settings untouched, past the last step. NULL:
+     * the method has nothing to search (a target then fails). Pure JSON. */
+    bool (*ladder)(int step, cJSON *settings);
+    /* planes.json (docs/outputs.md): adds what a runtime needs beyond the
+     * plain quad list to `entry`, the object of one LOD this method made —
+     * keys after "quads", and quads appended to `quads` (that entry's
+     * array). baked is the LOD's bake (its mesh and uv_rects), source_triangles
+     * the original mesh's triangle count. NULL: nothing to add. */
+    void (*planes_json)(const sv_lod_plan *lod, const struct sv_baked_lod *baked,
+                        uint32_t source_triangles, cJSON *entry, cJSON *quads);
 } sv_method;
 
 /* The method named `name`, or NULL. */

@@ -56,6 +56,8 @@
 #ifndef SV_OCTAHEDRAL_H
 #define SV_OCTAHEDRAL_H
 
+#include <cjson/cJSON.h>
+
 #include "bake.h"
 #include "render.h"
 
@@ -138,5 +140,28 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
  * SV_ERR_INTERNAL when the frames cannot be halved. */
 sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_image *src,
                       sv_image *dst, sv_error *err);
+
+/* Frame side when the spec leaves it to the bake: the next power of two at
+ * or above texels_per_pixel × largest_pixels (the largest evaluated screen
+ * size: a level is never judged, nor planned to be drawn, taller than that;
+ * at one texel per pixel the alpha test's blocks cost ficus 0.06 of IoU at
+ * 64 px), in [16, 1024], lowered until the n × n grid fits max_atlas (0 =
+ * 2048). */
+uint32_t sv_octa_frame_pixels(uint32_t n, uint32_t largest_pixels, double texels_per_pixel,
+                              uint32_t max_atlas);
+
+/* Writes dir/atlas_<name>_albedo_mip<k>.png for k = 1.. while frames keep at
+ * least 4 texels (sv_octa_mip from albedo, level 0); *count receives how many
+ * were written. (octahedral_bake.c: writing PNGs needs the image library.) */
+sv_status sv_octa_write_mips(const char *dir, const char *name, const sv_octa_grid *g,
+                             const sv_image *albedo, uint32_t *count, sv_error *err);
+
+/* impostor.json's entry for one octahedral level (docs/runtime.md): its lod
+ * and node names, the grid, frame bounds, alpha cutoff, the map files
+ * (maps[k]: albedo, normal, ao, depth; "" = not baked) and the albedo's mips
+ * (maps[0] then mip_count files named as sv_octa_write_mips names them).
+ * Returns a new object (NULL when out of memory). */
+cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char *node,
+                             const char maps[4][64], uint32_t mip_count);
 
 #endif

@@ -19,6 +19,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "gltf.h"
 #include "method.h"
 
 #define SV_STOCH_MAX_LEVELS 8
@@ -254,6 +255,36 @@ void sv_stoch_result_free(sv_stoch_result *res);
 
 /* The LOD name used for level λ: "full" for 1, else "stochastic<λ·100>". */
 void sv_stochastic_level_name(double lambda, char name[32]);
+
+/* ---- outputs ---------------------------------------------------------------- */
+
+/* What model.glb carries for a stochastic level (Fichtner §4.3.1, §4.3.3):
+ * per-vertex _LEAF_CENTRE (VEC3) and _LEAF_ORDER (SCALAR, (position + 0.5)/N)
+ * let a renderer draw any prefix and scale leaves about their centres; trunk
+ * vertices (first in the baked mesh) carry their own position and order 0, so
+ * the same shader leaves them alone. The node extras "sylva_stochastic" hold
+ * the level's λ, leaves, scales, fade window and the chain's r, h, d0.
+ * Owned by the struct: sv_stoch_gltf_free (a zeroed one is fine). */
+typedef struct sv_stoch_gltf {
+    float *centre, *order;
+    sv_gltf_attribute attr[2];
+    cJSON *extras;
+} sv_stoch_gltf;
+
+/* Fills out for level `level` of res (settings ss) drawn as mesh m, whose last
+ * geom_vertices vertices are the level's leaves, and points gl->attributes
+ * and gl->extras at it (valid while out lives). SV_ERR_INTERNAL when m has
+ * fewer vertices than that. */
+sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
+                             int level, uint32_t geom_vertices, const sv_mesh *m,
+                             sv_stoch_gltf *out, sv_gltf_lod *gl, sv_error *err);
+void sv_stoch_gltf_free(sv_stoch_gltf *g);
+
+/* Adds report.json's fields of level `level` of res to o (docs/outputs.md):
+ * lambda, leaves, triangles_asked (when given as a count), leaf_fraction,
+ * leaf_triangles, leaf_error, the area and contrast terms. */
+void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
+                              int level, cJSON *o);
 
 extern const sv_method sv_method_stochastic;
 

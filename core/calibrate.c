@@ -1,0 +1,202 @@
+/* calibrate.c — alpha cutoffs and atlas sizes, after the bake: each quad
+ * level's atlas cutoff chosen against the original's coverage (issue 18,
+ * after Behrendt et al. §3.3.7), and the atlases of levels drawn only small
+ * reduced to what their switch size shows (issue 19 item 3). Also the small
+ * evaluator both share with the stochastic candidates' scoring.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline_internal.h"
+
+/* Alpha calibration (issue 18; Behrendt et al. §3.3.7 threshold the baked
+ * coverage "to keep the look of density", but a fixed threshold inflates or
+ * thins the crown depending on leaf size, texel size and how far leaves were
+ * flattened). The atlas keeps each texel's covered fraction as alpha; the
+ * cutoff of the atlas material is chosen per level as the one whose alpha-
+ * tested render best matches the original's coverage (mean soft IoU) at
+ * SV_CALIB_PIXELS over SV_CALIB_VIEWS views placed by scene.viewer: first on a
+ * grid of SV_CALIB_STEP, then refined three times (± half the step, ± a
+ * quarter, ± an eighth) around the best: 15 tries of 8 small renders. */
+#define SV_CALIB_PIXELS 64u
+#define SV_CALIB_VIEWS 8u
+#define SV_CALIB_STEP 0.1
+
+/* The calibration's views at one size px: SV_CALIB_VIEWS views placed by
+ * scene.viewer, rendered at 128² (at 64 px: a quarter of the pixels of a
+ * supersample of 4, the same cutoffs to 0.0125). */
+static void calib_options(const run *r, uint32_t px, sv_eval_options *eo)
+{
+    memset(eo, 0, sizeof *eo);
+    eo->viewer = r->spec.scene.viewer;
+    eo->view_count = SV_CALIB_VIEWS;
+    eo->sizes[0] = px;
+    eo->size_count = 1;
+    eo->supersample = 128 / px;
+}
+
+sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                              sv_evaluator **out, sv_error *err)
+{
+    sv_eval_options eo;
+    calib_options(r, SV_CALIB_PIXELS, &eo);
+    if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
+        sv_evaluator_destroy(r->calib_ev);
+        r->calib_ev = NULL;
+    }
+    if (!r->calib_ev) {
+        sv_status st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &r->calib_ev, err);
+        if (st) return st;
+        r->calib_opt = eo;
+    }
+    *out = r->calib_ev;
+    return SV_OK;
+}
+
+/* Stochastic candidates (sv_stoch_scorer): mean IoU at 64 px, 8 views. */
+sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_error *err)
+{
+    stoch_score_ctx *c = user;
+    sv_evaluator *ev = NULL;
+    sv_status st = svp_small_evaluator(c->r, c->ren, c->gsrc, &ev, err);
+    if (st) return st;
+    sv_gpu_mesh *g = NULL;
+    if ((st = sv_gpu_mesh_upload(c->ren, level, &g, err))) return st;
+    sv_eval_result er;
+    st = sv_evaluate(ev, g, &er, err);
+    sv_gpu_mesh_free(g);
+    if (st) return st;
+    *score = er.sizes[0].mean.iou;
+    sv_eval_result_free(&er);
+    return SV_OK;
+}
+
+static sv_status calib_try(sv_evaluator *ev, const sv_gpu_mesh *g, sv_material *mat, double t,
+                           double *iou, sv_error *err)
+{
+    mat->alpha_cutoff = (float)t;
+    sv_eval_result er;
+    sv_status st = sv_evaluate(ev, g, &er, err);
+    if (st) return st;
+    *iou = er.sizes[0].mean.iou;
+    sv_eval_result_free(&er);
+    return SV_OK;
+}
+
+/* Calibrates the atlas material's cutoff of one quad level (its mesh's
+ * first material, when alpha-tested): a grid of SV_CALIB_STEP, then three
+ * refinements around the best. */
+static sv_status calibrate_level(sv_evaluator *ev, sv_renderer *ren, lod_out *l, sv_error *err)
+{
+    sv_mesh *m = l->baked.mesh;
+    if (!m || !m->triangle_count) return SV_OK;
+    sv_material *mat = &m->materials[m->tri_material[0]];
+    if (mat->alpha_mode != SV_ALPHA_MASK) return SV_OK;
+    sv_gpu_mesh *g = NULL;
+    sv_status st = sv_gpu_mesh_upload(ren, m, &g, err);
+    if (st) return st;
+    double best_t = 0.5, best = -1, iou;
+    for (int k = 1; k * SV_CALIB_STEP < 1 - 1e-9 && !st; k++) {
+        double t = k * SV_CALIB_STEP;
+        if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
+        if (iou > best + 1e-12) best = iou, best_t = t;
+    }
+    for (double h = SV_CALIB_STEP / 2; h > SV_CALIB_STEP / 10 && !st; h /= 2) {
+        double c = best_t;
+        for (int sgn = -1; sgn <= 1 && !st; sgn += 2) {
+            double t = c + sgn * h;
+            if (t <= 0 || t >= 1) continue;
+            if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
+            if (iou > best + 1e-12) best = iou, best_t = t;
+        }
+    }
+    mat->alpha_cutoff = (float)best_t;
+    l->alpha_cutoff = best_t;
+    l->calib_iou = best;
+    sv_gpu_mesh_free(g);
+    return st;
+}
+
+/* Sets the atlas material's cutoff of every quad level baked with coverage
+ * alpha (levels drawn view-dependently keep 0.5). */
+sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                                const sv_stand_in *si, lod_out *lods, sv_error *err)
+{
+    bool any = false;
+    for (uint32_t i = 0; i < si->lod_count; i++)
+        any |= si->lods[i].quad_count > 0 && !si->lods[i].select;
+    if (!any) return SV_OK;
+    sv_evaluator *ev = NULL;
+    sv_status st = svp_small_evaluator(r, ren, gsrc, &ev, err);
+    for (uint32_t i = 0; i < si->lod_count && !st; i++)
+        if (si->lods[i].quad_count && !si->lods[i].select)
+            st = calibrate_level(ev, ren, &lods[i], err);
+    return st;
+}
+
+/* Atlases sized by where a level is drawn (issue 19 item 3). A level after
+ * the first is never drawn taller than its switch size S, where one texel
+ * of tree_h / (S × SV_ATLAS_TEXELS_PER_PIXEL) is enough; its maps (baked at
+ * bake.texel_pixels, 256 texels per tree height by default) are box-filtered
+ * down by powers of two to that (colour weighted by alpha; the UV rectangles
+ * are fractions of the atlas and stay) and, with coverage alpha, its cutoff
+ * is calibrated again at the size it is drawn at. The first level is drawn
+ * at any size and keeps its atlas. The accuracy the report gives was
+ * measured before. */
+#define SV_ATLAS_MIN_SIDE 16u
+
+sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                             const sv_stand_in *si, lod_out *lods, double tree_h,
+                             bool calibrate, sv_error *err)
+{
+    sv_evaluator *ev = NULL;
+    uint32_t ev_px = 0;
+    sv_status st = SV_OK;
+    for (uint32_t i = 1; i < si->lod_count && !st; i++) {
+        lod_out *l = &lods[i];
+        sv_baked_lod *b = &l->baked;
+        if (!b->albedo.data || !(b->texel_size > 0) || !(l->switch_pixels > 0) || !b->mesh) continue;
+        double want = tree_h / (l->switch_pixels * SV_ATLAS_TEXELS_PER_PIXEL);
+        uint32_t side = b->albedo.width > b->albedo.height ? b->albedo.width : b->albedo.height;
+        uint32_t other = b->albedo.width + b->albedo.height - side;
+        int k = 0;
+        sv_octa_grid *og = si->lods[i].octa; /* frames stay whole: at least 16 texels */
+        while (b->texel_size * ldexp(1.0, k + 1) <= want && (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE &&
+               (!og || (og->frame_pixels >> (k + 1)) >= 16))
+            k++;
+        if (!k) continue;
+        if (og) og->frame_pixels >>= k;
+        sv_image *maps[4] = {&b->albedo, &b->normal, &b->ao, &b->depth};
+        for (int m = 0; m < 4 && !st; m++)
+            if (maps[m]->data) st = sv_image_reduce(maps[m], side >> k, err);
+        sv_mesh *mesh = b->mesh;
+        sv_material *mat = &mesh->materials[mesh->tri_material[0]];
+        int32_t idx[3] = {mat->base_texture, mat->normal_texture, mat->occlusion_texture};
+        for (int m = 0; m < 3 && !st; m++) {
+            if (idx[m] < 0 || (uint32_t)idx[m] >= mesh->image_count || !maps[m]->data) continue;
+            sv_image_free(&mesh->images[idx[m]]);
+            st = sv_image_copy(maps[m], &mesh->images[idx[m]], err);
+        }
+        b->texel_size = ldexp(b->texel_size, k);
+        if (!st && calibrate && si->lods[i].quad_count && !si->lods[i].select) {
+            /* at the size the level is drawn at most (a power of two in
+             * [16, 64]): judged at 64 px, a 16 px level's cutoff was chosen
+             * for blocks it never shows */
+            uint32_t px = 16;
+            while (px < SV_CALIB_PIXELS && px < l->switch_pixels) px *= 2;
+            sv_eval_options eo;
+            calib_options(r, px, &eo);
+            if (!ev || ev_px != px) {
+                sv_evaluator_destroy(ev);
+                ev = NULL;
+                st = sv_evaluator_create(ren, r->p.mesh, gsrc, &eo, &ev, err);
+                ev_px = px;
+            }
+            if (!st) st = calibrate_level(ev, ren, l, err);
+        }
+    }
+    sv_evaluator_destroy(ev);
+    return st;
+}
+

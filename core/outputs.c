@@ -1,0 +1,185 @@
+/* outputs.c — the files of a bake that are not JSON (docs/outputs.md): the
+ * atlases (and an octahedral level's albedo mips, Castaño's alpha-scaled
+ * mips), model.glb with every level as MSFT_lod alternates, one
+ * lod<i>_<name>.glb per level, and preview.png.
+ */
+#include <ctype.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gltf.h"
+#include "pipeline_internal.h"
+#include "preview.h"
+
+/* The asset's name for node names (`<asset>_LOD<i>`, the convention Unity,
+ * Unreal and Godot importers group into LOD sets): the main file's base name
+ * without its extension, every byte outside [A-Za-z0-9_-] replaced by '_',
+ * at most cap - 1 bytes; "tree" when nothing is left. */
+static void asset_name(const char *file, char *out, size_t cap)
+{
+    const char *b = file ? file : "";
+    for (const char *c = b; *c; c++)
+        if (*c == '/' || *c == '\\') b = c + 1;
+    const char *dot = strrchr(b, '.');
+    size_t n = dot && dot != b ? (size_t)(dot - b) : strlen(b);
+    if (n > cap - 1) n = cap - 1;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char ch = (unsigned char)b[i];
+        out[i] = (isalnum(ch) || ch == '_' || ch == '-') ? (char)ch : '_';
+    }
+    out[n] = 0;
+    if (n == 0) snprintf(out, cap, "tree");
+}
+
+const char *const svp_map_names[4] = {"albedo", "normal", "ao", "depth"};
+
+const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
+{
+    switch (i) {
+    case 0: return &b->albedo;
+    case 1: return &b->normal;
+    case 2: return &b->ao;
+    default: return &b->depth;
+    }
+}
+
+sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
+{
+    const sv_stand_in *si = &b->si;
+    lod_out *lods = b->lods;
+    char path[4096];
+    sv_status st;
+    for (uint32_t i = 0; i < si->lod_count; i++)
+        for (int k = 0; k < 4; k++) {
+            const sv_image *img = svp_lod_map(&lods[i].baked, k);
+            if (!img->data) continue;
+            snprintf(lods[i].maps[k], sizeof lods[i].maps[k], "atlas_%s_%s.png", si->lods[i].name,
+                     svp_map_names[k]);
+            snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].maps[k]);
+            if ((st = sv_image_write_png(img, path, err))) return st;
+        }
+    for (uint32_t i = 0; i < si->lod_count; i++)
+        if (si->lods[i].octa &&
+            (st = sv_octa_write_mips(r->req->out_dir, si->lods[i].name, si->lods[i].octa,
+                                  &lods[i].baked.albedo, &lods[i].mip_count, err)))
+            return st;
+    return SV_OK;
+}
+
+sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
+{
+    const sv_stand_in *si = &b->si;
+    lod_out *lods = b->lods;
+    const chain *ch = &b->ch;
+    sv_status st = SV_OK;
+    char path[4096];
+    sv_gltf_lod *gl = sv_calloc(si->lod_count, sizeof *gl);
+    if (!gl) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    sv_stoch_gltf *gx = sv_calloc(si->lod_count, sizeof *gx);
+    if (!gx) {
+        free(gl);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    char asset[64];
+    asset_name(r->req->files[0].name, asset, sizeof asset);
+    for (uint32_t i = 0; i < si->lod_count && st == SV_OK; i++) {
+        snprintf(lods[i].node, sizeof lods[i].node, "%s_LOD%u", asset, i);
+        snprintf(lods[i].file, sizeof lods[i].file, "lod%u_%s.glb", i, si->lods[i].name);
+        gl[i].name = lods[i].node;
+        gl[i].mesh_name = si->lods[i].name;
+        gl[i].mesh = lods[i].baked.mesh;
+        gl[i].screen_coverage = lods[i].coverage;
+        if (ch->info[i].stochastic)
+            st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level, ch->info[i].geom_vertices,
+                                    lods[i].baked.mesh, &gx[i], &gl[i], err);
+    }
+    snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
+    if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);
+    /* one standalone file per kept level, for importers that ignore MSFT_lod */
+    for (uint32_t i = 0; i < si->lod_count && st == SV_OK; i++) {
+        snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].file);
+        st = sv_gltf_write_level_glb(path, &gl[i], err);
+    }
+    for (uint32_t i = 0; i < si->lod_count; i++) sv_stoch_gltf_free(&gx[i]);
+    free(gx);
+    free(gl);
+    return st;
+}
+
+/* preview.h's description of level i: how it is drawn, its switch size,
+ * cost, and the mean IoU at the measured size nearest its switch size. */
+static sv_status preview_level(const bake_state *b, uint32_t i, sv_preview_level *pv,
+                               view_sets *vs, bool *vs_ok, octa_draw_ctx *oc, sv_error *err)
+{
+    const sv_lod_plan *lp = &b->si.lods[i];
+    const lod_out *l = &b->lods[i];
+    const sv_baked_lod *bk = &l->baked;
+    pv->gpu = l->gpu;
+    if (lp->octa) {
+        *oc = (octa_draw_ctx){lp->octa, bk};
+        pv->draw = svp_octa_draw;
+        pv->user = oc;
+    } else if (lp->select) {
+        sv_status st = svp_view_sets_init(vs, lp, bk, err);
+        if (st) return st;
+        *vs_ok = true;
+        pv->select = svp_select_subsets;
+        pv->user = vs;
+    }
+    pv->name = lp->name;
+    pv->pixels = l->switch_pixels;
+    pv->triangles = bk->mesh->triangle_count;
+    pv->texels = (double)bk->albedo.width * bk->albedo.height;
+    pv->iou = -1;
+    double best = INFINITY, px = l->switch_pixels > 0 ? l->switch_pixels : 1;
+    for (uint32_t k = 0; l->evaluated && k < l->eval.size_count; k++) {
+        const sv_eval_size *z = &l->eval.sizes[k];
+        double dist = fabs(log2((double)z->pixels / px));
+        if (dist < best) {
+            best = dist;
+            pv->iou = z->mean.iou;
+            pv->iou_pixels = z->pixels;
+        }
+    }
+    return SV_OK;
+}
+
+/* preview.png: every kept level beside the original (preview.h), from the
+ * first evaluation view */
+sv_status svp_write_preview(const run *r, const bake_state *b, sv_evaluator *ev, sv_error *err)
+{
+    if (!ev) return SV_OK;
+    uint32_t n = b->si.lod_count;
+    sv_status st = SV_OK;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/preview.png", r->req->out_dir);
+    sv_preview_level *pv = sv_calloc(n, sizeof *pv);
+    view_sets *vs = sv_calloc(n, sizeof *vs);
+    bool *vs_ok = sv_calloc(n, sizeof *vs_ok);
+    octa_draw_ctx *oc = sv_calloc(n, sizeof *oc);
+    if (!pv || !vs || !vs_ok || !oc) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t i = 0; i < n && st == SV_OK; i++)
+        st = preview_level(b, i, &pv[i], &vs[i], &vs_ok[i], &oc[i], err);
+    if (st == SV_OK) {
+        double dir[3];
+        sv_evaluator_view_dir(ev, 0, dir);
+        sv_camera cam;
+        sv_eval_camera(b->fc, b->fr > 0 ? b->fr : r->p.radius, dir, &cam);
+        sv_render_options ro;
+        memset(&ro, 0, sizeof ro);
+        if (b->bo.lit) {
+            ro.shade = SV_SHADE_LIT;
+            memcpy(ro.light_dir, b->bo.light_dir, sizeof ro.light_dir);
+        }
+        st = sv_preview_chain(r->ren, r->gsrc, pv, n, &cam, dir, &ro, 256, path, err);
+    }
+    for (uint32_t i = 0; vs_ok && i < n; i++)
+        if (vs_ok[i]) svp_view_sets_free(&vs[i]);
+    free(oc);
+    free(vs_ok);
+    free(vs);
+    free(pv);
+    return st;
+}
