@@ -192,56 +192,38 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
     return SV_OK;
 }
 
-/* k-th smallest of a[0..n) (quickselect, median-of-three pivot); reorders a. */
-static uint8_t select_u8(uint8_t *a, uint32_t n, uint32_t k)
-{
-    uint32_t lo = 0, hi = n - 1;
-    while (lo < hi) {
-        uint32_t mid = lo + (hi - lo) / 2;
-        uint8_t x = a[lo], y = a[mid], z = a[hi];
-        uint8_t pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));
-        uint32_t i = lo, j = hi;
-        while (i <= j) {
-            while (a[i] < pivot) i++;
-            while (a[j] > pivot) j--;
-            if (i <= j) {
-                uint8_t t = a[i]; a[i] = a[j]; a[j] = t;
-                i++;
-                if (j == 0) break;
-                j--;
-            }
-        }
-        if (k <= j) hi = j;
-        else if (k >= i) lo = i;
-        else return a[k];
+/* k-th smallest of a[0..n) (quickselect, median-of-three pivot); reorders a.
+ * One body for the two element types the median filters use. */
+#define SV_DEFINE_SELECT(name, T)                                                              \
+    static T name(T *a, uint32_t n, uint32_t k)                                                \
+    {                                                                                          \
+        uint32_t lo = 0, hi = n - 1;                                                           \
+        while (lo < hi) {                                                                      \
+            uint32_t mid = lo + (hi - lo) / 2;                                                 \
+            T x = a[lo], y = a[mid], z = a[hi];                                                \
+            T pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));   \
+            uint32_t i = lo, j = hi;                                                           \
+            while (i <= j) {                                                                   \
+                while (a[i] < pivot) i++;                                                      \
+                while (a[j] > pivot) j--;                                                      \
+                if (i <= j) {                                                                  \
+                    T t = a[i];                                                                \
+                    a[i] = a[j];                                                               \
+                    a[j] = t;                                                                  \
+                    i++;                                                                       \
+                    if (j == 0) break;                                                         \
+                    j--;                                                                       \
+                }                                                                              \
+            }                                                                                  \
+            if (k <= j) hi = j;                                                                \
+            else if (k >= i) lo = i;                                                           \
+            else return a[k];                                                                  \
+        }                                                                                      \
+        return a[k];                                                                           \
     }
-    return a[k];
-}
-
-static float select_f32(float *a, uint32_t n, uint32_t k)
-{
-    uint32_t lo = 0, hi = n - 1;
-    while (lo < hi) {
-        uint32_t mid = lo + (hi - lo) / 2;
-        float x = a[lo], y = a[mid], z = a[hi];
-        float pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));
-        uint32_t i = lo, j = hi;
-        while (i <= j) {
-            while (a[i] < pivot) i++;
-            while (a[j] > pivot) j--;
-            if (i <= j) {
-                float t = a[i]; a[i] = a[j]; a[j] = t;
-                i++;
-                if (j == 0) break;
-                j--;
-            }
-        }
-        if (k <= j) hi = j;
-        else if (k >= i) lo = i;
-        else return a[k];
-    }
-    return a[k];
-}
+SV_DEFINE_SELECT(select_u8, uint8_t)
+SV_DEFINE_SELECT(select_f32, float)
+#undef SV_DEFINE_SELECT
 
 /* Covered samples needed for an opaque texel: ceil(threshold · s²), at least 1. */
 static uint32_t needed(double thr, uint32_t s)
