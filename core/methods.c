@@ -3,13 +3,6 @@
 
 #include <string.h>
 
-extern const sv_method sv_method_crossed_quads;
-extern const sv_method sv_method_leaf_clusters;
-extern const sv_method sv_method_stochastic;
-extern const sv_method sv_method_slicing;
-extern const sv_method sv_method_billboard_cloud;
-extern const sv_method sv_method_octahedral;
-
 static const sv_method *const registry[] = {
     &sv_method_crossed_quads,
     &sv_method_leaf_clusters,

@@ -51,6 +51,15 @@ typedef struct sv_method {
                         uint32_t source_triangles, cJSON *entry, cJSON *quads);
 } sv_method;
 
+/* The registered methods, one per method file (the registry in methods.c
+ * lists them; tests use them directly). */
+extern const sv_method sv_method_crossed_quads;
+extern const sv_method sv_method_leaf_clusters;
+extern const sv_method sv_method_stochastic;
+extern const sv_method sv_method_slicing;
+extern const sv_method sv_method_billboard_cloud;
+extern const sv_method sv_method_octahedral;
+
 /* The method named `name`, or NULL. */
 const sv_method *sv_method_find(const char *name);
 

@@ -286,6 +286,4 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g);
 void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                               int level, cJSON *o);
 
-extern const sv_method sv_method_stochastic;
-
 #endif

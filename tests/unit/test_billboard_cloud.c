@@ -19,7 +19,6 @@
 #include "import.h"
 #include "method.h"
 
-extern const sv_method sv_method_billboard_cloud;
 #define BC (&sv_method_billboard_cloud)
 
 /* ---------------------------------------------------------------- a synthetic tree */

@@ -13,7 +13,6 @@
 
 #include "method.h"
 
-extern const sv_method sv_method_crossed_quads;
 
 /* A tree: trunk box around (tx, tz) from y 0..4 (material "bark"), and a crown
  * of leaf triangles (material "leaves") off to one side between y 3 and 6. */

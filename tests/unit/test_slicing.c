@@ -19,7 +19,6 @@
 #include "render.h"
 #include "slicing.h"
 
-extern const sv_method sv_method_slicing;
 
 /* ---------- helpers ---------- */
 
