@@ -19,6 +19,9 @@
 
 const char *const svp_stage_names[ST_COUNT] = {"import", "validate", "classify", "method",
                                                "bake",   "pack",     "evaluate", "write"};
+/* The renderer's largest target side (render.h max_size): the pipeline's
+ * renders (bake tiles, evaluation views, impostor frames) stay below it. */
+#define SVP_RENDER_MAX 8192u
 /* Overall progress at the start of each stage (rough shares of a typical bake). */
 static const double stage_start[ST_COUNT + 1] = {0.0, 0.08, 0.1, 0.15, 0.3, 0.65, 0.7, 0.95, 1.0};
 
@@ -203,7 +206,7 @@ static sv_status stage_compose(run *r, bake_state *b, sv_error *err)
     if ((st = stage(r, ST_METHOD, 0, err))) return st;
     /* the renderer first: the stochastic levels need r measured by rendering */
     if (!r->ren) {
-        if ((st = sv_renderer_create(8192, &r->ren, err))) return st;
+        if ((st = sv_renderer_create(SVP_RENDER_MAX, &r->ren, err))) return st;
         if ((st = sv_gpu_mesh_upload(r->ren, p->mesh, &r->gsrc, err))) return st;
     }
     if ((st = svp_chain_compose(r, r->ren, r->gsrc, &b->si, &b->ch, err))) return st;
