@@ -523,26 +523,8 @@ static void offset_and_scale_give_the_same_elements(void **state)
 
 /* ---------- the real trees ---------- */
 
-typedef struct tree_case {
-    const char *dir, *file;
-    double unit_scale;
-    uint32_t triangles, foliage;
-} tree_case;
-
-static const tree_case TREES[] = {
-    {"scopia_ficusTree", "ficusTree.obj", 0.01, 118876, 112000},
-    {"scopia_ficusTree", "ficusTree.glb", 0.01, 118876, 112000},
-    {"scopia_acacia", "acacia.obj", 0.01, 103164, 99600},
-    {"scopia_bush", "bush.obj", 0.01, 40292, 36948},
-    {"scopia_palm", "palm.obj", 0.01, 43323, 41745 + 130},
-    {"scopia_bonsai-tree", "bonsai-tree.obj", 0.01, 8128, 6720},
-    {"blendswap_cc0_decorativePlant", "decorativePlant.obj", 0, 63428, 38380},
-    {"eztree_oak_large", "oak_large.obj", 0, 22566, 10560},
-    {"eztree_oak_large", "oak_large.glb", 0, 22566, 10560},
-    {"eztree_ash_medium", "ash_medium.obj", 0, 20000, 10880},
-    {"eztree_aspen_small", "aspen_small.obj", 0, 3616, 1120},
-    {"sapling_small_maple", "sapling_small_maple_rect.obj", 0, 153618, 36290},
-};
+/* the shared trees: tests/data/trees.tsv (test_data.h) */
+typedef sv_test_tree tree_case;
 
 /* Imports dir/file with every non-mesh file of dir as a companion. */
 static sv_mesh *import_tree(const char *data, const tree_case *tc)
@@ -551,12 +533,12 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
     sv_file files[16];
     char names[16][256];
     size_t n = 0;
-    snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, tc->file);
+    assert_true(snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, tc->file) < (int)sizeof path);
     files[0].name = tc->file;
     files[0].data = sv_test_read_all(path, &files[0].size);
     assert_non_null(files[0].data);
     n = 1;
-    snprintf(path, sizeof path, "%s/%s", data, tc->dir);
+    assert_true(snprintf(path, sizeof path, "%s/%s", data, tc->dir) < (int)sizeof path);
     DIR *d = opendir(path);
     assert_non_null(d);
     struct dirent *e;
@@ -565,7 +547,8 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
         if (e->d_name[0] == '.' || !x) continue;
         if (strcmp(x, ".mtl") && strcmp(x, ".png") && strcmp(x, ".jpg")) continue;
         snprintf(names[n], sizeof names[n], "%s", e->d_name);
-        snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, e->d_name);
+        if (snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, e->d_name) >= (int)sizeof path)
+            continue;
         files[n].name = names[n];
         files[n].data = sv_test_read_all(path, &files[n].size);
         if (files[n].data) n++;
@@ -585,8 +568,11 @@ static void every_tree_in_the_data_set_classifies_as_its_readme_says(void **stat
 {
     (void)state;
     const char *data = sv_test_data("real-tree classification");
-    for (size_t i = 0; i < sizeof TREES / sizeof TREES[0]; i++) {
-        const tree_case *tc = &TREES[i];
+    tree_case trees[32];
+    size_t count = sv_test_trees(trees, 32);
+    assert_true(count >= 10); /* the table is there and read */
+    for (size_t i = 0; i < count; i++) {
+        const tree_case *tc = &trees[i];
         sv_mesh *m = import_tree(data, tc);
         sv_classification c;
         sv_error err = {0};

@@ -35,4 +35,38 @@ static inline uint8_t *sv_test_read_data(const char *data, const char *rel, size
     return sv_test_read_all(path, size);
 }
 
+/* One row of tests/data/trees.tsv, the one table of the shared trees that
+ * the shell tests, the benchmarks and these unit tests read. */
+typedef struct sv_test_tree {
+    char dir[96], file[96];
+    double unit_scale;  /* import.unit_scale: 0.01 for "cm", else 0 (as given) */
+    uint32_t triangles; /* the data README's counts */
+    uint32_t foliage;
+} sv_test_tree;
+
+/* Reads tests/data/trees.tsv (from the repository root, where tests run) into
+ * out (at most cap rows); returns the number of rows, 0 when it cannot be
+ * read. */
+static inline size_t sv_test_trees(sv_test_tree *out, size_t cap)
+{
+    FILE *f = fopen("tests/data/trees.tsv", "r");
+    if (!f) return 0;
+    char line[512], units[16];
+    size_t n = 0;
+    while (n < cap && fgets(line, sizeof line, f)) {
+        sv_test_tree *t = &out[n];
+        unsigned tri = 0, fol = 0;
+        if (line[0] == '#' ||
+            sscanf(line, "%95[^\t]\t%95[^\t]\t%15[^\t]\t%u\t%u", t->dir, t->file, units, &tri,
+                   &fol) != 5)
+            continue;
+        t->unit_scale = units[0] == 'c' && units[1] == 'm' && !units[2] ? 0.01 : 0;
+        t->triangles = tri;
+        t->foliage = fol;
+        n++;
+    }
+    fclose(f);
+    return n;
+}
+
 #endif
