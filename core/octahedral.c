@@ -598,8 +598,8 @@ static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
             for (int m = 0; m < 3; m++) c[k][m] = P[12 * q + 3 * k + m];
         cJSON *qo = cJSON_CreateObject();
         cJSON_AddItemToObject(qo, "normal", cJSON_CreateDoubleArray(n, 3));
-        cJSON_AddNumberToObject(qo, "d", -(n[0] * lod->octa->centre[0] + n[1] * lod->octa->centre[1] +
-                                           n[2] * lod->octa->centre[2]));
+        /* the plane through the quad (it passes through the trunk's axis) */
+        cJSON_AddNumberToObject(qo, "d", -(n[0] * c[0][0] + n[1] * c[0][1] + n[2] * c[0][2]));
         cJSON *ca = cJSON_AddArrayToObject(qo, "corners");
         for (int k = 0; k < 4; k++) cJSON_AddItemToArray(ca, cJSON_CreateDoubleArray(c[k], 3));
         const float *uv = b->uv_rects + 4 * q;

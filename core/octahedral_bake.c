@@ -4,6 +4,8 @@
  * settings through the method registry, does not link GL. */
 #include "octahedral.h"
 
+#include "classify.h"
+
 #include "vec3.h"
 
 #include <math.h>
@@ -206,6 +208,25 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
      * opposite view); an engine draws the first quad with the impostor
      * shader (docs/runtime.md) */
     uint32_t K = g->proxy_quads >= 1 && g->proxy_quads <= 8 ? g->proxy_quads : SV_OCTA_PROXY_QUADS;
+    /* Each quad passes through the trunk's axis, not the bounds' centre: a
+     * frame is an orthographic view along d, so sliding its plane along d
+     * keeps the picture and puts the points on the plane (the trunk) where
+     * they are; through the centre, a trunk off the centre was drawn once
+     * per quad, side by side (issue 18's doubled trunk). The axis: the mean
+     * x, z of the trunk triangles' vertices (none classified: the centre). */
+    double axis[3] = {g->centre[0], g->centre[1], g->centre[2]};
+    if (opt->tri_part) {
+        double sx = 0, sz = 0;
+        size_t cnt = 0;
+        for (uint32_t t = 0; t < src->triangle_count; t++) {
+            if (opt->tri_part[t] != SV_PART_TRUNK) continue;
+            for (int k = 0; k < 3; k++) {
+                const float *v = &src->positions[3 * (size_t)src->indices[3 * (size_t)t + k]];
+                sx += v[0], sz += v[2], cnt++;
+            }
+        }
+        if (cnt) axis[0] = sx / cnt, axis[2] = sz / cnt;
+    }
     out->quad_count = K;
     out->uv_rects = sv_calloc(4 * (size_t)K, sizeof *out->uv_rects);
     uint32_t nimg = 1 + (out->normal.data != NULL);
@@ -226,6 +247,7 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
         double d[3], rr[3], uu[3];
         sv_octa_frame_dir(g, fr[best][0], fr[best][1], d);
         sv_octa_frame_basis(d, rr, uu);
+        double off = (axis[0] - g->centre[0]) * d[0] + (axis[2] - g->centre[2]) * d[2];
         float *rect = out->uv_rects + 4 * q;
         rect[0] = (float)fr[best][0] / n;
         rect[1] = (float)fr[best][1] / n;
@@ -236,7 +258,7 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
             uint32_t v = 4 * q + (uint32_t)c;
             for (int k = 0; k < 3; k++) {
                 m->positions[3 * v + k] =
-                    (float)(g->centre[k] + g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
+                    (float)(g->centre[k] + off * d[k] + g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
                 m->normals[3 * v + k] = (float)d[k];
             }
             m->uvs[2 * v] = rect[0] + (float)(0.5 * (cu[c] + 1)) * (rect[2] - rect[0]);
