@@ -26,8 +26,13 @@ SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
 LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
 
 
-CORE_C   := $(wildcard core/*.c)
-CORE_CXX := $(wildcard core/*.cpp)
+# core/ in folders that follow a bake (docs/design.md, "Source layout"):
+# core/*.c beside io/, geom/, methods/<name>/, render/, pipeline/; core/cli/ is
+# the sylva-bake program's own code, not part of the library.
+CORE_SRC := $(wildcard core/*.c core/*/*.c core/*/*/*.c core/*.cpp core/*/*.cpp core/*/*/*.cpp)
+CORE_C   := $(filter-out core/cli/%,$(filter %.c,$(CORE_SRC)))
+CORE_CXX := $(filter-out core/cli/%,$(filter %.cpp,$(CORE_SRC)))
+CLI_C    := $(wildcard core/cli/*.c)
 CORE_OBJ := $(CORE_C:%.c=$(BUILD)/%.o) $(CORE_CXX:%.cpp=$(BUILD)/%.o)
 SERVER_LIB_C := $(filter-out server/sylvad.c,$(wildcard server/*.c))
 # libsylva (installed: sylva.h, libsylva.a, libsylva.so, sylva.pc) is the
@@ -120,7 +125,7 @@ $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
 # The client links libsylva statically and nothing of core.
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm
-$(BUILD)/sylva-bake: $(BUILD)/core/cli/sylva-bake.o $(BUILD)/core/cli/zygote.o $(LIBCORE)
+$(BUILD)/sylva-bake: $(CLI_C:%.c=$(BUILD)/%.o) $(LIBCORE)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)
