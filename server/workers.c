@@ -751,7 +751,7 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
     char ppid[24] = "";
     argv[ac++] = "--parent-pid";
     argv[ac++] = ppid;
-    if (c->worker_sandbox) argv[ac++] = "--sandbox"; /* seccomp filter (core/sandbox.h) */
+    if (c->worker_sandbox) argv[ac++] = "--sandbox"; /* seccomp filter (core/cli/sandbox.h) */
     argv[ac] = NULL;
 #undef OWN
     run_result rr;

@@ -1,6 +1,6 @@
 /* atlas.h — chart packing (stb_rect_pack) and the texel filters of quad baking:
  * the median/threshold downsampler and colour dilation (billboard-cloud paper
- * §3.3.7). Used by core/bake.c; exposed for tests.
+ * §3.3.7). Used by core/render/bake.c; exposed for tests.
  *
  * Texel coordinates: x right, y down, (0,0) the top-left texel of the atlas.
  */

@@ -1,4 +1,4 @@
-/* image.h — images in memory and the OpenImageIO shim (core/image_oiio.cpp is the
+/* image.h — images in memory and the OpenImageIO shim (core/io/image_oiio.cpp is the
  * only C++ file; it catches every exception and copies the text into sv_error).
  *
  * Pixels are stored row-major, top row first, interleaved channels, with either

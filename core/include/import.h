@@ -94,7 +94,7 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb,
                            const sv_file *files, size_t count,
                            const sv_limits *limits, sv_error *err);
 
-/* Structural pre-check of an OBJ, PLY, FBX or COLLADA file (core/mesh_precheck.c)
+/* Structural pre-check of an OBJ, PLY, FBX or COLLADA file (core/io/mesh_precheck.c)
  * without assimp, iterative and bounded by size: a PLY header must be complete
  * (end_header within 64 KiB) and its body must hold every instance it declares;
  * OBJ and COLLADA must be text (no NUL), COLLADA closed by </COLLADA>; a binary

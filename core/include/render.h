@@ -1,6 +1,6 @@
 /* render.h — "draw these triangles of this mesh with this camera into this image".
  *
- * The only backend today is core/render_osmesa.c (OSMesa, Mesa llvmpipe), the one
+ * The only backend today is core/render/render_osmesa.c (OSMesa, Mesa llvmpipe), the one
  * file in sylva that includes GL headers. Another backend (EGL surfaceless) can
  * replace that one file. Contexts are created in the process that bakes (the
  * sylva-bake worker), never in the daemon.

@@ -1,4 +1,4 @@
-/* slicing.h — the pure geometry of Jakulin's slicings (core/slicing.c): slab
+/* slicing.h — the pure geometry of Jakulin's slicings (core/methods/slicing/slicing.c): slab
  * boundaries, clipping of triangles at slab planes, and the blending rule that
  * picks and weights slicings for a view direction.
  *

@@ -104,7 +104,7 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
     return st;
 }
 
-/* ---- octahedral impostors (core/octahedral.c; docs/methods/octahedral.md) ---- */
+/* ---- octahedral impostors (core/methods/octahedral/octahedral.c; docs/methods/octahedral.md) ---- */
 
 /* sv_eval_draw_fn: the C reference runtime (sv_octa_render). */
 sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h,

@@ -97,7 +97,7 @@ function dirFromAngles(azDeg, elDeg) {
 // the evaluator compares unlit albedo: every material becomes a
 // MeshBasicMaterial with the same texture, colour, cutoff and sides, and
 // textures are sampled as sylva's renderer samples them, bilinear without
-// mipmaps (core/render_osmesa.c: mipmaps average alpha and erode
+// mipmaps (core/render/render_osmesa.c: mipmaps average alpha and erode
 // alpha-tested leaves; each level's atlas is sized for where it is drawn)
 function toUnlit(root, original) {
     root.traverse((o) => {

@@ -1,5 +1,5 @@
 /* fuzz_sniff_precheck.c — libFuzzer target: the format sniffer, the glTF/GLB
- * pre-check and the upload reference resolver (core/sniff.c, core/gltf_precheck.c;
+ * pre-check and the upload reference resolver (core/io/sniff.c, core/io/gltf_precheck.c;
  * glTF 2.0 spec §4.4 file names and URIs, §4.4.3 GLB) on arbitrary bytes.
  * Every input must return a status, never crash, leak or read out of bounds. */
 #include <stdlib.h>

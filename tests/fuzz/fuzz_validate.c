@@ -1,4 +1,4 @@
-/* fuzz_validate.c — libFuzzer target: the mesh validator (core/validate.c,
+/* fuzz_validate.c — libFuzzer target: the mesh validator (core/geom/validate.c,
  * sv_validate) on a mesh whose counts, float bits (NaN, Inf, denormals),
  * indices and material indices all come from the fuzz bytes. It must reject or
  * repair, never crash; after SV_OK every index is in range, every position

@@ -1,5 +1,5 @@
 #!/bin/sh
-# sandbox_seccomp.sh — the worker's seccomp filter (core/sandbox.c,
+# sandbox_seccomp.sh — the worker's seccomp filter (core/cli/sandbox.c,
 # `sylva-bake bake --sandbox`): a sandboxed process that opens a socket or
 # execs is killed by SIGSYS (status 159 = 128 + 31), a call off the allowlist
 # fails with EPERM and an allowed one works; sandboxed bakes of the bundled

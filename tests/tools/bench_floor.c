@@ -3,7 +3,7 @@
  *
  * The floor is the least any baker must spend on a mesh: import it and
  * rasterise it once at the atlas's texel density. Here: sv_import + validate
- * (as core/pipeline.c does), then an OSMesa context, the mesh upload and one
+ * (as core/pipeline/pipeline.c does), then an OSMesa context, the mesh upload and one
  * orthographic render of every triangle (front view, framing the bounding
  * sphere, lit as a static-lighting bake renders) at (2R / texel_size)² pixels.
  * A method's bake time divided by this is "how many meshes' worth of work".

@@ -1,7 +1,7 @@
 /* bench_peers.c — the peers of issue 10: meshoptimizer's meshopt_simplify and
  * meshopt_simplifySloppy (Debian's libmeshoptimizer-dev) at given triangle
  * counts, judged by the same evaluation as our bakes (evaluate.h, options
- * derived from the same spec exactly as core/pipeline.c derives them).
+ * derived from the same spec exactly as core/pipeline/pipeline.c derives them).
  *
  * usage: bench_peers --spec SPEC.json --targets N[,N...] MESH [FILES...]
  * prints one JSON object on stdout:

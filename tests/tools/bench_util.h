@@ -1,6 +1,6 @@
 /* bench_util.h — helpers shared by the benchmark tools (tests/tools/bench_*.c):
  * reading the files of an upload, parsing a bake spec, importing a mesh the way
- * the pipeline does (core/pipeline.c prepare: import with the spec's units and
+ * the pipeline does (core/pipeline/pipeline.c prepare: import with the spec's units and
  * up axis, then validate), and the evaluation options the pipeline derives
  * from the spec, so a peer is judged by exactly the evaluation our bakes get.
  * Header-only (static functions): each tool is one translation unit.
@@ -128,7 +128,7 @@ static inline sv_status bench_import(const bench_files *b, const sv_spec *spec, 
     return st;
 }
 
-/* The evaluation options core/pipeline.c builds from a spec (static lighting:
+/* The evaluation options core/pipeline/pipeline.c builds from a spec (static lighting:
  * both renders lit by the scene's light). */
 static inline void bench_eval_options(const sv_spec *spec, sv_eval_options *eo)
 {

@@ -1,5 +1,5 @@
 /* test_atlas.c — chart packing, texel-density choice, the median/threshold
- * downsampler and colour dilation (core/atlas.c). */
+ * downsampler and colour dilation (core/render/atlas.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

@@ -1,4 +1,4 @@
-/* test_bbcloud.c — billboard-cloud plane selection (core/bbcloud.c).
+/* test_bbcloud.c — billboard-cloud plane selection (core/methods/billboard_cloud/bbcloud.c).
  * Synthetic geometry only: boxes, faces on known planes, the Fig. 4b box,
  * layered foliage, degenerate faces. */
 #include <math.h>

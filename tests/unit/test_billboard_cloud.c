@@ -1,5 +1,5 @@
 /* sylva-test: cost=6 (tests/run.sh starts the longest first) */
-/* test_billboard_cloud.c — the billboard_cloud method (core/billboard_cloud.c):
+/* test_billboard_cloud.c — the billboard_cloud method (core/methods/billboard_cloud/billboard_cloud.c):
  * settings, LOD chain, quads, scene-driven horizontal penalty, determinism,
  * and (with SYLVA_DATA) real trees. */
 #include <math.h>

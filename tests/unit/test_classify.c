@@ -1,5 +1,5 @@
 /* sylva-test: cost=10 (tests/run.sh starts the longest first) */
-/* test_classify.c — foliage vs trunk and leaf elements (core/classify.c). */
+/* test_classify.c — foliage vs trunk and leaf elements (core/geom/classify.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

@@ -1,4 +1,4 @@
-/* test_cluster.c — k-means over planes and the merge hierarchy (core/cluster.c).
+/* test_cluster.c — k-means over planes and the merge hierarchy (core/geom/cluster.c).
  * Leaf sets are written by hand as sv_leaf arrays; nothing here needs a mesh.
  * Tolerances: planes recovered to 1e-6 (coplanar input), transformed inputs
  * give planes within 1e-9 relative to the tree size (1e-8 at 1e6 offset) and

@@ -1,5 +1,5 @@
 /* test_crossed_quads.c — the crossed-quads ("cardboard") method
- * (core/crossed_quads.c) and the strict settings helpers (core/method_settings.c). */
+ * (core/methods/crossed_quads/crossed_quads.c) and the strict settings helpers (core/methods/method_settings.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

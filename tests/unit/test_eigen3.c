@@ -1,4 +1,4 @@
-/* test_eigen3.c — the symmetric 3×3 Jacobi eigensolver (core/eigen3.c). */
+/* test_eigen3.c — the symmetric 3×3 Jacobi eigensolver (core/geom/eigen3.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

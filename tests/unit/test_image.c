@@ -1,5 +1,5 @@
 /* test_image.c — images in memory and the OpenImageIO shim (core/image.c,
- * core/image_oiio.cpp). */
+ * core/io/image_oiio.cpp). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

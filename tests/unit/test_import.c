@@ -1,6 +1,6 @@
 /* sylva-test: cost=10 (tests/run.sh starts the longest first) */
 /* test_import.c — format sniffing, upload name resolution, the glTF precheck and
- * mesh import (core/sniff.c, core/gltf_precheck.c, core/import.c).
+ * mesh import (core/io/sniff.c, core/io/gltf_precheck.c, core/io/import.c).
  *
  * Bad inputs are generated here; the real trees come from $SYLVA_DATA (skipped
  * with a message when it is not set). */

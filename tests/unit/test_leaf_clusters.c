@@ -1,4 +1,4 @@
-/* test_leaf_clusters.c — the leaf_clusters method (core/leaf_clusters.c):
+/* test_leaf_clusters.c — the leaf_clusters method (core/methods/leaf_clusters/leaf_clusters.c):
  * settings, the stand-in it builds on a hand-made tree, and a real tree
  * (ficus, or the aspen under SYLVA_TREES=small, through sv_import +
  * sv_classify + sv_leaves_build) when SYLVA_DATA is set. */

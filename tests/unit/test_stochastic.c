@@ -1,4 +1,4 @@
-/* test_stochastic.c — stochastic simplification (core/stochastic.c): the
+/* test_stochastic.c — stochastic simplification (core/methods/stochastic/stochastic.c): the
  * formulas of Fichtner / Cook et al. against hand-computed values and limits,
  * the leaf order, levels built on a hand-made tree, and on a real tree (the
  * oak from SYLVA_DATA) the visible area of each level measured by rendering. */

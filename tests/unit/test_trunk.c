@@ -1,4 +1,4 @@
-/* test_trunk.c — trunk kept as a mesh and simplified with meshoptimizer (core/trunk.c),
+/* test_trunk.c — trunk kept as a mesh and simplified with meshoptimizer (core/geom/trunk.c),
  * and the mesh helpers it builds on (core/mesh.c). */
 #include <stdarg.h>
 #include <stddef.h>

@@ -1,4 +1,4 @@
-/* test_trunk_budget.c — the trunk held to a triangle budget (core/trunk.c,
+/* test_trunk_budget.c — the trunk held to a triangle budget (core/geom/trunk.c,
  * sv_trunk_mesh_budget): the cap wins over the error bound, the shape stays
  * where the trunk was, foliage never enters, and no budget means no change;
  * a quad level's trunk (sv_trunk_mesh_parts) keeps the stem of a trunk made

@@ -1,4 +1,4 @@
-/* test_validate.c — mesh validation and repair (core/validate.c). */
+/* test_validate.c — mesh validation and repair (core/geom/validate.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
