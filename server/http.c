@@ -126,10 +126,52 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
     return ret;
 }
 
+/* The body of every error answer (docs/api.md): {"error":{"code","message"}}
+ * (malloc'ed). */
+static char *error_body(const char *code, const char *message)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON *e = cJSON_AddObjectToObject(root, "error");
+    cJSON_AddStringToObject(e, "code", code);
+    cJSON_AddStringToObject(e, "message", message);
+    char *s = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    return s;
+}
+
 static enum MHD_Result send_error(svd_http *h, struct MHD_Connection *c, svd_route route,
                                   unsigned status, const char *code, const char *msg)
 {
-    return send_json(h, c, route, status, svd_error_json(code, msg));
+    return send_json(h, c, route, status, error_body(code, msg));
+}
+
+/* What the job table's answers are over HTTP: the one place they become
+ * status codes and error codes (docs/design.md, "Errors"). */
+static const struct {
+    unsigned status;
+    const char *code;
+} jobs_http[] = {
+    [SVD_JOBS_OK] = {MHD_HTTP_OK, NULL},
+    [SVD_JOBS_ACCEPTED] = {MHD_HTTP_ACCEPTED, NULL},
+    [SVD_JOBS_NOT_FOUND] = {MHD_HTTP_NOT_FOUND, "not_found"},
+    [SVD_JOBS_NOT_DONE] = {MHD_HTTP_CONFLICT, "not_ready"},
+    [SVD_JOBS_DRAINING] = {MHD_HTTP_SERVICE_UNAVAILABLE, "draining"},
+    [SVD_JOBS_QUEUE_FULL] = {MHD_HTTP_SERVICE_UNAVAILABLE, "queue_full"},
+    [SVD_JOBS_CLIENT_FULL] = {MHD_HTTP_TOO_MANY_REQUESTS, "client_queue_full"},
+    [SVD_JOBS_STORE_FULL] = {MHD_HTTP_INSUFFICIENT_STORAGE, "store_full"},
+    [SVD_JOBS_IO] = {MHD_HTTP_INTERNAL_SERVER_ERROR, "io"},
+    [SVD_JOBS_NOMEM] = {MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem"},
+};
+
+/* Answers a job-table call: its document (body, freed) when it succeeded,
+ * else the error with the table's message. */
+static enum MHD_Result send_jobs(svd_http *h, struct MHD_Connection *c, svd_route route,
+                                 svd_jobs_rc rc, char *body, const sv_error *e)
+{
+    if (rc == SVD_JOBS_OK || rc == SVD_JOBS_ACCEPTED)
+        return send_json(h, c, route, jobs_http[rc].status, body);
+    free(body);
+    return send_error(h, c, route, jobs_http[rc].status, jobs_http[rc].code, e->message);
 }
 
 /* ---- upload streaming ---- */
@@ -339,8 +381,9 @@ static const svd_multipart_callbacks mp_cb = {on_part_begin, on_part_data, on_pa
 static enum MHD_Result answer_known(req *q)
 {
     char *body = NULL;
-    int st = svd_jobs_status(q->h->jobs, q->m.key, &body);
-    return send_json(q->h, q->conn, q->m.route, (unsigned)st, body);
+    sv_error e = {0};
+    svd_jobs_rc rc = svd_jobs_status(q->h->jobs, q->m.key, &body, &e);
+    return send_jobs(q->h, q->conn, q->m.route, rc, body, &e);
 }
 
 /* A chunked body grew over max_upload_bytes: libmicrohttpd cannot answer in
@@ -548,16 +591,16 @@ static enum MHD_Result upload_end(req *q)
     /* the reservation becomes the job's bytes in submit (make_room again) */
     svd_jobs_unreserve(h->jobs, u->reserved);
     u->reserved = 0;
-    int status = svd_jobs_submit(h->jobs, &up, &body);
+    svd_jobs_rc rc = svd_jobs_submit(h->jobs, &up, &body, &e);
     u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
-    if (status < 200 || status > 202) return send_json(h, c, route, (unsigned)status, body);
+    if (rc != SVD_JOBS_OK && rc != SVD_JOBS_ACCEPTED) return send_jobs(h, c, route, rc, body, &e);
     /* accepted (or already known): Location names the bake's status document */
     cJSON *j = body ? cJSON_Parse(body) : NULL;
     const char *key = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(j, "key"));
     char loc[SVD_KEY_HEX + 16] = "";
     if (key && strlen(key) < SVD_KEY_HEX) snprintf(loc, sizeof loc, "/v1/bakes/%s", key);
     cJSON_Delete(j);
-    return send_json_with(h, c, route, (unsigned)status, body, MHD_HTTP_HEADER_LOCATION, loc);
+    return send_json_with(h, c, route, jobs_http[rc].status, body, MHD_HTTP_HEADER_LOCATION, loc);
 }
 
 /* ---- long-poll ---- */
@@ -600,8 +643,9 @@ static enum MHD_Result handle_status(req *q, int allow_wait)
         }
     }
     char *body = NULL;
-    int st = svd_jobs_status(h->jobs, q->m.key, &body);
-    return send_json(h, q->conn, q->m.route, (unsigned)st, body);
+    sv_error e = {0};
+    svd_jobs_rc rc = svd_jobs_status(h->jobs, q->m.key, &body, &e);
+    return send_jobs(h, q->conn, q->m.route, rc, body, &e);
 }
 
 /* ---- other routes ---- */
@@ -665,7 +709,7 @@ static enum MHD_Result answer_not_done(req *q)
 {
     svd_http *h = q->h;
     char *body = NULL;
-    svd_jobs_status(h->jobs, q->m.key, &body);
+    svd_jobs_status(h->jobs, q->m.key, &body, NULL);
     cJSON *s = body ? cJSON_Parse(body) : NULL;
     free(body);
     const char *state = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(s, "state"));
@@ -705,7 +749,7 @@ static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, con
     if (ranged < 0) {
         snprintf(crange, sizeof crange, "bytes */%llu", (unsigned long long)size);
         return send_json_with(h, c, q->m.route, MHD_HTTP_RANGE_NOT_SATISFIABLE,
-                              svd_error_json("range", "the range starts at or past the end of the file"),
+                              error_body("range", "the range starts at or past the end of the file"),
                               MHD_HTTP_HEADER_CONTENT_RANGE, crange);
     }
     int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
@@ -761,9 +805,10 @@ static enum MHD_Result handle_artifact(req *q)
     struct MHD_Connection *c = q->conn;
     char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
     uint64_t size = 0;
-    int st = svd_jobs_artifact(h->jobs, q->m.key, q->m.name, path, &size, sha);
-    if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no such bake or artifact");
-    if (st == 409) return answer_not_done(q);
+    svd_jobs_rc rc = svd_jobs_artifact(h->jobs, q->m.key, q->m.name, path, &size, sha);
+    if (rc == SVD_JOBS_NOT_FOUND)
+        return send_error(h, c, q->m.route, 404, "not_found", "no such bake or artifact");
+    if (rc == SVD_JOBS_NOT_DONE) return answer_not_done(q);
     enum MHD_Result ret;
     if (answer_not_modified(q, sha, &ret)) return ret;
     sv_error e = {0};
@@ -786,7 +831,7 @@ static enum MHD_Result handle_input(req *q)
     struct MHD_Connection *c = q->conn;
     char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
     uint64_t size = 0;
-    if (svd_jobs_input(h->jobs, q->m.key, q->m.name, path, &size, sha) != 200)
+    if (svd_jobs_input(h->jobs, q->m.key, q->m.name, path, &size, sha) != SVD_JOBS_OK)
         return send_error(h, c, q->m.route, 404, "not_found", "no such bake or input file");
     enum MHD_Result ret;
     if (answer_not_modified(q, sha, &ret)) return ret;
@@ -839,11 +884,11 @@ static enum MHD_Result handle_view(req *q)
 {
     char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
     uint64_t size = 0;
-    int st = svd_jobs_artifact(q->h->jobs, q->m.key, "report.json", path, &size, sha);
-    if (st == 409) return answer_not_done(q);
-    if (st != 200)
+    svd_jobs_rc rc = svd_jobs_artifact(q->h->jobs, q->m.key, "report.json", path, &size, sha);
+    if (rc == SVD_JOBS_NOT_DONE) return answer_not_done(q);
+    if (rc != SVD_JOBS_OK)
         return send_error(q->h, q->conn, q->m.route, 404, "not_found",
-                          st == 404 && svd_jobs_has(q->h->jobs, q->m.key)
+                          rc == SVD_JOBS_NOT_FOUND && svd_jobs_has(q->h->jobs, q->m.key)
                               ? "the bake has no report.json to view"
                               : "no bake with this key");
     return serve_viewer_file(q, "index.html", "text/html; charset=utf-8");
@@ -875,8 +920,9 @@ static enum MHD_Result handle_list(req *q)
                               "before: expected a cursor from an earlier page (\"next\")");
     }
     char *body = NULL;
-    int st = svd_jobs_list(h->jobs, q->client, (uint64_t)before, (unsigned)limit, &body);
-    return send_json(h, q->conn, q->m.route, (unsigned)st, body);
+    sv_error e = {0};
+    svd_jobs_rc rc = svd_jobs_list(h->jobs, q->client, (uint64_t)before, (unsigned)limit, &body, &e);
+    return send_jobs(h, q->conn, q->m.route, rc, body, &e);
 }
 
 static enum MHD_Result handle_info(req *q)
@@ -968,7 +1014,7 @@ static enum MHD_Result answer_refused(req *q)
     svd_http *h = q->h;
     struct MHD_Connection *c = q->conn;
     if (q->m.status == 405) {
-        char *body = svd_error_json("method_not_allowed", q->m.message);
+        char *body = error_body("method_not_allowed", q->m.message);
         struct MHD_Response *r =
             body ? MHD_create_response_from_buffer(strlen(body), body, MHD_RESPMEM_MUST_COPY) : NULL;
         free(body);
@@ -1100,17 +1146,17 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     case SVD_R_INPUT: return handle_input(q);
     case SVD_R_INPUTS: {
         char *body = NULL;
-        int st = svd_jobs_inputs(h->jobs, q->m.key, &body);
-        if (st == 404) return send_error(h, c, q->m.route, 404, "not_found", "no bake with this key");
-        if (st != 200) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
-        return send_json(h, c, q->m.route, 200, body);
+        sv_error e = {0};
+        svd_jobs_rc rc = svd_jobs_inputs(h->jobs, q->m.key, &body, &e);
+        return send_jobs(h, c, q->m.route, rc, body, &e);
     }
     case SVD_R_VIEW: return handle_view(q);
     case SVD_R_VIEWER: return serve_viewer_file(q, q->m.name, content_type_of(q->m.name));
     case SVD_R_DELETE: {
         char *body = NULL;
-        int st = svd_jobs_delete(h->jobs, q->m.key, &body);
-        return send_json(h, c, q->m.route, (unsigned)st, body);
+        sv_error e = {0};
+        svd_jobs_rc rc = svd_jobs_delete(h->jobs, q->m.key, &body, &e);
+        return send_jobs(h, c, q->m.route, rc, body, &e);
     }
     case SVD_R_STATUS: return handle_status(q, 0);
     case SVD_R_LIST: return handle_list(q);

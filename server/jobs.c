@@ -156,7 +156,19 @@ static void build_lists(svd_jobs *jobs)
     free(v);
 }
 
-char *svd_error_json(const char *code, const char *message)
+/* A refusal: rc, with msg in err (its sv_status only as near as that enum
+ * comes: callers go by rc). */
+static svd_jobs_rc refuse(sv_error *err, svd_jobs_rc rc, const char *msg)
+{
+    sv_status st = rc == SVD_JOBS_IO ? SV_ERR_IO : rc == SVD_JOBS_NOMEM ? SV_ERR_NOMEM
+                 : rc == SVD_JOBS_NOT_FOUND ? SV_ERR_MISSING : SV_ERR_LIMIT;
+    sv_fail(err, st, "%s", msg);
+    return rc;
+}
+
+/* A failed job's record, error.json beside its inputs (malloc'ed): the
+ * shape of the status document's "error". */
+static char *error_doc(const char *code, const char *message)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON *e = cJSON_AddObjectToObject(root, "error");
@@ -528,7 +540,7 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
         st = svd_journal_rewrite(jobs->journal, (const char *const *)recs, sizes, n, &ce);
     if (st != SV_OK)
         svd_log_kv(jobs->log, SVD_LOG_ERROR, "journal_compaction_failed", "msg", ce.message, "effect",
-                   "the journal is kept as it is; stored results are served, uploads may fail with 507",
+                   "the journal is kept as it is; stored results are served, uploads may fail as store_full",
                    (const char *)NULL);
     char q[32];
     size_t queued = 0;
@@ -599,19 +611,19 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
     return r;
 }
 
-int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out)
+svd_jobs_rc svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out, sv_error *err)
 {
+    *json_out = NULL;
     pthread_mutex_lock(&jobs->mu);
     svd_job *j = find(jobs, key);
     if (!j) {
         pthread_mutex_unlock(&jobs->mu);
-        *json_out = svd_error_json("not_found", "no bake with this key");
-        return 404;
+        return refuse(err, SVD_JOBS_NOT_FOUND, "no bake with this key");
     }
     j->lru = ++jobs->lru_clock;
     *json_out = print_free(status_json(jobs, j));
     pthread_mutex_unlock(&jobs->mu);
-    return 200;
+    return SVD_JOBS_OK;
 }
 
 static int by_seq_desc(const void *a, const void *b)
@@ -619,8 +631,8 @@ static int by_seq_desc(const void *a, const void *b)
     return -by_seq(a, b);
 }
 
-int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
-                  char **json_out)
+svd_jobs_rc svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
+                          char **json_out, sv_error *err)
 {
     *json_out = NULL;
     if (before == 0) before = UINT64_MAX;
@@ -635,8 +647,7 @@ int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned 
         pthread_mutex_unlock(&jobs->mu);
         free(v);
         cJSON_Delete(r);
-        *json_out = svd_error_json("io", "out of memory");
-        return 500;
+        return refuse(err, SVD_JOBS_IO, "out of memory"); /* "io", as it always answered */
     }
     n = 0;
     for (size_t b = 0; b < NBUCKETS; b++)
@@ -667,7 +678,7 @@ int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned 
     pthread_mutex_unlock(&jobs->mu);
     free(v);
     *json_out = print_free(r);
-    return *json_out ? 200 : 500;
+    return *json_out ? SVD_JOBS_OK : refuse(err, SVD_JOBS_NOMEM, "out of memory");
 }
 
 bool svd_jobs_has(svd_jobs *jobs, const char *key)
@@ -734,7 +745,7 @@ static bool server_side_code(const char *code)
     return false;
 }
 
-/* How the store's bytes are used, for an exact 507 (issue 22 item 5). */
+/* How the store's bytes are used, for an exact store_full message (issue 22 item 5). */
 static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
 {
     uint64_t unfinished = 0;
@@ -773,10 +784,13 @@ void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes)
     pthread_mutex_unlock(&jobs->mu);
 }
 
-int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
+svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out,
+                            sv_error *err)
 {
-    int status;
+    svd_jobs_rc rc;
+    char why[300];
     sv_error e = {0};
+    *json_out = NULL;
     pthread_mutex_lock(&jobs->commit_mu);
     pthread_mutex_lock(&jobs->mu);
     svd_job *j = find(jobs, up->key);
@@ -818,31 +832,26 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
         pthread_mutex_unlock(&jobs->mu);
         pthread_mutex_unlock(&jobs->commit_mu);
         svd_rm_rf(up->tmpdir);
-        return 200;
+        return SVD_JOBS_OK;
     }
     if (jobs->stopping) {
-        status = 503;
-        *json_out = svd_error_json("draining", "the server is shutting down; retry on another node or later");
+        rc = refuse(err, SVD_JOBS_DRAINING, "the server is shutting down; retry on another node or later");
     } else if (count_state(jobs, SVD_JOB_QUEUED) >= jobs->cfg->queue_max) {
-        status = 503;
-        *json_out = svd_error_json("queue_full", "the bake queue is full; retry later");
+        rc = refuse(err, SVD_JOBS_QUEUE_FULL, "the bake queue is full; retry later");
     } else if (client_load(jobs, up->client, false) >= jobs->cfg->queue_per_client) {
-        status = 429;
-        *json_out = svd_error_json("client_queue_full",
-                                   "this client has too many bakes queued or running; retry later");
+        rc = refuse(err, SVD_JOBS_CLIENT_FULL,
+                    "this client has too many bakes queued or running; retry later");
     } else if (!make_room(jobs, up->bytes)) {
-        status = 507;
-        char why[300];
         store_use(jobs, up->bytes, why, sizeof why);
-        *json_out = svd_error_json("store_full", why);
+        rc = refuse(err, SVD_JOBS_STORE_FULL, why);
     } else {
-        status = 0;
+        rc = SVD_JOBS_OK;
     }
-    if (status) {
+    if (rc != SVD_JOBS_OK) {
         pthread_mutex_unlock(&jobs->mu);
         pthread_mutex_unlock(&jobs->commit_mu);
         svd_rm_rf(up->tmpdir);
-        return status;
+        return rc;
     }
     jobs->store_bytes += up->bytes; /* reserved while we commit */
     pthread_mutex_unlock(&jobs->mu);
@@ -865,16 +874,14 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
         svd_rm_rf(up->tmpdir);
         svd_log_kv(jobs->log, SVD_LOG_ERROR, "commit_failed", "key", up->key, "msg", e.message,
                    (const char *)NULL);
-        *json_out = svd_error_json(st == SV_ERR_LIMIT ? "store_full" : "io",
-                                   "could not store the upload durably");
-        return st == SV_ERR_LIMIT ? 507 : 500;
+        return refuse(err, st == SV_ERR_LIMIT ? SVD_JOBS_STORE_FULL : SVD_JOBS_IO,
+                      "could not store the upload durably");
     }
     j = insert(jobs, up->key);
     if (!j) {
         pthread_mutex_unlock(&jobs->mu);
         pthread_mutex_unlock(&jobs->commit_mu);
-        *json_out = svd_error_json("nomem", "out of memory");
-        return 500; /* journaled: the job runs after a restart */
+        return refuse(err, SVD_JOBS_NOMEM, "out of memory"); /* journaled: the job runs after a restart */
     }
     snprintf(j->client, sizeof j->client, "%s", up->client);
     j->bytes = up->bytes;
@@ -885,7 +892,7 @@ int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out)
     pthread_mutex_unlock(&jobs->commit_mu);
     svd_log_kv(jobs->log, SVD_LOG_INFO, "job_accepted", "key", up->key, "client", up->client,
                (const char *)NULL);
-    return 202;
+    return SVD_JOBS_ACCEPTED;
 }
 
 /* ---- waiters ---- */
@@ -944,30 +951,29 @@ bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client)
 {
     pthread_mutex_lock(&jobs->mu);
     svd_job *j = find(jobs, key);
-    bool ok = !j || owned_by(j, client); /* an unknown key is the route's 404 */
+    bool ok = !j || owned_by(j, client); /* an unknown key is the route's not found */
     pthread_mutex_unlock(&jobs->mu);
     return ok;
 }
 
-int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
+svd_jobs_rc svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out, sv_error *err)
 {
     sv_error e = {0};
+    *json_out = NULL;
     pthread_mutex_lock(&jobs->commit_mu);
     pthread_mutex_lock(&jobs->mu);
     svd_job *j = find(jobs, key);
-    int status = 200;
+    svd_jobs_rc rc = SVD_JOBS_OK;
     if (!j) {
-        *json_out = svd_error_json("not_found", "no bake with this key");
-        status = 404;
+        rc = refuse(err, SVD_JOBS_NOT_FOUND, "no bake with this key");
     } else if (j->state == SVD_JOB_RUNNING) {
         j->cancel = true; /* the worker stops the process and reports cancelled */
         *json_out = print_free(status_json(jobs, j));
-        status = 202;
+        rc = SVD_JOBS_ACCEPTED;
     } else if (j->state == SVD_JOB_QUEUED) {
         if (journal_json(jobs, record("cancel", j), &e) != SV_OK) {
             log_journal_error(jobs, key, &e);
-            *json_out = svd_error_json("io", "could not record the cancellation");
-            status = 500;
+            rc = refuse(err, SVD_JOBS_IO, "could not record the cancellation");
         } else {
             set_state(jobs, j, SVD_JOB_CANCELLED);
             set_message(j, "cancelled", "cancelled by DELETE");
@@ -978,8 +984,7 @@ int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
     } else {
         if (journal_json(jobs, record("delete", j), &e) != SV_OK) {
             log_journal_error(jobs, key, &e);
-            *json_out = svd_error_json("io", "could not record the deletion");
-            status = 500;
+            rc = refuse(err, SVD_JOBS_IO, "could not record the deletion");
         } else {
             cJSON *r = cJSON_CreateObject();
             cJSON_AddStringToObject(r, "key", key);
@@ -991,18 +996,18 @@ int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out)
     }
     pthread_mutex_unlock(&jobs->mu);
     pthread_mutex_unlock(&jobs->commit_mu);
-    if (status == 200 || status == 202)
+    if (rc == SVD_JOBS_OK || rc == SVD_JOBS_ACCEPTED)
         svd_log_kv(jobs->log, SVD_LOG_INFO, "job_deleted", "key", key, (const char *)NULL);
-    return status;
+    return rc;
 }
 
-int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
-                      uint64_t *size, char sha[SVD_KEY_HEX])
+svd_jobs_rc svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
+                              char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX])
 {
-    int status = 404;
+    svd_jobs_rc rc = SVD_JOBS_NOT_FOUND;
     pthread_mutex_lock(&jobs->mu);
     svd_job *j = find(jobs, key);
-    if (j && j->state != SVD_JOB_DONE) status = 409;
+    if (j && j->state != SVD_JOB_DONE) rc = SVD_JOBS_NOT_DONE;
     if (j && j->state == SVD_JOB_DONE) {
         j->lru = ++jobs->lru_clock;
         const cJSON *a;
@@ -1017,47 +1022,47 @@ int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name, char pa
                 svd_store_job_path(jobs->store, key, sub, path);
                 *size = (uint64_t)sz->valuedouble;
                 snprintf(sha, SVD_KEY_HEX, "%s", h);
-                status = 200;
+                rc = SVD_JOBS_OK;
                 break;
             }
         }
     }
     pthread_mutex_unlock(&jobs->mu);
-    return status;
+    return rc;
 }
 
-int svd_jobs_input(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
-                   uint64_t *size, char sha[SVD_KEY_HEX])
+svd_jobs_rc svd_jobs_input(svd_jobs *jobs, const char *key, const char *name,
+                           char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX])
 {
     char ipath[SVD_STORE_PATH];
     pthread_mutex_lock(&jobs->mu);
     bool has = find(jobs, key) != NULL;
     pthread_mutex_unlock(&jobs->mu);
-    if (!has || !svd_name_valid(name)) return 404;
-    /* read outside the lock: a job deleted meanwhile has no inputs.json (404),
-     * or no in/NAME by the time it is opened (the caller's 404) */
+    if (!has || !svd_name_valid(name)) return SVD_JOBS_NOT_FOUND;
+    /* read outside the lock: a job deleted meanwhile has no inputs.json (not
+     * found), or no in/NAME by the time it is opened (the caller's not found) */
     svd_store_job_path(jobs->store, key, "inputs.json", ipath);
     cJSON *in = read_json_file(ipath);
     const cJSON *o = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(in, "objects"), name);
     const char *h = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(o, "sha256"));
     const cJSON *sz = cJSON_GetObjectItemCaseSensitive(o, "size");
-    int status = 404;
+    svd_jobs_rc rc = SVD_JOBS_NOT_FOUND;
     if (h && strlen(h) == SVD_KEY_HEX - 1 && cJSON_IsNumber(sz) && sz->valuedouble >= 0) {
         char sub[SVD_NAME_MAX + 8];
         snprintf(sub, sizeof sub, "in/%s", name);
         svd_store_job_path(jobs->store, key, sub, path);
         *size = (uint64_t)sz->valuedouble;
         snprintf(sha, SVD_KEY_HEX, "%s", h);
-        status = 200;
+        rc = SVD_JOBS_OK;
     }
     cJSON_Delete(in);
-    return status;
+    return rc;
 }
 
-int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out)
+svd_jobs_rc svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out, sv_error *err)
 {
     *json_out = NULL;
-    if (!svd_jobs_has(jobs, key)) return 404;
+    if (!svd_jobs_has(jobs, key)) return refuse(err, SVD_JOBS_NOT_FOUND, "no bake with this key");
     char ipath[SVD_STORE_PATH];
     svd_store_job_path(jobs->store, key, "inputs.json", ipath);
     cJSON *in = read_json_file(ipath);
@@ -1065,7 +1070,7 @@ int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out)
     const cJSON *objs = cJSON_GetObjectItemCaseSensitive(in, "objects");
     if (!mesh || !cJSON_IsObject(objs)) {
         cJSON_Delete(in);
-        return 404;
+        return refuse(err, SVD_JOBS_NOT_FOUND, "no bake with this key");
     }
     cJSON *out = cJSON_CreateObject(), *files = cJSON_AddArrayToObject(out, "files");
     cJSON_AddStringToObject(out, "mesh", mesh);
@@ -1087,7 +1092,7 @@ int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out)
     cJSON_Delete(in);
     *json_out = cJSON_PrintUnformatted(out);
     cJSON_Delete(out);
-    return *json_out ? 200 : 500;
+    return *json_out ? SVD_JOBS_OK : refuse(err, SVD_JOBS_NOMEM, "out of memory");
 }
 
 void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
@@ -1248,7 +1253,7 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
         code = code ? code : "crash";
     }
     if (out == SVD_OUT_FAILED) { /* error.json beside the inputs, for operators */
-        char *ej = svd_error_json(code ? code : "failed", msg);
+        char *ej = error_doc(code ? code : "failed", msg);
         if (ej) svd_store_write_file(jdir, "error.json", ej, strlen(ej), NULL);
         free(ej);
     }

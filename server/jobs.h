@@ -8,7 +8,12 @@
  *
  * Fair queue: workers take the oldest queued job among the clients with the
  * fewest running jobs; one client may hold at most queue_per_client queued or
- * running jobs (429 beyond), all clients together queue_max queued (503).
+ * running jobs (SVD_JOBS_CLIENT_FULL beyond), all clients together queue_max
+ * queued (SVD_JOBS_QUEUE_FULL).
+ *
+ * The table knows no HTTP (docs/design.md, "Errors"): a call says what it
+ * came to as an svd_jobs_rc, with a message in its sv_error when it refuses;
+ * server/http.c alone turns that into a status code and a body.
  */
 #ifndef SVD_JOBS_H
 #define SVD_JOBS_H
@@ -37,6 +42,21 @@ const char *svd_job_state_name(svd_job_state s);
 
 typedef struct svd_jobs svd_jobs;
 typedef struct svd_job svd_job;
+
+/* What a call on the table came to. The refusals carry a message (the
+ * sv_error of the call, when it has one) naming what to do. */
+typedef enum svd_jobs_rc {
+    SVD_JOBS_OK = 0,      /* done, or found */
+    SVD_JOBS_ACCEPTED,    /* new work queued, or a running bake told to stop */
+    SVD_JOBS_NOT_FOUND,   /* no such bake (artifact, input file) */
+    SVD_JOBS_NOT_DONE,    /* the bake has not finished: no artifacts yet */
+    SVD_JOBS_DRAINING,    /* the server is shutting down */
+    SVD_JOBS_QUEUE_FULL,  /* queue_max bakes queued */
+    SVD_JOBS_CLIENT_FULL, /* this client holds queue_per_client bakes */
+    SVD_JOBS_STORE_FULL,  /* the store cannot make room */
+    SVD_JOBS_IO,          /* the journal or the store failed */
+    SVD_JOBS_NOMEM        /* out of memory */
+} svd_jobs_rc;
 
 /* A long-poll registration owned by the caller (the HTTP layer). wake() is
  * called once, under the table lock, when the job changes state or stage, is
@@ -73,12 +93,13 @@ typedef struct svd_upload {
     uint64_t bytes;
 } svd_upload;
 
-/* Commits an upload: a known key answers 200 with its status (the upload is
- * discarded; a cancelled job is requeued); new work is installed in the store,
- * journaled (fsync) and queued, then 202. 429/503 when the queue is full, 507
- * when the store cannot make room, 500 on I/O failure. *json_out gets the
- * response body (malloc'ed). Returns the HTTP status. */
-int svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out);
+/* Commits an upload: a known key is OK with its status document (the upload
+ * is discarded; a cancelled job is requeued); new work is installed in the
+ * store, journaled (fsync) and queued: ACCEPTED with its status document in
+ * *json_out (malloc'ed). Refused: DRAINING, QUEUE_FULL, CLIENT_FULL,
+ * STORE_FULL, IO or NOMEM, with err's message and *json_out NULL. */
+svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out,
+                            sv_error *err);
 
 /* Uploads in progress hold their bytes against store_max_bytes as they stream
  * (issue 22 item 5: three concurrent 15 MB uploads filled a 10 MiB store
@@ -93,16 +114,18 @@ void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes);
 /* True if a job with this key exists (and its inputs are kept). */
 bool svd_jobs_has(svd_jobs *jobs, const char *key);
 
-/* Status document of a job (see docs/api.md) into *json_out; 200 or 404. */
-int svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out);
+/* Status document of a job (see docs/api.md) into *json_out: OK, or
+ * NOT_FOUND (err says so, *json_out NULL). */
+svd_jobs_rc svd_jobs_status(svd_jobs *jobs, const char *key, char **json_out, sv_error *err);
 
 /* The bakes submitted by `client` (the id svd_client_id gives: its token, or
  * its address without auth), newest first: those submitted before the
  * cursor `before` (0: from the newest), at most `limit`. *json_out =
  * {"bakes": [{"key", "state", "stage", "progress", "cursor"}...], "next":
- * cursor of the next page or null}. Returns 200 (500 without memory). */
-int svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
-                  char **json_out);
+ * cursor of the next page or null}. OK, or IO or NOMEM when out of memory
+ * (err says so). */
+svd_jobs_rc svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, unsigned limit,
+                          char **json_out, sv_error *err);
 
 /* Registers w to be woken when the job with this key changes state or stage.
  * Returns false (nothing registered) if the job is missing or already final. */
@@ -114,34 +137,36 @@ void svd_jobs_unwait(svd_jobs *jobs, svd_waiter *w);
 /* Wakes waiters whose deadline passed (or all of them when all is true). */
 void svd_jobs_sweep(svd_jobs *jobs, double now, bool all);
 
-/* DELETE: cancels a queued or running job (200, the worker is stopped), or
- * deletes a finished one (200). 404 if unknown. */
-int svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out);
+/* DELETE: cancels a queued job (OK) or a running one (ACCEPTED: the worker
+ * stops it), or deletes a finished one (OK), with the document to answer in
+ * *json_out. NOT_FOUND if unknown, IO when the journal cannot record it
+ * (err says which). */
+svd_jobs_rc svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out, sv_error *err);
 
 /* True when `client` (svd_client_id) uploaded the bake's bytes (first or
  * later: each upload of the same bytes adds its caller, journaled), or the
- * key is unknown. sylvad with --tokens answers 404 to anyone else on the
- * bake's status, artifacts and DELETE (issue 22 item 8). */
+ * key is unknown. sylvad with --tokens answers anyone else as if the bake
+ * did not exist, on its status, artifacts and DELETE (issue 22 item 8). */
 bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client);
 
 /* Looks up an artifact of a done job in its manifest: path, size, SHA-256.
- * 200, 404 (no job / no such artifact) or 409 (job not done). */
-int svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
-                      char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX]);
+ * OK, NOT_FOUND (no job / no such artifact) or NOT_DONE. */
+svd_jobs_rc svd_jobs_artifact(svd_jobs *jobs, const char *key, const char *name,
+                              char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX]);
 
 /* Looks up a file the job was uploaded with (the mesh or a companion) in
  * its inputs.json: path (ROOT/jobs/KEY/in/NAME), size, SHA-256, in any
- * state (inputs are kept while the job exists). 200, or 404 (no job, no
- * such input, an inputs.json that cannot be read). The file is not opened:
- * the caller verifies it (svd_store_verify) as it serves it. */
-int svd_jobs_input(svd_jobs *jobs, const char *key, const char *name, char path[SVD_STORE_PATH],
-                   uint64_t *size, char sha[SVD_KEY_HEX]);
+ * state (inputs are kept while the job exists). OK, or NOT_FOUND (no job,
+ * no such input, an inputs.json that cannot be read). The file is not
+ * opened: the caller verifies it (svd_store_verify) as it serves it. */
+svd_jobs_rc svd_jobs_input(svd_jobs *jobs, const char *key, const char *name,
+                           char path[SVD_STORE_PATH], uint64_t *size, char sha[SVD_KEY_HEX]);
 
 /* The files a job was uploaded with, into *json_out:
  * {"mesh": NAME, "files": [{"name", "size", "sha256"}...]} (the mesh first,
- * then the companions as uploaded). 200, 404 (no job, or its inputs.json
- * cannot be read) or 500 (no memory). */
-int svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out);
+ * then the companions as uploaded). OK, NOT_FOUND (no job, or its
+ * inputs.json cannot be read) or NOMEM, err saying which. */
+svd_jobs_rc svd_jobs_inputs(svd_jobs *jobs, const char *key, char **json_out, sv_error *err);
 
 /* A stored artifact failed verification: quarantines the job's result and
  * requeues the job so it is rebaked. */
@@ -202,8 +227,5 @@ svd_store *svd_jobs_store(svd_jobs *jobs);
 const svd_config *svd_jobs_config(svd_jobs *jobs);
 svd_log *svd_jobs_log(svd_jobs *jobs);
 svd_metrics *svd_jobs_metrics(svd_jobs *jobs);
-
-/* Builds the JSON body {"error":{"code":...,"message":...}} (malloc'ed). */
-char *svd_error_json(const char *code, const char *message);
 
 #endif

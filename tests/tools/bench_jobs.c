@@ -143,10 +143,11 @@ int main(int argc, char **argv)
         upload(store, i, &up, tmp);
         memcpy(keys[i], up.key, SVD_KEY_HEX);
         char *body = NULL;
-        int st = svd_jobs_submit(jobs, &up, &body);
+        sv_error e = {0};
+        svd_jobs_rc st = svd_jobs_submit(jobs, &up, &body, &e);
         free(body);
-        if (st != 202) {
-            fprintf(stderr, "bench_jobs: submit %u answered %d\n", i, st);
+        if (st != SVD_JOBS_ACCEPTED) {
+            fprintf(stderr, "bench_jobs: submit %u refused (%d): %s\n", i, (int)st, e.message);
             return 1;
         }
         if (i < ndone) {
@@ -176,7 +177,7 @@ int main(int argc, char **argv)
         const char *k = keys[seed % (ndone + nq)];
         char *body = NULL;
         double s0 = sv_now();
-        svd_jobs_status(jobs, k, &body);
+        svd_jobs_status(jobs, k, &body, NULL);
         double dt = sv_now() - s0;
         free(body);
         if (n == cap) {

@@ -97,13 +97,13 @@ static void make_upload(fx *f, const char *content, const char *client, svd_uplo
     up->bytes = svd_dir_bytes(tmp);
 }
 
-static int submit(fx *f, const char *content, const char *client, char key[SVD_KEY_HEX])
+static svd_jobs_rc submit(fx *f, const char *content, const char *client, char key[SVD_KEY_HEX])
 {
     svd_upload up;
     char tmp[SVD_STORE_PATH];
     make_upload(f, content, client, &up, tmp);
     char *body = NULL;
-    int st = svd_jobs_submit(f->jobs, &up, &body);
+    svd_jobs_rc st = svd_jobs_submit(f->jobs, &up, &body, NULL);
     free(body);
     if (key) memcpy(key, up.key, SVD_KEY_HEX);
     return st;
@@ -112,7 +112,7 @@ static int submit(fx *f, const char *content, const char *client, char key[SVD_K
 static char *state_of(fx *f, const char *key)
 {
     char *body = NULL;
-    if (svd_jobs_status(f->jobs, key, &body) != 200) {
+    if (svd_jobs_status(f->jobs, key, &body, NULL) != SVD_JOBS_OK) {
         free(body);
         return strdup("missing");
     }
@@ -169,8 +169,8 @@ static void submit_accepts_new_work_and_answers_known_key_at_once(void **state)
 {
     fx *f = *state;
     char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 0 0 0\n", "addr:a", k1), 202);
-    assert_int_equal(submit(f, "v 0 0 0\n", "addr:b", k2), 200);
+    assert_int_equal(submit(f, "v 0 0 0\n", "addr:a", k1), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 0 0 0\n", "addr:b", k2), SVD_JOBS_OK);
     assert_string_equal(k1, k2);
     assert_state(f, k1, "queued");
     svd_gauges g;
@@ -187,9 +187,9 @@ static void accepted_jobs_survive_a_crash_and_are_requeued(void **state)
 {
     fx *f = *state;
     char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX], k3[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), 202);
-    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), 202);
-    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), 202);
+    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "GLB1");
@@ -209,7 +209,7 @@ static void crashing_job_fails_after_three_attempts_with_reason(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "# poison\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "# poison\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     for (int i = 1; i <= 3; i++) {
         assert_true(svd_jobs_take(f->jobs, &t));
@@ -217,7 +217,7 @@ static void crashing_job_fails_after_three_attempts_with_reason(void **state)
         svd_jobs_finish(f->jobs, &t, SVD_OUT_RETRY, NULL, "worker killed by signal 11", NULL);
     }
     char *body = NULL;
-    assert_int_equal(svd_jobs_status(f->jobs, k, &body), 200);
+    assert_int_equal(svd_jobs_status(f->jobs, k, &body, NULL), SVD_JOBS_OK);
     assert_non_null(strstr(body, "\"state\":\"failed\""));
     assert_non_null(strstr(body, "worker killed by signal 11 on 3 attempts"));
     free(body);
@@ -227,7 +227,7 @@ static void crashing_job_fails_after_three_attempts_with_reason(void **state)
     assert_state(f, k, "failed");
     /* issue 22 item 2: the server's failure (a crash on every attempt) is not
      * the input's verdict: uploading the same bytes again bakes it again */
-    assert_int_equal(submit(f, "# poison\n", "addr:a", NULL), 200);
+    assert_int_equal(submit(f, "# poison\n", "addr:a", NULL), SVD_JOBS_OK);
     assert_state(f, k, "queued");
 }
 
@@ -238,7 +238,7 @@ static void retries_back_off_and_input_failures_stay(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     svd_jobs_finish(f->jobs, &t, SVD_OUT_RETRY, "io", "no space left on device", NULL);
@@ -248,7 +248,7 @@ static void retries_back_off_and_input_failures_stay(void **state)
     assert_int_equal(t.attempt, 2u);
     svd_jobs_finish(f->jobs, &t, SVD_OUT_FAILED, "parse", "'x.obj' line 1: bad vertex", NULL);
     assert_state(f, k, "failed");
-    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", NULL), 200);
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", NULL), SVD_JOBS_OK);
     assert_state(f, k, "failed");
 }
 
@@ -256,19 +256,19 @@ static void delete_cancels_queued_and_removes_finished(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     char *body = NULL;
-    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 200);
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body, NULL), SVD_JOBS_OK);
     free(body);
     assert_state(f, k, "cancelled");
-    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 200);
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body, NULL), SVD_JOBS_OK);
     free(body);
     assert_state(f, k, "missing");
     char jd[SVD_STORE_PATH];
     svd_store_job_path(f->store, k, NULL, jd);
     struct stat sb;
     assert_int_not_equal(stat(jd, &sb), 0);
-    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 404);
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body, NULL), SVD_JOBS_NOT_FOUND);
     free(body);
 }
 
@@ -280,29 +280,29 @@ static void reupload_racing_a_delete_of_a_running_bake_wins(void **state)
     fx *f = *state;
     char k[SVD_KEY_HEX];
     char *body = NULL;
-    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
-    assert_int_equal(svd_jobs_delete(f->jobs, k, &body), 202);
+    assert_int_equal(svd_jobs_delete(f->jobs, k, &body, NULL), SVD_JOBS_ACCEPTED);
     free(body);
     assert_true(svd_jobs_cancelled(f->jobs, &t));
-    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", NULL), 200); /* before the worker stops */
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", NULL), SVD_JOBS_OK); /* before the worker stops */
     assert_false(svd_jobs_cancelled(f->jobs, &t));
     fake_done(f, &t, "X");
     assert_state(f, k, "done");
     /* the worker had stopped already: the bake runs again */
     char k2[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k2), 202);
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k2), SVD_JOBS_ACCEPTED);
     assert_true(svd_jobs_take(f->jobs, &t));
-    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body), 202);
+    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body, NULL), SVD_JOBS_ACCEPTED);
     free(body);
     assert_true(svd_jobs_cancelled(f->jobs, &t)); /* the worker kills the process ... */
-    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", NULL), 200);
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", NULL), SVD_JOBS_OK);
     svd_jobs_finish(f->jobs, &t, SVD_OUT_CANCELLED, NULL, "cancelled", NULL); /* ... reports */
     assert_state(f, k2, "queued");
     /* and a DELETE alone still cancels */
     assert_true(svd_jobs_take(f->jobs, &t));
-    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body), 202);
+    assert_int_equal(svd_jobs_delete(f->jobs, k2, &body, NULL), SVD_JOBS_ACCEPTED);
     free(body);
     svd_jobs_finish(f->jobs, &t, SVD_OUT_CANCELLED, NULL, "cancelled", NULL);
     assert_state(f, k2, "cancelled");
@@ -312,15 +312,15 @@ static void corrupt_artifact_is_quarantined_and_job_requeued(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "GLBDATA");
     char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
     uint64_t size;
-    assert_int_equal(svd_jobs_artifact(f->jobs, k, "model.glb", path, &size, sha), 200);
+    assert_int_equal(svd_jobs_artifact(f->jobs, k, "model.glb", path, &size, sha), SVD_JOBS_OK);
     assert_int_equal(svd_store_verify(f->store, path, size, sha, NULL), SV_OK);
-    assert_int_equal(svd_jobs_artifact(f->jobs, k, "../inputs.json", path, &size, sha), 404);
+    assert_int_equal(svd_jobs_artifact(f->jobs, k, "../inputs.json", path, &size, sha), SVD_JOBS_NOT_FOUND);
     /* flip a byte (new mtime defeats the verify cache) */
     usleep(10000);
     int fd = open(path, O_RDWR);
@@ -340,8 +340,8 @@ static void eviction_drops_least_recent_finished_job_never_a_queued_one(void **s
 {
     fx *f = *state;
     char ka[SVD_KEY_HEX], kb[SVD_KEY_HEX], kc[SVD_KEY_HEX], kd[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 1 1 1\n", "addr:a", ka), 202);
-    assert_int_equal(submit(f, "v 2 2 2\n", "addr:a", kb), 202);
+    assert_int_equal(submit(f, "v 1 1 1\n", "addr:a", ka), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 2 2 2\n", "addr:a", kb), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "A");
@@ -349,12 +349,12 @@ static void eviction_drops_least_recent_finished_job_never_a_queued_one(void **s
     svd_jobs_gauges(f->jobs, &g);
     /* limit: what is there now plus a little; the next upload does not fit */
     f->cfg.store_max_bytes = g.store_bytes + 50;
-    assert_int_equal(submit(f, "v 3 3 3\n", "addr:a", kc), 202); /* evicts the done job */
+    assert_int_equal(submit(f, "v 3 3 3\n", "addr:a", kc), SVD_JOBS_ACCEPTED); /* evicts the done job */
     assert_state(f, ka, "missing");
     assert_state(f, kb, "queued");
     /* only queued jobs left: nothing can be evicted */
     f->cfg.store_max_bytes = 10;
-    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", kd), 507);
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", kd), SVD_JOBS_STORE_FULL);
     assert_state(f, kb, "queued");
     assert_state(f, kc, "queued");
 }
@@ -366,8 +366,8 @@ static void fresh_result_is_not_the_eviction_victim(void **state)
 {
     fx *f = *state;
     char ka[SVD_KEY_HEX], kb[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", ka), 202); /* long bake, uploaded first */
-    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", kb), 202);
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", ka), SVD_JOBS_ACCEPTED); /* long bake, uploaded first */
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", kb), SVD_JOBS_ACCEPTED);
     svd_ticket ta, tb;
     assert_true(svd_jobs_take(f->jobs, &ta));
     assert_string_equal(ta.key, ka);
@@ -392,20 +392,20 @@ static void per_client_cap_answers_429_and_queue_cap_503(void **state)
     fx *f = *state;
     f->cfg.queue_per_client = 2;
     f->cfg.queue_max = 3;
-    assert_int_equal(submit(f, "v 1 0 1\n", "addr:farm", NULL), 202);
-    assert_int_equal(submit(f, "v 1 0 2\n", "addr:farm", NULL), 202);
-    assert_int_equal(submit(f, "v 1 0 3\n", "addr:farm", NULL), 429);
-    assert_int_equal(submit(f, "v 1 0 4\n", "addr:editor", NULL), 202);
-    assert_int_equal(submit(f, "v 1 0 5\n", "addr:editor2", NULL), 503);
+    assert_int_equal(submit(f, "v 1 0 1\n", "addr:farm", NULL), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 1 0 2\n", "addr:farm", NULL), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 1 0 3\n", "addr:farm", NULL), SVD_JOBS_CLIENT_FULL);
+    assert_int_equal(submit(f, "v 1 0 4\n", "addr:editor", NULL), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 1 0 5\n", "addr:editor2", NULL), SVD_JOBS_QUEUE_FULL);
 }
 
 static void fair_queue_prefers_client_with_fewer_running_jobs(void **state)
 {
     fx *f = *state;
     char f1[SVD_KEY_HEX], f2[SVD_KEY_HEX], e1[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 7 0 1\n", "addr:farm", f1), 202);
-    assert_int_equal(submit(f, "v 7 0 2\n", "addr:farm", f2), 202);
-    assert_int_equal(submit(f, "v 7 0 3\n", "addr:editor", e1), 202);
+    assert_int_equal(submit(f, "v 7 0 1\n", "addr:farm", f1), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 7 0 2\n", "addr:farm", f2), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 7 0 3\n", "addr:editor", e1), SVD_JOBS_ACCEPTED);
     svd_ticket t1, t2;
     assert_true(svd_jobs_take(f->jobs, &t1));
     assert_string_equal(t1.key, f1); /* oldest first */
@@ -419,13 +419,13 @@ static void status_reports_stage_progress_and_manifest(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 8 8 8\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 8 8 8\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     svd_jobs_progress(f->jobs, &t, "import", 0.0, 0, 0);
     svd_jobs_progress(f->jobs, &t, "bake", 0.5, 2, 4);
     char *body = NULL;
-    svd_jobs_status(f->jobs, k, &body);
+    svd_jobs_status(f->jobs, k, &body, NULL);
     cJSON *j = cJSON_Parse(body);
     free(body);
     assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "state")), "running");
@@ -437,13 +437,13 @@ static void status_reports_stage_progress_and_manifest(void **state)
     assert_int_equal(cJSON_GetObjectItem(j, "tries")->valueint, 4);
     cJSON_Delete(j);
     svd_jobs_progress(f->jobs, &t, "write", 0.9, 0, 4); /* the search is over */
-    svd_jobs_status(f->jobs, k, &body);
+    svd_jobs_status(f->jobs, k, &body, NULL);
     j = cJSON_Parse(body);
     free(body);
     assert_null(cJSON_GetObjectItem(j, "try"));
     cJSON_Delete(j);
     fake_done(f, &t, "X");
-    svd_jobs_status(f->jobs, k, &body);
+    svd_jobs_status(f->jobs, k, &body, NULL);
     j = cJSON_Parse(body);
     free(body);
     cJSON *a = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "manifest"), "artifacts"), 0);
@@ -459,7 +459,7 @@ static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **stat
 {
     fx *f = *state;
     char k[SVD_KEY_HEX], k2[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 9 9 9\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done_with(f, &t, "X",
@@ -467,7 +467,7 @@ static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **stat
                    "\"reason\":\"goal IoU 0.99: no setting reached it\",\"tries\":[{},{},{},{}]}},"
                    "\"warnings\":[\"'leaf.png' was not supplied: drawn without its texture\"]");
     char *body = NULL;
-    assert_int_equal(svd_jobs_status(f->jobs, k, &body), 200);
+    assert_int_equal(svd_jobs_status(f->jobs, k, &body, NULL), SVD_JOBS_OK);
     cJSON *j = cJSON_Parse(body);
     free(body);
     assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "state")), "done");
@@ -479,10 +479,10 @@ static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **stat
     assert_null(cJSON_GetObjectItem(tg, "tries")); /* the search itself stays in the manifest */
     assert_int_equal(cJSON_GetArraySize(cJSON_GetObjectItem(j, "warnings")), 1);
     cJSON_Delete(j);
-    assert_int_equal(submit(f, "v 7 7 7\n", "addr:a", k2), 202);
+    assert_int_equal(submit(f, "v 7 7 7\n", "addr:a", k2), SVD_JOBS_ACCEPTED);
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "Y");
-    assert_int_equal(svd_jobs_status(f->jobs, k2, &body), 200);
+    assert_int_equal(svd_jobs_status(f->jobs, k2, &body, NULL), SVD_JOBS_OK);
     j = cJSON_Parse(body);
     free(body);
     assert_null(cJSON_GetObjectItem(j, "target"));
@@ -496,7 +496,7 @@ static void waiter_wakes_on_state_change_and_on_deadline(void **state)
 {
     fx *f = *state;
     char k[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), 202);
+    assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", k), SVD_JOBS_ACCEPTED);
     int woken = 0;
     svd_waiter w = {.wake = on_wake, .arg = &woken, .deadline = sv_now() + 100};
     assert_true(svd_jobs_wait(f->jobs, k, &w));
@@ -562,8 +562,8 @@ static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
 {
     fx *f = *state;
     char k1[SVD_KEY_HEX], k2[SVD_KEY_HEX], k3[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), 202);
-    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), 202);
+    assert_int_equal(submit(f, "v 1 0 0\n", "addr:a", k1), SVD_JOBS_ACCEPTED);
+    assert_int_equal(submit(f, "v 2 0 0\n", "addr:a", k2), SVD_JOBS_ACCEPTED);
     svd_ticket t;
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "GLB1");
@@ -587,7 +587,7 @@ static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
     assert_state(f, k2, "queued");
     char path[SVD_STORE_PATH], sha[SVD_KEY_HEX];
     uint64_t size = 0;
-    assert_int_equal(svd_jobs_artifact(f->jobs, k1, "model.glb", path, &size, sha), 200);
+    assert_int_equal(svd_jobs_artifact(f->jobs, k1, "model.glb", path, &size, sha), SVD_JOBS_OK);
     char log[96];
     snprintf(log, sizeof log, "%s/log", f->dir);
     size_t ln;
@@ -596,7 +596,7 @@ static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
     assert_non_null(strstr(text, "\"event\":\"journal_compaction_failed\""));
     free(text);
     /* appends go on after the kept journal: a new job and k2's end survive */
-    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), 202);
+    assert_int_equal(submit(f, "v 3 0 0\n", "addr:a", k3), SVD_JOBS_ACCEPTED);
     assert_true(svd_jobs_take(f->jobs, &t));
     fake_done(f, &t, "GLB2");
     close_all(f);
