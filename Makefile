@@ -13,7 +13,12 @@ PKGS     := assimp OpenImageIO osmesa libcjson libmicrohttpd libcurl libcrypto c
 # machine the packages (and their .pc files) only exist after $(DEPS_STAMP)
 # has run, which is after this Makefile was read.
 PKG_CFLAGS = $(eval PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null | sed 's/-I/-isystem /g'))$(PKG_CFLAGS)
-PKG_LIBS   = $(eval PKG_LIBS := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lmeshoptimizer)$(PKG_LIBS)
+# Programs link every package but OpenImageIO, whose 261 libraries cost
+# ~0.7 s and ~130 MB at every start: the decoding plugin libsvimage.so links
+# it and is dlopen'ed on the first decode (core/io/image_plugin.c); PNGs are
+# written with libpng.
+PKGS_LINK  := $(filter-out OpenImageIO,$(PKGS)) libpng
+PKG_LIBS   = $(eval PKG_LIBS := $(shell pkg-config --libs $(PKGS_LINK) 2>/dev/null) -lmeshoptimizer)$(PKG_LIBS)
 
 ifeq ($(SANITIZE),1)
 SAN_FLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer
@@ -28,12 +33,15 @@ LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
 
 # core/ in folders that follow a bake (docs/design.md, "Source layout"):
 # core/*.c beside io/, geom/, methods/<name>/, render/, pipeline/; core/cli/ is
-# the sylva-bake program's own code, not part of the library.
-CORE_SRC := $(wildcard core/*.c core/*/*.c core/*/*/*.c core/*.cpp core/*/*.cpp core/*/*/*.cpp)
-CORE_C   := $(filter-out core/cli/%,$(filter %.c,$(CORE_SRC)))
-CORE_CXX := $(filter-out core/cli/%,$(filter %.cpp,$(CORE_SRC)))
+# the sylva-bake program's own code, not part of the library. The one C++
+# file, the OpenImageIO shim, is not in the library either: it is the
+# image-decoding plugin libsvimage.so (core/io/image_plugin.c loads it), with
+# the two pure files it calls into, position-independent.
+CORE_SRC := $(wildcard core/*.c core/*/*.c core/*/*/*.c)
+CORE_C   := $(filter-out core/cli/%,$(CORE_SRC))
 CLI_C    := $(wildcard core/cli/*.c)
-CORE_OBJ := $(CORE_C:%.c=$(BUILD)/%.o) $(CORE_CXX:%.cpp=$(BUILD)/%.o)
+CORE_OBJ := $(CORE_C:%.c=$(BUILD)/%.o)
+PLUGIN   := $(BUILD)/libsvimage.so
 SERVER_LIB_C := $(filter-out server/sylvad.c,$(wildcard server/*.c))
 # libsylva (installed: sylva.h, libsylva.a, libsylva.so, sylva.pc) is the
 # client's public API only; client/cli.c is the `sylva` command's own code.
@@ -79,7 +87,7 @@ THREE_NPM    := $(BUILD)/viewer-npm/node_modules/three
 .PHONY: all deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench same-outputs reliability soak clean install
 # keep object files of tests and tools (make would delete them as intermediates)
 .SECONDARY:
-all: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS) $(VIEWER_STAMP)
+all: $(BINS) $(PLUGIN) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS) $(VIEWER_STAMP)
 
 # Installs missing Debian packages (non-interactive). Every build depends on it.
 deps:
@@ -112,6 +120,12 @@ $(LIBCLI): $(BUILD)/client/cli.o
 $(BUILD)/pic/%.o: %.c | $(DEPS_STAMP)
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS_SV) $(SV_CFLAGS) -fPIC $(CFLAGS) -c $< -o $@
+$(BUILD)/pic/%.o: %.cpp | $(DEPS_STAMP)
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS_SV) $(SV_CXXFLAGS) -fPIC $(CXXFLAGS) -c $< -o $@
+$(PLUGIN): $(BUILD)/pic/core/io/image_oiio.o $(BUILD)/pic/core/image.o $(BUILD)/pic/core/sv.o
+	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -shared -Wl,--no-undefined -o $@ $^ \
+	    $(shell pkg-config --libs OpenImageIO) -lpthread -lm
 $(LIBSYLVA_SO): $(CLIENT_PIC) client/libsylva.map
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -shared -Wl,-soname,libsylva.so.$(SYLVA_SOMAJOR) \
 	    -Wl,--version-script,client/libsylva.map -Wl,--no-undefined -o $@ $(CLIENT_PIC) \
@@ -226,11 +240,13 @@ UNITDIR := $(PREFIX)/lib/systemd/system
 SYSUSERSDIR := $(PREFIX)/lib/sysusers.d
 MAN_SED := -e 's\#@SYSCONFDIR@\#$(SYSCONFDIR)\#g' -e 's\#@DOCDIR@\#$(DOCDIR)\#g' \
            -e 's\#@VERSION@\#$(SYLVA_VER)\#g'
-install: $(BINS) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
+install: $(BINS) $(PLUGIN) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
 	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(SYSCONFDIR)/sylva $(DESTDIR)$(DOCDIR)/nginx \
 	    $(DESTDIR)$(MANDIR) $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSUSERSDIR) \
 	    $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
+	install -d $(DESTDIR)$(PREFIX)/lib/sylva
+	install -m 755 $(PLUGIN) $(DESTDIR)$(PREFIX)/lib/sylva/
 	install -m 644 client/sylva.h $(DESTDIR)$(INCLUDEDIR)/
 	install -m 644 $(LIBSYLVA) $(DESTDIR)$(LIBDIR)/
 	install -m 755 $(LIBSYLVA_SO) $(DESTDIR)$(LIBDIR)/
@@ -277,7 +293,7 @@ FUZZ_CFLAGS  := -std=c11 -Wall -Wextra -O1 -g -D_POSIX_C_SOURCE=200809L -D_DEFAU
 FUZZ_SRC     := $(wildcard tests/fuzz/fuzz_*.c)
 FUZZ_BINS    := $(FUZZ_SRC:tests/fuzz/%.c=$(FUZZ_DIR)/%)
 FUZZ_LIB     := $(FUZZ_DIR)/libfuzzcore.a
-FUZZ_LIB_OBJ := $(CORE_C:%.c=$(FUZZ_DIR)/obj/%.o) $(CORE_CXX:%.cpp=$(FUZZ_DIR)/obj/%.o) \
+FUZZ_LIB_OBJ := $(CORE_C:%.c=$(FUZZ_DIR)/obj/%.o) \
                 $(FUZZ_DIR)/obj/server/multipart.o
 
 $(FUZZ_DIR)/obj/%.o: %.c | $(DEPS_STAMP)

@@ -30,6 +30,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/personality.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -40,6 +41,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "image.h"
 #include "out_names.h"
 #include "pipeline.h"
 #include "view.h"
@@ -531,6 +533,28 @@ static int prepare_out_dir(const char *dir, char *const *inputs, size_t n)
     return rc;
 }
 
+/* Whether name ends with suffix, ignoring ASCII case. */
+static bool name_ends_ci(const char *name, const char *suffix)
+{
+    size_t n = strlen(name), k = strlen(suffix);
+    return n >= k && strcasecmp(name + n - k, suffix) == 0;
+}
+
+/* Whether a bake of these files (the mesh first) may decode an image: any
+ * companion but .mtl, or a mesh format that can embed textures (anything but
+ * OBJ, PLY, STL), judged by the names. */
+static bool may_hold_images(char **paths, int n)
+{
+    static const char *const plain[] = {".obj", ".ply", ".stl"};
+    bool plain_mesh = false;
+    for (size_t k = 0; k < sizeof plain / sizeof plain[0]; k++)
+        plain_mesh |= name_ends_ci(paths[0], plain[k]);
+    if (!plain_mesh) return true;
+    for (int i = 1; i < n; i++)
+        if (!name_ends_ci(paths[i], ".mtl")) return true;
+    return false;
+}
+
 static int cmd_bake(int argc, char **argv)
 {
     char *paths[MAX_FILES];
@@ -611,6 +635,15 @@ static int cmd_bake(int argc, char **argv)
      * subverted bake plant JIT code for later bakes. Sandboxed bakes go
      * without it (outputs are the same; llvmpipe compiles its few shaders). */
     if (sandbox) setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+    /* The image plugin (OpenImageIO, dlopen'ed: image.h) before the sandbox
+     * when the upload may hold a texture, so that its libraries' initialisers
+     * run outside the filter (one of them reports "insecure memory" under
+     * it); an OBJ, PLY or STL with at most .mtl companions cannot. A plugin
+     * that cannot load is reported by the decode that needs it. */
+    if (sandbox && may_hold_images(paths, n)) {
+        sv_error pe = {0};
+        (void)sv_image_plugin_load(&pe);
+    }
     if (sandbox && sv_sandbox_enter(&e) != SV_OK) {
         fprintf(stderr, "sylva-bake: %s\n", e.message);
         write_error_json(out_dir, &e);

@@ -34,6 +34,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "image.h"
 #include "zygote_proto.h"
 
 /* Tasks (threads) of this process, from /proc/self/task; -1 if unreadable. */
@@ -53,12 +54,16 @@ static int thread_count(void)
  * OpenImageIO plugin's dependency) starts a pool of idle threads in a static
  * initializer; log4cplus::shutdownThreadPool joins them (log4cplus then logs
  * synchronously, which nothing in a bake asks it to anyway). Looked up with
- * dlsym so that sylva neither builds against log4cplus nor needs it. Returns
- * the threads left, waiting up to 0.2 s for joined ones to leave /proc. */
+ * dlsym so that sylva neither builds against log4cplus nor needs it: in the
+ * image plugin's scope (libsvimage.so pulls OIIO in, loaded privately), or
+ * the global one. Returns the threads left, waiting up to 0.2 s for joined
+ * ones to leave /proc. */
 static int stop_library_threads(void)
 {
     void (*shutdown_pool)(void) = NULL;
-    void *sym = dlsym(RTLD_DEFAULT, "_ZN9log4cplus18shutdownThreadPoolEv");
+    const char *name = "_ZN9log4cplus18shutdownThreadPoolEv";
+    void *sym = sv_image_plugin_symbol(name);
+    if (!sym) sym = dlsym(RTLD_DEFAULT, name);
     memcpy(&shutdown_pool, &sym, sizeof sym); /* (ISO C has no object-to-function cast) */
     if (shutdown_pool) shutdown_pool();
     int n = thread_count();
@@ -205,6 +210,12 @@ int sv_zygote_serve(int fd, long parent, char *title, size_t title_room, sv_zygo
     if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || (parent > 0 && getppid() != (pid_t)parent))
         return 1;
     pid_t self = getpid();
+    /* The image plugin once, here, for every job (most decode textures):
+     * OIIO's start-up (~0.7 s) is paid once per zygote, and its threads are
+     * stopped below before any fork. A plugin that cannot load is each job's
+     * error, as without the pool. */
+    sv_error perr = {0};
+    (void)sv_image_plugin_load(&perr);
     int threads = stop_library_threads();
     svz_hello h = {.type = SVZ_HELLO, .version = SVZ_VERSION, .pid = self, .threads = threads};
     if (send_msg(fd, &h, sizeof h) != 0) return 1;

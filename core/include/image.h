@@ -1,5 +1,7 @@
-/* image.h — images in memory and the OpenImageIO shim (core/io/image_oiio.cpp is the
- * only C++ file; it catches every exception and copies the text into sv_error).
+/* image.h — images in memory; decoding through the OpenImageIO plugin
+ * (libsvimage.so, built from core/io/image_oiio.cpp, the only C++ file, which
+ * catches every exception and copies the text into sv_error; loaded on first
+ * use by core/io/image_plugin.c), PNG encoding with libpng (core/io/image_png.c).
  *
  * Pixels are stored row-major, top row first, interleaved channels, with either
  * 8 bits (uint8) or 16 bits (uint16, native endian) per channel.
@@ -30,6 +32,17 @@ size_t sv_image_stride(const sv_image *img);
  * neither side exceeds max_side; max_side 0 or a smaller image: unchanged.
  * Deterministic. On failure img is left as it was. */
 sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
+
+/* Loads the decoding plugin now if it is not loaded yet (thread-safe, once;
+ * the decoders call it). For a process about to enter the seccomp sandbox or
+ * to fork jobs: dlopen and OIIO's initialisers then run before. SV_ERR_INTERNAL
+ * naming the plugin and the loader's message when it cannot be loaded. */
+sv_status sv_image_plugin_load(sv_error *err);
+
+/* A symbol of the loaded plugin or of the libraries it pulled in (dlsym on
+ * its handle: they are not in the global scope); NULL when the plugin is not
+ * loaded or has no such symbol. */
+void *sv_image_plugin_symbol(const char *name);
 
 /* Decodes PNG/JPEG/TGA (anything OIIO reads from memory) into RGBA8.
  * `name` is only used for messages and as a format hint. Images larger than

@@ -1,5 +1,8 @@
-/* image_oiio.cpp — the OpenImageIO shim behind image.h: decode from memory to
- * RGBA8, encode PNG (8/16 bit) to memory or a file.
+/* image_oiio.cpp — the OpenImageIO shim behind image.h's decoders: from memory
+ * to RGBA8, or a PNG's first channel to 16 bits. Built as its own shared
+ * object, libsvimage.so, which image_plugin.c loads on the first decode (OIIO's
+ * 261 libraries cost ~0.7 s and ~130 MB at every process start otherwise);
+ * PNG encoding is libpng (image_png.c).
  *
  * The only C++ file in core. Every entry point is extern "C" and catches every
  * exception, copying its text into sv_error, so nothing C++ escapes to callers.
@@ -217,39 +220,6 @@ sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const c
     return SV_OK;
 }
 
-sv_status encode_png(const sv_image *img, std::vector<unsigned char> &bytes, sv_error *err)
-{
-    if (!img || !img->data || img->width == 0 || img->height == 0)
-        return sv_fail(err, SV_ERR_INTERNAL, "cannot write an empty image as PNG");
-    if (img->channels < 1 || img->channels > 4 || (img->bits != 8 && img->bits != 16))
-        return sv_fail(err, SV_ERR_INTERNAL, "cannot write a %u-channel %u-bit image as PNG",
-                       img->channels, img->bits);
-    if (img->width > (uint32_t)INT_MAX || img->height > (uint32_t)INT_MAX)
-        return sv_fail(err, SV_ERR_LIMIT, "image %ux%u is too large for PNG", img->width,
-                       img->height);
-    Filesystem::IOVecOutput proxy(bytes);
-    auto out = ImageOutput::create("png", &proxy);
-    if (!out) return sv_fail(err, SV_ERR_IO, "OpenImageIO has no PNG writer: %s",
-                             OIIO::geterror().c_str());
-    TypeDesc type = img->bits == 8 ? TypeDesc::UINT8 : TypeDesc::UINT16;
-    ImageSpec spec((int)img->width, (int)img->height, (int)img->channels, type);
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    spec.attribute("png:compressionLevel", 1);
-    if (!out->open("sylva-memory-image.png", spec)) {
-        std::string e = out->geterror();
-        return sv_fail(err, SV_ERR_IO, "cannot start PNG encoding: %s", e.c_str());
-    }
-    if (!out->write_image(type, img->data)) {
-        std::string e = out->geterror();
-        return sv_fail(err, SV_ERR_IO, "PNG encoding failed: %s", e.c_str());
-    }
-    if (!out->close()) {
-        std::string e = out->geterror();
-        return sv_fail(err, SV_ERR_IO, "PNG encoding failed: %s", e.c_str());
-    }
-    return SV_OK;
-}
-
 } // namespace
 
 namespace {
@@ -296,58 +266,18 @@ sv_status decode_any(const void *data, size_t size, const char *name, uint32_t m
 
 } // namespace
 
-extern "C" sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
-                                           uint32_t max_size, sv_image *out, sv_error *err)
+/* The plugin's entry points (image_plugin.c finds them by name): as
+ * sv_image_decode_rgba8 and sv_image_decode_gray16 in image.h. */
+extern "C" __attribute__((visibility("default"))) sv_status
+sv_plugin_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
+                       sv_image *out, sv_error *err)
 {
     return decode_any(data, size, name, max_size, out, err, false);
 }
 
-extern "C" sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size,
-                                         sv_error *err)
-{
-    if (!out || !out_size) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_encode_png: no output");
-    *out = nullptr;
-    *out_size = 0;
-    try {
-        std::vector<unsigned char> bytes;
-        sv_status st = encode_png(img, bytes, err);
-        if (st != SV_OK) return st;
-        uint8_t *buf = (uint8_t *)std::malloc(bytes.size() ? bytes.size() : 1);
-        if (!buf) return sv_fail(err, SV_ERR_NOMEM, "cannot allocate %zu bytes of PNG", bytes.size());
-        if (!bytes.empty()) std::memcpy(buf, bytes.data(), bytes.size());
-        *out = buf;
-        *out_size = bytes.size();
-        return SV_OK;
-    } catch (const std::exception &e) {
-        return sv_fail(err, SV_ERR_INTERNAL, "PNG encoding threw: %s", e.what());
-    } catch (...) {
-        return sv_fail(err, SV_ERR_INTERNAL, "PNG encoding threw an unknown exception");
-    }
-}
-
-extern "C" sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *err)
-{
-    if (!path) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_write_png: path is NULL");
-    uint8_t *bytes = nullptr;
-    size_t n = 0;
-    sv_status st = sv_image_encode_png(img, &bytes, &n, err);
-    if (st != SV_OK) return st;
-    FILE *f = std::fopen(path, "wb");
-    if (!f) {
-        std::free(bytes);
-        return sv_fail(err, SV_ERR_IO, "cannot open '%s' for writing: %s", path,
-                       std::strerror(errno));
-    }
-    size_t w = std::fwrite(bytes, 1, n, f);
-    int close_failed = std::fclose(f);
-    std::free(bytes);
-    if (w != n || close_failed)
-        return sv_fail(err, SV_ERR_IO, "cannot write '%s' (%zu of %zu bytes written)", path, w, n);
-    return SV_OK;
-}
-
-extern "C" sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name,
-                                            uint32_t max_size, sv_image *out, sv_error *err)
+extern "C" __attribute__((visibility("default"))) sv_status
+sv_plugin_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
+                        sv_image *out, sv_error *err)
 {
     return decode_any(data, size, name, max_size, out, err, true);
 }

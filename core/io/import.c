@@ -366,6 +366,11 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
         sv_status st = sv_image_decode_rgba8(data, size, shown, im->lim.max_texture_size, img, &e);
         if (st == SV_ERR_LIMIT || st == SV_ERR_NOMEM)
             return sv_fail(im->err, st, "material '%s': %s", mname, e.message);
+        /* a broken texture is the input's (a warning, drawn without it); an
+         * image decoder that cannot load is the installation's, and would
+         * silently drop every texture */
+        if (st != SV_OK && sv_image_plugin_load(&e) != SV_OK)
+            return sv_fail(im->err, SV_ERR_INTERNAL, "material '%s': %s", mname, e.message);
         if (st != SV_OK) {
             add_warning(im->info, "material '%s': %s", mname, e.message);
             im->info->textures_missing++;

@@ -96,5 +96,17 @@ set +e
 "$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
 set -e
 [ $rc = 2 ] || fail "missing --out: exit $rc, expected 2"
+# the image decoder is a plugin (docs/design.md): none at all is an
+# installation error naming it, never textures silently dropped; an
+# untextured bake does not need it
+set +e
+SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake $files --spec "$tmp/quick.json" \
+    --out "$tmp/np" --progress none 2> "$tmp/np.err"; rc=$?
+set -e
+[ $rc = 1 ] && grep -q "image decoder (OpenImageIO plugin) cannot be loaded: /nonexistent/libsvimage.so" "$tmp/np.err" &&
+    grep -q '"code":"internal"' "$tmp/np/error.json" || fail "no image plugin: exit $rc, $(cat "$tmp/np.err")"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > "$tmp/tri.obj"
+SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake "$tmp/tri.obj" --spec "$tmp/quick.json" \
+    --out "$tmp/np2" --progress none || fail "an untextured bake needed the image plugin"
 [ -z "${partial:-}" ] || skip "$partial (the rest passed)"
 echo "ok"

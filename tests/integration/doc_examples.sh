@@ -20,7 +20,7 @@ make -s -C "$root" install BUILD="$rel" DESTDIR="$W/root" PREFIX=/usr/local > "$
 P=$W/root/usr/local
 
 # the installed files
-for f in bin/sylva bin/sylvad bin/sylva-bake include/sylva.h lib/libsylva.a lib/libsylva.so \
+for f in bin/sylva bin/sylvad bin/sylva-bake lib/sylva/libsvimage.so include/sylva.h lib/libsylva.a lib/libsylva.so \
          lib/pkgconfig/sylva.pc share/man/man1/sylva.1 share/man/man1/sylvad.1 \
          share/man/man1/sylva-bake.1; do
     [ -e "$P/$f" ] && ok "installed $f" || bad "installed $f"

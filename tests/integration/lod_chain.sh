@@ -96,7 +96,7 @@ EOF
 }
 
 trees > "$tmp/trees"
-while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
+while IFS="$(printf '\t')" read -r dir mesh units tris foliage _; do
     c=$(tree_cache "$dir" "$mesh" "$units") || fail "$mesh: no chain bake"
     # model.glb on every tree, and every standalone level (validator and
     # three.js) except, on the trees over 25k triangles, the copies of more

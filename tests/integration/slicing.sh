@@ -93,7 +93,7 @@ if [ "${SLICING_ALL:-0}" = 1 ]; then
     if [ ! -d "$data" ]; then
         skip "no tree data at $data"
     fi
-    grep -v '^#' "$root/tests/data/trees.tsv" | while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
+    grep -v '^#' "$root/tests/data/trees.tsv" | while IFS="$(printf '\t')" read -r dir mesh units tris foliage _; do
         d="$data/$dir"
         # shellcheck disable=SC2046
         set -- "$d/$mesh" $(companions "$d" "$mesh")

@@ -15,7 +15,7 @@ set -eu
 min_iou=${TREES_MIN_IOU:-0.5}
 n=0
 trees > "${TMPDIR:-/tmp}/trees_all.$$"
-while IFS="$(printf '\t')" read -r dir mesh units tris foliage; do
+while IFS="$(printf '\t')" read -r dir mesh units tris foliage _; do
     c=$(tree_cache "$dir" "$mesh" "$units") || fail "$mesh: no info/bake"
     # The README counts what was imported; validation then removes exact
     # duplicates and zero-area triangles (ficus: 48, acacia: 275), so the

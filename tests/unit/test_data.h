@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* The whole file at path (malloc'd, *size bytes), or NULL when it cannot be
  * opened or read. */
@@ -42,6 +43,10 @@ typedef struct sv_test_tree {
     double unit_scale;  /* import.unit_scale: 0.01 for "cm", else 0 (as given) */
     uint32_t triangles; /* the data README's counts */
     uint32_t foliage;
+    uint32_t textures;           /* base-colour textures the import decodes */
+    char material[64];           /* one material test_import checks: */
+    uint32_t material_triangles; /* its README count */
+    char alpha[16];              /* and its alpha mode after import: opaque, mask, blend */
 } sv_test_tree;
 
 /* Reads tests/data/trees.tsv (from the repository root, where tests run) into
@@ -55,14 +60,17 @@ static inline size_t sv_test_trees(sv_test_tree *out, size_t cap)
     size_t n = 0;
     while (n < cap && fgets(line, sizeof line, f)) {
         sv_test_tree *t = &out[n];
-        unsigned tri = 0, fol = 0;
+        unsigned tri = 0, fol = 0, tex = 0, mtri = 0;
+        memset(t, 0, sizeof *t);
         if (line[0] == '#' ||
-            sscanf(line, "%95[^\t]\t%95[^\t]\t%15[^\t]\t%u\t%u", t->dir, t->file, units, &tri,
-                   &fol) != 5)
+            sscanf(line, "%95[^\t]\t%95[^\t]\t%15[^\t]\t%u\t%u\t%u\t%63[^\t]\t%u\t%15[^\t\n]",
+                   t->dir, t->file, units, &tri, &fol, &tex, t->material, &mtri, t->alpha) != 9)
             continue;
         t->unit_scale = units[0] == 'c' && units[1] == 'm' && !units[2] ? 0.01 : 0;
         t->triangles = tri;
         t->foliage = fol;
+        t->textures = tex;
+        t->material_triangles = mtri;
         n++;
     }
     fclose(f);

@@ -1027,39 +1027,25 @@ static void glb_materials_and_transforms_come_through(void **state)
 
 /* ---------- the real trees ---------- */
 
-typedef struct tree_case {
-    const char *dir, *file;
-    double unit_scale;
-    uint32_t readme_triangles;
-    uint32_t textures; /* base-colour textures expected decoded */
-    const char *mat1;
-    uint32_t mat1_triangles; /* README's count for that material */
-    sv_alpha_mode mat1_alpha;
-} tree_case;
-
-static const tree_case trees[] = {
-    {"scopia_ficusTree", "ficusTree.obj", 0.01, 118876, 1, "Leaves", 112000, SV_ALPHA_OPAQUE},
-    {"scopia_ficusTree", "ficusTree.glb", 0.01, 118876, 1, "Leaves", 112000, SV_ALPHA_OPAQUE},
-    {"scopia_acacia", "acacia.obj", 0.01, 103164, 1, "Leaves", 99600, SV_ALPHA_OPAQUE},
-    {"scopia_bush", "bush.obj", 0.01, 40292, 2, "leaves", 36948, SV_ALPHA_MASK},
-    {"scopia_palm", "palm.obj", 0.01, 43323, 1, "Leaves", 41745, SV_ALPHA_OPAQUE},
-    {"scopia_bonsai-tree", "bonsai-tree.obj", 0.01, 8128, 3, "branch1", 6720, SV_ALPHA_MASK},
-    {"blendswap_cc0_decorativePlant", "decorativePlant.obj", 0.01, 63428, 0, "Leaves", 38380, SV_ALPHA_OPAQUE},
-    {"eztree_oak_large", "oak_large.obj", 0, 22566, 2, "leaves", 10560, SV_ALPHA_MASK},
-    {"eztree_oak_large", "oak_large.glb", 0, 22566, 2, "leaves", 10560, SV_ALPHA_BLEND},
-    {"eztree_ash_medium", "ash_medium.obj", 0, 20000, 2, "leaves", 10880, SV_ALPHA_MASK},
-    {"eztree_aspen_small", "aspen_small.obj", 0, 3616, 2, "leaves", 1120, SV_ALPHA_MASK},
-    {"sapling_small_maple", "sapling_small_maple_rect.obj", 0, 153618, 0, "leaves", 36290, SV_ALPHA_OPAQUE},
-};
+/* the shared trees and what their import must give: tests/data/trees.tsv
+ * (test_data.h), the one table of them */
+static sv_alpha_mode alpha_named(const char *s)
+{
+    return !strcmp(s, "mask") ? SV_ALPHA_MASK : !strcmp(s, "blend") ? SV_ALPHA_BLEND : SV_ALPHA_OPAQUE;
+}
 
 static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
 {
     (void)state;
     const char *data = sv_test_data("real-tree import");
-    for (size_t i = 0; i < sizeof trees / sizeof trees[0]; i++) {
-        const tree_case *tc = &trees[i];
+    sv_test_tree trees[32];
+    size_t count = sv_test_trees(trees, 32);
+    assert_true(count >= 10);
+    for (size_t i = 0; i < count; i++) {
+        const sv_test_tree *tc = &trees[i];
         char dir[1024];
-        snprintf(dir, sizeof dir, "%s/%s", data, tc->dir);
+        int len = snprintf(dir, sizeof dir, "%s/%s", data, tc->dir);
+        assert_true(len > 0 && (size_t)len < sizeof dir);
         upload u = {0};
         if (!upload_dir(&u, dir, tc->file)) {
             print_error("missing %s/%s\n", dir, tc->file);
@@ -1083,29 +1069,29 @@ static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
         assert_int_equal(st, SV_OK);
         uint32_t mat1 = 0;
         for (uint32_t t = 0; t < m->triangle_count; t++)
-            if (strcmp(m->materials[m->tri_material[t]].name, tc->mat1) == 0) mat1++;
+            if (strcmp(m->materials[m->tri_material[t]].name, tc->material) == 0) mat1++;
         double mn[3], mx[3];
         sv_mesh_bounds(m, mn, mx);
         printf("%-30s %s: imported %u triangles (README %u), after validate %u "
                "(-%u zero-area, -%u duplicate), %u vertices, %u materials, %s %u triangles, "
                "%u textures (%u missing), height %.2f m, import %.3f s wall, %.3f s CPU\n",
-               tc->file, sv_format_name(info.format), imported, tc->readme_triangles,
+               tc->file, sv_format_name(info.format), imported, tc->triangles,
                m->triangle_count, rep.removed_degenerate, rep.removed_duplicate, m->vertex_count,
-               m->material_count, tc->mat1, mat1, info.textures_decoded, info.textures_missing,
+               m->material_count, tc->material, mat1, info.textures_decoded, info.textures_missing,
                mx[1] - mn[1], t1 - t0, cpu);
-        assert_int_equal(imported, tc->readme_triangles);
+        assert_int_equal(imported, tc->triangles);
         assert_int_equal(m->triangle_count + rep.removed_degenerate + rep.removed_duplicate,
-                         tc->readme_triangles);
+                         tc->triangles);
         /* repairs are a small fraction of a real tree */
-        assert_true(rep.removed_degenerate + rep.removed_duplicate <= tc->readme_triangles / 100);
-        assert_true(mat1 <= tc->mat1_triangles && mat1 + tc->mat1_triangles / 100 >= tc->mat1_triangles);
+        assert_true(rep.removed_degenerate + rep.removed_duplicate <= tc->triangles / 100);
+        assert_true(mat1 <= tc->material_triangles && mat1 + tc->material_triangles / 100 >= tc->material_triangles);
         assert_int_equal(info.textures_decoded, tc->textures);
         /* alpha: map_d (bush, ez-tree OBJ), an RGBA texture without map_d
          * (bonsai), glTF's own alphaMode (oak GLB: BLEND) */
         for (uint32_t k = 0; k < m->material_count; k++)
-            if (strcmp(m->materials[k].name, tc->mat1) == 0) {
-                assert_int_equal(m->materials[k].alpha_mode, tc->mat1_alpha);
-                if (tc->mat1_alpha != SV_ALPHA_OPAQUE) assert_true(m->materials[k].double_sided);
+            if (strcmp(m->materials[k].name, tc->material) == 0) {
+                assert_int_equal(m->materials[k].alpha_mode, alpha_named(tc->alpha));
+                if (alpha_named(tc->alpha) != SV_ALPHA_OPAQUE) assert_true(m->materials[k].double_sided);
             }
         assert_int_equal(info.textures_missing, 0);
         /* plausible tree heights in metres: the cm trees were scaled */
