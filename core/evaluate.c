@@ -297,7 +297,10 @@ static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval
         double *t = tmp + (size_t)y * w * 5;
         for (uint32_t x = x0; x < x1; x++) {
             double a = 0, r = 0, g = 0, b = 0, z = 0;
-            for (uint32_t k = 0; k < fx; k++) {
+            /* no covered sample: each sum would add wx·0.0f = +0.0 to +0.0 */
+            uint8_t any = 0;
+            for (uint32_t k = 0; k < fx; k++) any |= row[4 * ((size_t)x * fx + k) + 3];
+            for (uint32_t k = 0; any >= 128 && k < fx; k++) {
                 size_t i = (size_t)x * fx + k;
                 const uint8_t *p = row + 4 * i;
                 bool on = p[3] >= 128;
