@@ -43,8 +43,9 @@ struct sv_evaluator {
      * tile 0: sizes that do not divide, every pixel is processed. */
     uint32_t tile, tiles;              /* tile side in base pixels; tiles per side */
     uint32_t *orig_span;               /* view_count × 2·tiles: the original's spans (lo, hi) */
-    uint32_t *span;                    /* scratch 3 × 2·tiles: a result's, one subset's, the
-                                          union of a result's and the original's */
+    uint32_t *span;                    /* scratch 4 × 2·tiles: where the result's images (acc)
+                                          and one subset's (tmp) may be non-zero, the union of
+                                          a result's and the original's, a new render's */
 };
 
 /* ---- view placement and cameras ----------------------------------------- */
@@ -466,24 +467,38 @@ sv_eval_metrics sv_eval_compare(const sv_eval_image *a, const sv_eval_image *b, 
  * may hold coverage; lo[t] >= hi[t] when none can. lo and hi are one array
  * of 2·tiles, hi = lo + tiles. */
 
+/* Whether a sample of pixels [x0, x1) of an RGBA8 row is covered (alpha >=
+ * 128): the OR of whole pixels (a loop compilers vectorise), then its alpha
+ * byte, read back through memory so that byte order does not matter. */
+static bool any_covered(const uint8_t *row, uint32_t x0, uint32_t x1)
+{
+    uint32_t any = 0;
+    for (uint32_t x = x0; x < x1; x++) {
+        uint32_t px;
+        memcpy(&px, row + 4 * (size_t)x, sizeof px);
+        any |= px;
+    }
+    uint8_t b[4];
+    memcpy(b, &any, sizeof b);
+    return b[3] >= 128;
+}
+
 /* Sets the spans of a base-resolution RGBA8 render: the tiles between the
  * first and the last covered sample (alpha >= 128) of each tile row. Scans a
- * row only outside the span found so far, so a covered image costs its
- * margins and an empty one a single pass. */
+ * row only outside the span found so far, a tile at a time, so a covered
+ * image costs its margins and an empty one a single pass. */
 static void render_spans(const sv_image *rgba, uint32_t tile, uint32_t tiles, uint32_t *lo)
 {
     uint32_t *hi = lo + tiles, W = rgba->width;
     for (uint32_t t = 0; t < tiles; t++) {
         uint32_t l = tiles, h = 0;
         for (uint32_t y = t * tile; y < (t + 1) * tile; y++) {
-            const uint8_t *alpha = (const uint8_t *)rgba->data + (size_t)y * W * 4 + 3;
-            uint32_t x = 0, end = l * tile;
-            while (x < end && alpha[4 * (size_t)x] < 128) x++;
-            if (x < end) l = x / tile;
+            const uint8_t *row = (const uint8_t *)rgba->data + (size_t)y * W * 4;
+            for (uint32_t c = 0; c < l; c++)
+                if (any_covered(row, c * tile, (c + 1) * tile)) l = c;
             if (l >= tiles) continue; /* nothing covered yet */
-            uint32_t stop = h * tile;
-            for (x = W; x > stop && alpha[4 * (size_t)(x - 1)] < 128;) x--;
-            if (x > stop) h = (x - 1) / tile + 1;
+            for (uint32_t c = tiles; c > h; c--)
+                if (any_covered(row, (c - 1) * tile, c * tile)) h = c;
         }
         lo[t] = l, hi[t] = h;
     }
@@ -504,19 +519,30 @@ static void spans_union(uint32_t tiles, const uint32_t *a, const uint32_t *b, ui
     }
 }
 
-/* Zeroes rows [y0, y1) of img outside columns [x0, x1). */
-static void zero_outside(sv_eval_image *img, uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
+/* Zeroes columns [x0, x1) of rows [y0, y1) of img. */
+static void zero_rect(sv_eval_image *img, uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
 {
-    uint32_t w = img->width;
-    if (x0 >= x1) x0 = x1 = w;
-    for (uint32_t y = y0; y < y1; y++) {
-        size_t row = (size_t)y * w;
-        memset(img->coverage + row, 0, x0 * sizeof(float));
-        memset(img->coverage + row + x1, 0, (w - x1) * sizeof(float));
-        memset(img->depth + row, 0, x0 * sizeof(float));
-        memset(img->depth + row + x1, 0, (w - x1) * sizeof(float));
-        memset(img->color + 3 * row, 0, 3 * (size_t)x0 * sizeof(float));
-        memset(img->color + 3 * (row + x1), 0, 3 * (size_t)(w - x1) * sizeof(float));
+    for (uint32_t y = y0; x0 < x1 && y < y1; y++) {
+        size_t row = (size_t)y * img->width;
+        memset(img->coverage + row + x0, 0, (x1 - x0) * sizeof(float));
+        memset(img->depth + row + x0, 0, (x1 - x0) * sizeof(float));
+        memset(img->color + 3 * (row + x0), 0, 3 * (size_t)(x1 - x0) * sizeof(float));
+    }
+}
+
+/* Zeroes the pixels of img (ts pixels per tile) inside the spans `held` (where
+ * img may be non-zero) but outside the spans `keep` (about to be written;
+ * NULL: none). */
+static void zero_held(sv_eval_image *img, uint32_t tiles, uint32_t ts, const uint32_t *held,
+                      const uint32_t *keep)
+{
+    for (uint32_t t = 0; t < tiles; t++) {
+        uint32_t a = held[t], b = held[tiles + t];
+        uint32_t c = keep ? keep[t] : b, d = keep ? keep[tiles + t] : b;
+        if (a >= b) continue;
+        if (c >= d) c = d = b; /* nothing kept: all of [a, b) */
+        zero_rect(img, t * ts, (t + 1) * ts, a * ts, (c < b ? c : b) * ts);
+        zero_rect(img, t * ts, (t + 1) * ts, (d > a ? d : a) * ts, b * ts);
     }
 }
 
@@ -560,20 +586,22 @@ static uint32_t tile_side(const sv_evaluator *e, uint32_t width)
     return e->tile / (e->base / width);
 }
 
-/* Filters the render (base × base RGBA8, depth) of view v into out[0..size_count)
- * within the spans (every other pixel set to 0): the fused filter for the
- * largest size, then each size from size src[s], tile row by tile row. */
+/* Filters a render (base × base RGBA8, depth) into out[0..size_count) within
+ * the spans `span`: the fused filter for the largest size, then each size
+ * from size src[s], tile row by tile row. out is zero outside the spans
+ * `held` on entry, and outside `span` on return: only held minus span is
+ * cleared (issue 20: clearing whole images was most of the remaining memset). */
 static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *depth,
-                           const uint32_t *span, sv_eval_image *out)
+                           const uint32_t *held, const uint32_t *span, sv_eval_image *out)
 {
     const uint32_t *hi = span + e->tiles;
+    for (uint32_t s = 0; s < e->size_count; s++)
+        zero_held(&out[s], e->tiles, tile_side(e, out[s].width), held, span);
     uint32_t ts = tile_side(e, out[0].width);
-    for (uint32_t t = 0; t < e->tiles; t++) {
+    for (uint32_t t = 0; t < e->tiles; t++)
         if (span[t] < hi[t])
             filter_render_rect(color, depth, &out[0], e->ftmp, t * ts, (t + 1) * ts, span[t] * ts,
                                hi[t] * ts);
-        zero_outside(&out[0], t * ts, (t + 1) * ts, span[t] * ts, hi[t] * ts);
-    }
     for (uint32_t s = 1; s < e->size_count; s++) {
         const sv_eval_image *src = &out[e->src[s]];
         sv_eval_image *dst = &out[s];
@@ -582,15 +610,13 @@ static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *
         ts = tile_side(e, w);
         for (uint32_t t = 0; t < e->tiles; t++) {
             uint32_t y0 = t * ts, y1 = (t + 1) * ts, x0 = span[t] * ts, x1 = hi[t] * ts;
-            if (x0 < x1) {
-                filter_plane_rect(src->coverage, W, dst->coverage, w, 1, f, f, wf, wf, e->ftmp,
-                                  y0, y1, x0, x1);
-                filter_plane_rect(src->color, W, dst->color, w, 3, f, f, wf, wf, e->ftmp, y0, y1,
-                                  x0, x1);
-                filter_plane_rect(src->depth, W, dst->depth, w, 1, f, f, wf, wf, e->ftmp, y0, y1,
-                                  x0, x1);
-            }
-            zero_outside(dst, y0, y1, x0, x1);
+            if (x0 >= x1) continue;
+            filter_plane_rect(src->coverage, W, dst->coverage, w, 1, f, f, wf, wf, e->ftmp, y0, y1,
+                              x0, x1);
+            filter_plane_rect(src->color, W, dst->color, w, 3, f, f, wf, wf, e->ftmp, y0, y1, x0,
+                              x1);
+            filter_plane_rect(src->depth, W, dst->depth, w, 1, f, f, wf, wf, e->ftmp, y0, y1, x0,
+                              x1);
         }
     }
 }
@@ -600,8 +626,10 @@ static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *
  * factor of a box filter by an integer factor is the box filter by their
  * product, so each size is filtered from the smallest larger image it divides
  * (exact, and much cheaper than filtering the base image every time).
- * When the evaluator crops (e->tile), span (2·tiles) receives the render's
- * covered spans and only those are filtered; otherwise span is untouched. */
+ * When the evaluator crops (e->tile), span (2·tiles) says where out may be
+ * non-zero: on entry, from its last render (or empty for zeroed images); on
+ * return, the new render's covered spans, the only ones filtered. Otherwise
+ * span is untouched. */
 static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
                                 uint32_t tri_count, sv_eval_draw_fn draw, void *user, uint32_t v,
                                 sv_eval_image *out, uint32_t *span, sv_error *err)
@@ -616,8 +644,10 @@ static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uin
     bool fused = st == SV_OK && e->ftmp && color.channels == 4 && color.bits == 8 && color.data &&
                  color.width == e->base && color.height == e->base;
     if (fused && e->tile) {
-        render_spans(&color, e->tile, e->tiles, span);
-        filter_cropped(e, &color, e->depth, span, out);
+        uint32_t *now = e->span + 6 * (size_t)e->tiles;
+        render_spans(&color, e->tile, e->tiles, now);
+        filter_cropped(e, &color, e->depth, span, now, out);
+        memcpy(span, now, 2 * (size_t)e->tiles * sizeof *span);
         s0 = e->size_count;
     } else if (fused) {
         filter_render(&color, e->depth, &out[0], e->ftmp); /* the largest size, fused */
@@ -732,7 +762,7 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
     if (e->tile) {
         size_t per = 2 * (size_t)e->tiles;
         e->orig_span = sv_calloc(e->view_count, per * sizeof *e->orig_span);
-        e->span = sv_calloc(3, per * sizeof *e->span);
+        e->span = sv_calloc(4, per * sizeof *e->span);
         if (!e->orig_span || !e->span) {
             st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
             goto out;
@@ -787,8 +817,10 @@ static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
                        "evaluate: view %u: subset callback gave %u subsets with weights summing "
                        "to %g (need 1..%d, non-negative, sum 1)", v, count, wsum,
                        SV_EVAL_MAX_SUBSETS);
-    for (uint32_t s = 0; s < e->size_count; s++) image_zero(&acc[s]);
     uint32_t *sspan = e->tile ? e->span + 2 * (size_t)e->tiles : NULL;
+    for (uint32_t s = 0; s < e->size_count; s++)
+        if (!e->tile) image_zero(&acc[s]);
+        else zero_held(&acc[s], e->tiles, tile_side(e, acc[s].width), span, NULL);
     if (e->tile) spans_empty(e->tiles, span);
     for (uint32_t k = 0; k < count; k++) {
         if (sub[k].weight == 0) continue;
