@@ -579,8 +579,8 @@ void sv_evaluator_destroy(sv_evaluator *e)
     free(e);
 }
 
-/* The tile rows of out (a size of the evaluator) that hold its rows
- * [t·ts, (t+1)·ts): ts is the tile side in that size's pixels. */
+/* A tile's side in the pixels of the evaluator's size `width`: tile row t
+ * holds that size's rows [t·ts, (t+1)·ts). */
 static uint32_t tile_side(const sv_evaluator *e, uint32_t width)
 {
     return e->tile / (e->base / width);
