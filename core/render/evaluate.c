@@ -33,6 +33,19 @@ struct sv_evaluator {
     float *depth;                      /* scratch: base × base depth buffer */
     sv_eval_image tmp[SV_EVAL_MAX_SIZES]; /* scratch: one subset, per size */
     double *ftmp;                      /* scratch: the fused filter's rows (filter_render) */
+    int src[SV_EVAL_MAX_SIZES];        /* size s > 0 is filtered from size src[s]; -1: from full */
+    /* Cropping (issue 20): most of a view is background, which filters to
+     * exact zeros. When every size is filtered by integer factors (the fused
+     * filter for the largest, then size from size), the base image is cut
+     * into tiles of `tile` × `tile` pixels, tile the lcm of the factors, so
+     * each filtered pixel of every size lies in one tile; only the tiles of a
+     * row between its first and last covered one are filtered and compared.
+     * tile 0: sizes that do not divide, every pixel is processed. */
+    uint32_t tile, tiles;              /* tile side in base pixels; tiles per side */
+    uint32_t *orig_span;               /* view_count × 2·tiles: the original's spans (lo, hi) */
+    uint32_t *span;                    /* scratch 4 × 2·tiles: where the result's images (acc)
+                                          and one subset's (tmp) may be non-zero, the union of
+                                          a result's and the original's, a new render's */
 };
 
 /* ---- view placement and cameras ----------------------------------------- */
@@ -191,6 +204,39 @@ static void box1d_free(box1d *b)
     free(b->w);
 }
 
+/* The integer-ratio box filter of filter_plane over output rows [y0, y1) and
+ * columns [x0, x1) only: src W wide, dst w wide, factors fx, fy, tap weights
+ * wx, wy (box1d's ov/s = 1/f). Each output pixel gets the products and sums
+ * of the whole-image filter, in the same order; tmp (w × H × ch doubles) is
+ * indexed as there. */
+static void filter_plane_rect(const float *src, uint32_t W, float *dst, uint32_t w, uint32_t ch,
+                              uint32_t fx, uint32_t fy, double wx, double wy, double *tmp,
+                              uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
+{
+    for (uint32_t y = y0 * fy; y < y1 * fy; y++) {
+        const float *row = src + (size_t)y * W * ch;
+        double *out = tmp + (size_t)y * w * ch;
+        for (uint32_t x = x0; x < x1; x++) {
+            const float *p = row + (size_t)x * fx * ch;
+            for (uint32_t c = 0; c < ch; c++) {
+                double acc = 0;
+                for (uint32_t k = 0; k < fx; k++) acc += wx * p[(size_t)k * ch + c];
+                out[(size_t)x * ch + c] = acc;
+            }
+        }
+    }
+    size_t rowlen = (size_t)w * ch;
+    for (uint32_t y = y0; y < y1; y++) {
+        const double *t = tmp + (size_t)y * fy * rowlen;
+        float *d = dst + (size_t)y * rowlen;
+        for (size_t i = (size_t)x0 * ch; i < (size_t)x1 * ch; i++) {
+            double acc = 0;
+            for (uint32_t k = 0; k < fy; k++) acc += wy * t[(size_t)k * rowlen + i];
+            d[i] = (float)acc;
+        }
+    }
+}
+
 /* Filters one plane with `ch` interleaved channels: src W×H → dst w×h, through
  * tmp (w×H×ch doubles). An integer ratio (the evaluator's case: 1024 → 256 →
  * 128 …) takes a loop over exactly its f taps: the same products in the same
@@ -202,30 +248,7 @@ static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, u
                          uint32_t h, uint32_t ch, const box1d *bx, const box1d *by, double *tmp)
 {
     if (W % w == 0 && H % h == 0 && W >= w && H >= h) {
-        uint32_t fx = W / w, fy = H / h;
-        const double wx = bx->w[0], wy = by->w[0];
-        for (uint32_t y = 0; y < H; y++) {
-            const float *row = src + (size_t)y * W * ch;
-            double *out = tmp + (size_t)y * w * ch;
-            for (uint32_t x = 0; x < w; x++) {
-                const float *p = row + (size_t)x * fx * ch;
-                for (uint32_t c = 0; c < ch; c++) {
-                    double acc = 0;
-                    for (uint32_t k = 0; k < fx; k++) acc += wx * p[(size_t)k * ch + c];
-                    out[(size_t)x * ch + c] = acc;
-                }
-            }
-        }
-        size_t rowlen = (size_t)w * ch;
-        for (uint32_t y = 0; y < h; y++) {
-            const double *t = tmp + (size_t)y * fy * rowlen;
-            float *d = dst + (size_t)y * rowlen;
-            for (size_t i = 0; i < rowlen; i++) {
-                double acc = 0;
-                for (uint32_t k = 0; k < fy; k++) acc += wy * t[(size_t)k * rowlen + i];
-                d[i] = (float)acc;
-            }
-        }
+        filter_plane_rect(src, W, dst, w, ch, W / w, H / h, bx->w[0], by->w[0], tmp, 0, h, 0, w);
         return;
     }
     for (uint32_t y = 0; y < H; y++) {
@@ -256,25 +279,29 @@ static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, u
 
 /* from_render_into followed by the box filter to out's size by the integer
  * factor f = W / out->width, in one pass over the render (issue 20: the float
- * image at base resolution was 20 MB written and read again per view). Every
- * channel gets the same values (a covered pixel's p/255.0f, its depth; 0
- * elsewhere) multiplied by the same weights in the same order as the two
- * steps did, so the result has the same bits. tmp: out->width × H × 5. */
-static void filter_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
-                          double *tmp)
+ * image at base resolution was 20 MB written and read again per view), over
+ * output rows [y0, y1) and columns [x0, x1) only. Every channel gets the same
+ * values (a covered pixel's p/255.0f, its depth; 0 elsewhere) multiplied by
+ * the same weights in the same order as the two steps did, so the result has
+ * the same bits. tmp: out->width × H × 5, indexed as for the whole image. */
+static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                               double *tmp, uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
 {
     uint32_t W = rgba->width, H = rgba->height, w = out->width, h = out->height;
     uint32_t fx = W / w, fy = H / h;
     const double wx = 1.0 / ((double)W / w), wy = 1.0 / ((double)H / h); /* box1d's ov/s */
     float lut[256]; /* v / 255.0f: the same float division, done 256 times, not 3 per pixel */
     for (int v = 0; v < 256; v++) lut[v] = v / 255.0f;
-    for (uint32_t y = 0; y < H; y++) {
+    for (uint32_t y = y0 * fy; y < y1 * fy; y++) {
         const uint8_t *row = (const uint8_t *)rgba->data + (size_t)y * W * 4;
         const float *drow = depth ? depth + (size_t)y * W : NULL;
         double *t = tmp + (size_t)y * w * 5;
-        for (uint32_t x = 0; x < w; x++) {
+        for (uint32_t x = x0; x < x1; x++) {
             double a = 0, r = 0, g = 0, b = 0, z = 0;
-            for (uint32_t k = 0; k < fx; k++) {
+            /* no covered sample: each sum would add wx·0.0f = +0.0 to +0.0 */
+            uint8_t any = 0;
+            for (uint32_t k = 0; k < fx; k++) any |= row[4 * ((size_t)x * fx + k) + 3];
+            for (uint32_t k = 0; any >= 128 && k < fx; k++) {
                 size_t i = (size_t)x * fx + k;
                 const uint8_t *p = row + 4 * i;
                 bool on = p[3] >= 128;
@@ -287,9 +314,9 @@ static void filter_render(const sv_image *rgba, const float *depth, sv_eval_imag
             t[5 * x] = a, t[5 * x + 1] = r, t[5 * x + 2] = g, t[5 * x + 3] = b, t[5 * x + 4] = z;
         }
     }
-    for (uint32_t y = 0; y < h; y++) {
+    for (uint32_t y = y0; y < y1; y++) {
         const double *t = tmp + (size_t)y * fy * w * 5;
-        for (uint32_t x = 0; x < w; x++) {
+        for (uint32_t x = x0; x < x1; x++) {
             double s[5] = {0, 0, 0, 0, 0};
             for (uint32_t k = 0; k < fy; k++)
                 for (int c = 0; c < 5; c++) s[c] += wy * t[((size_t)k * w + x) * 5 + c];
@@ -301,6 +328,12 @@ static void filter_render(const sv_image *rgba, const float *depth, sv_eval_imag
             out->depth[o] = (float)s[4];
         }
     }
+}
+
+static void filter_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                          double *tmp)
+{
+    filter_render_rect(rgba, depth, out, tmp, 0, out->height, 0, out->width);
 }
 
 sv_status sv_eval_image_from_render_filtered(const sv_image *rgba, const float *depth, uint32_t w,
@@ -352,6 +385,20 @@ sv_status sv_eval_image_downsample(const sv_eval_image *src, uint32_t w, uint32_
     return st;
 }
 
+/* sv_eval_image_accumulate over rows [y0, y1) and columns [x0, x1) only. */
+static void accumulate_rect(sv_eval_image *dst, const sv_eval_image *src, float wf, uint32_t y0,
+                            uint32_t y1, uint32_t x0, uint32_t x1)
+{
+    for (uint32_t y = y0; y < y1; y++) {
+        size_t row = (size_t)y * dst->width;
+        for (size_t i = row + x0; i < row + x1; i++) {
+            dst->coverage[i] += wf * src->coverage[i];
+            dst->depth[i] += wf * src->depth[i];
+        }
+        for (size_t i = 3 * (row + x0); i < 3 * (row + x1); i++) dst->color[i] += wf * src->color[i];
+    }
+}
+
 void sv_eval_image_accumulate(sv_eval_image *dst, const sv_eval_image *src, double weight)
 {
     size_t n = (size_t)dst->width * dst->height;
@@ -363,32 +410,140 @@ void sv_eval_image_accumulate(sv_eval_image *dst, const sv_eval_image *src, doub
     for (size_t i = 0; i < 3 * n; i++) dst->color[i] += wf * src->color[i];
 }
 
-sv_eval_metrics sv_eval_compare(const sv_eval_image *a, const sv_eval_image *b, double radius)
+/* The running sums of sv_eval_compare. */
+typedef struct compare_sums {
+    double smin, smax, cerr, dsum;
+    size_t covered;
+} compare_sums;
+
+/* Adds the pixels of rows [y0, y1), columns [x0, x1) to the sums, row by row. */
+static void compare_rect(const sv_eval_image *a, const sv_eval_image *b, compare_sums *cs,
+                         uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
 {
-    size_t n = (size_t)a->width * a->height;
-    double smin = 0, smax = 0, cerr = 0, dsum = 0;
-    size_t covered = 0;
-    for (size_t i = 0; i < n; i++) {
-        double ca = a->coverage[i], cb = b->coverage[i];
-        double lo = fmin(ca, cb), hi = fmax(ca, cb);
-        smin += lo;
-        smax += hi;
-        if (hi > 0) {
-            double e = 0;
-            for (int k = 0; k < 3; k++) e += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
-            cerr += e / 3.0;
-            covered++;
-        }
-        if (lo > 0) {
-            double za = a->depth[i] / ca, zb = b->depth[i] / cb;
-            dsum += lo * fabs(za - zb);
+    double smin = cs->smin, smax = cs->smax, cerr = cs->cerr, dsum = cs->dsum;
+    size_t covered = cs->covered;
+    for (uint32_t y = y0; y < y1; y++) {
+        size_t row = (size_t)y * a->width;
+        for (size_t i = row + x0; i < row + x1; i++) {
+            double ca = a->coverage[i], cb = b->coverage[i];
+            double lo = fmin(ca, cb), hi = fmax(ca, cb);
+            smin += lo;
+            smax += hi;
+            if (hi > 0) {
+                double e = 0;
+                for (int k = 0; k < 3; k++) e += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
+                cerr += e / 3.0;
+                covered++;
+            }
+            if (lo > 0) {
+                double za = a->depth[i] / ca, zb = b->depth[i] / cb;
+                dsum += lo * fabs(za - zb);
+            }
         }
     }
+    cs->smin = smin, cs->smax = smax, cs->cerr = cerr, cs->dsum = dsum;
+    cs->covered = covered;
+}
+
+static sv_eval_metrics compare_metrics(const compare_sums *cs, double radius)
+{
     sv_eval_metrics m;
-    m.iou = smax > 0 ? smin / smax : 1.0;
-    m.color_error = covered ? cerr / (double)covered : 0.0;
-    m.depth_error = smin > 0 && radius > 0 ? dsum / smin / radius : 0.0;
+    m.iou = cs->smax > 0 ? cs->smin / cs->smax : 1.0;
+    m.color_error = cs->covered ? cs->cerr / (double)cs->covered : 0.0;
+    m.depth_error = cs->smin > 0 && radius > 0 ? cs->dsum / cs->smin / radius : 0.0;
     return m;
+}
+
+sv_eval_metrics sv_eval_compare(const sv_eval_image *a, const sv_eval_image *b, double radius)
+{
+    compare_sums cs = {0};
+    compare_rect(a, b, &cs, 0, a->height, 0, a->width);
+    return compare_metrics(&cs, radius);
+}
+
+/* ---- cropping to the covered tiles (issue 20) ---------------------------- */
+
+/* Spans: for each of `tiles` tile rows, the tile columns [lo[t], hi[t]) that
+ * may hold coverage; lo[t] >= hi[t] when none can. lo and hi are one array
+ * of 2·tiles, hi = lo + tiles. */
+
+/* Whether a sample of pixels [x0, x1) of an RGBA8 row is covered (alpha >=
+ * 128): the OR of whole pixels (a loop compilers vectorise), then its alpha
+ * byte, read back through memory so that byte order does not matter. */
+static bool any_covered(const uint8_t *row, uint32_t x0, uint32_t x1)
+{
+    uint32_t any = 0;
+    for (uint32_t x = x0; x < x1; x++) {
+        uint32_t px;
+        memcpy(&px, row + 4 * (size_t)x, sizeof px);
+        any |= px;
+    }
+    uint8_t b[4];
+    memcpy(b, &any, sizeof b);
+    return b[3] >= 128;
+}
+
+/* Sets the spans of a base-resolution RGBA8 render: the tiles between the
+ * first and the last covered sample (alpha >= 128) of each tile row. Scans a
+ * row only outside the span found so far, a tile at a time, so a covered
+ * image costs its margins and an empty one a single pass. */
+static void render_spans(const sv_image *rgba, uint32_t tile, uint32_t tiles, uint32_t *lo)
+{
+    uint32_t *hi = lo + tiles, W = rgba->width;
+    for (uint32_t t = 0; t < tiles; t++) {
+        uint32_t l = tiles, h = 0;
+        for (uint32_t y = t * tile; y < (t + 1) * tile; y++) {
+            const uint8_t *row = (const uint8_t *)rgba->data + (size_t)y * W * 4;
+            for (uint32_t c = 0; c < l; c++)
+                if (any_covered(row, c * tile, (c + 1) * tile)) l = c;
+            if (l >= tiles) continue; /* nothing covered yet */
+            for (uint32_t c = tiles; c > h; c--)
+                if (any_covered(row, (c - 1) * tile, c * tile)) h = c;
+        }
+        lo[t] = l, hi[t] = h;
+    }
+}
+
+static void spans_empty(uint32_t tiles, uint32_t *lo)
+{
+    for (uint32_t t = 0; t < tiles; t++) lo[t] = tiles, lo[tiles + t] = 0;
+}
+
+/* dst = the spans of either a or b (dst may be a or b). */
+static void spans_union(uint32_t tiles, const uint32_t *a, const uint32_t *b, uint32_t *dst)
+{
+    for (uint32_t t = 0; t < tiles; t++) {
+        uint32_t l = a[t] < b[t] ? a[t] : b[t];
+        uint32_t h = a[tiles + t] > b[tiles + t] ? a[tiles + t] : b[tiles + t];
+        dst[t] = l, dst[tiles + t] = h;
+    }
+}
+
+/* Zeroes columns [x0, x1) of rows [y0, y1) of img. */
+static void zero_rect(sv_eval_image *img, uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
+{
+    for (uint32_t y = y0; x0 < x1 && y < y1; y++) {
+        size_t row = (size_t)y * img->width;
+        memset(img->coverage + row + x0, 0, (x1 - x0) * sizeof(float));
+        memset(img->depth + row + x0, 0, (x1 - x0) * sizeof(float));
+        memset(img->color + 3 * (row + x0), 0, 3 * (size_t)(x1 - x0) * sizeof(float));
+    }
+}
+
+/* Zeroes the pixels of img (ts pixels per tile) inside the spans `held` (where
+ * img may be non-zero) but outside the spans `keep` (about to be written;
+ * NULL: none). */
+static void zero_held(sv_eval_image *img, uint32_t tiles, uint32_t ts, const uint32_t *held,
+                      const uint32_t *keep)
+{
+    for (uint32_t t = 0; t < tiles; t++) {
+        uint32_t a = held[t], b = held[tiles + t];
+        uint32_t c = keep ? keep[t] : b, d = keep ? keep[tiles + t] : b;
+        if (a >= b) continue;
+        if (c >= d) c = d = b; /* nothing kept: all of [a, b) */
+        zero_rect(img, t * ts, (t + 1) * ts, a * ts, (c < b ? c : b) * ts);
+        zero_rect(img, t * ts, (t + 1) * ts, (d > a ? d : a) * ts, b * ts);
+    }
 }
 
 /* ---- the evaluator ------------------------------------------------------- */
@@ -417,19 +572,67 @@ void sv_evaluator_destroy(sv_evaluator *e)
     sv_eval_image_free(&e->full);
     free(e->ftmp);
     free(e->depth);
+    free(e->orig_span);
+    free(e->span);
     free(e->orig);
     free(e->dirs);
     free(e);
+}
+
+/* A tile's side in the pixels of the evaluator's size `width`: tile row t
+ * holds that size's rows [t·ts, (t+1)·ts). */
+static uint32_t tile_side(const sv_evaluator *e, uint32_t width)
+{
+    return e->tile / (e->base / width);
+}
+
+/* Filters a render (base × base RGBA8, depth) into out[0..size_count) within
+ * the spans `span`: the fused filter for the largest size, then each size
+ * from size src[s], tile row by tile row. out is zero outside the spans
+ * `held` on entry, and outside `span` on return: only held minus span is
+ * cleared (issue 20: clearing whole images was most of the remaining memset). */
+static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *depth,
+                           const uint32_t *held, const uint32_t *span, sv_eval_image *out)
+{
+    const uint32_t *hi = span + e->tiles;
+    for (uint32_t s = 0; s < e->size_count; s++)
+        zero_held(&out[s], e->tiles, tile_side(e, out[s].width), held, span);
+    uint32_t ts = tile_side(e, out[0].width);
+    for (uint32_t t = 0; t < e->tiles; t++)
+        if (span[t] < hi[t])
+            filter_render_rect(color, depth, &out[0], e->ftmp, t * ts, (t + 1) * ts, span[t] * ts,
+                               hi[t] * ts);
+    for (uint32_t s = 1; s < e->size_count; s++) {
+        const sv_eval_image *src = &out[e->src[s]];
+        sv_eval_image *dst = &out[s];
+        uint32_t W = src->width, w = dst->width, f = W / w;
+        const double wf = 1.0 / ((double)W / w); /* box1d's ov/s, as filter_plane takes it */
+        ts = tile_side(e, w);
+        for (uint32_t t = 0; t < e->tiles; t++) {
+            uint32_t y0 = t * ts, y1 = (t + 1) * ts, x0 = span[t] * ts, x1 = hi[t] * ts;
+            if (x0 >= x1) continue;
+            filter_plane_rect(src->coverage, W, dst->coverage, w, 1, f, f, wf, wf, e->ftmp, y0, y1,
+                              x0, x1);
+            filter_plane_rect(src->color, W, dst->color, w, 3, f, f, wf, wf, e->ftmp, y0, y1, x0,
+                              x1);
+            filter_plane_rect(src->depth, W, dst->depth, w, 1, f, f, wf, wf, e->ftmp, y0, y1, x0,
+                              x1);
+        }
+    }
 }
 
 /* Renders triangles tris of g from view v at base resolution and filters the
  * render to every size into out[0..size_count). A box filter by an integer
  * factor of a box filter by an integer factor is the box filter by their
  * product, so each size is filtered from the smallest larger image it divides
- * (exact, and much cheaper than filtering the base image every time). */
+ * (exact, and much cheaper than filtering the base image every time).
+ * When the evaluator crops (e->tile), span (2·tiles) says where out may be
+ * non-zero: on entry, from its last render (or empty for zeroed images); on
+ * return, the new render's covered spans, the only ones filtered. Otherwise
+ * span is untouched. */
 static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
                                 uint32_t tri_count, sv_eval_draw_fn draw, void *user, uint32_t v,
-                                sv_eval_image *out, sv_error *err)
+                                sv_eval_image *out, uint32_t *span, sv_error *err)
 {
     sv_camera cam;
     sv_eval_camera(e->centre, e->radius, &e->dirs[3 * (size_t)v], &cam);
@@ -438,30 +641,66 @@ static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uin
                         : sv_render(e->r, g, tris, tri_count, &cam, &e->ropt, e->base, e->base,
                                     &color, e->depth, err);
     uint32_t s0 = 0;
-    if (st == SV_OK && e->ftmp && color.channels == 4 && color.bits == 8 && color.data &&
-        color.width == e->base && color.height == e->base) {
+    bool fused = st == SV_OK && e->ftmp && color.channels == 4 && color.bits == 8 && color.data &&
+                 color.width == e->base && color.height == e->base;
+    if (fused && e->tile) {
+        uint32_t *now = e->span + 6 * (size_t)e->tiles;
+        render_spans(&color, e->tile, e->tiles, now);
+        filter_cropped(e, &color, e->depth, span, now, out);
+        memcpy(span, now, 2 * (size_t)e->tiles * sizeof *span);
+        s0 = e->size_count;
+    } else if (fused) {
         filter_render(&color, e->depth, &out[0], e->ftmp); /* the largest size, fused */
         s0 = 1;
     } else if (st == SV_OK) {
         st = from_render_into(&color, e->depth, &e->full, err);
     }
-    for (uint32_t s = s0; st == SV_OK && s < e->size_count; s++) {
-        const sv_eval_image *src = &e->full;
-        for (uint32_t p = s; p-- > 0;)
-            if (e->base % out[p].width == 0 && out[p].width % e->sizes[s] == 0) {
-                src = &out[p];
-                break;
-            }
-        st = downsample_into(src, &out[s], err);
-    }
+    for (uint32_t s = s0; st == SV_OK && s < e->size_count; s++)
+        st = downsample_into(s && e->src[s] >= 0 ? &out[e->src[s]] : &e->full, &out[s], err);
     sv_image_free(&color);
     return st;
 }
 
 static sv_status render_view(sv_evaluator *e, const sv_gpu_mesh *g, const uint32_t *tris,
-                             uint32_t tri_count, uint32_t v, sv_eval_image *out, sv_error *err)
+                             uint32_t tri_count, uint32_t v, sv_eval_image *out, uint32_t *span,
+                             sv_error *err)
 {
-    return render_view_by(e, g, tris, tri_count, NULL, NULL, v, out, err);
+    return render_view_by(e, g, tris, tri_count, NULL, NULL, v, out, span, err);
+}
+
+static uint32_t gcd_u32(uint32_t a, uint32_t b)
+{
+    while (b) {
+        uint32_t t = a % b;
+        a = b, b = t;
+    }
+    return a;
+}
+
+/* Chooses each size's source (the smallest larger size it divides that
+ * divides the base, else the base image) and whether the evaluator crops:
+ * only when the largest size divides the base (the fused filter) and every
+ * other size has a source, so that every filter is by an integer factor. */
+static void plan_filters(sv_evaluator *e)
+{
+    bool crop = e->base % e->sizes[0] == 0;
+    uint32_t tile = crop ? e->base / e->sizes[0] : 0;
+    e->src[0] = -1;
+    for (uint32_t s = 1; s < e->size_count; s++) {
+        e->src[s] = -1;
+        for (uint32_t p = s; p-- > 0;)
+            if (e->base % e->sizes[p] == 0 && e->sizes[p] % e->sizes[s] == 0) {
+                e->src[s] = (int)p;
+                break;
+            }
+        if (e->src[s] < 0) crop = false;
+        else if (crop) {
+            uint32_t f = e->base / e->sizes[s]; /* divides the base: so does the lcm */
+            tile = tile / gcd_u32(tile, f) * f;
+        }
+    }
+    e->tile = crop ? tile : 0;
+    e->tiles = crop ? e->base / tile : 0;
 }
 
 static int cmp_desc(const void *a, const void *b)
@@ -519,6 +758,16 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
         goto out;
     }
     sv_eval_place_views(o.viewer, e->view_count, e->dirs);
+    plan_filters(e);
+    if (e->tile) {
+        size_t per = 2 * (size_t)e->tiles;
+        e->orig_span = sv_calloc(e->view_count, per * sizeof *e->orig_span);
+        e->span = sv_calloc(4, per * sizeof *e->span);
+        if (!e->orig_span || !e->span) {
+            st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+            goto out;
+        }
+    }
     if (e->base % e->sizes[0] == 0) { /* the fused filter's rows; else the float image */
         size_t nt;
         if (sv_mul_size((size_t)e->sizes[0] * 5, e->base, &nt))
@@ -537,7 +786,8 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
         for (uint32_t s = 0; s < e->size_count; s++)
             if ((st = sv_eval_image_alloc(&row[s], e->sizes[s], e->sizes[s], err)) != SV_OK)
                 goto out;
-        if ((st = render_view(e, g, NULL, 0, v, row, err)) != SV_OK) goto out;
+        uint32_t *span = e->tile ? &e->orig_span[(size_t)v * 2 * e->tiles] : NULL;
+        if ((st = render_view(e, g, NULL, 0, v, row, span, err)) != SV_OK) goto out;
     }
 out:
     if (st != SV_OK) sv_evaluator_destroy(e);
@@ -545,11 +795,13 @@ out:
     return st;
 }
 
-/* Renders the result from view v (blending subsets) into acc[0..size_count). */
+/* Renders the result from view v (blending subsets) into acc[0..size_count);
+ * when the evaluator crops, span receives where acc may be covered. */
 static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
-                               void *user, uint32_t v, sv_eval_image *acc, sv_error *err)
+                               void *user, uint32_t v, sv_eval_image *acc, uint32_t *span,
+                               sv_error *err)
 {
-    if (!fn) return render_view(e, result, NULL, 0, v, acc, err);
+    if (!fn) return render_view(e, result, NULL, 0, v, acc, span, err);
     sv_eval_subset sub[SV_EVAL_MAX_SUBSETS];
     memset(sub, 0, sizeof sub);
     uint32_t count = 0;
@@ -565,14 +817,31 @@ static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
                        "evaluate: view %u: subset callback gave %u subsets with weights summing "
                        "to %g (need 1..%d, non-negative, sum 1)", v, count, wsum,
                        SV_EVAL_MAX_SUBSETS);
-    for (uint32_t s = 0; s < e->size_count; s++) image_zero(&acc[s]);
+    uint32_t *sspan = e->tile ? e->span + 2 * (size_t)e->tiles : NULL;
+    for (uint32_t s = 0; s < e->size_count; s++)
+        if (!e->tile) image_zero(&acc[s]);
+        else zero_held(&acc[s], e->tiles, tile_side(e, acc[s].width), span, NULL);
+    if (e->tile) spans_empty(e->tiles, span);
     for (uint32_t k = 0; k < count; k++) {
         if (sub[k].weight == 0) continue;
         if (sub[k].tris && sub[k].tri_count == 0) continue; /* an empty subset draws nothing */
-        if ((st = render_view(e, result, sub[k].tris, sub[k].tri_count, v, e->tmp, err)) != SV_OK)
+        if ((st = render_view(e, result, sub[k].tris, sub[k].tri_count, v, e->tmp, sspan,
+                              err)) != SV_OK)
             return st;
-        for (uint32_t s = 0; s < e->size_count; s++)
-            sv_eval_image_accumulate(&acc[s], &e->tmp[s], sub[k].weight);
+        if (!e->tile) {
+            for (uint32_t s = 0; s < e->size_count; s++)
+                sv_eval_image_accumulate(&acc[s], &e->tmp[s], sub[k].weight);
+            continue;
+        }
+        /* outside its spans the subset is +0.0: acc + weight·0 is acc */
+        for (uint32_t s = 0; s < e->size_count; s++) {
+            uint32_t ts = tile_side(e, acc[s].width);
+            for (uint32_t t = 0; t < e->tiles; t++)
+                if (sspan[t] < sspan[e->tiles + t])
+                    accumulate_rect(&acc[s], &e->tmp[s], (float)sub[k].weight, t * ts,
+                                    (t + 1) * ts, sspan[t] * ts, sspan[e->tiles + t] * ts);
+        }
+        spans_union(e->tiles, span, sspan, span);
     }
     return SV_OK;
 }
@@ -627,13 +896,24 @@ static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
         out->sizes[s].pixels = e->sizes[s];
         out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
     }
+    uint32_t *span = e->span, *both = e->tile ? e->span + 4 * (size_t)e->tiles : NULL;
     for (uint32_t v = 0; v < e->view_count; v++) {
-        st = draw ? render_view_by(e, NULL, NULL, 0, draw, user, v, acc, err)
-                  : render_result(e, result, fn, user, v, acc, err);
+        st = draw ? render_view_by(e, NULL, NULL, 0, draw, user, v, acc, span, err)
+                  : render_result(e, result, fn, user, v, acc, span, err);
         if (st != SV_OK) goto out;
+        /* Where neither image is covered both are +0.0, which adds exactly
+         * nothing to any sum of sv_eval_compare: only the union's spans are
+         * visited, in the same row-major order. */
+        if (e->tile) spans_union(e->tiles, span, &e->orig_span[(size_t)v * 2 * e->tiles], both);
         for (uint32_t s = 0; s < e->size_count; s++) {
-            sv_eval_metrics m =
-                sv_eval_compare(&e->orig[(size_t)v * e->size_count + s], &acc[s], e->radius);
+            const sv_eval_image *o = &e->orig[(size_t)v * e->size_count + s];
+            compare_sums cs = {0};
+            if (!e->tile) compare_rect(o, &acc[s], &cs, 0, o->height, 0, o->width);
+            for (uint32_t t = 0, ts = e->tile ? tile_side(e, o->width) : 0; t < e->tiles; t++)
+                if (both[t] < both[e->tiles + t])
+                    compare_rect(o, &acc[s], &cs, t * ts, (t + 1) * ts, both[t] * ts,
+                                 both[e->tiles + t] * ts);
+            sv_eval_metrics m = compare_metrics(&cs, e->radius);
             out->per_view[(size_t)v * e->size_count + s] = m;
             sv_eval_size *z = &out->sizes[s];
             z->mean.iou += m.iou / e->view_count;
@@ -726,7 +1006,7 @@ sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result,
     if (st == SV_OK) st = alloc_sizes(e, acc, err);
     for (uint32_t row = 0; st == SV_OK && row < rows; row++) {
         uint32_t v = (uint32_t)((uint64_t)row * e->view_count / rows);
-        if ((st = render_result(e, result, fn, user, v, acc, err)) != SV_OK) break;
+        if ((st = render_result(e, result, fn, user, v, acc, e->span, err)) != SV_OK) break;
         const sv_eval_image *o = &e->orig[(size_t)v * e->size_count];
         paint_tile(&canvas, o, 0, row * t);
         paint_tile(&canvas, &acc[0], t, row * t);

@@ -49,6 +49,7 @@ struct sv_renderer {
     GLuint fbo, rb_color, rb_depth;
     uint32_t fb_w, fb_h;       /* allocated size of the renderbuffers */
     GLuint ibo;                /* per-call index buffer (subset draws) */
+    bool pack_invert;          /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
 };
 
 struct sv_gpu_mesh {
@@ -232,6 +233,16 @@ sv_status sv_renderer_create(uint32_t max_size, sv_renderer **out, sv_error *err
     glDepthFunc(GL_LESS);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    /* Read-backs in sylva's row order (row 0 at the top) straight from GL
+     * when Mesa offers it: no row flip, no staging buffer for depth (issue 20:
+     * the evaluator reads back two 512² images per view). Same bytes. */
+    GLint next = 0;
+    glGetIntegerv(GL_NUM_EXTENSIONS, &next);
+    for (GLint i = 0; i < next && !r->pack_invert; i++) {
+        const GLubyte *name = glGetStringi(GL_EXTENSIONS, (GLuint)i);
+        r->pack_invert = name && strcmp((const char *)name, "GL_MESA_pack_invert") == 0;
+    }
+    if (r->pack_invert) glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
     st = gl_check(err, "renderer setup");
     if (st != SV_OK) {
         sv_renderer_destroy(r);
@@ -581,14 +592,15 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
             return st;
         uint8_t *px = color->data;
         glReadPixels(0, 0, (GLsizei)width, (GLsizei)height, GL_RGBA, GL_UNSIGNED_BYTE, px);
-        /* GL's row 0 is the bottom: flip so row 0 is the top. */
+        /* GL's row 0 is the bottom: flip so row 0 is the top (unless
+         * GL_MESA_pack_invert already did). */
         size_t stride = (size_t)width * 4;
-        uint8_t *tmp = malloc(stride);
-        if (!tmp) {
+        uint8_t *tmp = r->pack_invert ? NULL : malloc(stride);
+        if (!r->pack_invert && !tmp) {
             sv_image_free(color);
             return sv_fail(err, SV_ERR_NOMEM, "render: out of memory");
         }
-        for (uint32_t y = 0; y < height / 2; y++) {
+        for (uint32_t y = 0; tmp && y < height / 2; y++) {
             uint8_t *a = px + y * stride, *b = px + (height - 1 - y) * stride;
             memcpy(tmp, a, stride);
             memcpy(a, b, stride);
@@ -597,20 +609,21 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
         free(tmp);
     }
     if (depth) {
-        float *zb = malloc(npx * sizeof(float));
-        if (!zb) {
+        /* window depth in [0, 1] -> distance along forward; 1 (cleared) = nothing drawn */
+        double span = farv - nearv;
+        float *zb = depth; /* top row first: convert in place */
+        if (!r->pack_invert && !(zb = malloc(npx * sizeof(float)))) {
             if (color) sv_image_free(color);
             return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for depth");
         }
         glReadPixels(0, 0, (GLsizei)width, (GLsizei)height, GL_DEPTH_COMPONENT, GL_FLOAT, zb);
-        double span = farv - nearv;
         for (uint32_t y = 0; y < height; y++) {
-            const float *src = zb + (size_t)(height - 1 - y) * width;
+            const float *src = zb + (size_t)(r->pack_invert ? y : height - 1 - y) * width;
             float *dst = depth + (size_t)y * width;
             for (uint32_t x = 0; x < width; x++)
                 dst[x] = src[x] >= 1.0f ? INFINITY : (float)(nearv + (double)src[x] * span);
         }
-        free(zb);
+        if (zb != depth) free(zb);
     }
     st = gl_check(err, "read back");
     if (st != SV_OK && color)

@@ -709,6 +709,232 @@ static void preview_shows_original_result_and_heat_for_four_views(void **state)
     sv_mesh_destroy(moved);
 }
 
+/* ---- cropping (issue 20): the evaluator filters and compares only the tiles
+ * of each row between its first and last covered one, and must give the bits
+ * of the whole-image path. The reference below is that path through the
+ * public functions: the render filtered to the largest size in one pass, each
+ * smaller size from the smallest larger size it divides, sv_eval_compare. */
+
+static void full_path_images(const sv_image *rgba, const float *depth, const sv_eval_options *o,
+                             sv_eval_image *out)
+{
+    assert_int_equal(sv_eval_image_from_render_filtered(rgba, depth, o->sizes[0], o->sizes[0],
+                                                        &out[0], NULL), SV_OK);
+    for (uint32_t s = 1; s < o->size_count; s++) {
+        uint32_t p = s;
+        while (p-- > 0 && o->sizes[p] % o->sizes[s] != 0) {}
+        assert_true(p < s);
+        assert_int_equal(sv_eval_image_downsample(&out[p], o->sizes[s], o->sizes[s], &out[s], NULL),
+                         SV_OK);
+    }
+}
+
+static void free_images(sv_eval_image *imgs, uint32_t n)
+{
+    for (uint32_t s = 0; s < n; s++) sv_eval_image_free(&imgs[s]);
+}
+
+/* The original's images of view v, the whole-image way. */
+static void original_images(sv_renderer *r, const sv_mesh *m, const sv_gpu_mesh *g,
+                            const sv_evaluator *e, const sv_eval_options *o, uint32_t v,
+                            sv_eval_image *out)
+{
+    uint32_t base = o->sizes[0] * o->supersample;
+    double c[3], rad, dir[3];
+    sv_mesh_frame_sphere(m, c, &rad);
+    sv_evaluator_view_dir(e, v, dir);
+    sv_camera cam;
+    sv_eval_camera(c, rad, dir, &cam);
+    sv_image img = {0};
+    float *depth = malloc((size_t)base * base * sizeof *depth);
+    assert_non_null(depth);
+    assert_int_equal(sv_render(r, g, NULL, 0, &cam, NULL, base, base, &img, depth, NULL), SV_OK);
+    full_path_images(&img, depth, o, out);
+    sv_image_free(&img);
+    free(depth);
+}
+
+/* Drawn stand-ins that test the crop's edges: nothing covered (alpha < 128
+ * everywhere, colours and depths that must be ignored), a few samples in one
+ * corner (a different corner per view, touching the image's edges, one of
+ * them at infinite depth), and noise with coverage everywhere. */
+enum { DRAW_EMPTY, DRAW_CORNER, DRAW_NOISE };
+typedef struct pattern {
+    int kind;
+    uint32_t view; /* the view the next call draws */
+} pattern;
+
+static void paint_pattern(int kind, uint32_t view, uint32_t w, uint32_t h, uint8_t *px,
+                          float *depth)
+{
+    uint32_t s = 977 * view + 31 * (uint32_t)kind + 1;
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        for (int c = 0; c < 4; c++) {
+            s = s * 1103515245u + 12345u;
+            px[4 * i + c] = (uint8_t)(s >> 16);
+        }
+        if (kind != DRAW_NOISE) px[4 * i + 3] &= 127;
+        s = s * 1103515245u + 12345u;
+        depth[i] = kind == DRAW_NOISE && (s >> 8) % 13 == 0 ? INFINITY
+                                                            : (float)((s >> 8) % 1000) / 300.0f - 1.5f;
+    }
+    if (kind != DRAW_CORNER) return;
+    uint32_t x0 = view % 2 ? w - 3 : 0, y0 = (view / 2) % 2 ? h - 2 : 0;
+    for (uint32_t y = y0; y < y0 + 2; y++)
+        for (uint32_t x = x0; x < x0 + 3; x++) px[4 * ((size_t)y * w + x) + 3] |= 128;
+    depth[(size_t)y0 * w + x0] = INFINITY;
+}
+
+static sv_status draw_pattern(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
+                              sv_image *color, float *depth, sv_error *err)
+{
+    (void)cam;
+    pattern *p = user;
+    sv_status st = sv_image_alloc(color, w, h, 4, 8, err);
+    if (st == SV_OK) paint_pattern(p->kind, p->view++, w, h, color->data, depth);
+    return st;
+}
+
+static void assert_same_metrics(const sv_eval_metrics *got, const sv_eval_metrics *want,
+                                uint32_t v, uint32_t s)
+{
+    if (memcmp(got, want, sizeof *got) != 0)
+        fail_msg("view %u size %u: cropped (%.17g %.17g %.17g) != whole (%.17g %.17g %.17g)", v, s,
+                 got->iou, got->color_error, got->depth_error, want->iou, want->color_error,
+                 want->depth_error);
+}
+
+static void cropped_evaluation_of_drawn_images_has_the_bits_of_the_whole_image_path(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *tree = tree_mesh(300, zero);
+    /* a zero-area triangle: an original that covers no pixel in any view */
+    sv_mesh *flat = sv_mesh_create(3, 1, 1, 0);
+    assert_non_null(flat);
+    const float line[9] = {0, 0, 0, 1, 1, 0, 2, 2, 0};
+    memcpy(flat->positions, line, sizeof line);
+    flat->indices[0] = 0, flat->indices[1] = 1, flat->indices[2] = 2;
+    sv_mesh_compute_normals(flat);
+    const sv_mesh *originals[2] = {tree, flat};
+    /* tiles of 8 base pixels ({64, 32, 16}), of lcm(2, 4, 6) = 12 ({96, 48, 32}:
+     * 32 is filtered from 96, not from 48) */
+    const sv_eval_options opts[2] = {
+        {.view_count = 4, .sizes = {64, 32, 16}, .size_count = 3, .supersample = 2},
+        {.view_count = 4, .sizes = {96, 48, 32}, .size_count = 3, .supersample = 2},
+    };
+    for (int mi = 0; mi < 2; mi++) {
+        sv_gpu_mesh *g = upload(r, originals[mi]);
+        for (int oi = 0; oi < 2; oi++) {
+            const sv_eval_options *o = &opts[oi];
+            uint32_t base = o->sizes[0] * o->supersample, n = o->size_count;
+            sv_evaluator *e = NULL;
+            sv_error err = {0};
+            assert_int_equal(sv_evaluator_create(r, originals[mi], g, o, &e, &err), SV_OK);
+            for (int kind = DRAW_EMPTY; kind <= DRAW_NOISE; kind++) {
+                pattern p = {kind, 0};
+                sv_eval_result res;
+                assert_int_equal(sv_evaluate_drawn(e, draw_pattern, &p, &res, &err), SV_OK);
+                assert_int_equal(p.view, o->view_count);
+                for (uint32_t v = 0; v < o->view_count; v++) {
+                    sv_eval_image want_o[SV_EVAL_MAX_SIZES], want_r[SV_EVAL_MAX_SIZES];
+                    original_images(r, originals[mi], g, e, o, v, want_o);
+                    sv_image img = {0};
+                    float *depth = malloc((size_t)base * base * sizeof *depth);
+                    assert_non_null(depth);
+                    p.view = v;
+                    assert_int_equal(draw_pattern(&p, NULL, base, base, &img, depth, NULL), SV_OK);
+                    full_path_images(&img, depth, o, want_r);
+                    double c[3], rad;
+                    sv_mesh_frame_sphere(originals[mi], c, &rad);
+                    if (!(rad > 0)) rad = 1.0;
+                    for (uint32_t s = 0; s < n; s++) {
+                        sv_eval_metrics want = sv_eval_compare(&want_o[s], &want_r[s], rad);
+                        assert_same_metrics(&res.per_view[(size_t)v * n + s], &want, v, s);
+                    }
+                    if (mi == 1) /* nothing to compare with: IoU 1 only when nothing is drawn */
+                        assert_true(res.per_view[(size_t)v * n].iou == (kind == DRAW_EMPTY ? 1.0 : 0.0));
+                    free_images(want_o, n);
+                    free_images(want_r, n);
+                    sv_image_free(&img);
+                    free(depth);
+                }
+                sv_eval_result_free(&res);
+            }
+            sv_evaluator_destroy(e);
+        }
+        sv_gpu_mesh_free(g);
+    }
+    sv_mesh_destroy(tree);
+    sv_mesh_destroy(flat);
+}
+
+/* The same for a blend of two renders (sv_evaluate_subsets): each subset is
+ * cropped on its own and accumulated into the blend within its tiles. */
+static void cropped_blend_of_subsets_has_the_bits_of_the_whole_image_path(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0}, side[3] = {0.6, -0.4, 0};
+    sv_mesh *m = tree_mesh(300, zero), *moved = tree_mesh(150, side);
+    sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
+    const sv_eval_options o = {.view_count = 4, .sizes = {64, 32, 16}, .size_count = 3,
+                               .supersample = 2};
+    uint32_t base = 128, n = o.size_count;
+    sv_evaluator *e = NULL;
+    sv_error err = {0};
+    assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, &err), SV_OK);
+    /* leaves (the first 200 triangles) at 0.25, the rest (leaves and trunk) at 0.75 */
+    pick p = {.na = 200, .nb = moved->triangle_count - 200, .wa = 0.25};
+    p.a = calloc(p.na, sizeof *p.a);
+    p.b = calloc(p.nb, sizeof *p.b);
+    assert_non_null(p.a);
+    assert_non_null(p.b);
+    for (uint32_t t = 0; t < p.na; t++) p.a[t] = t;
+    for (uint32_t t = 0; t < p.nb; t++) p.b[t] = p.na + t;
+    sv_eval_result res;
+    assert_int_equal(sv_evaluate_subsets(e, gm, pick_subsets, &p, &res, &err), SV_OK);
+    double c[3], rad;
+    sv_mesh_frame_sphere(m, c, &rad);
+    float *depth = malloc((size_t)base * base * sizeof *depth);
+    assert_non_null(depth);
+    for (uint32_t v = 0; v < o.view_count; v++) {
+        sv_eval_image want_o[SV_EVAL_MAX_SIZES], acc[SV_EVAL_MAX_SIZES], one[SV_EVAL_MAX_SIZES];
+        original_images(r, m, g, e, &o, v, want_o);
+        for (uint32_t s = 0; s < n; s++)
+            assert_int_equal(sv_eval_image_alloc(&acc[s], o.sizes[s], o.sizes[s], NULL), SV_OK);
+        double dir[3];
+        sv_evaluator_view_dir(e, v, dir);
+        sv_camera cam;
+        sv_eval_camera(c, rad, dir, &cam);
+        const uint32_t *tris[2] = {p.a, p.b}, counts[2] = {p.na, p.nb};
+        const double weights[2] = {p.wa, 1.0 - p.wa};
+        for (int k = 0; k < 2; k++) {
+            sv_image img = {0};
+            assert_int_equal(sv_render(r, gm, tris[k], counts[k], &cam, NULL, base, base, &img,
+                                       depth, NULL), SV_OK);
+            full_path_images(&img, depth, &o, one);
+            for (uint32_t s = 0; s < n; s++) sv_eval_image_accumulate(&acc[s], &one[s], weights[k]);
+            free_images(one, n);
+            sv_image_free(&img);
+        }
+        for (uint32_t s = 0; s < n; s++) {
+            sv_eval_metrics want = sv_eval_compare(&want_o[s], &acc[s], rad);
+            assert_same_metrics(&res.per_view[(size_t)v * n + s], &want, v, s);
+        }
+        free_images(want_o, n);
+        free_images(acc, n);
+    }
+    free(depth);
+    sv_eval_result_free(&res);
+    free(p.a);
+    free(p.b);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gm);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(moved);
+}
+
 static void bad_options_and_empty_meshes_are_refused(void **state)
 {
     sv_renderer *r = need_renderer(state);
@@ -757,6 +983,8 @@ int main(void)
         cmocka_unit_test(subset_callback_blends_two_renders_by_weight),
         cmocka_unit_test(preview_shows_original_result_and_heat_for_four_views),
         cmocka_unit_test(bad_options_and_empty_meshes_are_refused),
+        cmocka_unit_test(cropped_evaluation_of_drawn_images_has_the_bits_of_the_whole_image_path),
+        cmocka_unit_test(cropped_blend_of_subsets_has_the_bits_of_the_whole_image_path),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, setup, teardown));
 }
