@@ -34,6 +34,7 @@ struct sv_evaluator {
     sv_eval_image tmp[SV_EVAL_MAX_SIZES]; /* scratch: one subset, per size */
     double *ftmp;                      /* scratch: the fused filter's rows (filter_render) */
     int src[SV_EVAL_MAX_SIZES];        /* size s > 0 is filtered from size src[s]; -1: from full */
+    bool need_full;                    /* some size is filtered from full: it is filled every render */
     /* Cropping (issue 20): most of a view is background, which filters to
      * exact zeros. When every size is filtered by integer factors (the fused
      * filter for the largest, then size from size), the base image is cut
@@ -652,6 +653,8 @@ static sv_status render_view_by(sv_evaluator *e, const sv_gpu_mesh *g, const uin
     } else if (fused) {
         filter_render(&color, e->depth, &out[0], e->ftmp); /* the largest size, fused */
         s0 = 1;
+        /* a size that divides no larger one is filtered from the render itself */
+        if (e->need_full) st = from_render_into(&color, e->depth, &e->full, err);
     } else if (st == SV_OK) {
         st = from_render_into(&color, e->depth, &e->full, err);
     }
@@ -773,7 +776,9 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
         if (sv_mul_size((size_t)e->sizes[0] * 5, e->base, &nt))
             e->ftmp = sv_calloc(nt, sizeof *e->ftmp);
     }
-    if (!e->ftmp && (st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
+    e->need_full = !e->ftmp;
+    for (uint32_t s = 1; s < e->size_count; s++) e->need_full |= e->src[s] < 0;
+    if (e->need_full && (st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
     if (!(e->depth = sv_calloc((size_t)e->base * e->base, sizeof *e->depth))) {
         st = sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a depth buffer");
         goto out;

@@ -538,6 +538,39 @@ static void result_moved_away_scores_a_clearly_worse_iou(void **state)
     sv_mesh_destroy(moved);
 }
 
+/* A size that divides no larger one (64 under 96) is filtered from the render
+ * itself: it was once filtered from a float image never filled, all zeros on
+ * both sides, IoU 1 whatever the candidate. */
+static void a_size_dividing_no_larger_one_is_measured_too(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0}, away[3] = {0.8, 0.3, -0.5};
+    sv_mesh *m = tree_mesh(2000, zero), *moved = tree_mesh(2000, away);
+    sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
+    sv_eval_options o = {.viewer = SV_VIEWER_ORBIT, .view_count = 6, .size_count = 2,
+                         .sizes = {96, 64}};
+    sv_evaluator *e = NULL;
+    sv_error err = {0};
+    if (sv_evaluator_create(r, m, g, &o, &e, &err) != SV_OK) fail_msg("create: %s", err.message);
+    sv_eval_result self = run(e, g), res = run(e, gm);
+    assert_int_equal(res.size_count, 2);
+    for (uint32_t s = 0; s < 2; s++) {
+        print_message("96/64: %3u px IoU self %.3f moved %.3f\n", res.sizes[s].pixels,
+                      self.sizes[s].mean.iou, res.sizes[s].mean.iou);
+        assert_float_equal(self.sizes[s].mean.iou, 1.0, 1e-12);
+        assert_true(res.sizes[s].mean.iou < 0.7);
+    }
+    /* the two sizes see the same shapes: close figures */
+    assert_true(fabs(res.sizes[0].mean.iou - res.sizes[1].mean.iou) < 0.1);
+    sv_eval_result_free(&self);
+    sv_eval_result_free(&res);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gm);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(moved);
+}
+
 static void subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256(void **state)
 {
     sv_renderer *r = need_renderer(state);
@@ -978,6 +1011,7 @@ int main(void)
         cmocka_unit_test(scaled_max_pixels_keeps_the_error_band_in_pixels),
         cmocka_unit_test(original_against_itself_scores_iou_1_and_zero_error_at_every_size),
         cmocka_unit_test(result_moved_away_scores_a_clearly_worse_iou),
+        cmocka_unit_test(a_size_dividing_no_larger_one_is_measured_too),
         cmocka_unit_test(subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256),
         cmocka_unit_test(evaluator_places_ground_views_near_the_horizon),
         cmocka_unit_test(subset_callback_blends_two_renders_by_weight),
