@@ -23,6 +23,11 @@
 
 #include "classify.h"
 #include "eigen3.h"
+#include "parallel.h"
+
+/* Elements × planes below which an assignment step runs on one thread
+ * (creating a thread costs about as much; the bytes are the same). */
+#define PAR_MIN_WORK 16384
 
 typedef struct kp_mom {
     double w;      /* total weight (area) */
@@ -73,26 +78,53 @@ static bool mom_fit(const kp_mom *a, double n[3], double *d)
     return true;
 }
 
-/* Assigns every weighted element to its nearest foliage plane (ties: the
- * lower index); cost[e] = its mean squared distance. Returns how many
- * assignments changed. */
-static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
-                           uint32_t np, uint32_t *asg, double *cost)
+/* One assignment step over elements [lo, hi) (an sv_parallel_for chunk):
+ * writes asg[e] and cost[e] of its own elements and its count of changes. */
+typedef struct ajob {
+    const kp_mom *em;
+    const double *pn;
+    const uint8_t *fol;
+    uint32_t np;
+    uint32_t *asg;
+    double *cost;
+    uint32_t changed[SV_PARALLEL_MAX];
+} ajob;
+
+static void ajob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
 {
+    ajob *j = arg;
+    const kp_mom *em = j->em;
+    const double *pn = j->pn;
     uint32_t changed = 0;
-    for (uint32_t e = 0; e < ne; e++) {
+    for (uint32_t e = lo; e < hi; e++) {
         if (!(em[e].w > 0)) continue;
         uint32_t best = UINT32_MAX;
         double bc = INFINITY;
-        for (uint32_t k = 0; k < np; k++) {
-            if (!fol[k]) continue;
+        for (uint32_t k = 0; k < j->np; k++) {
+            if (!j->fol[k]) continue;
             double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
             if (c < bc) bc = c, best = k;
         }
-        changed += best != asg[e];
-        asg[e] = best;
-        cost[e] = bc;
+        changed += best != j->asg[e];
+        j->asg[e] = best;
+        j->cost[e] = bc;
     }
+    j->changed[t] = changed;
+}
+
+/* Assigns every weighted element to its nearest foliage plane (ties: the
+ * lower index); cost[e] = its mean squared distance. Returns how many
+ * assignments changed. Each element's choice is its own, so the elements are
+ * split between threads (parallel.h) and only the integer counts are added. */
+static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
+                           uint32_t np, uint32_t *asg, double *cost)
+{
+    ajob j = {.em = em, .pn = pn, .fol = fol, .np = np, .asg = asg, .cost = cost};
+    uint32_t thr = (uint64_t)ne * np >= PAR_MIN_WORK ? SV_PARALLEL_DEFAULT : 1;
+    uint32_t nch = sv_parallel_chunks(ne, thr);
+    sv_parallel_for(ne, thr, ajob_run, &j);
+    uint32_t changed = 0;
+    for (uint32_t t = 0; t < nch; t++) changed += j.changed[t];
     return changed;
 }
 
