@@ -1337,6 +1337,33 @@ static int vkey_cmp(const void *pa, const void *pb)
     return a->v < b->v ? -1 : a->v > b->v;
 }
 
+/* Geometry of the input elements [lo, hi) (an sv_parallel_for chunk): each
+ * group's vertex list lives in its own room of gverts (3 per triangle, at
+ * its first triangle), so no group's place depends on another's. */
+static void group_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    (void)t;
+    base *b = arg;
+    const sv_bbc_input *in = b->in;
+    for (uint32_t g = lo; g < hi; g++) {
+        elem *e = &b->groups[g];
+        e->tris = &in->elem_tris[in->elem_first[g]];
+        e->tcount = in->elem_first[g + 1] - in->elem_first[g];
+        e->group = g;
+        uint32_t *vl = &b->gverts[3 * (size_t)(in->elem_first[g] - in->elem_first[0])];
+        uint32_t nv = 0;
+        for (uint32_t k = 0; k < e->tcount; k++)
+            for (int v = 0; v < 3; v++) vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[k] + v]];
+        qsort(vl, nv, sizeof *vl, u32_cmp);
+        uint32_t u = 0;
+        for (uint32_t k = 0; k < nv; k++)
+            if (u == 0 || vl[k] != vl[u - 1]) vl[u++] = vl[k];
+        e->verts = vl;
+        e->vcount = u;
+        elem_geometry(b, b->rel, e);
+    }
+}
+
 static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options *opt,
                            sv_error *err)
 {
@@ -1457,25 +1484,8 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     b->groups = sv_calloc(in->elem_count ? in->elem_count : 1, sizeof *b->groups);
     b->gverts = sv_calloc(total_tris ? total_tris : 1, 3 * sizeof *b->gverts);
     if (!b->groups || !b->gverts) return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory");
-    size_t vpos = 0;
-    for (uint32_t g = 0; g < in->elem_count; g++) {
-        elem *e = &b->groups[g];
-        e->tris = &in->elem_tris[in->elem_first[g]];
-        e->tcount = in->elem_first[g + 1] - in->elem_first[g];
-        e->group = g;
-        uint32_t *vl = &b->gverts[vpos];
-        uint32_t nv = 0;
-        for (uint32_t t = 0; t < e->tcount; t++)
-            for (int v = 0; v < 3; v++) vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[t] + v]];
-        qsort(vl, nv, sizeof *vl, u32_cmp);
-        uint32_t u = 0;
-        for (uint32_t k = 0; k < nv; k++)
-            if (u == 0 || vl[k] != vl[u - 1]) vl[u++] = vl[k];
-        e->verts = vl;
-        e->vcount = u;
-        vpos += u;
-        elem_geometry(b, b->rel, e);
-    }
+    sv_parallel_for(in->elem_count, in->elem_count >= PAR_MIN_SCAN ? b->opt.threads : 1,
+                    group_run, b);
 
     /* The dual grid: cell-centre normals and the angular radius of each row. */
     b->nt = b->opt.grid_theta;
