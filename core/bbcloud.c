@@ -26,7 +26,9 @@
  *    bit for bit, and a rebuild is used when it is cheaper.
  *  - Columns are split between threads by index and each column sums its
  *    elements in one fixed order: no reduction order to depend on, so the
- *    result is the same for any thread count.
+ *    result is the same for any thread count. The refinement's sub-cells,
+ *    the element scans and the input elements' geometry are split the same
+ *    way (parallel.h): per-index results, picked or joined in index order.
  *  - Refinement solves ρ exactly per direction: the valid ρ of an element for
  *    direction n is [max p·n − ε, min p·n + ε]; the best ρ is a sweep over the
  *    sorted interval ends (the densest stabbing point), so only directions
