@@ -17,8 +17,9 @@
  * Speed (see docs/methods/billboard_cloud.md): the ρ-range of an element valid
  * somewhere in a (θ, φ) column is an interval in closed form, so each column
  * is a difference array over ρ bins in exact int64 fixed point; removing faces
- * subtracts their intervals (bit-identical to a rebuild); columns are split
- * between threads by index, so the result never depends on the thread count.
+ * subtracts their intervals (bit-identical to a rebuild); columns, the
+ * refinement's sub-cells and the element scans are split between threads by
+ * index (parallel.h), so the result never depends on the thread count.
  *
  * Elements: the caller groups triangles into elements (a leaf, or one trunk
  * triangle). An element is simplified as a whole; an element thicker than ε
@@ -51,7 +52,8 @@ typedef struct sv_bbc_options {
     double cardboard_coverage;   /* acceptance threshold, fraction of primary coverage (0.8) */
     uint32_t max_planes;         /* 0 = no limit; otherwise ε is raised until the primary
                                     planes fit, and cardboard planes only fill what is left */
-    uint32_t threads;            /* worker threads for the dual grid (default 2) */
+    uint32_t threads;            /* worker threads for the dual grid, the refinement and
+                                    the scans (default 2; same bytes for any) */
 } sv_bbc_options;
 
 /* Sets every field to the defaults listed above (epsilon 0). */
@@ -144,7 +146,8 @@ sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res,
  * for at most `iterations` Lloyd steps or until no element moves. Trunk and
  * cardboard planes are kept (with cardboard planes present nothing is
  * changed); emptied planes are dropped. Every triangle stays in exactly one
- * primary plane. Deterministic. */
+ * primary plane. Deterministic: its per-element steps run on
+ * SV_PARALLEL_DEFAULT threads with the same bytes as one (parallel.h). */
 sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t target_planes,
                          sv_bbc_result *res, sv_error *err);
 

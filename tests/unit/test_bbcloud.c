@@ -654,6 +654,39 @@ static void planes_are_byte_identical_across_runs_and_thread_counts(void **state
     geo_free(&g);
 }
 
+/* k-planes (bbcloud_kplanes.c) on a crown large enough for its threaded
+ * steps (assignment, moments, areas): the same bytes on every run, and every
+ * triangle still in exactly one primary plane. */
+static void kplanes_is_byte_identical_across_runs(void **state)
+{
+    (void)state;
+    geo g = {0};
+    geo_crown(&g, 11, 3000);
+    sv_bbc_input in;
+    geo_input(&g, &in);
+    sv_bbc_options o = opts(0.15 * in.radius);
+    o.max_planes = 12;
+    sv_bbc_result a, b;
+    assert_int_equal(sv_bbc_select(&in, &o, &a, NULL), SV_OK);
+    assert_int_equal(sv_bbc_select(&in, &o, &b, NULL), SV_OK);
+    assert_true(in.triangle_count >= 4096);
+    assert_int_equal(sv_bbc_kplanes(&in, 16, 24, &a, NULL), SV_OK);
+    assert_int_equal(sv_bbc_kplanes(&in, 16, 24, &b, NULL), SV_OK);
+    assert_true(a.plane_count > 12);
+    assert_true(same_result(&a, &b));
+    for (uint32_t k = 0; k < a.plane_count; k++)
+        assert_memory_equal(&a.planes[k].area, &b.planes[k].area, sizeof a.planes[k].area);
+    uint32_t *cnt = calloc(g.nt, sizeof *cnt);
+    assert_non_null(cnt);
+    for (uint32_t k = 0; k < a.plane_count; k++)
+        for (uint32_t i = 0; i < a.planes[k].count; i++) cnt[a.tris[a.planes[k].first + i]]++;
+    for (uint32_t t = 0; t < g.nt; t++) assert_int_equal(cnt[t], 1);
+    free(cnt);
+    sv_bbc_result_free(&a);
+    sv_bbc_result_free(&b);
+    geo_free(&g);
+}
+
 static void every_face_is_simplified_by_exactly_one_plane(void **state)
 {
     (void)state;
@@ -914,6 +947,7 @@ int main(void)
         cmocka_unit_test(degenerate_faces_are_each_simplified_once),
         cmocka_unit_test(planes_move_with_translated_scaled_rotated_input),
         cmocka_unit_test(planes_are_byte_identical_across_runs_and_thread_counts),
+        cmocka_unit_test(kplanes_is_byte_identical_across_runs),
         cmocka_unit_test(every_face_is_simplified_by_exactly_one_plane),
         cmocka_unit_test(max_planes_raises_epsilon_until_the_planes_fit),
         cmocka_unit_test(tweaking_aligns_the_plane_with_its_faces),

@@ -26,7 +26,9 @@
  *    bit for bit, and a rebuild is used when it is cheaper.
  *  - Columns are split between threads by index and each column sums its
  *    elements in one fixed order: no reduction order to depend on, so the
- *    result is the same for any thread count.
+ *    result is the same for any thread count. The refinement's sub-cells,
+ *    the element scans and the input elements' geometry are split the same
+ *    way (parallel.h): per-index results, picked or joined in index order.
  *  - Refinement solves ρ exactly per direction: the valid ρ of an element for
  *    direction n is [max p·n − ε, min p·n + ε]; the best ρ is a sweep over the
  *    sorted interval ends (the densest stabbing point), so only directions
@@ -35,18 +37,23 @@
 #include "bbcloud.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "classify.h"
+#include "parallel.h"
 #include "stand_in.h"
 #include "vec3.h"
 
-#define MAX_THREADS 16
 #define FAILSAFE_CAP 64    /* supporting planes tried by the fail-safe */
 #define QSCALE 4294967296.0 /* fixed point: 2^32 per unit of relative weight */
 #define BLOCK 64           /* elements per cache block in the grid update */
+#define SUBCELLS 9         /* 3×3 directions per refinement level */
+/* Below these sizes a region runs on one thread: creating and joining one
+ * costs ~20 µs, about what a scan of this many elements or a refinement level
+ * over this many candidates does. (Only speed: the bytes are the same.) */
+#define PAR_MIN_SCAN 1024  /* elements in a candidate or validity scan */
+#define PAR_MIN_CANDS 48   /* candidates of a refinement level */
 #define HALF_PI 1.57079632679489661923
 
 /* ---------------------------------------------------------------- helpers */
@@ -293,7 +300,8 @@ typedef struct pass {
     /* scratch */
     uint32_t *cand, *set, *tmp, *stamp;
     elem *batch;
-    evt *ev, *ev2;
+    evt *ev, *ev2;       /* sort buffers, 2n events per refinement chunk */
+    uint32_t nscratch;   /* refinement chunks: sv_parallel_chunks(SUBCELLS, threads) */
     uint32_t round;
 } pass;
 
@@ -413,13 +421,13 @@ static void column_add_pair(const pass *p, const double n[3], double delta, cons
     interval_add(p, -cc, half, q, pq, anti, sign);
 }
 
+/* One grid update: the batch to add (sign +1) or subtract (-1). */
 typedef struct gjob {
     pass *p;
     const elem *batch;
     uint32_t nb;
     int64_t sign;
     bool reset;
-    uint32_t c0, c1;
 } gjob;
 
 /* Column pair q: column (i, j) and its antipode (i + nt/2, np − 1 − j). */
@@ -450,14 +458,17 @@ static void scan_column(pass *p, uint32_t col)
     p->colarg[col] = arg;
 }
 
-static void *gjob_run(void *arg)
+/* Column pairs [q0, q1) of a grid update (an sv_parallel_for chunk): each
+ * pair is its chunk's alone, and every column adds the batch in batch order. */
+static void gjob_run(void *arg, uint32_t t, uint32_t q0, uint32_t q1)
 {
-    gjob *j = arg;
+    (void)t;
+    const gjob *j = arg;
     pass *p = j->p;
     const base *b = p->b;
     size_t stride = (size_t)b->nr + 1;
     if (j->reset)
-        for (uint32_t q = j->c0; q < j->c1; q++) {
+        for (uint32_t q = q0; q < q1; q++) {
             uint32_t c1, c2;
             pair_cols(b, q, &c1, &c2);
             memset(&p->diff[c1 * stride], 0, stride * sizeof(int64_t));
@@ -465,7 +476,7 @@ static void *gjob_run(void *arg)
         }
     for (uint32_t e0 = 0; e0 < j->nb; e0 += BLOCK) {
         uint32_t e1 = j->nb - e0 > BLOCK ? e0 + BLOCK : j->nb;
-        for (uint32_t q = j->c0; q < j->c1; q++) {
+        for (uint32_t q = q0; q < q1; q++) {
             uint32_t c1, c2;
             pair_cols(b, q, &c1, &c2);
             const double *n = &b->dirs[3 * (size_t)c1];
@@ -475,41 +486,22 @@ static void *gjob_run(void *arg)
         }
     }
     /* Column maxima, with the horizontal-plane penalty applied on read (§3.3.5). */
-    for (uint32_t q = j->c0; q < j->c1; q++) {
+    for (uint32_t q = q0; q < q1; q++) {
         uint32_t c1, c2;
         pair_cols(b, q, &c1, &c2);
         scan_column(p, c1);
         scan_column(p, c2);
     }
-    return NULL;
 }
 
 /* Adds (sign +1) or subtracts (-1) a batch of elements in every column, then
- * rescans the column maxima. reset zeroes the grid first. Each thread owns a
- * fixed range of columns: the result does not depend on the thread count. */
+ * rescans the column maxima. reset zeroes the grid first. The column pairs
+ * are split between threads (sv_parallel_for): each owns its columns, and
+ * the sums are exact integers, so the grid does not depend on the split. */
 static void grid_update(pass *p, const elem *batch, uint32_t nb, int sign, bool reset)
 {
-    const base *b = p->b;
-    uint32_t nth = b->opt.threads ? b->opt.threads : 1;
-    if (nth > MAX_THREADS) nth = MAX_THREADS;
-    uint32_t npair = b->ncol / 2;
-    if (nth > npair) nth = npair;
-    gjob jobs[MAX_THREADS];
-    pthread_t th[MAX_THREADS];
-    bool started[MAX_THREADS];
-    for (uint32_t t = 0; t < nth; t++) {
-        jobs[t] = (gjob){p, batch, nb, sign, reset, (uint32_t)((uint64_t)npair * t / nth),
-                         (uint32_t)((uint64_t)npair * (t + 1) / nth)};
-        started[t] = false;
-    }
-    for (uint32_t t = 1; t < nth; t++) started[t] = pthread_create(&th[t], NULL, gjob_run, &jobs[t]) == 0;
-    gjob_run(&jobs[0]);
-    for (uint32_t t = 1; t < nth; t++) {
-        if (started[t])
-            pthread_join(th[t], NULL);
-        else
-            gjob_run(&jobs[t]);
-    }
+    gjob j = {p, batch, nb, sign, reset};
+    sv_parallel_for(p->b->ncol / 2, p->b->opt.threads, gjob_run, &j);
 }
 
 /* ---------------------------------------------------------------- exact planes */
@@ -566,10 +558,12 @@ static evt *evt_sort(evt *a, evt *tmp, uint32_t n)
 /* Best plane with normal n among the candidate elements: the ρ stabbing the
  * heaviest set of exact validity intervals (sub-cells: no miss penalty,
  * §3.2.2). Returns the score (horizontal penalty applied) or -1 when no
- * candidate is valid for any plane with this normal. */
-static double eval_dir(pass *p, const double n[3], const uint32_t *cand, uint32_t nc, double *rho)
+ * candidate is valid for any plane with this normal. Reads the pass, writes
+ * only ev and ev2 (2·nc events each): the refinement's threads each pass
+ * their own. */
+static double eval_dir(const pass *p, const double n[3], const uint32_t *cand, uint32_t nc,
+                       evt *ev, evt *ev2, double *rho)
 {
-    evt *ev = p->ev;
     uint32_t m = 0;
     for (uint32_t i = 0; i < nc; i++) {
         const elem *e = &p->el[cand[i]];
@@ -583,7 +577,7 @@ static double eval_dir(pass *p, const double n[3], const uint32_t *cand, uint32_
         ev[m++] = (evt){hi, w, cand[i], 1};
     }
     if (!m) return -1;
-    ev = evt_sort(ev, p->ev2, m);
+    ev = evt_sort(ev, ev2, m);
     double run = 0, best = -1;
     for (uint32_t k = 0; k < m; k++) {
         if (ev[k].type == 0) {
@@ -599,8 +593,29 @@ static double eval_dir(pass *p, const double n[3], const uint32_t *cand, uint32_
     return best * hfac_of(&p->b->opt, n[1]);
 }
 
+/* Sub-cells of one refinement level (an sv_parallel_for chunk each): score
+ * and ρ of direction k into s[k] and rho[k], with chunk t's event buffers. */
+typedef struct rjob {
+    const pass *p;
+    const uint32_t *cand;
+    uint32_t nc;
+    const double (*n)[3];
+    double *s, *rho;
+} rjob;
+
+static void rjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    const rjob *j = arg;
+    size_t off = (size_t)t * 2 * j->p->n;
+    for (uint32_t k = lo; k < hi; k++)
+        j->s[k] = eval_dir(j->p, j->n[k], j->cand, j->nc, j->p->ev + off, j->p->ev2 + off, &j->rho[k]);
+}
+
 /* Recursive refinement of the picked cell (column i, row j): 3×3 sub-cells
- * per level, the best one refined further; the best plane seen wins. */
+ * per level, the best one refined further; the best plane seen wins. The
+ * sub-cells of a level are scored on the pass's threads (each score is one
+ * eval_dir, the same on any thread), then picked here in row order, so ties
+ * go where they always went. */
 static bool refine(pass *p, uint32_t i, uint32_t j, const uint32_t *cand, uint32_t nc,
                    double n_out[3], double *rho_out)
 {
@@ -612,16 +627,30 @@ static bool refine(pass *p, uint32_t i, uint32_t j, const uint32_t *cand, uint32
     for (uint32_t lv = 0; lv < levels; lv++) {
         dth /= 3;
         dph /= 3;
+        /* the centre of a deeper level is the cell picked one level up,
+         * already scored (prev): not evaluated again */
+        double dn[SUBCELLS][3], ds[SUBCELLS], drho[SUBCELLS];
+        uint32_t nd = 0;
+        for (int bb = 0; bb < 3; bb++)
+            for (int aa = 0; aa < 3; aa++) {
+                if (lv > 0 && aa == 1 && bb == 1) continue;
+                dir_of(th0 + (aa + 0.5) * dth, ph0 + (bb + 0.5) * dph, dn[nd]);
+                drho[nd++] = 0;
+            }
+        rjob job = {p, cand, nc, (const double(*)[3])dn, ds, drho};
+        sv_parallel_for(nd, nc >= PAR_MIN_CANDS ? p->nscratch : 1, rjob_run, &job);
         double lbest = -1;
         int la = 1, lb = 1;
+        uint32_t k = 0;
         for (int bb = 0; bb < 3; bb++)
             for (int aa = 0; aa < 3; aa++) {
                 double n[3] = {0, 0, 0}, rho = 0, s;
                 if (lv > 0 && aa == 1 && bb == 1) {
-                    s = prev; /* the centre is the cell picked one level up */
+                    s = prev;
                 } else {
-                    dir_of(th0 + (aa + 0.5) * dth, ph0 + (bb + 0.5) * dph, n);
-                    s = eval_dir(p, n, cand, nc, &rho);
+                    memcpy(n, dn[k], sizeof n);
+                    rho = drho[k];
+                    s = ds[k++];
                 }
                 if (s > lbest) {
                     lbest = s;
@@ -641,12 +670,60 @@ static bool refine(pass *p, uint32_t i, uint32_t j, const uint32_t *cand, uint32
     return best >= 0;
 }
 
+/* A scan of the alive elements (an sv_parallel_for chunk each): those of
+ * [lo, hi) that pass the test, in index order, into out[lo..]; chunk t
+ * records where its list starts and how long it is. The test is either the
+ * picked cell's (valid somewhere in the cell of normal n and angular radius
+ * delta, with ρ bin k in range) or exact validity for the plane (n, rho). */
+typedef struct sjob {
+    const pass *p;
+    bool cell;
+    const double *n;
+    double delta, rho;
+    int k;
+    uint32_t *out;
+    uint32_t first[SV_PARALLEL_MAX], found[SV_PARALLEL_MAX];
+} sjob;
+
+static void sjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    sjob *j = arg;
+    const pass *p = j->p;
+    uint32_t m = lo;
+    for (uint32_t e = lo; e < hi; e++) {
+        if (!p->alive[e]) continue;
+        bool in;
+        if (j->cell) {
+            int a, z;
+            in = cell_bins(p, j->n, j->delta, &p->el[e], &a, &z) && a <= j->k && j->k <= z;
+        } else {
+            in = valid_for(p, &p->el[e], j->n, j->rho);
+        }
+        if (in) j->out[m++] = e;
+    }
+    j->first[t] = lo;
+    j->found[t] = m - lo;
+}
+
+/* Runs the scan over every element and returns the count: the chunks' lists
+ * joined in chunk order, the list one thread would have written. */
+static uint32_t scan_alive(const pass *p, sjob *j)
+{
+    uint32_t thr = p->n >= PAR_MIN_SCAN ? p->b->opt.threads : 1;
+    uint32_t nch = sv_parallel_chunks(p->n, thr);
+    sv_parallel_for(p->n, thr, sjob_run, j);
+    uint32_t m = 0;
+    for (uint32_t t = 0; t < nch; t++) {
+        if (m != j->first[t]) memmove(&j->out[m], &j->out[j->first[t]], j->found[t] * sizeof *j->out);
+        m += j->found[t];
+    }
+    return m;
+}
+
 static uint32_t collect_valid(pass *p, const double n[3], double rho, uint32_t *out)
 {
-    uint32_t m = 0;
-    for (uint32_t e = 0; e < p->n; e++)
-        if (p->alive[e] && valid_for(p, &p->el[e], n, rho)) out[m++] = e;
-    return m;
+    sjob j = {.p = p, .cell = false, .n = n, .rho = rho, .out = out};
+    return scan_alive(p, &j);
 }
 
 static uint32_t count_faces(const pass *p, const uint32_t *list, uint32_t nl, const double n[3],
@@ -989,8 +1066,9 @@ static sv_status pass_build(const base *b, uint8_t part, double eps, pass *p, ru
     p->tmp = sv_calloc(n, sizeof *p->tmp);
     p->stamp = sv_calloc(n, sizeof *p->stamp);
     p->batch = sv_calloc(n, sizeof *p->batch);
-    p->ev = sv_calloc(n, 2 * sizeof *p->ev);
-    p->ev2 = sv_calloc(n, 2 * sizeof *p->ev2);
+    p->nscratch = sv_parallel_chunks(SUBCELLS, b->opt.threads);
+    p->ev = sv_calloc((size_t)n * p->nscratch, 2 * sizeof *p->ev);
+    p->ev2 = sv_calloc((size_t)n * p->nscratch, 2 * sizeof *p->ev2);
     if (!p->ev2 || !p->el || !p->sverts || !p->alive || !p->diff || !p->colmax || !p->colarg || !p->cand ||
         !p->set || !p->tmp || !p->stamp || !p->batch || !p->ev)
         goto nomem;
@@ -1120,12 +1198,8 @@ static sv_status pass_run(pass *p, uint32_t budget, runout *r, sv_error *err)
         const double *cn = &b->dirs[3 * (size_t)bc];
         uint32_t nc = 0;
         if (bv > 0) {
-            for (uint32_t e = 0; e < p->n; e++) {
-                int a, z;
-                if (p->alive[e] && cell_bins(p, cn, b->delta[cj], &p->el[e], &a, &z) &&
-                    a <= (int)k && (int)k <= z)
-                    p->cand[nc++] = e;
-            }
+            sjob j = {.p = p, .cell = true, .n = cn, .delta = b->delta[cj], .k = (int)k, .out = p->cand};
+            nc = scan_alive(p, &j);
         }
         if (!nc)
             for (uint32_t e = 0; e < p->n; e++)
@@ -1265,6 +1339,33 @@ static int vkey_cmp(const void *pa, const void *pb)
     return a->v < b->v ? -1 : a->v > b->v;
 }
 
+/* Geometry of the input elements [lo, hi) (an sv_parallel_for chunk): each
+ * group's vertex list lives in its own room of gverts (3 per triangle, at
+ * its first triangle), so no group's place depends on another's. */
+static void group_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    (void)t;
+    base *b = arg;
+    const sv_bbc_input *in = b->in;
+    for (uint32_t g = lo; g < hi; g++) {
+        elem *e = &b->groups[g];
+        e->tris = &in->elem_tris[in->elem_first[g]];
+        e->tcount = in->elem_first[g + 1] - in->elem_first[g];
+        e->group = g;
+        uint32_t *vl = &b->gverts[3 * (size_t)(in->elem_first[g] - in->elem_first[0])];
+        uint32_t nv = 0;
+        for (uint32_t k = 0; k < e->tcount; k++)
+            for (int v = 0; v < 3; v++) vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[k] + v]];
+        qsort(vl, nv, sizeof *vl, u32_cmp);
+        uint32_t u = 0;
+        for (uint32_t k = 0; k < nv; k++)
+            if (u == 0 || vl[k] != vl[u - 1]) vl[u++] = vl[k];
+        e->verts = vl;
+        e->vcount = u;
+        elem_geometry(b, b->rel, e);
+    }
+}
+
 static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options *opt,
                            sv_error *err)
 {
@@ -1385,25 +1486,8 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     b->groups = sv_calloc(in->elem_count ? in->elem_count : 1, sizeof *b->groups);
     b->gverts = sv_calloc(total_tris ? total_tris : 1, 3 * sizeof *b->gverts);
     if (!b->groups || !b->gverts) return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory");
-    size_t vpos = 0;
-    for (uint32_t g = 0; g < in->elem_count; g++) {
-        elem *e = &b->groups[g];
-        e->tris = &in->elem_tris[in->elem_first[g]];
-        e->tcount = in->elem_first[g + 1] - in->elem_first[g];
-        e->group = g;
-        uint32_t *vl = &b->gverts[vpos];
-        uint32_t nv = 0;
-        for (uint32_t t = 0; t < e->tcount; t++)
-            for (int v = 0; v < 3; v++) vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[t] + v]];
-        qsort(vl, nv, sizeof *vl, u32_cmp);
-        uint32_t u = 0;
-        for (uint32_t k = 0; k < nv; k++)
-            if (u == 0 || vl[k] != vl[u - 1]) vl[u++] = vl[k];
-        e->verts = vl;
-        e->vcount = u;
-        vpos += u;
-        elem_geometry(b, b->rel, e);
-    }
+    sv_parallel_for(in->elem_count, in->elem_count >= PAR_MIN_SCAN ? b->opt.threads : 1,
+                    group_run, b);
 
     /* The dual grid: cell-centre normals and the angular radius of each row. */
     b->nt = b->opt.grid_theta;

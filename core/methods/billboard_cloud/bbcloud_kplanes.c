@@ -23,6 +23,12 @@
 
 #include "classify.h"
 #include "eigen3.h"
+#include "parallel.h"
+
+/* Elements × planes below which an assignment step runs on one thread
+ * (creating a thread costs about as much; the bytes are the same). */
+#define PAR_MIN_WORK 16384
+#define PAR_MIN_TRIS 4096  /* triangles, for the moments and the areas */
 
 typedef struct kp_mom {
     double w;      /* total weight (area) */
@@ -73,27 +79,121 @@ static bool mom_fit(const kp_mom *a, double n[3], double *d)
     return true;
 }
 
-/* Assigns every weighted element to its nearest foliage plane (ties: the
- * lower index); cost[e] = its mean squared distance. Returns how many
- * assignments changed. */
-static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
-                           uint32_t np, uint32_t *asg, double *cost)
+/* One assignment step over elements [lo, hi) (an sv_parallel_for chunk):
+ * writes asg[e] and cost[e] of its own elements and its count of changes. */
+typedef struct ajob {
+    const kp_mom *em;
+    const double *pn;
+    const uint8_t *fol;
+    uint32_t np;
+    uint32_t *asg;
+    double *cost;
+    uint32_t changed[SV_PARALLEL_MAX];
+} ajob;
+
+static void ajob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
 {
+    ajob *j = arg;
+    const kp_mom *em = j->em;
+    const double *pn = j->pn;
     uint32_t changed = 0;
-    for (uint32_t e = 0; e < ne; e++) {
+    for (uint32_t e = lo; e < hi; e++) {
         if (!(em[e].w > 0)) continue;
         uint32_t best = UINT32_MAX;
         double bc = INFINITY;
-        for (uint32_t k = 0; k < np; k++) {
-            if (!fol[k]) continue;
+        for (uint32_t k = 0; k < j->np; k++) {
+            if (!j->fol[k]) continue;
             double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
             if (c < bc) bc = c, best = k;
         }
-        changed += best != asg[e];
-        asg[e] = best;
-        cost[e] = bc;
+        changed += best != j->asg[e];
+        j->asg[e] = best;
+        j->cost[e] = bc;
     }
+    j->changed[t] = changed;
+}
+
+/* Assigns every weighted element to its nearest foliage plane (ties: the
+ * lower index); cost[e] = its mean squared distance. Returns how many
+ * assignments changed. Each element's choice is its own, so the elements are
+ * split between threads (parallel.h) and only the integer counts are added. */
+static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
+                           uint32_t np, uint32_t *asg, double *cost)
+{
+    ajob j = {.em = em, .pn = pn, .fol = fol, .np = np, .asg = asg, .cost = cost};
+    uint32_t thr = (uint64_t)ne * np >= PAR_MIN_WORK ? SV_PARALLEL_DEFAULT : 1;
+    uint32_t nch = sv_parallel_chunks(ne, thr);
+    sv_parallel_for(ne, thr, ajob_run, &j);
+    uint32_t changed = 0;
+    for (uint32_t t = 0; t < nch; t++) changed += j.changed[t];
     return changed;
+}
+
+/* Moments of the foliage elements [lo, hi) (an sv_parallel_for chunk): em[e]
+ * sums its own triangles in their order, so any split gives the same bytes. */
+typedef struct mjob {
+    const sv_bbc_input *in;
+    kp_mom *em;
+} mjob;
+
+static void mjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    (void)t;
+    const mjob *j = arg;
+    const sv_bbc_input *in = j->in;
+    const double *c0 = in->centre;
+    for (uint32_t e = lo; e < hi; e++) {
+        if (in->elem_part && in->elem_part[e] != SV_PART_FOLIAGE) continue;
+        kp_mom *m = &j->em[e];
+        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++) {
+            uint32_t t3 = in->elem_tris[i];
+            double p[3][3];
+            for (int v = 0; v < 3; v++)
+                for (int c = 0; c < 3; c++)
+                    p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t3 + v] + c] - c0[c];
+            double a[3], b[3], x[3];
+            for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
+            x[0] = a[1] * b[2] - a[2] * b[1];
+            x[1] = a[2] * b[0] - a[0] * b[2];
+            x[2] = a[0] * b[1] - a[1] * b[0];
+            double w = 0.5 * sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) / 3.0;
+            if (!(w > 0)) w = 1e-30;
+            for (int v = 0; v < 3; v++) {
+                m->w += w;
+                for (int i2 = 0; i2 < 3; i2++) {
+                    m->m[i2] += w * p[v][i2];
+                    for (int k = 0; k < 3; k++) m->s[i2][k] += w * p[v][i2] * p[v][k];
+                }
+            }
+        }
+    }
+}
+
+/* Areas of the triangles tris[lo..hi) into area[lo..hi) (an sv_parallel_for
+ * chunk); each plane then adds its own in order. */
+typedef struct tjob {
+    const sv_bbc_input *in;
+    const uint32_t *tris;
+    double *area;
+} tjob;
+
+static void tjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    (void)t;
+    const tjob *j = arg;
+    const sv_bbc_input *in = j->in;
+    for (uint32_t i = lo; i < hi; i++) {
+        uint32_t tr = j->tris[i];
+        double p[3][3];
+        for (int v = 0; v < 3; v++)
+            for (int c = 0; c < 3; c++)
+                p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)tr + v] + c];
+        double a[3], b[3];
+        for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
+        double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
+               z = a[0] * b[1] - a[1] * b[0];
+        j->area[i] = 0.5 * sqrt(x * x + y * y + z * z);
+    }
 }
 
 sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t target_planes,
@@ -119,6 +219,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     uint8_t *fol = sv_calloc(np + grow, 1);
     double *cost = sv_calloc(ne ? ne : 1, sizeof *cost);
     uint32_t *tris = NULL, *first = NULL;
+    double *tarea = NULL;
     sv_status st = SV_OK;
     if (!elem_of || !em || !pm || !asg || !pn || !fol || !cost) {
         st = sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
@@ -130,29 +231,10 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     for (uint32_t e = 0; e < ne; e++) {
         asg[e] = UINT32_MAX;
         if (in->elem_part && in->elem_part[e] != SV_PART_FOLIAGE) continue;
-        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++) {
-            uint32_t t = in->elem_tris[i];
-            elem_of[t] = e;
-            double p[3][3];
-            for (int v = 0; v < 3; v++)
-                for (int c = 0; c < 3; c++)
-                    p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t + v] + c] - c0[c];
-            double a[3], b[3], x[3];
-            for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
-            x[0] = a[1] * b[2] - a[2] * b[1];
-            x[1] = a[2] * b[0] - a[0] * b[2];
-            x[2] = a[0] * b[1] - a[1] * b[0];
-            double w = 0.5 * sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) / 3.0;
-            if (!(w > 0)) w = 1e-30;
-            for (int v = 0; v < 3; v++) {
-                em[e].w += w;
-                for (int i2 = 0; i2 < 3; i2++) {
-                    em[e].m[i2] += w * p[v][i2];
-                    for (int j = 0; j < 3; j++) em[e].s[i2][j] += w * p[v][i2] * p[v][j];
-                }
-            }
-        }
+        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++) elem_of[in->elem_tris[i]] = e;
     }
+    mjob mj = {in, em};
+    sv_parallel_for(ne, in->triangle_count >= PAR_MIN_TRIS ? SV_PARALLEL_DEFAULT : 1, mjob_run, &mj);
     uint32_t nf = 0;
     for (uint32_t k = 0; k < np; k++) {
         const sv_bbc_plane *P = &res->planes[k];
@@ -239,6 +321,16 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
         }
     }
     free(cnt);
+    /* triangle areas (on the threads), then each foliage plane's total in
+     * its triangles' order, as one thread added them */
+    tarea = malloc((size_t)(res->tri_count ? res->tri_count : 1) * sizeof *tarea);
+    if (!tarea) {
+        st = sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
+        goto out;
+    }
+    tjob tj = {in, tris, tarea};
+    sv_parallel_for(res->tri_count, res->tri_count >= PAR_MIN_TRIS ? SV_PARALLEL_DEFAULT : 1,
+                    tjob_run, &tj);
     /* planes in the original order, empty ones dropped */
     uint32_t w = 0;
     for (uint32_t k = 0; k < np; k++) {
@@ -250,18 +342,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
             memcpy(P.normal, &pn[4 * k], 3 * sizeof(double));
             P.d = pn[4 * k + 3] - (P.normal[0] * c0[0] + P.normal[1] * c0[1] + P.normal[2] * c0[2]);
             P.area = 0;
-            for (uint32_t i = 0; i < P.count; i++) {
-                uint32_t t = tris[P.first + i];
-                double p[3][3];
-                for (int v = 0; v < 3; v++)
-                    for (int c = 0; c < 3; c++)
-                        p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t + v] + c];
-                double a[3], b[3];
-                for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
-                double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2],
-                       z = a[0] * b[1] - a[1] * b[0];
-                P.area += 0.5 * sqrt(x * x + y * y + z * z);
-            }
+            for (uint32_t i = 0; i < P.count; i++) P.area += tarea[P.first + i];
         }
         res->planes[w++] = P;
     }
@@ -271,6 +352,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     res->tris = tris;
     tris = NULL;
 out:
+    free(tarea);
     free(tris);
     free(first);
     free(elem_of);
