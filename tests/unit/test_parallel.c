@@ -112,12 +112,11 @@ static void per_index_results_are_the_same_bytes_for_any_thread_count(void **sta
  * address-space limit just above what the child already maps (in a child, so
  * the limit stays there). Runs first: glibc reuses the stacks of finished
  * threads, which would need no new mapping. */
+#if !defined(__SANITIZE_ADDRESS__) /* ASan's own thread bookkeeping does not survive a
+                                    * tight RLIMIT_AS: this case runs in the plain build */
 static void chunks_run_serially_when_no_thread_can_start(void **state)
 {
     (void)state;
-#if defined(__SANITIZE_ADDRESS__)
-    skip(); /* ASan's own thread bookkeeping does not survive a tight RLIMIT_AS */
-#else
     static rec want;
     memset(&want, 0, sizeof want);
     for (uint32_t i = 0; i < N_MAX; i++) want.value[i] = work(i);
@@ -144,13 +143,15 @@ static void chunks_run_serially_when_no_thread_can_start(void **state)
     assert_int_equal(waitpid(pid, &status, 0), pid);
     assert_true(WIFEXITED(status));
     assert_int_equal(WEXITSTATUS(status), 0);
-#endif
 }
+#endif
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+#if !defined(__SANITIZE_ADDRESS__)
         cmocka_unit_test(chunks_run_serially_when_no_thread_can_start),
+#endif
         cmocka_unit_test(chunks_are_fixed_contiguous_and_cover_every_index_once),
         cmocka_unit_test(chunk_zero_runs_on_the_caller),
         cmocka_unit_test(nothing_to_do_calls_nothing),
