@@ -540,23 +540,36 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
     }
     char *names[512];
     size_t n = 0;
+    bool oom = false, too_many = false;
     struct dirent *e;
-    while ((e = readdir(d)) && n < 512) {
+    while ((e = readdir(d))) {
         if (!svd_name_valid(e->d_name) || e->d_name[0] == '.' || strcmp(e->d_name, "manifest.json") == 0)
             continue;
         char p[SVD_STORE_PATH + 300];
         snprintf(p, sizeof p, "%s/%s", outdir, e->d_name);
         struct stat sb;
         if (lstat(p, &sb) != 0 || !S_ISREG(sb.st_mode)) continue;
-        names[n] = strdup(e->d_name);
-        if (names[n]) n++;
+        if (n == sizeof names / sizeof names[0]) {
+            too_many = true;
+            break;
+        }
+        /* every artifact or none: a manifest that leaves one out would be served */
+        if (!(names[n] = strdup(e->d_name))) {
+            oom = true;
+            break;
+        }
+        n++;
     }
     closedir(d);
     qsort(names, n, sizeof names[0], cmp_str);
     cJSON *m = cJSON_CreateObject();
-    cJSON_AddStringToObject(m, "key", key);
-    cJSON *arr = cJSON_AddArrayToObject(m, "artifacts");
-    sv_status st = n ? SV_OK : sv_fail(err, SV_ERR_IO, "the worker exited 0 but wrote no artifacts");
+    cJSON *arr = m ? cJSON_AddArrayToObject(m, "artifacts") : NULL;
+    sv_status st = oom || !arr || !cJSON_AddStringToObject(m, "key", key)
+                       ? sv_fail(err, SV_ERR_NOMEM, "manifest: out of memory")
+                   : too_many ? sv_fail(err, SV_ERR_LIMIT, "the worker wrote more than %zu artifacts",
+                                        sizeof names / sizeof names[0])
+                   : n ? SV_OK
+                       : sv_fail(err, SV_ERR_IO, "the worker exited 0 but wrote no artifacts");
     for (size_t i = 0; i < n && st == SV_OK; i++) {
         char p[SVD_STORE_PATH + 300], h[SVD_KEY_HEX];
         uint64_t size = 0;
@@ -564,10 +577,12 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
         st = svd_sha256_file(p, h, &size, err);
         if (st != SV_OK) break;
         cJSON *a = cJSON_CreateObject();
-        cJSON_AddStringToObject(a, "name", names[i]);
-        cJSON_AddNumberToObject(a, "size", (double)size);
-        cJSON_AddStringToObject(a, "sha256", h);
-        cJSON_AddItemToArray(arr, a);
+        if (!a || !cJSON_AddStringToObject(a, "name", names[i]) ||
+            !cJSON_AddNumberToObject(a, "size", (double)size) ||
+            !cJSON_AddStringToObject(a, "sha256", h) || !cJSON_AddItemToArray(arr, a)) {
+            cJSON_Delete(a);
+            st = sv_fail(err, SV_ERR_NOMEM, "manifest: out of memory");
+        }
     }
     for (size_t i = 0; i < n; i++) free(names[i]);
     if (st == SV_OK) { /* a summary from report.json, when the worker wrote one */
