@@ -13,8 +13,7 @@ static void set_err(char *err, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void set_err(char *err, size_t errlen, const char *fmt, ...)
 {
-    if (!err || !errlen)
-        return;
+    if (!err || !errlen) return;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(err, errlen, fmt, ap);
@@ -23,10 +22,8 @@ static void set_err(char *err, size_t errlen, const char *fmt, ...)
 
 void sylva_cli_free(sylva_cli *cli)
 {
-    if (!cli)
-        return;
-    for (size_t i = 0; i < cli->server_count; i++)
-        free(cli->servers[i]);
+    if (!cli) return;
+    for (size_t i = 0; i < cli->server_count; i++) free(cli->servers[i]);
     free(cli->servers);
     free(cli->sets);
     free(cli->args);
@@ -44,22 +41,18 @@ static bool add_servers(sylva_cli *cli, const char *list)
             p++;
             n--;
         }
-        while (n > 0 && isspace((unsigned char)p[n - 1]))
-            n--;
+        while (n > 0 && isspace((unsigned char)p[n - 1])) n--;
         if (n > 0) {
             char **ns = realloc(cli->servers, (cli->server_count + 1) * sizeof *ns);
-            if (!ns)
-                return false;
+            if (!ns) return false;
             cli->servers = ns;
             char *s = malloc(n + 1);
-            if (!s)
-                return false;
+            if (!s) return false;
             memcpy(s, p, n);
             s[n] = '\0';
             cli->servers[cli->server_count++] = s;
         }
-        if (!e)
-            break;
+        if (!e) break;
         p = e + 1;
     }
     return true;
@@ -69,8 +62,7 @@ static bool parse_seconds(const char *s, double *out)
 {
     char *end = NULL;
     double v = strtod(s, &end);
-    if (!s[0] || *end || !(v >= 0) || v > 1e7)
-        return false;
+    if (!s[0] || *end || !(v >= 0) || v > 1e7) return false;
     *out = v;
     return true;
 }
@@ -88,8 +80,7 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
 {
     memset(cli, 0, sizeof *cli);
     cli->retries = -1;
-    if (err && errlen)
-        err[0] = '\0';
+    if (err && errlen) err[0] = '\0';
     size_t cap = argc > 0 ? (size_t)argc : 1;
     cli->sets = calloc(cap, sizeof *cli->sets);
     cli->args = calloc(cap, sizeof *cli->args);
@@ -118,13 +109,12 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
         } else {
             name[0] = '\0';
         }
-        static const char *const with_value[] = {"--server", "--token", "--out", "--spec",
-                                                 "--method", "--set", "--timeout", "--wait",
+        static const char *const with_value[] = {"--server",  "--token",    "--out",     "--spec",
+                                                 "--method",  "--set",      "--timeout", "--wait",
                                                  "--retries", "--progress", NULL};
         bool takes = false;
         for (size_t k = 0; with_value[k]; k++)
-            if (strcmp(name, with_value[k]) == 0)
-                takes = true;
+            if (strcmp(name, with_value[k]) == 0) takes = true;
         if (takes && !val) {
             if (i + 1 >= argc) {
                 set_err(err, errlen, "option %s needs a value", name);
@@ -139,11 +129,12 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
                     return SYLVA_EXIT_USAGE;
                 }
                 for (size_t k = 0; k < sizeof commands / sizeof commands[0]; k++)
-                    if (strcmp(a, commands[k].name) == 0)
-                        cli->cmd = commands[k].cmd;
+                    if (strcmp(a, commands[k].name) == 0) cli->cmd = commands[k].cmd;
                 if (cli->cmd == SYLVA_CMD_NONE) {
-                    set_err(err, errlen, "unknown command \"%.60s\" (bake, status, fetch, "
-                            "cancel, health, help)", a);
+                    set_err(err, errlen,
+                            "unknown command \"%.60s\" (bake, status, fetch, "
+                            "cancel, health, help)",
+                            a);
                     return SYLVA_EXIT_USAGE;
                 }
             } else if (strcmp(a, "--") == 0) {
@@ -203,14 +194,10 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             cli->progress = SYLVA_PROGRESS_NONE;
         } else if (strcmp(name, "--progress") == 0) {
             const char *m = val;
-            if (strcmp(m, "auto") == 0)
-                cli->progress = SYLVA_PROGRESS_AUTO;
-            else if (strcmp(m, "bar") == 0)
-                cli->progress = SYLVA_PROGRESS_BAR;
-            else if (strcmp(m, "plain") == 0)
-                cli->progress = SYLVA_PROGRESS_PLAIN;
-            else if (strcmp(m, "none") == 0)
-                cli->progress = SYLVA_PROGRESS_NONE;
+            if (strcmp(m, "auto") == 0) cli->progress = SYLVA_PROGRESS_AUTO;
+            else if (strcmp(m, "bar") == 0) cli->progress = SYLVA_PROGRESS_BAR;
+            else if (strcmp(m, "plain") == 0) cli->progress = SYLVA_PROGRESS_PLAIN;
+            else if (strcmp(m, "none") == 0) cli->progress = SYLVA_PROGRESS_NONE;
             else {
                 set_err(err, errlen, "--progress expects auto, bar, plain or none");
                 return SYLVA_EXIT_USAGE;
@@ -222,9 +209,8 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             return SYLVA_EXIT_USAGE;
         }
     }
-    if (cli->server_count == 0 && !add_servers(cli, env_server && env_server[0]
-                                                        ? env_server
-                                                        : SYLVA_DEFAULT_SERVER)) {
+    if (cli->server_count == 0 &&
+        !add_servers(cli, env_server && env_server[0] ? env_server : SYLVA_DEFAULT_SERVER)) {
         set_err(err, errlen, "out of memory");
         return SYLVA_EXIT_USAGE;
     }
@@ -232,12 +218,10 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
         set_err(err, errlen, "no server URL (--server or SYLVA_SERVER)");
         return SYLVA_EXIT_USAGE;
     }
-    if (!cli->token && env_token && env_token[0])
-        cli->token = env_token;
+    if (!cli->token && env_token && env_token[0]) cli->token = env_token;
     /* Per-command checks. */
     size_t real_args = 0;
-    for (size_t i = 0; i < cli->arg_count; i++)
-        real_args += cli->args[i] != NULL;
+    for (size_t i = 0; i < cli->arg_count; i++) real_args += cli->args[i] != NULL;
     switch (cli->cmd) {
     case SYLVA_CMD_NONE:
         set_err(err, errlen, "no command (bake, status, fetch, cancel, health, help)");
@@ -299,11 +283,9 @@ bool sylva_cli_is_mesh(const char *path)
     static const char *const exts[] = {".obj", ".gltf", ".glb", ".ply", ".fbx", ".dae"};
     const char *dot = strrchr(path, '.');
     const char *slash = strrchr(path, '/');
-    if (!dot || (slash && dot < slash))
-        return false;
+    if (!dot || (slash && dot < slash)) return false;
     for (size_t i = 0; i < sizeof exts / sizeof exts[0]; i++)
-        if (strcasecmp(dot, exts[i]) == 0)
-            return true;
+        if (strcasecmp(dot, exts[i]) == 0) return true;
     return false;
 }
 
@@ -328,10 +310,8 @@ static bool same_dir(const char *a, const char *b)
 
 void sylva_cli_groups_free(sylva_bake_group *groups, size_t count)
 {
-    if (!groups)
-        return;
-    for (size_t i = 0; i < count; i++)
-        free(groups[i].files);
+    if (!groups) return;
+    for (size_t i = 0; i < count; i++) free(groups[i].files);
     free(groups);
 }
 
@@ -339,8 +319,7 @@ static bool group_add_file(sylva_bake_group *g, const char *f, size_t cap)
 {
     if (!g->files) {
         g->files = calloc(cap ? cap : 1, sizeof *g->files);
-        if (!g->files)
-            return false;
+        if (!g->files) return false;
     }
     g->files[g->file_count++] = f;
     return true;
@@ -351,17 +330,15 @@ static void stem_of(const char *path, bool keep_ext, char *out, size_t len)
     snprintf(out, len, "%s", base_of(path));
     char *dot = strrchr(out, '.');
     if (!keep_ext) {
-        if (dot && dot != out)
-            *dot = '\0';
+        if (dot && dot != out) *dot = '\0';
     } else {
         for (char *p = out; *p; p++)
-            if (*p == '.')
-                *p = '_';
+            if (*p == '.') *p = '_';
     }
 }
 
-int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *count,
-                     char *err, size_t errlen)
+int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *count, char *err,
+                     size_t errlen)
 {
     *groups = NULL;
     *count = 0;
@@ -373,8 +350,7 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
     }
     size_t ng = 0;
     bool explicit_groups = false;
-    for (size_t i = 0; i < n; i++)
-        explicit_groups |= cli->args[i] == NULL;
+    for (size_t i = 0; i < n; i++) explicit_groups |= cli->args[i] == NULL;
     int rc = SYLVA_EXIT_USAGE;
     if (explicit_groups) {
         bool open = false;
@@ -394,8 +370,7 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
         }
     } else {
         size_t meshes = 0;
-        for (size_t i = 0; i < n; i++)
-            meshes += sylva_cli_is_mesh(cli->args[i]);
+        for (size_t i = 0; i < n; i++) meshes += sylva_cli_is_mesh(cli->args[i]);
         if (meshes <= 1) {
             /* One bake: the mesh-extension file, else the first file. */
             size_t m = 0;
@@ -412,12 +387,10 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
                 }
         } else {
             for (size_t i = 0; i < n; i++)
-                if (sylva_cli_is_mesh(cli->args[i]))
-                    g[ng++].mesh = cli->args[i];
+                if (sylva_cli_is_mesh(cli->args[i])) g[ng++].mesh = cli->args[i];
             for (size_t i = 0; i < n; i++) {
                 const char *a = cli->args[i];
-                if (sylva_cli_is_mesh(a))
-                    continue;
+                if (sylva_cli_is_mesh(a)) continue;
                 size_t owner = ng, found = 0;
                 for (size_t k = 0; k < ng; k++)
                     if (same_dir(a, g[k].mesh)) {
@@ -425,9 +398,10 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
                         found++;
                     }
                 if (found != 1) {
-                    set_err(err, errlen, "cannot tell which mesh %s belongs to (%s mesh in its "
-                            "directory); separate the bakes with --", a,
-                            found ? "more than one" : "no");
+                    set_err(err, errlen,
+                            "cannot tell which mesh %s belongs to (%s mesh in its "
+                            "directory); separate the bakes with --",
+                            a, found ? "more than one" : "no");
                     goto out;
                 }
                 if (!group_add_file(&g[owner], a, n)) {
@@ -453,11 +427,9 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
         for (size_t k = 0; k < ng; k++) {
             char other[512];
             stem_of(g[k].mesh, false, other, sizeof other);
-            if (k != i && strcmp(stem, other) == 0)
-                collide = true;
+            if (k != i && strcmp(stem, other) == 0) collide = true;
         }
-        if (collide)
-            stem_of(g[i].mesh, true, stem, sizeof stem);
+        if (collide) stem_of(g[i].mesh, true, stem, sizeof stem);
         if (snprintf(g[i].out_dir, sizeof g[i].out_dir, "%s/%s", cli->out, stem) >=
             (int)sizeof g[i].out_dir) {
             set_err(err, errlen, "output path too long for %s", g[i].mesh);
@@ -467,8 +439,8 @@ int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *co
     for (size_t i = 0; i < ng; i++)
         for (size_t k = i + 1; k < ng; k++)
             if (strcmp(g[i].out_dir, g[k].out_dir) == 0) {
-                set_err(err, errlen, "%s and %s would both write into %s; separate them",
-                        g[i].mesh, g[k].mesh, g[i].out_dir);
+                set_err(err, errlen, "%s and %s would both write into %s; separate them", g[i].mesh,
+                        g[k].mesh, g[i].out_dir);
                 goto out;
             }
     rc = SYLVA_EXIT_OK;
@@ -485,14 +457,13 @@ out:
 /* ---- spec building --------------------------------------------------------- */
 
 int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
-                         const char *const *sets, size_t set_count, char **out,
-                         size_t *out_len, char *err, size_t errlen)
+                         const char *const *sets, size_t set_count, char **out, size_t *out_len,
+                         char *err, size_t errlen)
 {
     *out = NULL;
     *out_len = 0;
     if (!method && set_count == 0) {
-        if (!base)
-            return SYLVA_EXIT_OK;
+        if (!base) return SYLVA_EXIT_OK;
         char *copy = malloc(base_len + 1);
         if (!copy) {
             set_err(err, errlen, "out of memory");
@@ -538,8 +509,7 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
         key[kl] = '\0';
         const char *value = eq + 1;
         cJSON *v = cJSON_ParseWithOpts(value, NULL, 1);
-        if (!v)
-            v = cJSON_CreateString(value);
+        if (!v) v = cJSON_CreateString(value);
         if (!v) {
             set_err(err, errlen, "out of memory");
             goto out;
@@ -549,8 +519,7 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
         /* The root: a leading dot (".lod={...}"), or an undotted key naming one
          * of the spec's top-level scalars (docs/spec.md). */
         bool at_root = key[0] == '.' || strcmp(key, "seed") == 0 || strcmp(key, "method") == 0;
-        if (key[0] == '.')
-            path = key + 1;
+        if (key[0] == '.') path = key + 1;
         if (at_root && (!path[0] || strchr(path, '.'))) {
             cJSON_Delete(v);
             set_err(err, errlen, "--set %.*s: a root key is one name after the dot", (int)kl,
@@ -566,8 +535,7 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
                 goto out;
             }
             cJSON *mo = cJSON_GetObjectItemCaseSensitive(root, mname);
-            if (!mo)
-                mo = cJSON_AddObjectToObject(root, mname);
+            if (!mo) mo = cJSON_AddObjectToObject(root, mname);
             if (!cJSON_IsObject(mo)) {
                 cJSON_Delete(v);
                 set_err(err, errlen, "--set %s: spec key \"%s\" is not an object", key, mname);
@@ -580,12 +548,12 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
                 *dot = '\0';
                 if (!path[0]) {
                     cJSON_Delete(v);
-                    set_err(err, errlen, "--set: empty component in key \"%.*s\"", (int)kl, sets[i]);
+                    set_err(err, errlen, "--set: empty component in key \"%.*s\"", (int)kl,
+                            sets[i]);
                     goto out;
                 }
                 cJSON *next = cJSON_GetObjectItemCaseSensitive(obj, path);
-                if (!next)
-                    next = cJSON_AddObjectToObject(obj, path);
+                if (!next) next = cJSON_AddObjectToObject(obj, path);
                 if (!cJSON_IsObject(next)) {
                     cJSON_Delete(v);
                     set_err(err, errlen, "--set %.*s: \"%s\" is not an object", (int)kl, sets[i],
@@ -601,8 +569,9 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
                 goto out;
             }
         }
-        bool ok = cJSON_HasObjectItem(obj, path) ? cJSON_ReplaceItemInObjectCaseSensitive(obj, path, v)
-                                                 : cJSON_AddItemToObject(obj, path, v);
+        bool ok = cJSON_HasObjectItem(obj, path)
+                      ? cJSON_ReplaceItemInObjectCaseSensitive(obj, path, v)
+                      : cJSON_AddItemToObject(obj, path, v);
         if (!ok) {
             cJSON_Delete(v);
             set_err(err, errlen, "out of memory");
@@ -636,7 +605,8 @@ static const cJSON *best_accuracy(const cJSON *acc)
 {
     const cJSON *best = NULL, *a;
     double px = -1;
-    cJSON_ArrayForEach(a, acc) {
+    cJSON_ArrayForEach(a, acc)
+    {
         const cJSON *p = get(a, "pixels");
         double v = cJSON_IsNumber(p) ? p->valuedouble : 0;
         if (cJSON_IsObject(a) && v > px) {
@@ -653,8 +623,7 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
     cJSON *rep = report_json ? cJSON_Parse(report_json) : NULL;
     cJSON *pl = planes_json ? cJSON_Parse(planes_json) : NULL;
     cJSON *s = cJSON_CreateObject();
-    if (!s)
-        goto out;
+    if (!s) goto out;
     const cJSON *rl = get(rep, "lods");
     const cJSON *pll = get(pl, "lods");
     const cJSON *manifest = get(job, "manifest");
@@ -666,21 +635,18 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
         double total_planes = 0, total_texels = 0;
         int idx = 0;
         const cJSON *l;
-        cJSON_ArrayForEach(l, src) {
+        cJSON_ArrayForEach(l, src)
+        {
             cJSON *o = cJSON_CreateObject();
-            if (!o)
-                break;
+            if (!o) break;
             cJSON_AddItemToArray(lods, o);
             const cJSON *name = get(l, "name");
-            if (cJSON_IsString(name))
-                cJSON_AddStringToObject(o, "name", name->valuestring);
+            if (cJSON_IsString(name)) cJSON_AddStringToObject(o, "name", name->valuestring);
             const cJSON *pli = cJSON_GetArrayItem(pll, idx);
             const cJSON *quads = get(l, "quads");
             double planes = -1;
-            if (cJSON_IsNumber(quads))
-                planes = quads->valuedouble;
-            else if (cJSON_IsArray(quads))
-                planes = cJSON_GetArraySize(quads);
+            if (cJSON_IsNumber(quads)) planes = quads->valuedouble;
+            else if (cJSON_IsArray(quads)) planes = cJSON_GetArraySize(quads);
             else if (cJSON_IsArray(get(pli, "quads")))
                 planes = cJSON_GetArraySize(get(pli, "quads"));
             if (planes >= 0) {
@@ -688,11 +654,9 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
                 total_planes += planes;
             }
             const cJSON *tris = get(l, "triangles");
-            if (cJSON_IsNumber(tris))
-                cJSON_AddNumberToObject(o, "triangles", tris->valuedouble);
+            if (cJSON_IsNumber(tris)) cJSON_AddNumberToObject(o, "triangles", tris->valuedouble);
             const cJSON *at = get(pli, "atlas");
-            if (!at)
-                at = get(l, "atlas");
+            if (!at) at = get(l, "atlas");
             const cJSON *w = get(at, "width"), *h = get(at, "height");
             if (cJSON_IsNumber(w) && cJSON_IsNumber(h)) {
                 double wh[2] = {w->valuedouble, h->valuedouble};
@@ -702,8 +666,7 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
                 total_texels += get(l, "texels")->valuedouble;
             }
             const cJSON *sw = get(l, "switch_distance");
-            if (cJSON_IsNumber(sw))
-                cJSON_AddNumberToObject(o, "switch_distance", sw->valuedouble);
+            if (cJSON_IsNumber(sw)) cJSON_AddNumberToObject(o, "switch_distance", sw->valuedouble);
             const cJSON *acc = best_accuracy(get(l, "accuracy"));
             if (acc) {
                 cJSON *ao = cJSON_AddObjectToObject(o, "accuracy");
@@ -711,49 +674,45 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
                                                    "color_error_mean", "depth_error_mean"};
                 for (size_t k = 0; ao && k < sizeof keys / sizeof keys[0]; k++) {
                     const cJSON *v = get(acc, keys[k]);
-                    if (cJSON_IsNumber(v))
-                        cJSON_AddNumberToObject(ao, keys[k], v->valuedouble);
+                    if (cJSON_IsNumber(v)) cJSON_AddNumberToObject(ao, keys[k], v->valuedouble);
                 }
             }
             idx++;
         }
         cJSON_AddNumberToObject(s, "planes", total_planes);
-        if (total_texels > 0)
-            cJSON_AddNumberToObject(s, "atlas_texels", total_texels);
+        if (total_texels > 0) cJSON_AddNumberToObject(s, "atlas_texels", total_texels);
     }
     /* Warnings: report.json's input.warnings, else the status document's. */
     const cJSON *warn = get(get(rep, "input"), "warnings");
-    if (!cJSON_IsArray(warn))
-        warn = get(job, "warnings");
+    if (!cJSON_IsArray(warn)) warn = get(job, "warnings");
     if (cJSON_IsArray(warn) && cJSON_GetArraySize(warn) > 0) {
         cJSON *wl = cJSON_AddArrayToObject(s, "warnings");
         const cJSON *w;
-        cJSON_ArrayForEach(w, warn) {
+        cJSON_ArrayForEach(w, warn)
+        {
             if (wl && cJSON_IsString(w))
                 cJSON_AddItemToArray(wl, cJSON_CreateString(w->valuestring));
         }
     }
     /* The target's outcome: report.json's, else the status document's. */
     const cJSON *target = get(rep, "target");
-    if (!cJSON_IsObject(target))
-        target = get(job, "target");
+    if (!cJSON_IsObject(target)) target = get(job, "target");
     if (cJSON_IsObject(target)) {
         cJSON *t = cJSON_AddObjectToObject(s, "target");
         static const char *const keys[] = {"goal", "met", "chosen", "reason"};
         for (size_t k = 0; t && k < sizeof keys / sizeof keys[0]; k++) {
             const cJSON *v = get(target, keys[k]);
-            if (v)
-                cJSON_AddItemToObject(t, keys[k], cJSON_Duplicate(v, 1));
+            if (v) cJSON_AddItemToObject(t, keys[k], cJSON_Duplicate(v, 1));
         }
     }
     /* Per-stage times: report.json's are the worker's own; else the job's. */
     const cJSON *times = get(rep, "times");
-    if (!cJSON_IsObject(times))
-        times = get(job, "times");
+    if (!cJSON_IsObject(times)) times = get(job, "times");
     if (cJSON_IsObject(times)) {
         cJSON *t = cJSON_AddObjectToObject(s, "times");
         const cJSON *e;
-        cJSON_ArrayForEach(e, times) {
+        cJSON_ArrayForEach(e, times)
+        {
             if (cJSON_IsNumber(e) && e->string)
                 cJSON_AddNumberToObject(t, e->string, e->valuedouble);
         }
@@ -778,29 +737,26 @@ static void put(outbuf *o, const char *fmt, ...)
     size_t room = o->used < o->len ? o->len - o->used : 0;
     int n = vsnprintf(room ? o->buf + o->used : NULL, room, fmt, ap);
     va_end(ap);
-    if (n > 0)
-        o->used += (size_t)n;
+    if (n > 0) o->used += (size_t)n;
 }
 
 size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
 {
     outbuf o = {buf, len, 0};
-    if (buf && len)
-        buf[0] = '\0';
+    if (buf && len) buf[0] = '\0';
     const cJSON *lods = get(s, "lods");
     if (cJSON_IsArray(lods)) {
         put(&o, "  LODs: %d, planes: %.0f", cJSON_GetArraySize(lods),
             cJSON_IsNumber(get(s, "planes")) ? get(s, "planes")->valuedouble : 0.0);
         const cJSON *tx = get(s, "atlas_texels");
-        if (cJSON_IsNumber(tx))
-            put(&o, ", atlas texels: %.0f", tx->valuedouble);
+        if (cJSON_IsNumber(tx)) put(&o, ", atlas texels: %.0f", tx->valuedouble);
         put(&o, "\n");
         const cJSON *l;
-        cJSON_ArrayForEach(l, lods) {
+        cJSON_ArrayForEach(l, lods)
+        {
             const cJSON *name = get(l, "name"), *pl = get(l, "planes"), *at = get(l, "atlas");
             put(&o, "    %-8s", cJSON_IsString(name) ? name->valuestring : "?");
-            if (cJSON_IsNumber(pl))
-                put(&o, " %5.0f planes", pl->valuedouble);
+            if (cJSON_IsNumber(pl)) put(&o, " %5.0f planes", pl->valuedouble);
             if (cJSON_GetArraySize(at) == 2)
                 put(&o, "  atlas %.0fx%.0f", cJSON_GetArrayItem(at, 0)->valuedouble,
                     cJSON_GetArrayItem(at, 1)->valuedouble);
@@ -809,76 +765,64 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
                 const cJSON *px = get(a, "pixels"), *iou = get(a, "iou_mean"),
                             *ce = get(a, "color_error_mean");
                 put(&o, "  accuracy");
-                if (cJSON_IsNumber(px))
-                    put(&o, " @%.0fpx", px->valuedouble);
-                if (cJSON_IsNumber(iou))
-                    put(&o, " IoU %.3f", iou->valuedouble);
-                if (cJSON_IsNumber(ce))
-                    put(&o, " colour error %.3f", ce->valuedouble);
+                if (cJSON_IsNumber(px)) put(&o, " @%.0fpx", px->valuedouble);
+                if (cJSON_IsNumber(iou)) put(&o, " IoU %.3f", iou->valuedouble);
+                if (cJSON_IsNumber(ce)) put(&o, " colour error %.3f", ce->valuedouble);
             }
             put(&o, "\n");
         }
     }
     const cJSON *w;
-    cJSON_ArrayForEach(w, get(s, "warnings")) {
-        if (cJSON_IsString(w))
-            put(&o, "  warning: %s\n", w->valuestring);
+    cJSON_ArrayForEach(w, get(s, "warnings"))
+    {
+        if (cJSON_IsString(w)) put(&o, "  warning: %s\n", w->valuestring);
     }
     const cJSON *target = get(s, "target");
     if (cJSON_IsTrue(get(target, "met"))) {
         put(&o, "  target met\n");
     } else if (cJSON_IsFalse(get(target, "met"))) {
         const cJSON *why = get(target, "reason");
-        put(&o, "  target not met: %s\n", cJSON_IsString(why) ? why->valuestring : "see report.json");
+        put(&o, "  target not met: %s\n",
+            cJSON_IsString(why) ? why->valuestring : "see report.json");
     }
     const cJSON *times = get(s, "times");
     if (cJSON_IsObject(times) && cJSON_GetArraySize(times) > 0) {
         put(&o, "  time:");
         const cJSON *e;
         bool first = true;
-        cJSON_ArrayForEach(e, times) {
+        cJSON_ArrayForEach(e, times)
+        {
             put(&o, "%s %s %.2fs", first ? "" : ",", e->string, e->valuedouble);
             first = false;
         }
         put(&o, "\n");
     }
-    if (buf && len && o.used >= len)
-        buf[len - 1] = '\0';
+    if (buf && len && o.used >= len) buf[len - 1] = '\0';
     return o.used;
 }
 
-size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction,
-                                 int try_k, int tries, double elapsed_s, bool bar, char *buf,
-                                 size_t len)
+size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction, int try_k,
+                                 int tries, double elapsed_s, bool bar, char *buf, size_t len)
 {
-    if (!(fraction >= 0))
-        fraction = 0;
-    if (fraction > 1)
-        fraction = 1;
+    if (!(fraction >= 0)) fraction = 0;
+    if (fraction > 1) fraction = 1;
     int pct = (int)(fraction * 100 + 1e-9);
     outbuf o = {buf, len, 0};
-    if (buf && len)
-        buf[0] = '\0';
+    if (buf && len) buf[0] = '\0';
     if (bar) {
         char b[21];
         int fill = (int)(fraction * 20 + 1e-9);
-        for (int i = 0; i < 20; i++)
-            b[i] = i < fill ? '#' : '.';
+        for (int i = 0; i < 20; i++) b[i] = i < fill ? '#' : '.';
         b[20] = '\0';
         put(&o, "%s [%s] %3d%% %-9s", label, b, pct, stage);
-        if (try_k > 0)
-            put(&o, " try %d/%d", try_k, tries);
-        if (elapsed_s >= 0)
-            put(&o, " %6.1f s", elapsed_s);
+        if (try_k > 0) put(&o, " try %d/%d", try_k, tries);
+        if (elapsed_s >= 0) put(&o, " %6.1f s", elapsed_s);
     } else {
         put(&o, "%s: %s %d%%", label, stage, pct);
-        if (try_k > 0)
-            put(&o, " (try %d of at most %d)", try_k, tries);
-        if (elapsed_s >= 0)
-            put(&o, ", %.1f s", elapsed_s);
+        if (try_k > 0) put(&o, " (try %d of at most %d)", try_k, tries);
+        if (elapsed_s >= 0) put(&o, ", %.1f s", elapsed_s);
     }
-    if (buf && len && o.used >= len)
-        buf[len - 1] = '\0';
+    if (buf && len && o.used >= len) buf[len - 1] = '\0';
     return o.used;
 }
 

@@ -38,7 +38,7 @@ typedef enum sylva_cmd {
 } sylva_cmd;
 
 typedef enum sylva_progress_mode {
-    SYLVA_PROGRESS_AUTO = 0,  /* bar on a terminal, plain lines otherwise */
+    SYLVA_PROGRESS_AUTO = 0, /* bar on a terminal, plain lines otherwise */
     SYLVA_PROGRESS_BAR,
     SYLVA_PROGRESS_PLAIN,
     SYLVA_PROGRESS_NONE
@@ -48,22 +48,22 @@ typedef enum sylva_progress_mode {
  * owns (freed by sylva_cli_free). */
 typedef struct sylva_cli {
     sylva_cmd cmd;
-    char **servers;            /* --server (repeatable, comma lists), else SYLVA_SERVER, else default */
+    char **servers; /* --server (repeatable, comma lists), else SYLVA_SERVER, else default */
     size_t server_count;
-    const char *token;         /* --token, else SYLVA_TOKEN, else NULL */
-    bool json;                 /* --json */
-    bool delete_done;          /* --delete: `cancel` may delete a finished bake */
+    const char *token;            /* --token, else SYLVA_TOKEN, else NULL */
+    bool json;                    /* --json */
+    bool delete_done;             /* --delete: `cancel` may delete a finished bake */
     sylva_progress_mode progress; /* --progress=auto|bar|plain|none, --quiet = none */
-    const char *out;           /* --out DIR */
-    const char *spec_path;     /* --spec FILE */
-    const char *method;        /* --method M */
-    const char **sets;         /* --set key=value, in order */
+    const char *out;              /* --out DIR */
+    const char *spec_path;        /* --spec FILE */
+    const char *method;           /* --method M */
+    const char **sets;            /* --set key=value, in order */
     size_t set_count;
-    const char **args;         /* positional arguments; NULL entries are "--" separators */
+    const char **args; /* positional arguments; NULL entries are "--" separators */
     size_t arg_count;
-    double timeout_s;          /* --timeout S (bake wait), 0 = none */
-    double wait_s;             /* status --wait S */
-    int retries;               /* --retries N (attempts = N + 1); -1 = library default */
+    double timeout_s; /* --timeout S (bake wait), 0 = none */
+    double wait_s;    /* status --wait S */
+    int retries;      /* --retries N (attempts = N + 1); -1 = library default */
 } sylva_cli;
 
 /* Parses argv (argv[0] is the program). Options may come before or after the
@@ -71,7 +71,7 @@ typedef struct sylva_cli {
  * (may be NULL). Returns SYLVA_EXIT_OK, or SYLVA_EXIT_USAGE with a one-line
  * message in err. On failure *cli is still safe to sylva_cli_free. */
 int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *env_token,
-                     sylva_cli *cli, char *err, size_t errlen);
+                    sylva_cli *cli, char *err, size_t errlen);
 
 /* Frees what sylva_cli_parse allocated and zeroes *cli. */
 void sylva_cli_free(sylva_cli *cli);
@@ -96,8 +96,8 @@ typedef struct sylva_bake_group {
  * name with '.' replaced by '_' where two stems collide).
  * Returns SYLVA_EXIT_OK or SYLVA_EXIT_USAGE with err set. *groups (free with
  * sylva_cli_groups_free) receives *count groups. */
-int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *count,
-                     char *err, size_t errlen);
+int sylva_cli_groups(const sylva_cli *cli, sylva_bake_group **groups, size_t *count, char *err,
+                     size_t errlen);
 void sylva_cli_groups_free(sylva_bake_group *groups, size_t count);
 
 /* True when the file name ends with a mesh extension (see above). */
@@ -111,8 +111,8 @@ bool sylva_cli_is_mesh(const char *path);
  * (spec[method][key]), a dotted key a path from the spec root (scene.viewer).
  * *out (free()) receives the bytes, *out_len their length. */
 int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
-                         const char *const *sets, size_t set_count, char **out,
-                         size_t *out_len, char *err, size_t errlen);
+                         const char *const *sets, size_t set_count, char **out, size_t *out_len,
+                         char *err, size_t errlen);
 
 /* Builds the summary of a done bake from the job's JSON and the downloaded
  * report.json and planes.json (each may be NULL): {"lods":[{"name","planes",
@@ -123,8 +123,7 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
  * status document's; left out when the spec had none),
  * "times": {stage: seconds}}. Never NULL unless out of memory; missing sources
  * leave fields out. */
-cJSON *sylva_cli_summary(const char *job_json, const char *report_json,
-                         const char *planes_json);
+cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const char *planes_json);
 
 /* Formats a summary as short human-readable lines into buf (one
  * "  warning: ..." line per warning, "  target met" or "  target not met: why";
@@ -134,9 +133,8 @@ size_t sylva_cli_summary_format(const cJSON *summary, char *buf, size_t len);
 /* Formats one progress line, "label: stage 42% (try 2 of at most 4), 3.1 s",
  * or with bar "label [########............]  42% stage  try 2/4  3.1 s";
  * the try part only when try_k > 0, the time only when elapsed_s >= 0. */
-size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction,
-                                 int try_k, int tries, double elapsed_s, bool bar, char *buf,
-                                 size_t len);
+size_t sylva_cli_progress_format(const char *label, const char *stage, double fraction, int try_k,
+                                 int tries, double elapsed_s, bool bar, char *buf, size_t len);
 
 /* The exit code for a libsylva status. */
 int sylva_cli_exit_code(sylva_status st);

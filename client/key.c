@@ -39,22 +39,19 @@ static const struct {
 
 const char *sylva_status_name(sylva_status st)
 {
-    if ((unsigned)st >= SYLVA_STATUS_COUNT)
-        return "unknown";
+    if ((unsigned)st >= SYLVA_STATUS_COUNT) return "unknown";
     return status_table[st].name;
 }
 
 const char *sylva_status_message(sylva_status st)
 {
-    if ((unsigned)st >= SYLVA_STATUS_COUNT)
-        return "unknown status";
+    if ((unsigned)st >= SYLVA_STATUS_COUNT) return "unknown status";
     return status_table[st].message;
 }
 
 void sylva_options_init(sylva_options *opts)
 {
-    if (!opts)
-        return;
+    if (!opts) return;
     memset(opts, 0, sizeof *opts);
     opts->connect_timeout_ms = 5000;
     opts->request_timeout_ms = 300000;
@@ -64,8 +61,8 @@ void sylva_options_init(sylva_options *opts)
     opts->user_agent = "libsylva/" SYLVA_VERSION;
 }
 
-long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers,
-                       bool transport_error, long http_status, long retry_after_ms)
+long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers, bool transport_error,
+                       long http_status, long retry_after_ms)
 {
     sylva_options d;
     sylva_options_init(&d);
@@ -74,20 +71,15 @@ long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers,
     long cap = opts && opts->backoff_max_ms > 0 ? opts->backoff_max_ms : d.backoff_max_ms;
     bool retryable = transport_error || http_status == 429 ||
                      (http_status >= 500 && http_status <= 599);
-    if (!retryable || attempt < 1 || attempt >= max_attempts)
-        return -1;
-    if (servers == 0)
-        servers = 1;
+    if (!retryable || attempt < 1 || attempt >= max_attempts) return -1;
+    if (servers == 0) servers = 1;
     /* Fail over first: the next server in the list is tried at once, unless a
      * full round over every server has just failed. */
-    if ((size_t)attempt % servers != 0)
-        return 0;
+    if ((size_t)attempt % servers != 0) return 0;
     size_t round = (size_t)attempt / servers; /* 1, 2, ... */
     long delay = base;
-    for (size_t r = 1; r < round && delay < cap; r++)
-        delay = delay > cap / 2 ? cap : delay * 2;
-    if (delay > cap)
-        delay = cap;
+    for (size_t r = 1; r < round && delay < cap; r++) delay = delay > cap / 2 ? cap : delay * 2;
+    if (delay > cap) delay = cap;
     if (retry_after_ms > delay) {
         long ra_cap = cap > LONG_MAX / 4 ? cap : cap * 4;
         delay = retry_after_ms < ra_cap ? retry_after_ms : ra_cap;
@@ -107,18 +99,16 @@ static void set_err(char *errbuf, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void set_err(char *errbuf, size_t errlen, const char *fmt, ...)
 {
-    if (!errbuf || errlen == 0)
-        return;
+    if (!errbuf || errlen == 0) return;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(errbuf, errlen, fmt, ap);
     va_end(ap);
 }
 
-
 /* Feeds a whole file into the digest; *size receives its length. */
-static sylva_status digest_file(EVP_MD_CTX *md, const char *path, uint64_t *size,
-                                char *errbuf, size_t errlen)
+static sylva_status digest_file(EVP_MD_CTX *md, const char *path, uint64_t *size, char *errbuf,
+                                size_t errlen)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
@@ -176,10 +166,8 @@ static const char *base_name(const char *path)
 /* The upload name of f (its name, or the base name of its path), or NULL. */
 static const char *upload_name(const sylva_file *f)
 {
-    if (f->name)
-        return f->name;
-    if (f->path)
-        return base_name(f->path);
+    if (f->name) return f->name;
+    if (f->path) return base_name(f->path);
     return NULL;
 }
 
@@ -191,13 +179,12 @@ static int cmp_file_by_name(const void *a, const void *b)
     return strcmp(upload_name(*fa), upload_name(*fb));
 }
 
-static sylva_status digest_part(EVP_MD_CTX *md, const char *kind, const sylva_file *f,
-                                char *errbuf, size_t errlen)
+static sylva_status digest_part(EVP_MD_CTX *md, const char *kind, const sylva_file *f, char *errbuf,
+                                size_t errlen)
 {
     uint64_t size = 0;
     sylva_status st = file_size(f, &size, errbuf, errlen);
-    if (st != SYLVA_OK)
-        return st;
+    if (st != SYLVA_OK) return st;
     char head[SYLVA_NAME_MAX + 64];
     int n = sylva_key_part_head(head, sizeof head, kind, upload_name(f), (unsigned long long)size);
     if (n < 0 || EVP_DigestUpdate(md, head, (size_t)n) != 1) {
@@ -212,8 +199,7 @@ static sylva_status digest_part(EVP_MD_CTX *md, const char *kind, const sylva_fi
     } else {
         uint64_t got = 0;
         st = digest_file(md, f->path, &got, errbuf, errlen);
-        if (st != SYLVA_OK)
-            return st;
+        if (st != SYLVA_OK) return st;
         if (got != size) {
             set_err(errbuf, errlen, "%s changed while it was read", f->path);
             return SYLVA_ERR_IO;
@@ -227,8 +213,8 @@ static sylva_status digest_part(EVP_MD_CTX *md, const char *kind, const sylva_fi
 }
 
 /* Checks the names of in: valid, and no two equal (the mesh included). */
-static sylva_status check_names(const sylva_input *in, const sylva_file **sorted,
-                                char *errbuf, size_t errlen)
+static sylva_status check_names(const sylva_input *in, const sylva_file **sorted, char *errbuf,
+                                size_t errlen)
 {
     if (!in->mesh.data && !in->mesh.path) {
         set_err(errbuf, errlen, "the mesh has neither data nor a path");
@@ -236,8 +222,10 @@ static sylva_status check_names(const sylva_input *in, const sylva_file **sorted
     }
     const char *mname = upload_name(&in->mesh);
     if (!sylva_name_valid(mname)) {
-        set_err(errbuf, errlen, "invalid mesh name \"%.64s\": names are base names without "
-                "spaces or control characters, 1-255 bytes", mname ? mname : "");
+        set_err(errbuf, errlen,
+                "invalid mesh name \"%.64s\": names are base names without "
+                "spaces or control characters, 1-255 bytes",
+                mname ? mname : "");
         return SYLVA_ERR_ARG;
     }
     for (size_t i = 0; i < in->file_count; i++) {
@@ -248,8 +236,10 @@ static sylva_status check_names(const sylva_input *in, const sylva_file **sorted
             return SYLVA_ERR_ARG;
         }
         if (!sylva_name_valid(name)) {
-            set_err(errbuf, errlen, "invalid file name \"%.64s\": names are base names without "
-                    "spaces or control characters, 1-255 bytes", name ? name : "");
+            set_err(errbuf, errlen,
+                    "invalid file name \"%.64s\": names are base names without "
+                    "spaces or control characters, 1-255 bytes",
+                    name ? name : "");
             return SYLVA_ERR_ARG;
         }
         if (strcmp(name, mname) == 0) {
@@ -258,8 +248,7 @@ static sylva_status check_names(const sylva_input *in, const sylva_file **sorted
         }
         sorted[i] = f;
     }
-    if (in->file_count > 1)
-        qsort(sorted, in->file_count, sizeof *sorted, cmp_file_by_name);
+    if (in->file_count > 1) qsort(sorted, in->file_count, sizeof *sorted, cmp_file_by_name);
     for (size_t i = 1; i < in->file_count; i++) {
         if (strcmp(upload_name(sorted[i - 1]), upload_name(sorted[i])) == 0) {
             set_err(errbuf, errlen, "duplicate file name \"%s\"", upload_name(sorted[i]));
@@ -269,11 +258,10 @@ static sylva_status check_names(const sylva_input *in, const sylva_file **sorted
     return SYLVA_OK;
 }
 
-sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1],
-                               char *errbuf, size_t errlen)
+sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1], char *errbuf,
+                               size_t errlen)
 {
-    if (errbuf && errlen)
-        errbuf[0] = '\0';
+    if (errbuf && errlen) errbuf[0] = '\0';
     if (!in || !key) {
         set_err(errbuf, errlen, "sylva_key_compute: NULL input or key");
         return SYLVA_ERR_ARG;
@@ -290,8 +278,7 @@ sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1
         }
     }
     st = check_names(in, sorted, errbuf, errlen);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     md = EVP_MD_CTX_new();
     if (!md || EVP_DigestInit_ex(md, EVP_sha256(), NULL) != 1) {
         set_err(errbuf, errlen, "cannot start SHA-256");
@@ -314,8 +301,7 @@ sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1
     st = digest_part(md, "mesh", &in->mesh, errbuf, errlen);
     for (size_t i = 0; st == SYLVA_OK && i < in->file_count; i++)
         st = digest_part(md, "file", sorted[i], errbuf, errlen);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     unsigned char out_md[EVP_MAX_MD_SIZE];
     unsigned int out_len = 0;
     if (EVP_DigestFinal_ex(md, out_md, &out_len) != 1 || out_len != 32) {
@@ -332,8 +318,7 @@ out:
 
 sylva_status sylva_sha256_hex(const void *data, size_t size, char hex[SYLVA_KEY_HEX + 1])
 {
-    if ((!data && size) || !hex)
-        return SYLVA_ERR_ARG;
+    if ((!data && size) || !hex) return SYLVA_ERR_ARG;
     unsigned char md[EVP_MAX_MD_SIZE];
     unsigned int len = 0;
     if (EVP_Digest(size ? data : "", size, md, &len, EVP_sha256(), NULL) != 1 || len != 32)
@@ -344,8 +329,7 @@ sylva_status sylva_sha256_hex(const void *data, size_t size, char hex[SYLVA_KEY_
 
 sylva_status sylva_sha256_file(const char *path, char hex[SYLVA_KEY_HEX + 1])
 {
-    if (!path || !hex)
-        return SYLVA_ERR_ARG;
+    if (!path || !hex) return SYLVA_ERR_ARG;
     EVP_MD_CTX *md = EVP_MD_CTX_new();
     if (!md || EVP_DigestInit_ex(md, EVP_sha256(), NULL) != 1) {
         EVP_MD_CTX_free(md);
@@ -357,8 +341,7 @@ sylva_status sylva_sha256_file(const char *path, char hex[SYLVA_KEY_HEX + 1])
     unsigned int len = 0;
     if (st == SYLVA_OK && (EVP_DigestFinal_ex(md, out, &len) != 1 || len != 32))
         st = SYLVA_ERR_NOMEM;
-    if (st == SYLVA_OK)
-        sylva_hex32(out, hex);
+    if (st == SYLVA_OK) sylva_hex32(out, hex);
     EVP_MD_CTX_free(md);
     return st;
 }

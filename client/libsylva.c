@@ -19,13 +19,13 @@
 #include <time.h>
 #include <unistd.h>
 
-#define MAX_JSON_BYTES (16u << 20)       /* a status/health answer */
+#define MAX_JSON_BYTES (16u << 20)         /* a status/health answer */
 #define MAX_MEM_ARTIFACT ((size_t)1 << 31) /* sylva_fetch_mem */
 
 struct sylva_client {
     char **urls;
     size_t url_count;
-    size_t current;            /* index of the server tried first next time */
+    size_t current; /* index of the server tried first next time */
     long connect_timeout_ms;
     long request_timeout_ms;
     int max_attempts;
@@ -33,7 +33,7 @@ struct sylva_client {
     long backoff_max_ms;
     char *token;
     char *user_agent;
-    sylva_options policy;      /* the numbers above, for sylva_retry_delay */
+    sylva_options policy; /* the numbers above, for sylva_retry_delay */
     void (*on_retry)(void *, const char *, long, int, int);
     void *on_retry_user;
     CURL *curl;
@@ -48,8 +48,7 @@ static char *dup_str(const char *s)
 {
     size_t n = strlen(s) + 1;
     char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
+    if (d) memcpy(d, s, n);
     return d;
 }
 
@@ -72,11 +71,9 @@ static void clear_error(sylva_client *c)
 
 static void sleep_ms(long ms)
 {
-    if (ms <= 0)
-        return;
+    if (ms <= 0) return;
     struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
 }
 
 static double now_s(void)
@@ -94,24 +91,22 @@ static bool key_valid(const char *key)
 /* ---- create / destroy ------------------------------------------------------- */
 
 sylva_status sylva_client_create(const char *const *urls, size_t url_count,
-                                 const sylva_options *opts, sylva_client **out,
-                                 char *errbuf, size_t errlen)
+                                 const sylva_options *opts, sylva_client **out, char *errbuf,
+                                 size_t errlen)
 {
-    if (errbuf && errlen)
-        errbuf[0] = '\0';
-    if (!out)
-        return SYLVA_ERR_ARG;
+    if (errbuf && errlen) errbuf[0] = '\0';
+    if (!out) return SYLVA_ERR_ARG;
     *out = NULL;
     if (!urls || url_count == 0) {
-        if (errbuf)
-            snprintf(errbuf, errlen, "no server URL given");
+        if (errbuf) snprintf(errbuf, errlen, "no server URL given");
         return SYLVA_ERR_ARG;
     }
     for (size_t i = 0; i < url_count; i++) {
-        if (!urls[i] || (strncmp(urls[i], "http://", 7) != 0 &&
-                         strncmp(urls[i], "https://", 8) != 0)) {
+        if (!urls[i] ||
+            (strncmp(urls[i], "http://", 7) != 0 && strncmp(urls[i], "https://", 8) != 0)) {
             if (errbuf)
-                snprintf(errbuf, errlen, "server URL \"%.200s\" must start with http:// or https://",
+                snprintf(errbuf, errlen,
+                         "server URL \"%.200s\" must start with http:// or https://",
                          urls[i] ? urls[i] : "(null)");
             return SYLVA_ERR_ARG;
         }
@@ -119,19 +114,15 @@ sylva_status sylva_client_create(const char *const *urls, size_t url_count,
     sylva_options d;
     sylva_options_init(&d);
     sylva_client *c = calloc(1, sizeof *c);
-    if (!c)
-        return SYLVA_ERR_NOMEM;
+    if (!c) return SYLVA_ERR_NOMEM;
     c->urls = calloc(url_count, sizeof *c->urls);
-    if (!c->urls)
-        goto nomem;
+    if (!c->urls) goto nomem;
     c->url_count = url_count;
     for (size_t i = 0; i < url_count; i++) {
         c->urls[i] = dup_str(urls[i]);
-        if (!c->urls[i])
-            goto nomem;
+        if (!c->urls[i]) goto nomem;
         size_t n = strlen(c->urls[i]);
-        while (n > 0 && c->urls[i][n - 1] == '/')
-            c->urls[i][--n] = '\0';
+        while (n > 0 && c->urls[i][n - 1] == '/') c->urls[i][--n] = '\0';
     }
     c->connect_timeout_ms = opts && opts->connect_timeout_ms > 0 ? opts->connect_timeout_ms
                                                                  : d.connect_timeout_ms;
@@ -140,8 +131,7 @@ sylva_status sylva_client_create(const char *const *urls, size_t url_count,
     c->max_attempts = opts && opts->max_attempts > 0 ? opts->max_attempts : d.max_attempts;
     c->backoff_base_ms = opts && opts->backoff_base_ms > 0 ? opts->backoff_base_ms
                                                            : d.backoff_base_ms;
-    c->backoff_max_ms = opts && opts->backoff_max_ms > 0 ? opts->backoff_max_ms
-                                                         : d.backoff_max_ms;
+    c->backoff_max_ms = opts && opts->backoff_max_ms > 0 ? opts->backoff_max_ms : d.backoff_max_ms;
     c->policy = d;
     if (opts) {
         c->on_retry = opts->on_retry;
@@ -152,40 +142,32 @@ sylva_status sylva_client_create(const char *const *urls, size_t url_count,
     c->policy.backoff_max_ms = c->backoff_max_ms;
     if (opts && opts->token && opts->token[0]) {
         if (strpbrk(opts->token, "\r\n")) {
-            if (errbuf)
-                snprintf(errbuf, errlen, "the token contains a line break");
+            if (errbuf) snprintf(errbuf, errlen, "the token contains a line break");
             sylva_client_destroy(c);
             return SYLVA_ERR_ARG;
         }
         c->token = dup_str(opts->token);
-        if (!c->token)
-            goto nomem;
+        if (!c->token) goto nomem;
     }
     c->user_agent = dup_str(opts && opts->user_agent ? opts->user_agent : d.user_agent);
-    if (!c->user_agent)
-        goto nomem;
+    if (!c->user_agent) goto nomem;
     /* curl_easy_init runs curl_global_init itself when nobody did (not thread-safe
      * then: documented in sylva.h). */
     c->curl = curl_easy_init();
-    if (!c->curl)
-        goto nomem;
+    if (!c->curl) goto nomem;
     *out = c;
     return SYLVA_OK;
 nomem:
-    if (errbuf)
-        snprintf(errbuf, errlen, "out of memory creating the client");
+    if (errbuf) snprintf(errbuf, errlen, "out of memory creating the client");
     sylva_client_destroy(c);
     return SYLVA_ERR_NOMEM;
 }
 
 void sylva_client_destroy(sylva_client *c)
 {
-    if (!c)
-        return;
-    if (c->curl)
-        curl_easy_cleanup(c->curl);
-    for (size_t i = 0; c->urls && i < c->url_count; i++)
-        free(c->urls[i]);
+    if (!c) return;
+    if (c->curl) curl_easy_cleanup(c->curl);
+    for (size_t i = 0; c->urls && i < c->url_count; i++) free(c->urls[i]);
     free(c->urls);
     free(c->token);
     free(c->user_agent);
@@ -247,8 +229,7 @@ static size_t sink_write(char *ptr, size_t size, size_t nmemb, void *ud)
     }
     if (s->len + n + 1 > s->cap) {
         size_t cap = s->cap ? s->cap : 4096;
-        while (cap < s->len + n + 1)
-            cap = cap > SIZE_MAX / 2 ? SIZE_MAX : cap * 2;
+        while (cap < s->len + n + 1) cap = cap > SIZE_MAX / 2 ? SIZE_MAX : cap * 2;
         char *nb = realloc(s->buf, cap);
         if (!nb) {
             s->overflow = true;
@@ -269,14 +250,11 @@ static bool sink_reset(sink *s)
     s->len = 0;
     s->overflow = false;
     s->write_failed = false;
-    if (s->buf)
-        s->buf[0] = '\0';
+    if (s->buf) s->buf[0] = '\0';
     if (s->file) {
-        if (fflush(s->file) != 0 || ftruncate(fileno(s->file), 0) != 0)
-            return false;
+        if (fflush(s->file) != 0 || ftruncate(fileno(s->file), 0) != 0) return false;
         rewind(s->file);
-        if (s->md && EVP_DigestInit_ex(s->md, EVP_sha256(), NULL) != 1)
-            return false;
+        if (s->md && EVP_DigestInit_ex(s->md, EVP_sha256(), NULL) != 1) return false;
     }
     return true;
 }
@@ -302,19 +280,18 @@ static size_t cursor_read(char *buffer, size_t size, size_t nitems, void *arg)
 static int cursor_seek(void *arg, curl_off_t offset, int origin)
 {
     cursor *cu = arg;
-    curl_off_t base = origin == SEEK_SET ? 0 : origin == SEEK_CUR ? (curl_off_t)cu->pos
-                                                                  : (curl_off_t)cu->size;
+    curl_off_t base = origin == SEEK_SET   ? 0
+                      : origin == SEEK_CUR ? (curl_off_t)cu->pos
+                                           : (curl_off_t)cu->size;
     curl_off_t p = base + offset;
-    if (p < 0 || (uint64_t)p > cu->size)
-        return CURL_SEEKFUNC_FAIL;
+    if (p < 0 || (uint64_t)p > cu->size) return CURL_SEEKFUNC_FAIL;
     cu->pos = (size_t)p;
     return CURL_SEEKFUNC_OK;
 }
 
 static const char *upload_name(const sylva_file *f)
 {
-    if (f->name)
-        return f->name;
+    if (f->name) return f->name;
     const char *s = strrchr(f->path, '/');
     return s ? s + 1 : f->path;
 }
@@ -328,14 +305,12 @@ static sylva_status add_part(sylva_client *c, curl_mime *mime, const char *field
     CURLcode rc;
     if (f->data) {
         cursor *cu = malloc(sizeof *cu);
-        if (!cu)
-            return fail(c, SYLVA_ERR_NOMEM, "cannot build the upload");
+        if (!cu) return fail(c, SYLVA_ERR_NOMEM, "cannot build the upload");
         *cu = (cursor){f->data, f->size, 0};
         rc = curl_mime_data_cb(part, (curl_off_t)f->size, cursor_read, cursor_seek, free, cu);
     } else {
         rc = curl_mime_filedata(part, f->path);
-        if (rc == CURLE_READ_ERROR)
-            return fail(c, SYLVA_ERR_IO, "cannot read %s", f->path);
+        if (rc == CURLE_READ_ERROR) return fail(c, SYLVA_ERR_IO, "cannot read %s", f->path);
     }
     if (rc != CURLE_OK || curl_mime_filename(part, upload_name(f)) != CURLE_OK ||
         curl_mime_type(part, "application/octet-stream") != CURLE_OK)
@@ -346,8 +321,7 @@ static sylva_status add_part(sylva_client *c, curl_mime *mime, const char *field
 static sylva_status build_mime(sylva_client *c, const sylva_input *in, curl_mime **out)
 {
     curl_mime *mime = curl_mime_init(c->curl);
-    if (!mime)
-        return fail(c, SYLVA_ERR_NOMEM, "cannot build the upload");
+    if (!mime) return fail(c, SYLVA_ERR_NOMEM, "cannot build the upload");
     sylva_status st = SYLVA_OK;
     curl_mimepart *spec = curl_mime_addpart(mime);
     bool empty = !in->spec || in->spec_len == 0;
@@ -389,14 +363,12 @@ static void take_server_error(sylva_client *c, const char *body, const char *wha
     const cJSON *e = cJSON_GetObjectItemCaseSensitive(doc, "error");
     const cJSON *jc = cJSON_GetObjectItemCaseSensitive(e, "code");
     const cJSON *jm = cJSON_GetObjectItemCaseSensitive(e, "message");
-    if (cJSON_IsString(jc))
-        code = jc->valuestring;
-    if (cJSON_IsString(jm))
-        msg = jm->valuestring;
+    if (cJSON_IsString(jc)) code = jc->valuestring;
+    if (cJSON_IsString(jm)) msg = jm->valuestring;
     snprintf(c->error_code, sizeof c->error_code, "%s", code);
     if (msg[0])
-        snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status,
-                 code, code[0] ? ": " : "", msg);
+        snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status, code,
+                 code[0] ? ": " : "", msg);
     else
         snprintf(c->error, sizeof c->error, "%s: HTTP %ld from %s", what, c->http_status,
                  c->urls[c->current]);
@@ -405,16 +377,11 @@ static void take_server_error(sylva_client *c, const char *body, const char *wha
 
 static sylva_status status_for_http(long code)
 {
-    if (code == 401 || code == 403)
-        return SYLVA_ERR_AUTH;
-    if (code == 404)
-        return SYLVA_ERR_NOT_FOUND;
-    if (code == 429 || code == 503)
-        return SYLVA_ERR_BUSY;
-    if (code >= 500)
-        return SYLVA_ERR_SERVER;
-    if (code >= 400)
-        return SYLVA_ERR_REJECTED;
+    if (code == 401 || code == 403) return SYLVA_ERR_AUTH;
+    if (code == 404) return SYLVA_ERR_NOT_FOUND;
+    if (code == 429 || code == 503) return SYLVA_ERR_BUSY;
+    if (code >= 500) return SYLVA_ERR_SERVER;
+    if (code >= 400) return SYLVA_ERR_REJECTED;
     return SYLVA_ERR_PROTOCOL;
 }
 
@@ -431,8 +398,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         if (snprintf(auth, sizeof auth, "Authorization: Bearer %s", c->token) >= (int)sizeof auth)
             return fail(c, SYLVA_ERR_ARG, "the token is too long");
         headers = curl_slist_append(headers, auth);
-        if (!headers)
-            return fail(c, SYLVA_ERR_NOMEM, "out of memory");
+        if (!headers) return fail(c, SYLVA_ERR_NOMEM, "out of memory");
     }
     for (int attempt = 1;; attempt++) {
         char url[2048];
@@ -450,12 +416,10 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         mime = NULL;
         if (r->upload) {
             st = build_mime(c, r->upload, &mime);
-            if (st != SYLVA_OK)
-                break;
+            if (st != SYLVA_OK) break;
             curl_easy_setopt(h, CURLOPT_MIMEPOST, mime);
         }
-        if (strcmp(r->method, "GET") != 0)
-            curl_easy_setopt(h, CURLOPT_CUSTOMREQUEST, r->method);
+        if (strcmp(r->method, "GET") != 0) curl_easy_setopt(h, CURLOPT_CUSTOMREQUEST, r->method);
         char errbuf[CURL_ERROR_SIZE] = "";
         curl_easy_setopt(h, CURLOPT_URL, url);
         curl_easy_setopt(h, CURLOPT_NOSIGNAL, 1L);
@@ -466,8 +430,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, sink_write);
         curl_easy_setopt(h, CURLOPT_WRITEDATA, r->out);
         curl_easy_setopt(h, CURLOPT_PROTOCOLS_STR, "http,https");
-        if (headers)
-            curl_easy_setopt(h, CURLOPT_HTTPHEADER, headers);
+        if (headers) curl_easy_setopt(h, CURLOPT_HTTPHEADER, headers);
         CURLcode rc = curl_easy_perform(h);
         long code = 0;
         curl_off_t retry_after = -1;
@@ -489,8 +452,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
                       c->urls[c->current]);
             break;
         } else if (r->out->write_failed) {
-            st = fail(c, SYLVA_ERR_IO, "%s: cannot write the download: %s", what,
-                      strerror(errno));
+            st = fail(c, SYLVA_ERR_IO, "%s: cannot write the download: %s", what, strerror(errno));
             break;
         } else if (rc == CURLE_READ_ERROR && r->upload) {
             st = fail(c, SYLVA_ERR_IO, "%s: cannot read an upload file: %s", what,
@@ -505,8 +467,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         }
         long ra_ms = retry_after > 0 && retry_after < 86400 ? (long)retry_after * 1000 : -1;
         long delay = sylva_retry_delay(&c->policy, attempt, c->url_count, transport, code, ra_ms);
-        if (delay < 0)
-            break;
+        if (delay < 0) break;
         c->current = (c->current + 1) % c->url_count;
         if (c->on_retry && delay > 0)
             c->on_retry(c->on_retry_user, c->error, delay, attempt, c->max_attempts);
@@ -514,35 +475,31 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
     }
     curl_mime_free(mime);
     curl_slist_free_all(headers);
-    if (st == SYLVA_OK)
-        clear_error(c);
+    if (st == SYLVA_OK) clear_error(c);
     return st;
 }
 
 /* ---- jobs ------------------------------------------------------------------------ */
 
-static const char *const state_names[] = {"unknown", "queued", "running", "done", "failed",
-                                          "cancelled"};
+static const char *const state_names[] = {"unknown", "queued", "running",
+                                          "done",    "failed", "cancelled"};
 
 const char *sylva_state_name(sylva_state s)
 {
-    if ((unsigned)s >= sizeof state_names / sizeof state_names[0])
-        return "unknown";
+    if ((unsigned)s >= sizeof state_names / sizeof state_names[0]) return "unknown";
     return state_names[s];
 }
 
 void sylva_job_clear(sylva_job *job)
 {
-    if (!job)
-        return;
+    if (!job) return;
     free(job->json);
     memset(job, 0, sizeof *job);
 }
 
 sylva_status sylva_job_parse(const char *body, size_t len, sylva_job *job)
 {
-    if (!body || !job)
-        return SYLVA_ERR_ARG;
+    if (!body || !job) return SYLVA_ERR_ARG;
     sylva_job_clear(job);
     cJSON *doc = cJSON_ParseWithLength(body, len);
     sylva_status st = SYLVA_ERR_PROTOCOL;
@@ -553,19 +510,16 @@ sylva_status sylva_job_parse(const char *body, size_t len, sylva_job *job)
         goto out;
     snprintf(job->key, sizeof job->key, "%s", key->valuestring);
     for (size_t i = 1; i < sizeof state_names / sizeof state_names[0]; i++)
-        if (strcmp(state->valuestring, state_names[i]) == 0)
-            job->state = (sylva_state)i;
-    if (job->state == SYLVA_STATE_UNKNOWN)
-        goto out;
+        if (strcmp(state->valuestring, state_names[i]) == 0) job->state = (sylva_state)i;
+    if (job->state == SYLVA_STATE_UNKNOWN) goto out;
     const cJSON *stage = cJSON_GetObjectItemCaseSensitive(doc, "stage");
-    if (cJSON_IsString(stage))
-        snprintf(job->stage, sizeof job->stage, "%s", stage->valuestring);
+    if (cJSON_IsString(stage)) snprintf(job->stage, sizeof job->stage, "%s", stage->valuestring);
     const cJSON *progress = cJSON_GetObjectItemCaseSensitive(doc, "progress");
     if (cJSON_IsNumber(progress))
-        job->progress = progress->valuedouble < 0 ? 0
-                        : progress->valuedouble > 1 ? 1 : progress->valuedouble;
-    if (job->state == SYLVA_STATE_DONE)
-        job->progress = 1;
+        job->progress = progress->valuedouble < 0   ? 0
+                        : progress->valuedouble > 1 ? 1
+                                                    : progress->valuedouble;
+    if (job->state == SYLVA_STATE_DONE) job->progress = 1;
     const cJSON *tk = cJSON_GetObjectItemCaseSensitive(doc, "try");
     const cJSON *tn = cJSON_GetObjectItemCaseSensitive(doc, "tries");
     if (cJSON_IsNumber(tk) && cJSON_IsNumber(tn) && tk->valueint >= 1 &&
@@ -597,8 +551,7 @@ sylva_status sylva_job_parse(const char *body, size_t len, sylva_job *job)
     job->json[len] = '\0';
     st = SYLVA_OK;
 out:
-    if (st != SYLVA_OK)
-        sylva_job_clear(job);
+    if (st != SYLVA_OK) sylva_job_clear(job);
     cJSON_Delete(doc);
     return st;
 }
@@ -611,8 +564,7 @@ static sylva_status parse_job_answer(sylva_client *c, const sink *s, sylva_job *
     if (st == SYLVA_ERR_PROTOCOL)
         return fail(c, st, "%s: the answer of %s (HTTP %ld) is not a job", what,
                     c->urls[c->current], c->http_status);
-    if (st != SYLVA_OK)
-        return fail(c, st, "%s: out of memory", what);
+    if (st != SYLVA_OK) return fail(c, st, "%s: out of memory", what);
     if (job) {
         sylva_job_clear(job);
         *job = tmp;
@@ -624,15 +576,12 @@ static sylva_status parse_job_answer(sylva_client *c, const sink *s, sylva_job *
 
 sylva_status sylva_submit(sylva_client *c, const sylva_input *in, sylva_job *job)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!in)
-        return fail(c, SYLVA_ERR_ARG, "sylva_submit: no input");
+    if (!in) return fail(c, SYLVA_ERR_ARG, "sylva_submit: no input");
     char key[SYLVA_KEY_HEX + 1];
     sylva_status st = sylva_key_compute(in, key, c->error, sizeof c->error);
-    if (st != SYLVA_OK)
-        return st;
+    if (st != SYLVA_OK) return st;
     sink s = {.limit = MAX_JSON_BYTES};
     request r = {.method = "PUT", .upload = in, .out = &s};
     snprintf(r.path, sizeof r.path, "/v1/bakes/%s", key);
@@ -640,8 +589,7 @@ sylva_status sylva_submit(sylva_client *c, const sylva_input *in, sylva_job *job
     if (st == SYLVA_OK) {
         if (c->http_status != 200 && c->http_status != 202)
             st = fail(c, SYLVA_ERR_PROTOCOL, "upload: unexpected HTTP %ld", c->http_status);
-        else
-            st = parse_job_answer(c, &s, job, "upload");
+        else st = parse_job_answer(c, &s, job, "upload");
         if (st == SYLVA_OK && job && strcmp(job->key, key) != 0)
             st = fail(c, SYLVA_ERR_PROTOCOL, "upload: the server answered for key %s, not %s",
                       job->key, key);
@@ -652,8 +600,7 @@ sylva_status sylva_submit(sylva_client *c, const sylva_input *in, sylva_job *job
 
 sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s, sylva_job *job)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
     if (!key_valid(key))
         return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
@@ -668,18 +615,15 @@ sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s, s
         snprintf(r.path, sizeof r.path, "/v1/bakes/%s", key);
     }
     sylva_status st = request_run(c, &r, "status");
-    if (st == SYLVA_OK)
-        st = parse_job_answer(c, &s, job, "status");
+    if (st == SYLVA_OK) st = parse_job_answer(c, &s, job, "status");
     free(s.buf);
     return st;
 }
 
 sylva_status sylva_cancel_state(sylva_client *c, const char *key, char *state, size_t state_len)
 {
-    if (state && state_len)
-        state[0] = '\0';
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (state && state_len) state[0] = '\0';
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
     if (!key_valid(key))
         return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
@@ -709,11 +653,9 @@ sylva_status sylva_cancel(sylva_client *c, const char *key)
 
 sylva_status sylva_health(sylva_client *c, char **body)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (body)
-        *body = NULL;
+    if (body) *body = NULL;
     sink s = {.limit = MAX_JSON_BYTES};
     request r = {.method = "GET", .out = &s};
     snprintf(r.path, sizeof r.path, "/v1/health");
@@ -721,19 +663,16 @@ sylva_status sylva_health(sylva_client *c, char **body)
     if (st == SYLVA_OK && body) {
         *body = s.buf ? s.buf : dup_str("");
         s.buf = NULL;
-        if (!*body)
-            st = fail(c, SYLVA_ERR_NOMEM, "out of memory");
+        if (!*body) st = fail(c, SYLVA_ERR_NOMEM, "out of memory");
     }
     free(s.buf);
     return st;
 }
 
-sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
-                        double timeout_s, sylva_progress_fn progress, void *user_data,
-                        sylva_job *job)
+sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in, double timeout_s,
+                        sylva_progress_fn progress, void *user_data, sylva_job *job)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
     if (!key_valid(key))
         return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
@@ -754,8 +693,7 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
         }
         /* Short long-polls while someone shows progress, longer ones otherwise. */
         double w = progress ? 1.0 : 10.0;
-        if (w > left)
-            w = left;
+        if (w > left) w = left;
         double t0 = now_s();
         st = sylva_status_get(c, key, w, j);
         if (st == SYLVA_ERR_NOT_FOUND && in && resubmits < 3) {
@@ -763,15 +701,13 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
              * was wiped): the key names the same bake, so submit it again. */
             resubmits++;
             st = sylva_submit(c, in, j);
-            if (st != SYLVA_OK)
-                break;
+            if (st != SYLVA_OK) break;
             continue;
         }
-        if (st != SYLVA_OK)
-            break;
+        if (st != SYLVA_OK) break;
         const char *stage = j->state == SYLVA_STATE_QUEUED ? "queued"
-                            : j->stage[0]                 ? j->stage
-                                                          : sylva_state_name(j->state);
+                            : j->stage[0]                  ? j->stage
+                                                           : sylva_state_name(j->state);
         bool changed = strcmp(stage, last_stage) != 0 || j->progress != last_progress;
         if (changed) {
             snprintf(last_stage, sizeof last_stage, "%s", stage);
@@ -793,8 +729,8 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
         if (j->state == SYLVA_STATE_FAILED) {
             snprintf(c->error_code, sizeof c->error_code, "%s", j->error_code);
             st = fail(c, SYLVA_ERR_BAKE_FAILED, "bake failed: %s%s%s",
-                      j->error_code[0] ? j->error_code : "error",
-                      j->error_message[0] ? ": " : "", j->error_message);
+                      j->error_code[0] ? j->error_code : "error", j->error_message[0] ? ": " : "",
+                      j->error_message);
             break;
         }
         if (j->state == SYLVA_STATE_CANCELLED) {
@@ -803,8 +739,7 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
         }
         /* A server that answers a long-poll at once with nothing new must not be
          * hammered. */
-        if (!changed && now_s() - t0 < 0.2)
-            sleep_ms(250);
+        if (!changed && now_s() - t0 < 0.2) sleep_ms(250);
     }
     sylva_job_clear(&local);
     return st;
@@ -819,8 +754,7 @@ static bool hex64(const char *s)
 
 sylva_status sylva_job_artifacts(const sylva_job *job, sylva_artifact **out, size_t *count)
 {
-    if (!job || !out || !count)
-        return SYLVA_ERR_ARG;
+    if (!job || !out || !count) return SYLVA_ERR_ARG;
     *out = NULL;
     *count = 0;
     cJSON *doc = job->json ? cJSON_Parse(job->json) : NULL;
@@ -828,8 +762,7 @@ sylva_status sylva_job_artifacts(const sylva_job *job, sylva_artifact **out, siz
     const cJSON *arts = cJSON_GetObjectItemCaseSensitive(man, "artifacts");
     sylva_status st = SYLVA_ERR_PROTOCOL;
     sylva_artifact *list = NULL;
-    if (!cJSON_IsArray(arts))
-        goto out;
+    if (!cJSON_IsArray(arts)) goto out;
     size_t n = (size_t)cJSON_GetArraySize(arts);
     list = calloc(n ? n : 1, sizeof *list);
     if (!list) {
@@ -838,7 +771,8 @@ sylva_status sylva_job_artifacts(const sylva_job *job, sylva_artifact **out, siz
     }
     size_t i = 0;
     const cJSON *a;
-    cJSON_ArrayForEach(a, arts) {
+    cJSON_ArrayForEach(a, arts)
+    {
         const cJSON *name = cJSON_GetObjectItemCaseSensitive(a, "name");
         const cJSON *size = cJSON_GetObjectItemCaseSensitive(a, "size");
         const cJSON *sha = cJSON_GetObjectItemCaseSensitive(a, "sha256");
@@ -862,20 +796,18 @@ out:
 }
 
 /* Makes sure `job` is a done job for key: uses the caller's, else fetches it. */
-static sylva_status done_job(sylva_client *c, const char *key, const sylva_job *job,
-                             sylva_job *tmp, const sylva_job **use)
+static sylva_status done_job(sylva_client *c, const char *key, const sylva_job *job, sylva_job *tmp,
+                             const sylva_job **use)
 {
     *use = job;
     if (!job || !job->json || strcmp(job->key, key) != 0) {
         sylva_status st = sylva_status_get(c, key, 0, tmp);
-        if (st != SYLVA_OK)
-            return st;
+        if (st != SYLVA_OK) return st;
         *use = tmp;
     }
     if ((*use)->state == SYLVA_STATE_FAILED)
-        return fail(c, SYLVA_ERR_BAKE_FAILED, "bake %.12s failed: %s%s%s", key,
-                    (*use)->error_code, (*use)->error_message[0] ? ": " : "",
-                    (*use)->error_message);
+        return fail(c, SYLVA_ERR_BAKE_FAILED, "bake %.12s failed: %s%s%s", key, (*use)->error_code,
+                    (*use)->error_message[0] ? ": " : "", (*use)->error_message);
     if ((*use)->state != SYLVA_STATE_DONE)
         return fail(c, SYLVA_ERR_NOT_FOUND, "bake %.12s has no artifacts yet (state %s)", key,
                     sylva_state_name((*use)->state));
@@ -894,8 +826,7 @@ static sylva_status mkdir_p(sylva_client *c, const char *dir)
             if (mkdir(path, 0777) != 0 && errno != EEXIST)
                 return fail(c, SYLVA_ERR_IO, "cannot create %s: %s", path, strerror(errno));
             *p = saved;
-            if (saved == '\0')
-                break;
+            if (saved == '\0') break;
         }
     }
     struct stat sb;
@@ -904,8 +835,8 @@ static sylva_status mkdir_p(sylva_client *c, const char *dir)
     return SYLVA_OK;
 }
 
-static sylva_status fetch_one_to_file(sylva_client *c, const char *key,
-                                      const sylva_artifact *a, const char *dir)
+static sylva_status fetch_one_to_file(sylva_client *c, const char *key, const sylva_artifact *a,
+                                      const char *dir)
 {
     char final[4400], tmpl[4400];
     snprintf(final, sizeof final, "%s/%s", dir, a->name);
@@ -919,8 +850,7 @@ static sylva_status fetch_one_to_file(sylva_client *c, const char *key,
     FILE *f = fdopen(fd, "w+b");
     EVP_MD_CTX *md = EVP_MD_CTX_new();
     if (!f || !md) {
-        if (!f)
-            close(fd);
+        if (!f) close(fd);
         st = fail(c, SYLVA_ERR_NOMEM, "out of memory");
         goto out;
     }
@@ -936,8 +866,7 @@ static sylva_status fetch_one_to_file(sylva_client *c, const char *key,
     char what[300];
     snprintf(what, sizeof what, "download %s", a->name);
     st = request_run(c, &r, what);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     unsigned char dg[EVP_MAX_MD_SIZE];
     unsigned int dl = 0;
     char hex[SYLVA_KEY_HEX + 1];
@@ -949,8 +878,8 @@ static sylva_status fetch_one_to_file(sylva_client *c, const char *key,
     if (strcmp(hex, a->sha256) != 0 || s.len != a->size) {
         st = fail(c, SYLVA_ERR_INTEGRITY,
                   "%s: downloaded %zu bytes with SHA-256 %.16s..., the manifest says %llu "
-                  "bytes with %.16s...; refused", a->name, s.len, hex,
-                  (unsigned long long)a->size, a->sha256);
+                  "bytes with %.16s...; refused",
+                  a->name, s.len, hex, (unsigned long long)a->size, a->sha256);
         goto out;
     }
     if (fflush(f) != 0 || fsync(fileno(f)) != 0) {
@@ -963,8 +892,7 @@ out:
     EVP_MD_CTX_free(md);
     if (st == SYLVA_OK && rename(tmpl, final) != 0)
         st = fail(c, SYLVA_ERR_IO, "cannot rename to %s: %s", final, strerror(errno));
-    if (st != SYLVA_OK)
-        unlink(tmpl);
+    if (st != SYLVA_OK) unlink(tmpl);
     return st;
 }
 
@@ -974,15 +902,12 @@ static sylva_status remove_stale_outputs(sylva_client *c, const char *dir,
                                          const sylva_artifact *arts, size_t n)
 {
     DIR *d = opendir(dir);
-    if (!d)
-        return fail(c, SYLVA_ERR_IO, "cannot list %s: %s", dir, strerror(errno));
+    if (!d) return fail(c, SYLVA_ERR_IO, "cannot list %s: %s", dir, strerror(errno));
     sylva_status st = SYLVA_OK;
     for (struct dirent *e; st == SYLVA_OK && (e = readdir(d));) {
-        if (!sylva_is_output_name(e->d_name))
-            continue;
+        if (!sylva_is_output_name(e->d_name)) continue;
         bool ours = false;
-        for (size_t i = 0; i < n && !ours; i++)
-            ours = strcmp(arts[i].name, e->d_name) == 0;
+        for (size_t i = 0; i < n && !ours; i++) ours = strcmp(arts[i].name, e->d_name) == 0;
         if (!ours && unlinkat(dirfd(d), e->d_name, 0) != 0 && errno != ENOENT)
             st = fail(c, SYLVA_ERR_IO, "cannot remove the stale %s/%s: %s", dir, e->d_name,
                       strerror(errno));
@@ -994,31 +919,26 @@ static sylva_status remove_stale_outputs(sylva_client *c, const char *dir,
 sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *job,
                              const char *dir)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
     if (!key_valid(key))
         return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
                     key ? key : "");
-    if (!dir || !dir[0])
-        return fail(c, SYLVA_ERR_ARG, "no output directory");
+    if (!dir || !dir[0]) return fail(c, SYLVA_ERR_ARG, "no output directory");
     sylva_job tmp = {0};
     const sylva_job *use = NULL;
     sylva_artifact *arts = NULL;
     size_t n = 0;
     sylva_status st = done_job(c, key, job, &tmp, &use);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     st = sylva_job_artifacts(use, &arts, &n);
     if (st != SYLVA_OK) {
         fail(c, st, "bake %.12s: the manifest has no valid artifact list", key);
         goto out;
     }
     st = mkdir_p(c, dir);
-    for (size_t i = 0; st == SYLVA_OK && i < n; i++)
-        st = fetch_one_to_file(c, key, &arts[i], dir);
-    if (st == SYLVA_OK)
-        st = remove_stale_outputs(c, dir, arts, n);
+    for (size_t i = 0; st == SYLVA_OK && i < n; i++) st = fetch_one_to_file(c, key, &arts[i], dir);
+    if (st == SYLVA_OK) st = remove_stale_outputs(c, dir, arts, n);
 out:
     free(arts);
     sylva_job_clear(&tmp);
@@ -1028,11 +948,9 @@ out:
 sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *job,
                              const char *name, void **data, size_t *size)
 {
-    if (!c)
-        return SYLVA_ERR_ARG;
+    if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!data || !size || !name)
-        return fail(c, SYLVA_ERR_ARG, "sylva_fetch_mem: NULL argument");
+    if (!data || !size || !name) return fail(c, SYLVA_ERR_ARG, "sylva_fetch_mem: NULL argument");
     *data = NULL;
     *size = 0;
     if (!key_valid(key))
@@ -1044,8 +962,7 @@ sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *
     size_t n = 0;
     sink s = {.limit = MAX_MEM_ARTIFACT};
     sylva_status st = done_job(c, key, job, &tmp, &use);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     st = sylva_job_artifacts(use, &arts, &n);
     if (st != SYLVA_OK) {
         fail(c, st, "bake %.12s: the manifest has no valid artifact list", key);
@@ -1053,8 +970,7 @@ sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *
     }
     const sylva_artifact *a = NULL;
     for (size_t i = 0; i < n; i++)
-        if (strcmp(arts[i].name, name) == 0)
-            a = &arts[i];
+        if (strcmp(arts[i].name, name) == 0) a = &arts[i];
     if (!a) {
         st = fail(c, SYLVA_ERR_NOT_FOUND, "bake %.12s has no artifact \"%.100s\"", key, name);
         goto out;
@@ -1068,15 +984,15 @@ sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *
     snprintf(r.path, sizeof r.path, "/v1/bakes/%s/artifacts/%s", key, esc);
     curl_free(esc);
     st = request_run(c, &r, "download");
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     char hex[SYLVA_KEY_HEX + 1];
     st = sylva_sha256_hex(s.buf, s.len, hex);
-    if (st != SYLVA_OK)
-        goto out;
+    if (st != SYLVA_OK) goto out;
     if (strcmp(hex, a->sha256) != 0 || s.len != a->size) {
-        st = fail(c, SYLVA_ERR_INTEGRITY, "%s: downloaded bytes do not match the manifest's "
-                  "SHA-256 %.16s...; refused", name, a->sha256);
+        st = fail(c, SYLVA_ERR_INTEGRITY,
+                  "%s: downloaded bytes do not match the manifest's "
+                  "SHA-256 %.16s...; refused",
+                  name, a->sha256);
         goto out;
     }
     if (!s.buf) {

@@ -110,8 +110,7 @@ static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
 static void sleep_ms(long ms)
 {
     struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
 }
 
 static double now_s(void)
@@ -135,18 +134,15 @@ static sylva_client *open_client(const sylva_cli *cli, sylva_status *st)
     sylva_options o;
     sylva_options_init(&o);
     o.token = cli->token;
-    if (cli->retries >= 0)
-        o.max_attempts = cli->retries + 1;
+    if (cli->retries >= 0) o.max_attempts = cli->retries + 1;
     else if (cli->cmd == SYLVA_CMD_HEALTH)
         o.max_attempts = (int)cli->server_count; /* a probe: each server once, no waiting */
-    if (cli->progress != SYLVA_PROGRESS_NONE)
-        o.on_retry = retry_notice; /* not with --quiet */
+    if (cli->progress != SYLVA_PROGRESS_NONE) o.on_retry = retry_notice; /* not with --quiet */
     sylva_client *c = NULL;
     char err[512];
     *st = sylva_client_create((const char *const *)cli->servers, cli->server_count, &o, &c, err,
                               sizeof err);
-    if (*st != SYLVA_OK)
-        fail_out(cli, sylva_cli_exit_code(*st), sylva_status_name(*st), err);
+    if (*st != SYLVA_OK) fail_out(cli, sylva_cli_exit_code(*st), sylva_status_name(*st), err);
     return c;
 }
 
@@ -174,12 +170,13 @@ static int report_target(const char *label, const char *out_dir, const cJSON *su
 {
     int code = sylva_cli_done_exit_code(summary);
     if (code == SYLVA_EXIT_TARGET) {
-        const char *why = cJSON_GetStringValue(
-            cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(summary, "target"),
-                                             "reason"));
+        const char *why = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(summary, "target"), "reason"));
         fprintf(stderr, "sylva: %s: target not met: %s\n", label, why ? why : "see report.json");
-        fprintf(stderr, "sylva: %s: the outputs in %s are that bake (report.json: \"target\"); "
-                        "exit %d\n", label, out_dir, SYLVA_EXIT_TARGET);
+        fprintf(stderr,
+                "sylva: %s: the outputs in %s are that bake (report.json: \"target\"); "
+                "exit %d\n",
+                label, out_dir, SYLVA_EXIT_TARGET);
     }
     return code;
 }
@@ -188,38 +185,37 @@ static int report_target(const char *label, const char *out_dir, const cJSON *su
 
 typedef struct bake {
     sylva_bake_group *group;
-    char label[128];           /* mesh base name, for progress lines */
+    char label[128]; /* mesh base name, for progress lines */
     sylva_file *files;
     sylva_input in;
     char key[SYLVA_KEY_HEX + 1];
     sylva_job job;
-    sylva_status st;           /* SYLVA_OK while running / when done */
+    sylva_status st; /* SYLVA_OK while running / when done */
     bool finished;
     char error[1024];
     char error_code[32];
-    char last_stage[32];       /* for plain progress lines */
+    char last_stage[32]; /* for plain progress lines */
     int last_pct;
     int last_try;
-    char cur_stage[32];        /* as last reported by the progress callback */
+    char cur_stage[32]; /* as last reported by the progress callback */
     double cur_progress;
-    double t0;                 /* submitted (monotonic s), for the elapsed time */
-    int refetch_resubmits;     /* submitted again after a 404 on download */
+    double t0;             /* submitted (monotonic s), for the elapsed time */
+    int refetch_resubmits; /* submitted again after a 404 on download */
 } bake;
 
 /* How often a bake whose artifacts vanished is submitted again (finish_done). */
 #define REFETCH_RESUBMITS 3
 
 typedef struct display {
-    sylva_progress_mode mode;  /* BAR, PLAIN or NONE (AUTO resolved) */
-    bool bar_open;             /* a \r line is on screen */
+    sylva_progress_mode mode; /* BAR, PLAIN or NONE (AUTO resolved) */
+    bool bar_open;            /* a \r line is on screen */
 } display;
 
 static void show_plain(bake *b, const char *stage, double fraction)
 {
     int pct = (int)(fraction * 100 + 1e-9);
     /* Plain lines: one per stage or target try, not per percent (logs stay short). */
-    if (strcmp(stage, b->last_stage) == 0 && b->job.search_try == b->last_try)
-        return;
+    if (strcmp(stage, b->last_stage) == 0 && b->job.search_try == b->last_try) return;
     snprintf(b->last_stage, sizeof b->last_stage, "%s", stage);
     b->last_pct = pct;
     b->last_try = b->job.search_try;
@@ -236,19 +232,15 @@ static void show_bar(display *d, bake *bakes, size_t n)
     size_t used = 0;
     for (size_t i = 0; i < n && used < sizeof line - 1; i++) {
         char one[200];
-        const char *stage = bakes[i].finished
-                                ? (bakes[i].st == SYLVA_OK ? "done" : "failed")
-                                : bakes[i].cur_stage[0] ? bakes[i].cur_stage
-                                                        : "upload";
+        const char *stage = bakes[i].finished       ? (bakes[i].st == SYLVA_OK ? "done" : "failed")
+                            : bakes[i].cur_stage[0] ? bakes[i].cur_stage
+                                                    : "upload";
         bool running = !bakes[i].finished;
         sylva_cli_progress_format(bakes[i].label, stage, bakes[i].cur_progress,
-                                  running ? bakes[i].job.search_try : 0,
-                                  bakes[i].job.search_tries,
-                                  n == 1 ? now_s() - bakes[i].t0 : -1, n == 1, one,
-                                  sizeof one);
+                                  running ? bakes[i].job.search_try : 0, bakes[i].job.search_tries,
+                                  n == 1 ? now_s() - bakes[i].t0 : -1, n == 1, one, sizeof one);
         int w = snprintf(line + used, sizeof line - used, "%s%s", i ? "  " : "", one);
-        if (w > 0)
-            used += (size_t)w;
+        if (w > 0) used += (size_t)w;
     }
     printf("\r%s\033[K", line);
     fflush(stdout);
@@ -273,13 +265,10 @@ static bool on_progress(const char *stage, double fraction, void *ud)
 {
     wait_ctx *w = ud;
     /* stage may point into w->b->job (sylva_wait's job): copy, never alias. */
-    if (stage != w->b->cur_stage)
-        snprintf(w->b->cur_stage, sizeof w->b->cur_stage, "%s", stage);
+    if (stage != w->b->cur_stage) snprintf(w->b->cur_stage, sizeof w->b->cur_stage, "%s", stage);
     w->b->cur_progress = fraction;
-    if (w->d->mode == SYLVA_PROGRESS_BAR)
-        show_bar(w->d, w->b, 1);
-    else if (w->d->mode == SYLVA_PROGRESS_PLAIN)
-        show_plain(w->b, stage, fraction);
+    if (w->d->mode == SYLVA_PROGRESS_BAR) show_bar(w->d, w->b, 1);
+    else if (w->d->mode == SYLVA_PROGRESS_PLAIN) show_plain(w->b, stage, fraction);
     return true;
 }
 
@@ -304,8 +293,7 @@ static void finish_done(bake *b, sylva_client *c)
     if (st == SYLVA_ERR_NOT_FOUND && b->refetch_resubmits < REFETCH_RESUBMITS) {
         b->refetch_resubmits++;
         st = sylva_submit(c, &b->in, &b->job);
-        if (st == SYLVA_OK)
-            return;
+        if (st == SYLVA_OK) return;
     }
     if (st != SYLVA_OK) {
         record_failure(b, c, st);
@@ -320,10 +308,10 @@ static cJSON *bake_result_json(const bake *b, cJSON *summary)
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "mesh", b->group->mesh);
     cJSON_AddStringToObject(o, "key", b->key);
-    cJSON_AddStringToObject(o, "state", b->st == SYLVA_OK ? "done"
-                                        : b->job.state != SYLVA_STATE_UNKNOWN
-                                            ? sylva_state_name(b->job.state)
-                                            : "error");
+    cJSON_AddStringToObject(o, "state",
+                            b->st == SYLVA_OK                     ? "done"
+                            : b->job.state != SYLVA_STATE_UNKNOWN ? sylva_state_name(b->job.state)
+                                                                  : "error");
     cJSON_AddStringToObject(o, "out", b->group->out_dir);
     if (b->st != SYLVA_OK) {
         cJSON *e = cJSON_AddObjectToObject(o, "error");
@@ -345,8 +333,7 @@ static cJSON *bake_result_json(const bake *b, cJSON *summary)
         }
         free(arts);
     }
-    if (summary)
-        cJSON_AddItemToObject(o, "summary", summary);
+    if (summary) cJSON_AddItemToObject(o, "summary", summary);
     return o;
 }
 
@@ -401,8 +388,7 @@ static int cmd_bake(const sylva_cli *cli)
             rc = fail_out(cli, SYLVA_EXIT_SERVICE, "nomem", "out of memory");
             goto out;
         }
-        for (size_t k = 0; k < groups[i].file_count; k++)
-            b->files[k].path = groups[i].files[k];
+        for (size_t k = 0; k < groups[i].file_count; k++) b->files[k].path = groups[i].files[k];
         b->in.spec = spec;
         b->in.spec_len = spec_len;
         b->in.mesh.path = groups[i].mesh;
@@ -433,8 +419,7 @@ static int cmd_bake(const sylva_cli *cli)
             record_failure(b, c, st);
             continue;
         }
-        if (d.mode == SYLVA_PROGRESS_PLAIN)
-            printf("%s: submitted as %s\n", b->label, b->key);
+        if (d.mode == SYLVA_PROGRESS_PLAIN) printf("%s: submitted as %s\n", b->label, b->key);
     }
     double start = now_s();
     if (ng == 1 && !bakes[0].finished) {
@@ -442,13 +427,10 @@ static int cmd_bake(const sylva_cli *cli)
         wait_ctx w = {&d, b};
         while (!b->finished) { /* again only when finish_done resubmitted */
             double left = cli->timeout_s > 0 ? cli->timeout_s - (now_s() - start) : 0;
-            if (cli->timeout_s > 0 && left <= 0)
-                left = 1e-3; /* sylva_wait reports the timeout */
+            if (cli->timeout_s > 0 && left <= 0) left = 1e-3; /* sylva_wait reports the timeout */
             sylva_status st = sylva_wait(c, b->key, &b->in, left, on_progress, &w, &b->job);
-            if (st == SYLVA_OK)
-                finish_done(b, c);
-            else
-                record_failure(b, c, st);
+            if (st == SYLVA_OK) finish_done(b, c);
+            else record_failure(b, c, st);
         }
         bar_close(&d);
     } else {
@@ -457,32 +439,28 @@ static int cmd_bake(const sylva_cli *cli)
             size_t pending = 0;
             for (size_t i = 0; i < ng; i++) {
                 bake *b = &bakes[i];
-                if (b->finished)
-                    continue;
+                if (b->finished) continue;
                 sylva_status st = sylva_status_get(c, b->key, 0, &b->job);
-                if (st == SYLVA_ERR_NOT_FOUND)
-                    st = sylva_submit(c, &b->in, &b->job);
+                if (st == SYLVA_ERR_NOT_FOUND) st = sylva_submit(c, &b->in, &b->job);
                 if (st != SYLVA_OK) {
                     record_failure(b, c, st);
                     continue;
                 }
                 const char *stage = b->job.state == SYLVA_STATE_QUEUED ? "queued"
-                                    : b->job.stage[0] ? b->job.stage
+                                    : b->job.stage[0]                  ? b->job.stage
                                                       : sylva_state_name(b->job.state);
                 snprintf(b->cur_stage, sizeof b->cur_stage, "%s", stage);
                 b->cur_progress = b->job.progress;
-                if (d.mode == SYLVA_PROGRESS_PLAIN)
-                    show_plain(b, stage, b->job.progress);
+                if (d.mode == SYLVA_PROGRESS_PLAIN) show_plain(b, stage, b->job.progress);
                 if (b->job.state == SYLVA_STATE_DONE) {
                     finish_done(b, c);
-                    if (!b->finished)
-                        pending++; /* submitted again: wait for it */
+                    if (!b->finished) pending++; /* submitted again: wait for it */
                 } else if (b->job.state == SYLVA_STATE_FAILED) {
                     b->st = SYLVA_ERR_BAKE_FAILED;
                     b->finished = true;
-                    snprintf(b->error, sizeof b->error, "%s: bake failed: %s%s%s",
-                             b->group->mesh, b->job.error_code,
-                             b->job.error_message[0] ? ": " : "", b->job.error_message);
+                    snprintf(b->error, sizeof b->error, "%s: bake failed: %s%s%s", b->group->mesh,
+                             b->job.error_code, b->job.error_message[0] ? ": " : "",
+                             b->job.error_message);
                     snprintf(b->error_code, sizeof b->error_code, "%s",
                              b->job.error_code[0] ? b->job.error_code : "failed");
                 } else if (b->job.state == SYLVA_STATE_CANCELLED) {
@@ -495,10 +473,8 @@ static int cmd_bake(const sylva_cli *cli)
                     pending++;
                 }
             }
-            if (d.mode == SYLVA_PROGRESS_BAR)
-                show_bar(&d, bakes, ng);
-            if (!pending)
-                break;
+            if (d.mode == SYLVA_PROGRESS_BAR) show_bar(&d, bakes, ng);
+            if (!pending) break;
             if (cli->timeout_s > 0 && now_s() - start > cli->timeout_s) {
                 for (size_t i = 0; i < ng; i++)
                     if (!bakes[i].finished) {
@@ -527,7 +503,8 @@ static int cmd_bake(const sylva_cli *cli)
                 printf("%s: done -> %s (key %.12s)\n", b->label, b->group->out_dir, b->key);
                 print_summary(summary);
             }
-            worst = sylva_cli_worse_exit(worst, report_target(b->label, b->group->out_dir, summary));
+            worst = sylva_cli_worse_exit(worst,
+                                         report_target(b->label, b->group->out_dir, summary));
         } else {
             worst = sylva_cli_worse_exit(worst, sylva_cli_exit_code(b->st));
             fprintf(stderr, "sylva: error: %s\n", b->error);
@@ -567,8 +544,7 @@ static int cmd_status(const sylva_cli *cli)
 {
     sylva_status st;
     sylva_client *c = open_client(cli, &st);
-    if (!c)
-        return sylva_cli_exit_code(st);
+    if (!c) return sylva_cli_exit_code(st);
     sylva_job job = {0};
     st = sylva_status_get(c, cli->args[0], cli->wait_s, &job);
     int rc;
@@ -605,13 +581,11 @@ static int cmd_fetch(const sylva_cli *cli)
 {
     sylva_status st;
     sylva_client *c = open_client(cli, &st);
-    if (!c)
-        return sylva_cli_exit_code(st);
+    if (!c) return sylva_cli_exit_code(st);
     sylva_job job = {0};
     int rc = SYLVA_EXIT_OK;
     st = sylva_status_get(c, cli->args[0], 0, &job);
-    if (st == SYLVA_OK)
-        st = sylva_fetch_dir(c, cli->args[0], &job, cli->out);
+    if (st == SYLVA_OK) st = sylva_fetch_dir(c, cli->args[0], &job, cli->out);
     if (st != SYLVA_OK) {
         rc = fail_client(cli, c, st);
     } else {
@@ -645,8 +619,7 @@ static int cmd_cancel(const sylva_cli *cli)
 {
     sylva_status st;
     sylva_client *c = open_client(cli, &st);
-    if (!c)
-        return sylva_cli_exit_code(st);
+    if (!c) return sylva_cli_exit_code(st);
     char state[32] = "";
     /* A finished bake is not cancelled but deleted with its results: only
      * with --delete (issue 23). The state is read first; a bake that
@@ -700,8 +673,7 @@ static int cmd_health(const sylva_cli *cli)
 {
     sylva_status st;
     sylva_client *c = open_client(cli, &st);
-    if (!c)
-        return sylva_cli_exit_code(st);
+    if (!c) return sylva_cli_exit_code(st);
     char *body = NULL;
     st = sylva_health(c, &body);
     int rc = SYLVA_EXIT_OK;
@@ -736,8 +708,7 @@ int main(int argc, char **argv)
                              sizeof err);
     if (rc != SYLVA_EXIT_OK) {
         bool json = false;
-        for (int i = 1; i < argc; i++)
-            json |= strcmp(argv[i], "--json") == 0;
+        for (int i = 1; i < argc; i++) json |= strcmp(argv[i], "--json") == 0;
         fprintf(stderr, "sylva: error: %s\n(sylva help for usage)\n", err);
         if (json) {
             cJSON *doc = error_json("usage", err);

@@ -31,8 +31,8 @@
 extern "C" {
 #endif
 
-#define SYLVA_KEY_HEX 64          /* a key is 64 lowercase hex digits */
-#define SYLVA_NAME_MAX 255        /* longest upload file name, bytes */
+#define SYLVA_KEY_HEX 64   /* a key is 64 lowercase hex digits */
+#define SYLVA_NAME_MAX 255 /* longest upload file name, bytes */
 
 typedef enum sylva_status {
     SYLVA_OK = 0,
@@ -62,18 +62,17 @@ const char *sylva_status_message(sylva_status st);
  * "the default" listed beside it; sylva_options_init writes those defaults
  * explicitly. Strings are copied by sylva_client_create. */
 typedef struct sylva_options {
-    const char *token;         /* bearer token; NULL or "" = none */
-    long connect_timeout_ms;   /* per connection attempt; default 5000 */
-    long request_timeout_ms;   /* per request, excluding a long-poll's wait; default 300000 */
-    int max_attempts;          /* tries per request incl. the first; default 8; 1 = no retry */
-    long backoff_base_ms;      /* first retry delay, doubled each round; default 250 */
-    long backoff_max_ms;       /* cap on one delay (Retry-After is capped at 4x this); default 8000 */
-    const char *user_agent;    /* default "libsylva/<version>" */
+    const char *token;       /* bearer token; NULL or "" = none */
+    long connect_timeout_ms; /* per connection attempt; default 5000 */
+    long request_timeout_ms; /* per request, excluding a long-poll's wait; default 300000 */
+    int max_attempts;        /* tries per request incl. the first; default 8; 1 = no retry */
+    long backoff_base_ms;    /* first retry delay, doubled each round; default 250 */
+    long backoff_max_ms;     /* cap on one delay (Retry-After is capped at 4x this); default 8000 */
+    const char *user_agent;  /* default "libsylva/<version>" */
     /* Called before each retry's wait (NULL = silent, the default): the last
      * attempt's error, the wait in ms, attempts made and allowed. For a
      * command-line tool to say why it is waiting instead of hanging mute. */
-    void (*on_retry)(void *user, const char *error, long delay_ms, int attempt,
-                     int max_attempts);
+    void (*on_retry)(void *user, const char *error, long delay_ms, int attempt, int max_attempts);
     void *on_retry_user;
 } sylva_options;
 
@@ -91,8 +90,8 @@ void sylva_options_init(sylva_options *opts);
  * when a full round over all servers has failed: round r (1, 2, ...) waits
  * min(backoff_base * 2^(r-1), backoff_max), or the server's Retry-After when
  * that is longer (capped at 4 * backoff_max). retry_after_ms < 0 = absent. */
-long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers,
-                       bool transport_error, long http_status, long retry_after_ms);
+long sylva_retry_delay(const sylva_options *opts, int attempt, size_t servers, bool transport_error,
+                       long http_status, long retry_after_ms);
 
 /* ---- keys ---------------------------------------------------------------- */
 
@@ -111,7 +110,7 @@ typedef struct sylva_file {
  * and its companion files (.mtl, .bin, textures) in any order. */
 typedef struct sylva_input {
     const char *spec;
-    size_t spec_len;           /* bytes of spec; ignored when spec is NULL */
+    size_t spec_len; /* bytes of spec; ignored when spec is NULL */
     sylva_file mesh;
     const sylva_file *files;
     size_t file_count;
@@ -130,8 +129,8 @@ bool sylva_name_valid(const char *name);
  * duplicate name (the mesh's included), SYLVA_ERR_IO when a file cannot be
  * read. key receives 64 hex digits and a NUL. errbuf (may be NULL) receives
  * the detail on failure. */
-sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1],
-                               char *errbuf, size_t errlen);
+sylva_status sylva_key_compute(const sylva_input *in, char key[SYLVA_KEY_HEX + 1], char *errbuf,
+                               size_t errlen);
 
 /* Lowercase hex SHA-256 of a memory buffer or of a file (streamed). */
 sylva_status sylva_sha256_hex(const void *data, size_t size, char hex[SYLVA_KEY_HEX + 1]);
@@ -146,8 +145,8 @@ typedef struct sylva_client sylva_client;
  * NULL (defaults). On failure *out is NULL and errbuf (may be NULL) names the
  * problem. */
 sylva_status sylva_client_create(const char *const *urls, size_t url_count,
-                                 const sylva_options *opts, sylva_client **out,
-                                 char *errbuf, size_t errlen);
+                                 const sylva_options *opts, sylva_client **out, char *errbuf,
+                                 size_t errlen);
 
 /* Frees the handle. NULL is a no-op. */
 void sylva_client_destroy(sylva_client *c);
@@ -182,15 +181,15 @@ const char *sylva_state_name(sylva_state s);
 typedef struct sylva_job {
     char key[SYLVA_KEY_HEX + 1];
     sylva_state state;
-    char stage[32];            /* current or last stage, "" when unknown */
-    double progress;           /* 0..1 */
-    int search_try;            /* running a target search: try k (1..search_tries), else 0 */
-    int search_tries;          /* the search's bound on tries (it often needs fewer) */
-    char error_code[32];       /* when failed */
+    char stage[32];      /* current or last stage, "" when unknown */
+    double progress;     /* 0..1 */
+    int search_try;      /* running a target search: try k (1..search_tries), else 0 */
+    int search_tries;    /* the search's bound on tries (it often needs fewer) */
+    char error_code[32]; /* when failed */
     char error_message[512];
-    bool target_unmet;         /* done, but the spec's "target" was not met: the outputs
+    bool target_unmet;       /* done, but the spec's "target" was not met: the outputs
                                   are the best try's bake (docs/spec.md "target") */
-    char target_reason[512];   /* why, when target_unmet ("" otherwise) */
+    char target_reason[512]; /* why, when target_unmet ("" otherwise) */
     char *json;
 } sylva_job;
 
@@ -208,8 +207,7 @@ sylva_status sylva_submit(sylva_client *c, const sylva_input *in, sylva_job *job
 
 /* `GET /v1/bakes/{key}` (with `?wait=S` when wait_s > 0: the server holds the
  * answer until the state changes or S seconds pass). */
-sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s,
-                              sylva_job *job);
+sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s, sylva_job *job);
 
 /* Progress callback: stage name ("queued", "import", ..., "write"), overall
  * fraction 0..1, user data. Return false to cancel the bake (DELETE). */
@@ -222,9 +220,8 @@ typedef bool (*sylva_progress_fn)(const char *stage, double fraction, void *user
  * the server; or cancelled there), SYLVA_ERR_TIMEOUT. When the server does not
  * know the key any more (404, e.g. after failover to another server) and in
  * is non-NULL, the bake is submitted again. job (may be NULL) gets the last state. */
-sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
-                        double timeout_s, sylva_progress_fn progress, void *user_data,
-                        sylva_job *job);
+sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in, double timeout_s,
+                        sylva_progress_fn progress, void *user_data, sylva_job *job);
 
 /* `DELETE /v1/bakes/{key}`: cancels a queued or running bake, deletes a finished one. */
 sylva_status sylva_cancel(sylva_client *c, const char *key);

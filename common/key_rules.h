@@ -20,8 +20,8 @@
 
 #define SYLVA_KEY_MAGIC "sylva-key-v1\n" /* the framing's first bytes */
 #define SYLVA_KEY_MAGIC_LEN 13
-#define SYLVA_UPLOAD_NAME_MAX 255        /* longest upload name, bytes */
-#define SYLVA_KEY_HEX_LEN 64             /* a key: 64 lowercase hex digits */
+#define SYLVA_UPLOAD_NAME_MAX 255 /* longest upload name, bytes */
+#define SYLVA_KEY_HEX_LEN 64      /* a key: 64 lowercase hex digits */
 
 /* True when name is a valid upload name: 1..SYLVA_UPLOAD_NAME_MAX bytes, not
  * "." or "..", no '/', '\\', space or control character (a base name that

@@ -21,8 +21,7 @@ static inline bool sylva_is_output_name(const char *name)
         if (strcmp(name, fixed[i]) == 0) return true;
     size_t n = strlen(name);
     if (strchr(name, '/')) return false;
-    if (n > 10 && strncmp(name, "atlas_", 6) == 0 && strcmp(name + n - 4, ".png") == 0)
-        return true;
+    if (n > 10 && strncmp(name, "atlas_", 6) == 0 && strcmp(name + n - 4, ".png") == 0) return true;
     if (n > 7 && strncmp(name, "lod", 3) == 0 && strcmp(name + n - 4, ".glb") == 0) {
         const char *p = name + 3;
         if (*p < '0' || *p > '9') return false;

@@ -38,10 +38,12 @@
 #include <sys/resource.h>
 
 #define SVZ_VERSION 1u
-#define SVZ_MAX_MSG (128u * 1024u) /* a run message, header + argv, at most (well
+#define SVZ_MAX_MSG \
+    (128u * 1024u) /* a run message, header + argv, at most (well
                                       below a unix socket's default send buffer); a
                                       longer command line runs by exec */
-#define SVZ_TITLE_ROOM 4096        /* bytes of argv the zygote is started with, so a
+#define SVZ_TITLE_ROOM \
+    4096 /* bytes of argv the zygote is started with, so a
                                       child can show its job's command line in ps */
 
 enum { SVZ_HELLO = 1, SVZ_RUN = 2, SVZ_STARTED = 3, SVZ_EXITED = 4, SVZ_KILL = 5 };
@@ -54,11 +56,11 @@ typedef struct svz_hello {
 } svz_hello;
 
 typedef struct svz_run {
-    uint32_t type;      /* SVZ_RUN */
-    uint32_t argc;      /* strings that follow this header */
-    uint64_t as_bytes;  /* RLIMIT_AS, 0 = none */
+    uint32_t type;                             /* SVZ_RUN */
+    uint32_t argc;                             /* strings that follow this header */
+    uint64_t as_bytes;                         /* RLIMIT_AS, 0 = none */
     uint64_t cpu_seconds, nofile, fsize_bytes; /* RLIMIT_CPU, _NOFILE, _FSIZE */
-    int32_t nice;       /* setpriority of the child, 0 = the zygote's */
+    int32_t nice;                              /* setpriority of the child, 0 = the zygote's */
     int32_t pad;
 } svz_run;
 
@@ -70,9 +72,9 @@ typedef struct svz_started {
 } svz_started;
 
 typedef struct svz_exited {
-    uint32_t type;   /* SVZ_EXITED */
+    uint32_t type; /* SVZ_EXITED */
     int32_t pid;
-    int32_t status;  /* as from waitpid */
+    int32_t status; /* as from waitpid */
     int32_t pad;
     struct rusage ru;
 } svz_exited;

@@ -7,15 +7,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels,
-                         uint32_t bits, sv_error *err)
+sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels, uint32_t bits,
+                         sv_error *err)
 {
     if (!img) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_alloc: image is NULL");
     memset(img, 0, sizeof *img);
     if (channels < 1 || channels > 4)
         return sv_fail(err, SV_ERR_INTERNAL, "image with %u channels (1..4 allowed)", channels);
     if (bits != 8 && bits != 16)
-        return sv_fail(err, SV_ERR_INTERNAL, "image with %u bits per channel (8 or 16 allowed)", bits);
+        return sv_fail(err, SV_ERR_INTERNAL, "image with %u bits per channel (8 or 16 allowed)",
+                       bits);
     size_t row, n;
     if (!sv_mul_size((size_t)w, (size_t)channels * (bits / 8), &row) ||
         !sv_mul_size(row, (size_t)h, &n))

@@ -14,8 +14,8 @@ void sv_material_init(sv_material *m)
     m->alpha_cutoff = 0.5f;
 }
 
-sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count,
-                        uint32_t material_count, uint32_t image_count)
+sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count, uint32_t material_count,
+                        uint32_t image_count)
 {
     sv_mesh *m = calloc(1, sizeof *m);
     if (!m) return NULL;
@@ -185,8 +185,8 @@ sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
     return SV_OK;
 }
 
-sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count,
-                         sv_mesh **out, sv_error *err)
+sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count, sv_mesh **out,
+                         sv_error *err)
 {
     *out = NULL;
     uint32_t *remap = malloc(((size_t)src->vertex_count + 1) * sizeof *remap);
@@ -236,7 +236,8 @@ sv_status sv_mesh_merge(const sv_mesh *a, const sv_mesh *b, sv_mesh **out, sv_er
     *out = NULL;
     uint64_t nv = (uint64_t)a->vertex_count + b->vertex_count;
     uint64_t nt = (uint64_t)a->triangle_count + b->triangle_count;
-    if (nv > UINT32_MAX || nt > UINT32_MAX) return sv_fail(err, SV_ERR_LIMIT, "merged mesh too large");
+    if (nv > UINT32_MAX || nt > UINT32_MAX)
+        return sv_fail(err, SV_ERR_LIMIT, "merged mesh too large");
     sv_mesh *m = sv_mesh_create((uint32_t)nv, (uint32_t)nt, a->material_count + b->material_count,
                                 a->image_count + b->image_count);
     if (!m) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
@@ -245,7 +246,8 @@ sv_status sv_mesh_merge(const sv_mesh *a, const sv_mesh *b, sv_mesh **out, sv_er
     for (int k = 0; k < 2; k++) {
         const sv_mesh *s = parts[k];
         if (s->vertex_count) {
-            memcpy(&m->positions[3 * (size_t)vo], s->positions, 3 * sizeof(float) * s->vertex_count);
+            memcpy(&m->positions[3 * (size_t)vo], s->positions,
+                   3 * sizeof(float) * s->vertex_count);
             memcpy(&m->normals[3 * (size_t)vo], s->normals, 3 * sizeof(float) * s->vertex_count);
             memcpy(&m->uvs[2 * (size_t)vo], s->uvs, 2 * sizeof(float) * s->vertex_count);
         }

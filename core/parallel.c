@@ -66,10 +66,8 @@ uint32_t sv_parallel_for(uint32_t n, uint32_t threads, sv_range_fn fn, void *ctx
     }
     chunk_run(&ch[0]);
     for (uint32_t t = 1; t < nc; t++) {
-        if (started[t])
-            pthread_join(th[t], NULL);
-        else
-            chunk_run(&ch[t]); /* no thread: the same call, here */
+        if (started[t]) pthread_join(th[t], NULL);
+        else chunk_run(&ch[t]); /* no thread: the same call, here */
     }
     return running;
 }

@@ -92,8 +92,8 @@ sv_status sv_lod_add_quad(sv_lod_plan *lod, const sv_quad *q, sv_error *err)
         if (!p) {
             free(q->faces);
             free(q->bake_faces);
-            return sv_fail(err, SV_ERR_NOMEM, "no memory for quad %u of LOD '%s'",
-                           lod->quad_count, lod->name);
+            return sv_fail(err, SV_ERR_NOMEM, "no memory for quad %u of LOD '%s'", lod->quad_count,
+                           lod->name);
         }
         lod->quads = p;
     }
@@ -102,9 +102,6 @@ sv_status sv_lod_add_quad(sv_lod_plan *lod, const sv_quad *q, sv_error *err)
 }
 
 /* ---------- quad geometry ---------- */
-
-
-
 
 /* Deterministic orthonormal basis (b1, b2) of the plane with unit normal n:
  * b1 is the world axis least aligned with n, made orthogonal to n. */
@@ -160,9 +157,9 @@ static size_t hull_monotone(const pt2 *p, size_t n, pt2 *h)
 }
 
 typedef struct rect2 {
-    pt2 e;          /* unit direction of the first side */
-    double a0, a1;  /* range along e */
-    double b0, b1;  /* range along perp(e) = (-e.y, e.x) */
+    pt2 e;         /* unit direction of the first side */
+    double a0, a1; /* range along e */
+    double b0, b1; /* range along perp(e) = (-e.y, e.x) */
 } rect2;
 
 static double along(pt2 p, pt2 d)

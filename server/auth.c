@@ -60,8 +60,9 @@ svd_tokens *svd_tokens_load(const char *path, sv_error *err)
         size_t n = strcspn(s, " \t\r\n");
         if (!n || *s == '#') continue;
         if (n > SVD_TOKEN_MAX) {
-            st = sv_fail(err, SV_ERR_SPEC, "%s:%zu: a token of %zu bytes, over the limit of %d bytes",
-                         path, lineno, n, SVD_TOKEN_MAX);
+            st = sv_fail(err, SV_ERR_SPEC,
+                         "%s:%zu: a token of %zu bytes, over the limit of %d bytes", path, lineno,
+                         n, SVD_TOKEN_MAX);
             break;
         }
         if (t->count == cap) {
@@ -80,7 +81,8 @@ svd_tokens *svd_tokens_load(const char *path, sv_error *err)
     fclose(f);
     if (line) OPENSSL_cleanse(line, linecap);
     free(line);
-    if (st == SV_OK && t->count == 0) st = sv_fail(err, SV_ERR_SPEC, "%s: no token in the file", path);
+    if (st == SV_OK && t->count == 0)
+        st = sv_fail(err, SV_ERR_SPEC, "%s: no token in the file", path);
     if (st != SV_OK) {
         svd_tokens_free(t);
         return NULL;

@@ -47,7 +47,8 @@ void svd_config_defaults(svd_config *c)
 
 bool svd_parse_bool(const char *s, bool *out)
 {
-    static const char *const yes[] = {"on", "true", "yes", "1"}, *const no[] = {"off", "false", "no", "0"};
+    static const char *const yes[] = {"on", "true", "yes", "1"}, *const no[] = {"off", "false",
+                                                                                "no", "0"};
     for (size_t i = 0; s && i < 4; i++) {
         if (strcmp(s, yes[i]) == 0) return *out = true, true;
         if (strcmp(s, no[i]) == 0) return *out = false, true;
@@ -87,7 +88,10 @@ static const struct setting {
     size_t off;
     size_t cap;
 } settings[] = {
-#define S(n, k, f) {n, k, offsetof(svd_config, f), sizeof(((svd_config *)0)->f)}
+#define S(n, k, f)                                                  \
+    {                                                               \
+        n, k, offsetof(svd_config, f), sizeof(((svd_config *)0)->f) \
+    }
     S("listen", K_LISTEN, listen_host),
     S("port_file", K_STR, port_file),
     S("store", K_STR, store),
@@ -155,19 +159,20 @@ sv_status svd_config_set(svd_config *c, const char *key, const char *value, sv_e
         char *field = (char *)c + s->off;
         switch (s->kind) {
         case K_STR:
-            if (strlen(value) >= s->cap)
-                return sv_fail(err, SV_ERR_SPEC, "%s: value too long", k);
+            if (strlen(value) >= s->cap) return sv_fail(err, SV_ERR_SPEC, "%s: value too long", k);
             memcpy(field, value, strlen(value) + 1);
             return SV_OK;
         case K_U32:
             if (!parse_u32(value, (uint32_t *)(void *)field))
-                return sv_fail(err, SV_ERR_SPEC, "%s: expected a non-negative integer, got '%s'", k, value);
+                return sv_fail(err, SV_ERR_SPEC, "%s: expected a non-negative integer, got '%s'", k,
+                               value);
             if (field == (char *)&c->worker_nice && c->worker_nice > 19)
                 return sv_fail(err, SV_ERR_SPEC, "worker_nice: expected 0..19, got '%s'", value);
             return SV_OK;
         case K_SIZE:
             if (!svd_parse_size(value, (uint64_t *)(void *)field))
-                return sv_fail(err, SV_ERR_SPEC, "%s: expected a size like 512M, got '%s'", k, value);
+                return sv_fail(err, SV_ERR_SPEC, "%s: expected a size like 512M, got '%s'", k,
+                               value);
             return SV_OK;
         case K_BOOL:
             if (!svd_parse_bool(value, (bool *)(void *)field))
@@ -177,7 +182,8 @@ sv_status svd_config_set(svd_config *c, const char *key, const char *value, sv_e
             return set_listen(c, value, err);
         case K_LEVEL:
             if (!svd_log_level_parse(value, &c->log_level))
-                return sv_fail(err, SV_ERR_SPEC, "log_level: expected debug, info, warn or error, got '%s'", value);
+                return sv_fail(err, SV_ERR_SPEC,
+                               "log_level: expected debug, info, warn or error, got '%s'", value);
             return SV_OK;
         }
     }
@@ -188,7 +194,8 @@ static char *trim(char *s)
 {
     while (*s == ' ' || *s == '\t') s++;
     size_t n = strlen(s);
-    while (n && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n')) s[--n] = '\0';
+    while (n && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n'))
+        s[--n] = '\0';
     return s;
 }
 
@@ -232,7 +239,8 @@ sv_status svd_config_from_args(svd_config *c, int argc, char **argv, sv_error *e
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0)
             return sv_fail(err, SV_ERR_CANCELLED, "help");
         if (strcmp(argv[i], "--config") == 0 || strncmp(argv[i], "--config=", 9) == 0) {
-            const char *path = argv[i][8] == '=' ? argv[i] + 9 : (i + 1 < argc ? argv[i + 1] : NULL);
+            const char *path = argv[i][8] == '=' ? argv[i] + 9
+                                                 : (i + 1 < argc ? argv[i + 1] : NULL);
             if (!path) return sv_fail(err, SV_ERR_SPEC, "--config needs a file");
             sv_status st = svd_config_load_file(c, path, err);
             if (st != SV_OK) return st;
@@ -240,7 +248,8 @@ sv_status svd_config_from_args(svd_config *c, int argc, char **argv, sv_error *e
     }
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        if (strncmp(a, "--", 2) != 0) return sv_fail(err, SV_ERR_SPEC, "unexpected argument '%s'", a);
+        if (strncmp(a, "--", 2) != 0)
+            return sv_fail(err, SV_ERR_SPEC, "unexpected argument '%s'", a);
         char key[64];
         const char *val;
         const char *eq = strchr(a, '=');

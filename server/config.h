@@ -24,38 +24,39 @@ typedef struct svd_config {
     char port_file[SVD_PATH_MAX]; /* written with the real port, "" = none */
     char store[SVD_PATH_MAX];     /* default ./sylva-store */
     char worker[SVD_PATH_MAX];    /* "" = dirname(/proc/self/exe)/sylva-bake */
-    char prlimit[SVD_PATH_MAX];   /* rlimit wrapper, default /usr/bin/prlimit; "" = prlimit(2) after spawn */
+    char prlimit
+        [SVD_PATH_MAX]; /* rlimit wrapper, default /usr/bin/prlimit; "" = prlimit(2) after spawn */
     char viewer_dir[SVD_PATH_MAX]; /* the viewer page's files; "" = dirname(sylvad)/viewer if it
                                      exists (build tree), else dirname(sylvad)/../share/sylva/viewer */
-    char tokens[SVD_PATH_MAX];    /* bearer tokens file, "" = no auth (loopback only) */
-    char log_file[SVD_PATH_MAX];  /* "" = stderr */
-    svd_log_level log_level;      /* default info */
-    uint32_t workers;             /* 0 = number of cores */
-    uint32_t http_threads;        /* thread pool size, default 4 */
-    uint32_t connection_limit;    /* default 1024 */
-    uint32_t max_conns_per_ip;    /* concurrent connections from one address, default 64;
+    char tokens[SVD_PATH_MAX];     /* bearer tokens file, "" = no auth (loopback only) */
+    char log_file[SVD_PATH_MAX];   /* "" = stderr */
+    svd_log_level log_level;       /* default info */
+    uint32_t workers;              /* 0 = number of cores */
+    uint32_t http_threads;         /* thread pool size, default 4 */
+    uint32_t connection_limit;     /* default 1024 */
+    uint32_t max_conns_per_ip;     /* concurrent connections from one address, default 64;
                                      0 = no limit (behind a proxy) */
-    bool reuse_port;              /* SO_REUSEPORT on the listening socket, default off: a
+    bool reuse_port;               /* SO_REUSEPORT on the listening socket, default off: a
                                      second daemon on the same port fails to start */
-    uint64_t connection_memory;   /* per connection, default 64K */
-    uint32_t connection_timeout;  /* idle seconds, default 30 */
-    uint64_t max_upload_bytes;    /* whole request body, default 1G */
-    uint64_t max_mesh_bytes;      /* one file part, default 512M */
-    uint32_t max_files;           /* companion files per upload, default 256 */
-    uint32_t queue_max;           /* queued jobs (all clients), default 1024 -> 503 */
-    uint32_t queue_per_client;    /* queued+running jobs per client, default 64 -> 429 */
-    uint32_t job_timeout;         /* wall-clock seconds per attempt, default 900 */
-    uint32_t attempts;            /* tries before failing a crashing job, default 3 */
-    uint32_t max_wait;            /* cap on ?wait=S, default 60 */
-    uint32_t drain_timeout;       /* SIGTERM: seconds to let running jobs finish, default 30 */
-    uint64_t store_max_bytes;     /* default 20G; LRU eviction beyond */
-    uint64_t worker_as_bytes;     /* RLIMIT_AS, default 8G */
-    uint32_t worker_cpu_seconds;  /* RLIMIT_CPU, default 1800 */
-    uint32_t worker_nofile;       /* RLIMIT_NOFILE, default 256 */
-    uint64_t worker_fsize_bytes;  /* RLIMIT_FSIZE, default 4G */
-    bool worker_sandbox;          /* pass --sandbox (seccomp filter) to workers, default on */
-    uint32_t worker_nice;         /* nice value of workers (0..19), default 10 */
-    bool worker_pool;             /* fork workers from a resident `sylva-bake zygote` per
+    uint64_t connection_memory;    /* per connection, default 64K */
+    uint32_t connection_timeout;   /* idle seconds, default 30 */
+    uint64_t max_upload_bytes;     /* whole request body, default 1G */
+    uint64_t max_mesh_bytes;       /* one file part, default 512M */
+    uint32_t max_files;            /* companion files per upload, default 256 */
+    uint32_t queue_max;            /* queued jobs (all clients), default 1024 -> 503 */
+    uint32_t queue_per_client;     /* queued+running jobs per client, default 64 -> 429 */
+    uint32_t job_timeout;          /* wall-clock seconds per attempt, default 900 */
+    uint32_t attempts;             /* tries before failing a crashing job, default 3 */
+    uint32_t max_wait;             /* cap on ?wait=S, default 60 */
+    uint32_t drain_timeout;        /* SIGTERM: seconds to let running jobs finish, default 30 */
+    uint64_t store_max_bytes;      /* default 20G; LRU eviction beyond */
+    uint64_t worker_as_bytes;      /* RLIMIT_AS, default 8G */
+    uint32_t worker_cpu_seconds;   /* RLIMIT_CPU, default 1800 */
+    uint32_t worker_nofile;        /* RLIMIT_NOFILE, default 256 */
+    uint64_t worker_fsize_bytes;   /* RLIMIT_FSIZE, default 4G */
+    bool worker_sandbox;           /* pass --sandbox (seccomp filter) to workers, default on */
+    uint32_t worker_nice;          /* nice value of workers (0..19), default 10 */
+    bool worker_pool;              /* fork workers from a resident `sylva-bake zygote` per
                                      worker thread instead of exec'ing each, default on
                                      (workers.h) */
 } svd_config;

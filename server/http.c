@@ -49,21 +49,21 @@ enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT, REQ_DRAIN };
 typedef struct upload {
     svd_multipart *mp;
     char tmpdir[SVD_STORE_PATH];
-    int fd;                      /* current file part, -1 if none */
+    int fd; /* current file part, -1 if none */
     EVP_MD_CTX *md;
-    int part;                    /* 0 none, 1 spec, 2 mesh, 3 file */
+    int part; /* 0 none, 1 spec, 2 mesh, 3 file */
     char part_name[SVD_NAME_MAX + 1];
     uint64_t part_bytes, total;
-    uint64_t file_bytes;         /* of every mesh/file part so far */
-    uint64_t reserved;           /* held against store_max_bytes (svd_jobs_reserve) */
+    uint64_t file_bytes; /* of every mesh/file part so far */
+    uint64_t reserved;   /* held against store_max_bytes (svd_jobs_reserve) */
     svd_jobs *jobs;
     char *spec;
     size_t spec_len;
     char mesh[SVD_NAME_MAX + 1];
     char **files;
     size_t nfiles;
-    cJSON *objects;              /* name -> {size, sha256} */
-    int err_status;              /* first error: HTTP status */
+    cJSON *objects; /* name -> {size, sha256} */
+    int err_status; /* first error: HTTP status */
     char err_code[32];
     char err_msg[600];
 } upload;
@@ -75,7 +75,7 @@ typedef struct req {
     svd_route_match m;
     char client[96];
     upload *up;
-    uint64_t drained;            /* REQ_DRAIN: body bytes read and dropped */
+    uint64_t drained; /* REQ_DRAIN: body bytes read and dropped */
     /* long-poll */
     pthread_mutex_t mu;
     svd_waiter waiter;
@@ -113,9 +113,8 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
                                       unsigned status, char *body, const char *header,
                                       const char *value)
 {
-    struct MHD_Response *r = MHD_create_response_from_buffer(body ? strlen(body) : 2,
-                                                             body ? body : (void *)"{}",
-                                                             MHD_RESPMEM_MUST_COPY);
+    struct MHD_Response *r = MHD_create_response_from_buffer(
+        body ? strlen(body) : 2, body ? body : (void *)"{}", MHD_RESPMEM_MUST_COPY);
     free(body);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", "application/json");
@@ -211,8 +210,8 @@ static sv_status precheck_upload(const upload *u, sv_format fmt, sv_error *err)
     }
     if (st == SV_OK) {
         if (fmt == SV_FORMAT_GLTF || fmt == SV_FORMAT_GLB) {
-            st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB, files, n, NULL,
-                                  err);
+            st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB, files, n,
+                                  NULL, err);
             if (st != SV_OK) {
                 char msg[sizeof err->message];
                 snprintf(msg, sizeof msg, "%s", err->message);
@@ -251,7 +250,8 @@ static int on_part_begin(void *user, const svd_part_info *info)
     upload *u = q->up;
     const svd_config *cfg = q->h->cfg;
     if (strcmp(info->name, "spec") == 0) {
-        if (u->spec) return upload_fail(u, 400, "bad_request", "more than one spec part%s", NULL), 1;
+        if (u->spec)
+            return upload_fail(u, 400, "bad_request", "more than one spec part%s", NULL), 1;
         u->spec = malloc(SPEC_MAX);
         if (!u->spec) return upload_fail(u, 500, "nomem", "out of memory%s", NULL), 1;
         u->part = 1;
@@ -260,19 +260,25 @@ static int on_part_begin(void *user, const svd_part_info *info)
     int is_mesh = strcmp(info->name, "mesh") == 0;
     if (!is_mesh && strcmp(info->name, "file") != 0)
         return upload_fail(u, 400, "bad_request",
-                           "unknown form field '%s' (expected spec, mesh, file)", info->name), 1;
+                           "unknown form field '%s' (expected spec, mesh, file)", info->name),
+               1;
     if (info->has_filename && info->filename_len > SVD_NAME_MAX) {
         char head[48];
         snprintf(head, sizeof head, "%.40s", info->filename);
         return upload_fail(u, 400, "bad_name",
                            "file name '%s...' is longer than 255 bytes (names are never truncated)",
-                           head), 1;
+                           head),
+               1;
     }
     if (!info->has_filename || !svd_name_valid(info->filename))
-        return upload_fail(u, 400, "bad_name",
-                           "invalid file name '%s': a base name without '/', '\\\\', spaces or control "
-                           "characters, not '.' or '..', at most 255 bytes", info->filename), 1;
-    if (is_mesh && u->mesh[0]) return upload_fail(u, 400, "bad_request", "more than one mesh part%s", NULL), 1;
+        return upload_fail(
+                   u, 400, "bad_name",
+                   "invalid file name '%s': a base name without '/', '\\\\', spaces or control "
+                   "characters, not '.' or '..', at most 255 bytes",
+                   info->filename),
+               1;
+    if (is_mesh && u->mesh[0])
+        return upload_fail(u, 400, "bad_request", "more than one mesh part%s", NULL), 1;
     if (name_taken(u, info->filename))
         return upload_fail(u, 400, "bad_name", "duplicate file name '%s'", info->filename), 1;
     if (!is_mesh && u->nfiles >= cfg->max_files)
@@ -280,7 +286,8 @@ static int on_part_begin(void *user, const svd_part_info *info)
     char path[SVD_STORE_PATH + 300];
     snprintf(path, sizeof path, "%s/in/%s", u->tmpdir, info->filename);
     u->fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (u->fd < 0) return upload_fail(u, 500, "io", "cannot store the upload: %s", strerror(errno)), 1;
+    if (u->fd < 0)
+        return upload_fail(u, 500, "io", "cannot store the upload: %s", strerror(errno)), 1;
     if (is_mesh) {
         snprintf(u->mesh, sizeof u->mesh, "%s", info->filename);
     } else {
@@ -311,7 +318,8 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
     }
     u->part_bytes += size;
     if (u->part_bytes > q->h->cfg->max_mesh_bytes)
-        return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name), 1;
+        return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name),
+               1;
     /* Bytes are held against store_max_bytes before they are written (issue
      * 22 item 5). */
     u->file_bytes += size;
@@ -329,7 +337,8 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
         if (w <= 0) {
             int e = errno;
             return upload_fail(u, e == ENOSPC ? 507 : 500, e == ENOSPC ? "store_full" : "io",
-                               "cannot store the upload: %s", strerror(e)), 1;
+                               "cannot store the upload: %s", strerror(e)),
+                   1;
         }
         data += w;
         size -= (size_t)w;
@@ -404,8 +413,10 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     struct MHD_Connection *c = q->conn;
     *answered = 1;
     if (atomic_load(&h->draining))
-        return send_error(h, c, q->m.route, 503, "draining", "the server is shutting down; retry later");
-    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+        return send_error(h, c, q->m.route, 503, "draining",
+                          "the server is shutting down; retry later");
+    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                 MHD_HTTP_HEADER_CONTENT_LENGTH);
     uint64_t body_len = 0;
     if (cl) {
         uint64_t n;
@@ -446,7 +457,8 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     sv_status st = svd_multipart_boundary(ct, boundary, &e);
     if (st != SV_OK)
         return send_error(h, c, q->m.route, st == SV_ERR_FORMAT ? 415 : 400,
-                          st == SV_ERR_FORMAT ? "unsupported_media_type" : "bad_request", e.message);
+                          st == SV_ERR_FORMAT ? "unsupported_media_type" : "bad_request",
+                          e.message);
     upload *u = calloc(1, sizeof *u);
     if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     u->fd = -1;
@@ -464,14 +476,16 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     u->md = EVP_MD_CTX_new();
     u->objects = cJSON_CreateObject();
     u->mp = svd_multipart_create(boundary, &mp_cb, q);
-    if (!u->md || !u->objects || !u->mp) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
+    if (!u->md || !u->objects || !u->mp)
+        return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     char in[SVD_STORE_PATH + 4];
     sv_status ms = svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e);
     if (ms == SV_OK && (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
         ms = errno == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO;
     if (ms == SV_ERR_LIMIT) /* a full disk: the 507 an upload gets later, before its body */
         return send_error(h, c, q->m.route, 507, "store_full", "the store's disk is full");
-    if (ms != SV_OK) return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
+    if (ms != SV_OK)
+        return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
     q->kind = REQ_UPLOAD;
     *answered = 0;
     return MHD_YES;
@@ -493,8 +507,10 @@ static enum MHD_Result upload_end(req *q)
     if (!u->err_status && svd_multipart_finish(u->mp, &e) != SV_OK)
         upload_fail(u, 400, "bad_multipart", "%s", e.message);
     if (!u->err_status && !u->mesh[0])
-        upload_fail(u, 400, "bad_request", "no mesh part (a form field 'mesh' with a filename)%s", NULL);
-    if (u->err_status) return send_error(h, c, route, (unsigned)u->err_status, u->err_code, u->err_msg);
+        upload_fail(u, 400, "bad_request", "no mesh part (a form field 'mesh' with a filename)%s",
+                    NULL);
+    if (u->err_status)
+        return send_error(h, c, route, (unsigned)u->err_status, u->err_code, u->err_msg);
     svd_metrics_upload_bytes(h->metrics, u->total);
 
     /* The spec, checked as the worker will check it. */
@@ -524,7 +540,8 @@ static enum MHD_Result upload_end(req *q)
     sv_format fmt = sv_sniff_format(head, (size_t)hn);
     if (fmt == SV_FORMAT_UNKNOWN) {
         char msg[400];
-        snprintf(msg, sizeof msg, "'%.255s' is not a mesh format sylva accepts (glTF/GLB, OBJ, PLY, FBX, COLLADA)",
+        snprintf(msg, sizeof msg,
+                 "'%.255s' is not a mesh format sylva accepts (glTF/GLB, OBJ, PLY, FBX, COLLADA)",
                  u->mesh);
         return send_error(h, c, route, 415, "format", msg);
     }
@@ -545,7 +562,7 @@ static enum MHD_Result upload_end(req *q)
     svd_key_part sp = {.data = (const uint8_t *)spec, .size = spec_len};
     svd_key_part mp = {.name = u->mesh, .path = mpath};
     svd_key_part *fp = sv_calloc(u->nfiles ? u->nfiles : 1, sizeof *fp);
-    char (*paths)[SVD_STORE_PATH + 300] = sv_calloc(u->nfiles ? u->nfiles : 1, sizeof *paths);
+    char(*paths)[SVD_STORE_PATH + 300] = sv_calloc(u->nfiles ? u->nfiles : 1, sizeof *paths);
     if (!fp || !paths) {
         free(fp);
         free(paths);
@@ -560,10 +577,14 @@ static enum MHD_Result upload_end(req *q)
     sv_status st = svd_key_compute(&sp, &mp, fp, u->nfiles, up.key, &e);
     free(fp);
     free(paths);
-    if (st != SV_OK) return send_error(h, c, route, st == SV_ERR_SPEC ? 400 : 500, status_code_for(st), e.message);
+    if (st != SV_OK)
+        return send_error(h, c, route, st == SV_ERR_SPEC ? 400 : 500, status_code_for(st),
+                          e.message);
     if (route == SVD_R_PUT && strcmp(up.key, q->m.key) != 0) {
         char msg[300];
-        snprintf(msg, sizeof msg, "key mismatch: the uploaded bytes hash to %s (see docs/api.md, content key)", up.key);
+        snprintf(msg, sizeof msg,
+                 "key mismatch: the uploaded bytes hash to %s (see docs/api.md, content key)",
+                 up.key);
         return send_error(h, c, route, 400, "key_mismatch", msg);
     }
 
@@ -571,18 +592,21 @@ static enum MHD_Result upload_end(req *q)
     cJSON *in = cJSON_CreateObject();
     cJSON_AddStringToObject(in, "mesh", u->mesh);
     cJSON *fl = cJSON_AddArrayToObject(in, "files");
-    for (size_t i = 0; i < u->nfiles; i++) cJSON_AddItemToArray(fl, cJSON_CreateString(u->files[i]));
+    for (size_t i = 0; i < u->nfiles; i++)
+        cJSON_AddItemToArray(fl, cJSON_CreateString(u->files[i]));
     cJSON_AddItemReferenceToObject(in, "objects", u->objects);
     cJSON_AddStringToObject(in, "format", sv_format_name(fmt));
     char *intext = cJSON_PrintUnformatted(in);
     cJSON_Delete(in);
     st = intext ? SV_OK : sv_fail(&e, SV_ERR_NOMEM, "out of memory");
-    if (st == SV_OK) st = svd_store_write_file(u->tmpdir, "inputs.json", intext, strlen(intext), &e);
+    if (st == SV_OK)
+        st = svd_store_write_file(u->tmpdir, "inputs.json", intext, strlen(intext), &e);
     free(intext);
     if (st == SV_OK) st = svd_store_write_file(u->tmpdir, "spec.json", spec, spec_len, &e);
     if (st == SV_OK) st = svd_store_sync_tree(u->tmpdir, &e);
     if (st != SV_OK) {
-        svd_log_kv(h->log, SVD_LOG_ERROR, "upload_store_failed", "msg", e.message, (const char *)NULL);
+        svd_log_kv(h->log, SVD_LOG_ERROR, "upload_store_failed", "msg", e.message,
+                   (const char *)NULL);
         return send_error(h, c, route, st == SV_ERR_LIMIT ? 507 : 500,
                           st == SV_ERR_LIMIT ? "store_full" : "io", "could not store the upload");
     }
@@ -625,7 +649,8 @@ static enum MHD_Result handle_status(req *q, int allow_wait)
         char *end;
         double s = strtod(w, &end);
         if (end == w || *end || !(s >= 0) || s > 1e6)
-            return send_error(h, q->conn, q->m.route, 400, "bad_request", "wait: expected seconds (a number >= 0)");
+            return send_error(h, q->conn, q->m.route, 400, "bad_request",
+                              "wait: expected seconds (a number >= 0)");
         if (s > h->cfg->max_wait) s = h->cfg->max_wait;
         if (s > 0) {
             q->kind = REQ_WAIT;
@@ -660,7 +685,8 @@ static const char *content_type_of(const char *name)
     if (strcmp(dot, ".jpg") == 0) return "image/jpeg";
     if (strcmp(dot, ".ktx2") == 0) return "image/ktx2";
     if (strcmp(dot, ".html") == 0) return "text/html; charset=utf-8";
-    if (strcmp(dot, ".js") == 0 || strcmp(dot, ".mjs") == 0) return "text/javascript; charset=utf-8";
+    if (strcmp(dot, ".js") == 0 || strcmp(dot, ".mjs") == 0)
+        return "text/javascript; charset=utf-8";
     if (strcmp(dot, ".css") == 0) return "text/css; charset=utf-8";
     if (strcmp(dot, ".glsl") == 0 || strcmp(dot, ".mtl") == 0 || strcmp(dot, ".obj") == 0 ||
         strcmp(dot, ".txt") == 0)
@@ -718,7 +744,8 @@ static enum MHD_Result answer_not_done(req *q)
     if (state && strcmp(state, "failed") == 0 && err) {
         const char *code = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "code"));
         const char *msg = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(err, "message"));
-        r = send_error(h, q->conn, q->m.route, 422, code ? code : "failed", msg ? msg : "the bake failed");
+        r = send_error(h, q->conn, q->m.route, 422, code ? code : "failed",
+                       msg ? msg : "the bake failed");
     } else {
         char msg[80];
         snprintf(msg, sizeof msg, "the bake is %s, not done", state ? state : "not done");
@@ -748,9 +775,10 @@ static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, con
     char crange[96];
     if (ranged < 0) {
         snprintf(crange, sizeof crange, "bytes */%llu", (unsigned long long)size);
-        return send_json_with(h, c, q->m.route, MHD_HTTP_RANGE_NOT_SATISFIABLE,
-                              error_body("range", "the range starts at or past the end of the file"),
-                              MHD_HTTP_HEADER_CONTENT_RANGE, crange);
+        return send_json_with(
+            h, c, q->m.route, MHD_HTTP_RANGE_NOT_SATISFIABLE,
+            error_body("range", "the range starts at or past the end of the file"),
+            MHD_HTTP_HEADER_CONTENT_RANGE, crange);
     }
     int fd = vs == SV_OK ? open(path, O_RDONLY | O_CLOEXEC) : -1;
     if (fd < 0) return send_error(h, c, q->m.route, 404, "not_found", missing);
@@ -778,7 +806,8 @@ static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, con
 static int answer_not_modified(req *q, const char *sha, enum MHD_Result *ret)
 {
     struct MHD_Connection *c = q->conn;
-    const char *inm = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_NONE_MATCH);
+    const char *inm = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                  MHD_HTTP_HEADER_IF_NONE_MATCH);
     if (!inm || !(strstr(inm, sha) || strcmp(inm, "*") == 0)) return 0;
     char etag[SVD_KEY_HEX + 2];
     snprintf(etag, sizeof etag, "\"%s\"", sha);
@@ -816,7 +845,8 @@ static enum MHD_Result handle_artifact(req *q)
     if (vs == SV_ERR_INVALID) {
         svd_jobs_result_corrupt(h->jobs, q->m.key, path);
         return send_error(h, c, q->m.route, 503, "corrupt",
-                          "the stored artifact failed its SHA-256 check; it was quarantined and the bake requeued");
+                          "the stored artifact failed its SHA-256 check; it was quarantined and "
+                          "the bake requeued");
     }
     return serve_stored(q, path, size, sha, vs, "artifact missing from the store");
 }
@@ -864,7 +894,8 @@ static enum MHD_Result serve_viewer_file(req *q, const char *rel, const char *ct
         return send_error(h, q->conn, q->m.route, 404, "not_found",
                           q->m.route == SVD_R_VIEW ? "the viewer page is not installed (viewer_dir)"
                                                    : "no such viewer file");
-    struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)sb.st_size, fd); /* closes fd */
+    struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)sb.st_size,
+                                                           fd); /* closes fd */
     if (!r) {
         close(fd);
         return MHD_NO;
@@ -921,7 +952,8 @@ static enum MHD_Result handle_list(req *q)
     }
     char *body = NULL;
     sv_error e = {0};
-    svd_jobs_rc rc = svd_jobs_list(h->jobs, q->client, (uint64_t)before, (unsigned)limit, &body, &e);
+    svd_jobs_rc rc = svd_jobs_list(h->jobs, q->client, (uint64_t)before, (unsigned)limit, &body,
+                                   &e);
     return send_jobs(h, q->conn, q->m.route, rc, body, &e);
 }
 
@@ -938,8 +970,9 @@ static enum MHD_Result handle_info(req *q)
     const sv_method *const *ms = sv_method_list(&n);
     for (size_t i = 0; i < n; i++) cJSON_AddItemToArray(m, cJSON_CreateString(ms[i]->name));
     cJSON *fx = cJSON_AddArrayToObject(r, "effects");
-    const char *effects[] = {"lighting:static", "lighting:dynamic", "ambient_occlusion", "shadows",
-                             "viewer:ground", "viewer:aerial", "viewer:orbit", "camera_motion"};
+    const char *effects[] = {"lighting:static", "lighting:dynamic", "ambient_occlusion",
+                             "shadows",         "viewer:ground",    "viewer:aerial",
+                             "viewer:orbit",    "camera_motion"};
     for (size_t i = 0; i < sizeof effects / sizeof effects[0]; i++)
         cJSON_AddItemToArray(fx, cJSON_CreateString(effects[i]));
     cJSON *fm = cJSON_AddArrayToObject(r, "formats");
@@ -970,7 +1003,8 @@ static enum MHD_Result handle_metrics(req *q)
     /* count this request before rendering so a scrape sees itself */
     char *text = svd_metrics_render(q->h->metrics, &g);
     if (!text) return send_error(q->h, q->conn, q->m.route, 500, "nomem", "out of memory");
-    enum MHD_Result r = send_text(q->h, q->conn, q->m.route, 200, text, "text/plain; version=0.0.4");
+    enum MHD_Result r = send_text(q->h, q->conn, q->m.route, 200, text,
+                                  "text/plain; version=0.0.4");
     free(text);
     return r;
 }
@@ -979,14 +1013,17 @@ static enum MHD_Result handle_metrics(req *q)
 
 static void remote_addr(struct MHD_Connection *c, char *out, size_t cap)
 {
-    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
+        c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
     out[0] = '\0';
     if (!ci || !ci->client_addr) return;
     const struct sockaddr *sa = ci->client_addr;
     if (sa->sa_family == AF_INET)
-        inet_ntop(AF_INET, &((const struct sockaddr_in *)(const void *)sa)->sin_addr, out, (socklen_t)cap);
+        inet_ntop(AF_INET, &((const struct sockaddr_in *)(const void *)sa)->sin_addr, out,
+                  (socklen_t)cap);
     else if (sa->sa_family == AF_INET6)
-        inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)(const void *)sa)->sin6_addr, out, (socklen_t)cap);
+        inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)(const void *)sa)->sin6_addr, out,
+                  (socklen_t)cap);
 }
 
 /* Whether the request's body, which its route does not take, is small enough
@@ -995,8 +1032,10 @@ static void remote_addr(struct MHD_Connection *c, char *out, size_t cap)
 static bool body_is_small(struct MHD_Connection *c, uint64_t *declared)
 {
     *declared = 0;
-    if (MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_TRANSFER_ENCODING)) return false;
-    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_TRANSFER_ENCODING))
+        return false;
+    const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                 MHD_HTTP_HEADER_CONTENT_LENGTH);
     if (!cl) return true;
     char *end;
     errno = 0;
@@ -1015,8 +1054,9 @@ static enum MHD_Result answer_refused(req *q)
     struct MHD_Connection *c = q->conn;
     if (q->m.status == 405) {
         char *body = error_body("method_not_allowed", q->m.message);
-        struct MHD_Response *r =
-            body ? MHD_create_response_from_buffer(strlen(body), body, MHD_RESPMEM_MUST_COPY) : NULL;
+        struct MHD_Response *r = body ? MHD_create_response_from_buffer(strlen(body), body,
+                                                                        MHD_RESPMEM_MUST_COPY)
+                                      : NULL;
         free(body);
         if (!r) return MHD_NO;
         MHD_add_response_header(r, "Allow", q->m.allow);
@@ -1047,11 +1087,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         q->conn = c;
         *con_cls = q;
         svd_route_find(method, url, &q->m);
-        const char *auth = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
+        const char *auth = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
+                                                       MHD_HTTP_HEADER_AUTHORIZATION);
         char addr[64];
         remote_addr(c, addr, sizeof addr);
         svd_client_id(h->tokens ? auth : NULL, addr, q->client, sizeof q->client);
-        q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH || svd_tokens_check(h->tokens, auth);
+        q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH ||
+                        svd_tokens_check(h->tokens, auth);
         /* The answer is decided here, before any body byte is read. An answer
          * queued now makes libmicrohttpd send it and close the connection
          * without reading the body (docs/reliability.md, "Bounded reads"). */
@@ -1072,10 +1114,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             if (q->m.status || !q->authorized) return answer_refused(q);
             char msg[200];
             if (declared)
-                snprintf(msg, sizeof msg, "this route takes no request body (%llu bytes declared, at most %u "
-                         "are read)", (unsigned long long)declared, SMALL_BODY);
+                snprintf(msg, sizeof msg,
+                         "this route takes no request body (%llu bytes declared, at most %u "
+                         "are read)",
+                         (unsigned long long)declared, SMALL_BODY);
             else
-                snprintf(msg, sizeof msg, "this route takes no request body (a chunked body is not read)");
+                snprintf(msg, sizeof msg,
+                         "this route takes no request body (a chunked body is not read)");
             return send_error(h, c, q->m.route, 413, "too_large", msg);
         }
         return MHD_YES;
@@ -1138,29 +1183,39 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     case SVD_R_HEALTH: {
         bool d = atomic_load(&h->draining);
         return send_text(h, c, q->m.route, d ? 503 : 200,
-                         d ? "{\"status\":\"draining\"}" : "{\"status\":\"ok\"}", "application/json");
+                         d ? "{\"status\":\"draining\"}" : "{\"status\":\"ok\"}",
+                         "application/json");
     }
-    case SVD_R_METRICS: return handle_metrics(q);
-    case SVD_R_INFO: return handle_info(q);
-    case SVD_R_ARTIFACT: return handle_artifact(q);
-    case SVD_R_INPUT: return handle_input(q);
+    case SVD_R_METRICS:
+        return handle_metrics(q);
+    case SVD_R_INFO:
+        return handle_info(q);
+    case SVD_R_ARTIFACT:
+        return handle_artifact(q);
+    case SVD_R_INPUT:
+        return handle_input(q);
     case SVD_R_INPUTS: {
         char *body = NULL;
         sv_error e = {0};
         svd_jobs_rc rc = svd_jobs_inputs(h->jobs, q->m.key, &body, &e);
         return send_jobs(h, c, q->m.route, rc, body, &e);
     }
-    case SVD_R_VIEW: return handle_view(q);
-    case SVD_R_VIEWER: return serve_viewer_file(q, q->m.name, content_type_of(q->m.name));
+    case SVD_R_VIEW:
+        return handle_view(q);
+    case SVD_R_VIEWER:
+        return serve_viewer_file(q, q->m.name, content_type_of(q->m.name));
     case SVD_R_DELETE: {
         char *body = NULL;
         sv_error e = {0};
         svd_jobs_rc rc = svd_jobs_delete(h->jobs, q->m.key, &body, &e);
         return send_jobs(h, c, q->m.route, rc, body, &e);
     }
-    case SVD_R_STATUS: return handle_status(q, 0);
-    case SVD_R_LIST: return handle_list(q);
-    default: return send_error(h, c, SVD_R_NONE, 404, "not_found", "no such resource");
+    case SVD_R_STATUS:
+        return handle_status(q, 0);
+    case SVD_R_LIST:
+        return handle_list(q);
+    default:
+        return send_error(h, c, SVD_R_NONE, 404, "not_found", "no such resource");
     }
 }
 
@@ -1183,8 +1238,8 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *c)
         for (const char *p = qm; *p; p++) args += *p == '&' || *p == ';';
     }
     if (args <= URI_ARGS_MAX) return NULL;
-    const union MHD_ConnectionInfo *ci =
-        MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c,
+                                                                 MHD_CONNECTION_INFO_CONNECTION_FD);
     if (ci) {
         static const char body[] =
             "{\"error\":{\"code\":\"too_large\",\"message\":\"more than 64 query arguments: no "
@@ -1255,7 +1310,8 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
     snprintf(port, sizeof port, "%u", cfg->port);
     int gai = getaddrinfo(cfg->listen_host, port, &hints, &ai);
     if (gai != 0 || !ai) {
-        sv_fail(err, SV_ERR_IO, "listen: cannot resolve '%s': %s", cfg->listen_host, gai_strerror(gai));
+        sv_fail(err, SV_ERR_IO, "listen: cannot resolve '%s': %s", cfg->listen_host,
+                gai_strerror(gai));
         free(h);
         return NULL;
     }
@@ -1274,30 +1330,30 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         if (lfd >= 0) close(lfd);
         freeaddrinfo(ai);
         sv_fail(err, SV_ERR_IO, "cannot listen on %s:%u: %s", cfg->listen_host, cfg->port,
-                e == EADDRINUSE ? "address in use (another sylvad? reuse_port is off)" : strerror(e));
+                e == EADDRINUSE ? "address in use (another sylvad? reuse_port is off)"
+                                : strerror(e));
         free(h);
         return NULL;
     }
     unsigned flags = MHD_USE_EPOLL_INTERNAL_THREAD | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
     if (ai->ai_family == AF_INET6) flags |= MHD_USE_IPv6;
     freeaddrinfo(ai);
-    h->d = MHD_start_daemon(
-        flags, 0, NULL, NULL, on_request, h,
-        MHD_OPTION_EXTERNAL_LOGGER, mhd_logger, h,
-        MHD_OPTION_LISTEN_SOCKET, (MHD_socket)lfd,
-        MHD_OPTION_THREAD_POOL_SIZE, (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
-        MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
-        /* issue 22 item 6: one address holding 1,100 slow-header or
+    h->d = MHD_start_daemon(flags, 0, NULL, NULL, on_request, h, MHD_OPTION_EXTERNAL_LOGGER,
+                            mhd_logger, h, MHD_OPTION_LISTEN_SOCKET, (MHD_socket)lfd,
+                            MHD_OPTION_THREAD_POOL_SIZE,
+                            (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
+                            MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
+                            /* issue 22 item 6: one address holding 1,100 slow-header or
          * long-poll connections stopped /v1/health for everyone */
-        MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned int)cfg->max_conns_per_ip,
-        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
-        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
-        MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
-        MHD_OPTION_URI_LOG_CALLBACK, on_uri, h,
-        MHD_OPTION_END);
+                            MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned int)cfg->max_conns_per_ip,
+                            MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
+                            MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
+                            MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
+                            MHD_OPTION_URI_LOG_CALLBACK, on_uri, h, MHD_OPTION_END);
     if (!h->d) {
         close(lfd);
-        sv_fail(err, SV_ERR_IO, "cannot start the HTTP server on %s:%u", cfg->listen_host, cfg->port);
+        sv_fail(err, SV_ERR_IO, "cannot start the HTTP server on %s:%u", cfg->listen_host,
+                cfg->port);
         free(h);
         return NULL;
     }
@@ -1311,9 +1367,15 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
     return h;
 }
 
-uint16_t svd_http_port(const svd_http *h) { return h->port; }
+uint16_t svd_http_port(const svd_http *h)
+{
+    return h->port;
+}
 
-void svd_http_set_draining(svd_http *h) { atomic_store(&h->draining, true); }
+void svd_http_set_draining(svd_http *h)
+{
+    atomic_store(&h->draining, true);
+}
 
 void svd_http_stop(svd_http *h)
 {

@@ -27,8 +27,8 @@ typedef struct svd_http svd_http;
 
 /* Starts listening on cfg->listen_host:cfg->port (port 0 = ephemeral).
  * tokens may be NULL (no auth). NULL with err set on failure. */
-svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *metrics,
-                         svd_log *log, const svd_tokens *tokens, sv_error *err);
+svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *metrics, svd_log *log,
+                         const svd_tokens *tokens, sv_error *err);
 
 /* The port actually bound. */
 uint16_t svd_http_port(const svd_http *h);

@@ -18,28 +18,28 @@ struct svd_job {
     char key[SVD_KEY_HEX];
     char client[96];
     svd_job_state state;
-    uint64_t seq;             /* FIFO order */
-    uint64_t lru;             /* last use, for eviction */
-    unsigned attempts;        /* attempts in the current run */
-    int stage;                /* -1 before the first progress line */
+    uint64_t seq;      /* FIFO order */
+    uint64_t lru;      /* last use, for eviction */
+    unsigned attempts; /* attempts in the current run */
+    int stage;         /* -1 before the first progress line */
     double progress;
-    int try_k, tries;         /* target search: try k of at most tries; 0 = none */
+    int try_k, tries; /* target search: try k of at most tries; 0 = none */
     double stage_start;
     double times[SVD_STAGE_COUNT];
     double t_started;
     char code[32];
-    char *message;            /* failure reason */
-    cJSON *manifest;          /* when done */
-    uint64_t bytes;           /* on disk: inputs + result */
+    char *message;   /* failure reason */
+    cJSON *manifest; /* when done */
+    uint64_t bytes;  /* on disk: inputs + result */
     bool cancel;
-    bool resubmitted;         /* uploaded again while a DELETE was stopping it: run it again */
-    double not_before;        /* a retry waits until then (sv_now() clock; backoff) */
-    char **owners;            /* callers besides `client` who uploaded these bytes too */
+    bool resubmitted;  /* uploaded again while a DELETE was stopping it: run it again */
+    double not_before; /* a retry waits until then (sv_now() clock; backoff) */
+    char **owners;     /* callers besides `client` who uploaded these bytes too */
     uint32_t nowners;
     svd_waiter *waiters;
     svd_job *hnext;
-    svd_job *lprev, *lnext;   /* in the queue (QUEUED, by seq) or the running list */
-    bool listed;              /* in one of them */
+    svd_job *lprev, *lnext; /* in the queue (QUEUED, by seq) or the running list */
+    bool listed;            /* in one of them */
 };
 
 struct svd_jobs {
@@ -55,7 +55,7 @@ struct svd_jobs {
     size_t count;
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
-    uint64_t uploading;       /* bytes reserved by uploads in progress (svd_jobs_reserve) */
+    uint64_t uploading; /* bytes reserved by uploads in progress (svd_jobs_reserve) */
     bool stopping, aborting;
     /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
      * taking work, a queue position, the queue's length and a client's load
@@ -160,8 +160,10 @@ static void build_lists(svd_jobs *jobs)
  * comes: callers go by rc). */
 static svd_jobs_rc refuse(sv_error *err, svd_jobs_rc rc, const char *msg)
 {
-    sv_status st = rc == SVD_JOBS_IO ? SV_ERR_IO : rc == SVD_JOBS_NOMEM ? SV_ERR_NOMEM
-                 : rc == SVD_JOBS_NOT_FOUND ? SV_ERR_MISSING : SV_ERR_LIMIT;
+    sv_status st = rc == SVD_JOBS_IO          ? SV_ERR_IO
+                   : rc == SVD_JOBS_NOMEM     ? SV_ERR_NOMEM
+                   : rc == SVD_JOBS_NOT_FOUND ? SV_ERR_MISSING
+                                              : SV_ERR_LIMIT;
     sv_fail(err, st, "%s", msg);
     return rc;
 }
@@ -305,7 +307,8 @@ static cJSON *accept_record(const svd_job *j)
         for (uint32_t i = 0; o && i < j->nowners; i++)
             cJSON_AddItemToArray(o, cJSON_CreateString(j->owners[i]));
     }
-    cJSON_AddStringToObject(r, "state", j->state == SVD_JOB_RUNNING ? "queued" : svd_job_state_name(j->state));
+    cJSON_AddStringToObject(r, "state",
+                            j->state == SVD_JOB_RUNNING ? "queued" : svd_job_state_name(j->state));
     if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
         cJSON_AddStringToObject(r, "code", j->code);
         cJSON_AddStringToObject(r, "message", j->message ? j->message : "");
@@ -390,12 +393,15 @@ static void replay_one(void *user, const char *payload, size_t size)
     if (strcmp(op, "accept") == 0) {
         if (!j) j = insert(jobs, key);
         if (j) {
-            const char *client = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "client"));
+            const char *client = cJSON_GetStringValue(
+                cJSON_GetObjectItemCaseSensitive(r, "client"));
             snprintf(j->client, sizeof j->client, "%s", client ? client : "unknown");
             const cJSON *ow;
-            cJSON_ArrayForEach(ow, cJSON_GetObjectItemCaseSensitive(r, "owners"))
-                if (cJSON_IsString(ow)) add_owner(j, ow->valuestring);
-            j->state = state_from_name(cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "state")));
+            cJSON_ArrayForEach(
+                ow, cJSON_GetObjectItemCaseSensitive(r, "owners")) if (cJSON_IsString(ow))
+                add_owner(j, ow->valuestring);
+            j->state = state_from_name(
+                cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "state")));
             if (j->state == SVD_JOB_RUNNING) j->state = SVD_JOB_QUEUED;
             if (code || msg) set_message(j, code, msg);
         }
@@ -465,7 +471,8 @@ static void drop_orphans(svd_jobs *jobs)
         if (svd_key_valid(e->d_name) && find(jobs, e->d_name)) continue;
         char path[SVD_STORE_PATH + 300];
         snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        svd_log_kv(jobs->log, SVD_LOG_WARN, "store_orphan_removed", "path", path, (const char *)NULL);
+        svd_log_kv(jobs->log, SVD_LOG_WARN, "store_orphan_removed", "path", path,
+                   (const char *)NULL);
         svd_rm_rf(path);
     }
     closedir(d);
@@ -482,8 +489,8 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
     snprintf(n1, sizeof n1, "%llu", (unsigned long long)stats.records);
     snprintf(n2, sizeof n2, "%llu", (unsigned long long)stats.torn_bytes);
     snprintf(n3, sizeof n3, "%llu", (unsigned long long)stats.corrupt);
-    svd_log_kv(jobs->log, stats.corrupt ? SVD_LOG_ERROR : SVD_LOG_INFO, "journal_replayed", "records", n1,
-               "torn_bytes", n2, "corrupt_records", n3, (const char *)NULL);
+    svd_log_kv(jobs->log, stats.corrupt ? SVD_LOG_ERROR : SVD_LOG_INFO, "journal_replayed",
+               "records", n1, "torn_bytes", n2, "corrupt_records", n3, (const char *)NULL);
     /* Reconcile with the store. */
     size_t live = 0;
     for (size_t b = 0; b < NBUCKETS; b++) {
@@ -504,8 +511,8 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
                 }
             }
             if (!inputs && j->state != SVD_JOB_DONE) {
-                svd_log_kv(jobs->log, SVD_LOG_ERROR, "job_inputs_missing", "key", j->key,
-                           "msg", "inputs of an accepted job are gone; dropping it", (const char *)NULL);
+                svd_log_kv(jobs->log, SVD_LOG_ERROR, "job_inputs_missing", "key", j->key, "msg",
+                           "inputs of an accepted job are gone; dropping it", (const char *)NULL);
                 unlink_job(jobs, j);
                 continue;
             }
@@ -527,7 +534,8 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
     size_t *sizes = sv_calloc(live ? live : 1, sizeof *sizes);
     size_t n = 0;
     sv_error ce = {0};
-    sv_status st = order && recs && sizes ? SV_OK : sv_fail(&ce, SV_ERR_NOMEM, "jobs: out of memory");
+    sv_status st = order && recs && sizes ? SV_OK
+                                          : sv_fail(&ce, SV_ERR_NOMEM, "jobs: out of memory");
     for (size_t b = 0; st == SV_OK && b < NBUCKETS; b++)
         for (svd_job *j = jobs->buckets[b]; j && n < live; j = j->hnext) order[n++] = j;
     if (st == SV_OK && n > 1) qsort(order, n, sizeof *order, by_seq); /* was O(n²) */
@@ -539,8 +547,10 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
     if (st == SV_OK)
         st = svd_journal_rewrite(jobs->journal, (const char *const *)recs, sizes, n, &ce);
     if (st != SV_OK)
-        svd_log_kv(jobs->log, SVD_LOG_ERROR, "journal_compaction_failed", "msg", ce.message, "effect",
-                   "the journal is kept as it is; stored results are served, uploads may fail as store_full",
+        svd_log_kv(jobs->log, SVD_LOG_ERROR, "journal_compaction_failed", "msg", ce.message,
+                   "effect",
+                   "the journal is kept as it is; stored results are served, uploads may fail as "
+                   "store_full",
                    (const char *)NULL);
     char q[32];
     size_t queued = 0;
@@ -548,7 +558,8 @@ sv_status svd_jobs_recover(svd_jobs *jobs, sv_error *err)
         for (svd_job *j = jobs->buckets[b]; j; j = j->hnext) queued += j->state == SVD_JOB_QUEUED;
     snprintf(n1, sizeof n1, "%zu", live);
     snprintf(q, sizeof q, "%zu", queued);
-    svd_log_kv(jobs->log, SVD_LOG_INFO, "jobs_recovered", "jobs", n1, "requeued", q, (const char *)NULL);
+    svd_log_kv(jobs->log, SVD_LOG_INFO, "jobs_recovered", "jobs", n1, "requeued", q,
+               (const char *)NULL);
     free(order);
     for (size_t i = 0; recs && i < n; i++) free(recs[i]);
     free(recs);
@@ -583,7 +594,8 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
         if (j->times[s] > 0 || (s == j->stage && j->state == SVD_JOB_RUNNING))
             cJSON_AddNumberToObject(t, svd_stage_names[s],
                                     j->times[s] + (s == j->stage && j->state == SVD_JOB_RUNNING
-                                                       ? sv_now() - j->stage_start : 0));
+                                                       ? sv_now() - j->stage_start
+                                                       : 0));
     if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
         cJSON *e = cJSON_AddObjectToObject(r, "error");
         cJSON_AddStringToObject(e, "code", j->code[0] ? j->code : "failed");
@@ -662,8 +674,7 @@ svd_jobs_rc svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, u
         cJSON_AddStringToObject(e, "state", svd_job_state_name(v[i]->state));
         if (v[i]->state == SVD_JOB_RUNNING && v[i]->stage >= 0)
             cJSON_AddStringToObject(e, "stage", svd_stage_names[v[i]->stage]);
-        else
-            cJSON_AddNullToObject(e, "stage");
+        else cJSON_AddNullToObject(e, "stage");
         cJSON_AddNumberToObject(e, "progress", v[i]->state == SVD_JOB_DONE ? 1.0 : v[i]->progress);
         snprintf(cur, sizeof cur, "%llu", (unsigned long long)v[i]->seq);
         cJSON_AddStringToObject(e, "cursor", cur);
@@ -728,7 +739,8 @@ static bool make_room(svd_jobs *jobs, uint64_t need)
             log_journal_error(jobs, victim->key, &e);
             return false;
         }
-        svd_log_kv(jobs->log, SVD_LOG_INFO, "store_evicted", "key", victim->key, (const char *)NULL);
+        svd_log_kv(jobs->log, SVD_LOG_INFO, "store_evicted", "key", victim->key,
+                   (const char *)NULL);
         svd_store_remove(jobs->store, victim->key, NULL);
         unlink_job(jobs, victim);
     }
@@ -784,8 +796,7 @@ void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes)
     pthread_mutex_unlock(&jobs->mu);
 }
 
-svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out,
-                            sv_error *err)
+svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out, sv_error *err)
 {
     svd_jobs_rc rc;
     char why[300];
@@ -835,7 +846,8 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
         return SVD_JOBS_OK;
     }
     if (jobs->stopping) {
-        rc = refuse(err, SVD_JOBS_DRAINING, "the server is shutting down; retry on another node or later");
+        rc = refuse(err, SVD_JOBS_DRAINING,
+                    "the server is shutting down; retry on another node or later");
     } else if (count_state(jobs, SVD_JOB_QUEUED) >= jobs->cfg->queue_max) {
         rc = refuse(err, SVD_JOBS_QUEUE_FULL, "the bake queue is full; retry later");
     } else if (client_load(jobs, up->client, false) >= jobs->cfg->queue_per_client) {
@@ -881,7 +893,8 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
     if (!j) {
         pthread_mutex_unlock(&jobs->mu);
         pthread_mutex_unlock(&jobs->commit_mu);
-        return refuse(err, SVD_JOBS_NOMEM, "out of memory"); /* journaled: the job runs after a restart */
+        return refuse(err, SVD_JOBS_NOMEM,
+                      "out of memory"); /* journaled: the job runs after a restart */
     }
     snprintf(j->client, sizeof j->client, "%s", up->client);
     j->bytes = up->bytes;
@@ -1043,7 +1056,8 @@ svd_jobs_rc svd_jobs_input(svd_jobs *jobs, const char *key, const char *name,
      * found), or no in/NAME by the time it is opened (the caller's not found) */
     svd_store_job_path(jobs->store, key, "inputs.json", ipath);
     cJSON *in = read_json_file(ipath);
-    const cJSON *o = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(in, "objects"), name);
+    const cJSON *o = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(in, "objects"), name);
     const char *h = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(o, "sha256"));
     const cJSON *sz = cJSON_GetObjectItemCaseSensitive(o, "size");
     svd_jobs_rc rc = SVD_JOBS_NOT_FOUND;
@@ -1160,7 +1174,8 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
                 continue;
             }
             unsigned load = 0;
-            for (svd_job *r = jobs->rhead; r; r = r->lnext) load += strcmp(r->client, j->client) == 0;
+            for (svd_job *r = jobs->rhead; r; r = r->lnext)
+                load += strcmp(r->client, j->client) == 0;
             if (!best || load < best_load) {
                 best = j;
                 best_load = load;
@@ -1198,8 +1213,8 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
     }
 }
 
-void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress,
-                       int try_k, int tries)
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress, int try_k,
+                       int tries)
 {
     int s = svd_stage_index(stage);
     pthread_mutex_lock(&jobs->mu);
@@ -1248,7 +1263,8 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
     char msg[700];
     snprintf(msg, sizeof msg, "%s", message ? message : "");
     if (out == SVD_OUT_RETRY && t->attempt >= jobs->cfg->attempts) {
-        snprintf(msg, sizeof msg, "%s on %u attempts", message ? message : "worker failed", t->attempt);
+        snprintf(msg, sizeof msg, "%s on %u attempts", message ? message : "worker failed",
+                 t->attempt);
         out = SVD_OUT_FAILED;
         code = code ? code : "crash";
     }
@@ -1301,7 +1317,8 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
             j->attempts = 0;
             break;
         }
-        if (journal_json(jobs, record("cancel", j), &e) != SV_OK) log_journal_error(jobs, j->key, &e);
+        if (journal_json(jobs, record("cancel", j), &e) != SV_OK)
+            log_journal_error(jobs, j->key, &e);
         set_state(jobs, j, SVD_JOB_CANCELLED);
         set_message(j, "cancelled", "cancelled by DELETE");
         final = "cancelled";
@@ -1358,7 +1375,19 @@ unsigned svd_jobs_running(svd_jobs *jobs)
     return n;
 }
 
-svd_store *svd_jobs_store(svd_jobs *jobs) { return jobs->store; }
-const svd_config *svd_jobs_config(svd_jobs *jobs) { return jobs->cfg; }
-svd_log *svd_jobs_log(svd_jobs *jobs) { return jobs->log; }
-svd_metrics *svd_jobs_metrics(svd_jobs *jobs) { return jobs->metrics; }
+svd_store *svd_jobs_store(svd_jobs *jobs)
+{
+    return jobs->store;
+}
+const svd_config *svd_jobs_config(svd_jobs *jobs)
+{
+    return jobs->cfg;
+}
+svd_log *svd_jobs_log(svd_jobs *jobs)
+{
+    return jobs->log;
+}
+svd_metrics *svd_jobs_metrics(svd_jobs *jobs)
+{
+    return jobs->metrics;
+}

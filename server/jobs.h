@@ -64,9 +64,9 @@ typedef enum svd_jobs_rc {
 typedef struct svd_waiter {
     void (*wake)(void *arg);
     void *arg;
-    double deadline;          /* sv_now() seconds */
-    struct svd_waiter *next;  /* private */
-    svd_job *job;             /* private: NULL when not registered */
+    double deadline;         /* sv_now() seconds */
+    struct svd_waiter *next; /* private */
+    svd_job *job;            /* private: NULL when not registered */
 } svd_waiter;
 
 /* Creates the table. The config, store, log and metrics must outlive it. */
@@ -98,8 +98,7 @@ typedef struct svd_upload {
  * store, journaled (fsync) and queued: ACCEPTED with its status document in
  * *json_out (malloc'ed). Refused: DRAINING, QUEUE_FULL, CLIENT_FULL,
  * STORE_FULL, IO or NOMEM, with err's message and *json_out NULL. */
-svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out,
-                            sv_error *err);
+svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out, sv_error *err);
 
 /* Uploads in progress hold their bytes against store_max_bytes as they stream
  * (issue 22 item 5: three concurrent 15 MB uploads filled a 10 MiB store
@@ -181,7 +180,7 @@ void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g);
 typedef struct svd_ticket {
     svd_job *job;
     char key[SVD_KEY_HEX];
-    unsigned attempt;        /* 1-based */
+    unsigned attempt; /* 1-based */
 } svd_ticket;
 
 /* Blocks until a job is runnable (marks it running) or the table is stopping
@@ -190,8 +189,8 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t);
 
 /* Progress line from the worker: stage name, overall fraction, and during a
  * target search try k of at most `tries` (k = 0: not searching). */
-void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress,
-                       int try_k, int tries);
+void svd_jobs_progress(svd_jobs *jobs, svd_ticket *t, const char *stage, double progress, int try_k,
+                       int tries);
 
 /* True if the job was cancelled (the worker must stop the process). */
 bool svd_jobs_cancelled(svd_jobs *jobs, svd_ticket *t);

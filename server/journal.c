@@ -48,7 +48,8 @@ sv_status svd_fsync_parent(const char *path, sv_error *err)
     else if (slash == path) snprintf(dir, sizeof dir, "/");
     else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
     int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot open directory: %s", dir, strerror(errno));
+    if (fd < 0)
+        return sv_fail(err, SV_ERR_IO, "%s: cannot open directory: %s", dir, strerror(errno));
     int r = fsync(fd);
     int e = errno;
     close(fd);
@@ -143,7 +144,8 @@ svd_journal *svd_journal_open(const char *path, svd_journal_replay_fn fn, void *
             p = next;
             continue;
         }
-        uint32_t len = (uint32_t)p[4] | (uint32_t)p[5] << 8 | (uint32_t)p[6] << 16 | (uint32_t)p[7] << 24;
+        uint32_t len = (uint32_t)p[4] | (uint32_t)p[5] << 8 | (uint32_t)p[6] << 16 |
+                       (uint32_t)p[7] << 24;
         if (len > SVD_JOURNAL_MAX_RECORD) { /* a lying length: resync at the next magic */
             const unsigned char *next = find_magic(p + 4, end);
             if (!next) break;
@@ -213,7 +215,9 @@ sv_status svd_journal_append(svd_journal *j, const char *payload, size_t size, s
     if (st == SV_OK && fdatasync(j->fd) != 0)
         st = sv_fail(err, SV_ERR_IO, "%s: journal fsync failed: %s", j->path, strerror(errno));
     if (st == SV_OK) j->size += HDR + size;
-    else if (ftruncate(j->fd, (off_t)j->size) != 0) { /* leave no torn record; replay cuts it anyway */ }
+    else if (ftruncate(j->fd, (off_t)j->size) !=
+             0) { /* leave no torn record; replay cuts it anyway */
+    }
     pthread_mutex_unlock(&j->mu);
     free(rec);
     return st;
@@ -241,7 +245,8 @@ sv_status svd_journal_rewrite(svd_journal *j, const char *const *payloads, const
             st = sv_fail(err, SV_ERR_IO, "%s: write failed: %s", tmp, strerror(errno));
         total += HDR + sizes[i];
     }
-    if (st == SV_OK && fsync(fd) != 0) st = sv_fail(err, SV_ERR_IO, "%s: fsync failed: %s", tmp, strerror(errno));
+    if (st == SV_OK && fsync(fd) != 0)
+        st = sv_fail(err, SV_ERR_IO, "%s: fsync failed: %s", tmp, strerror(errno));
     if (st != SV_OK) {
         close(fd);
         unlink(tmp);

@@ -24,9 +24,9 @@
 typedef struct svd_journal svd_journal;
 
 typedef struct svd_journal_stats {
-    uint64_t records;       /* intact records replayed */
-    uint64_t torn_bytes;    /* bytes cut from the end */
-    uint64_t corrupt;       /* damaged records quarantined */
+    uint64_t records;    /* intact records replayed */
+    uint64_t torn_bytes; /* bytes cut from the end */
+    uint64_t corrupt;    /* damaged records quarantined */
 } svd_journal_stats;
 
 /* Called once per intact record at open, in file order. */

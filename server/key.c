@@ -32,8 +32,7 @@ void svd_sha256_hex(const void *data, size_t size, char out[SVD_KEY_HEX])
 }
 
 /* Feeds a file's bytes into ctx; returns its size through *size. */
-static sv_status hash_fd(EVP_MD_CTX *ctx, int fd, const char *path, uint64_t *size,
-                         sv_error *err)
+static sv_status hash_fd(EVP_MD_CTX *ctx, int fd, const char *path, uint64_t *size, sv_error *err)
 {
     unsigned char buf[65536];
     uint64_t total = 0;
@@ -130,8 +129,8 @@ static int cmp_part_ptr(const void *a, const void *b)
 }
 
 sv_status svd_key_compute(const svd_key_part *spec, const svd_key_part *mesh,
-                          const svd_key_part *files, size_t file_count,
-                          char out[SVD_KEY_HEX], sv_error *err)
+                          const svd_key_part *files, size_t file_count, char out[SVD_KEY_HEX],
+                          sv_error *err)
 {
     if (!mesh || !svd_name_valid(mesh->name))
         return sv_fail(err, SV_ERR_SPEC, "mesh: invalid or missing file name");

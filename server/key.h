@@ -23,7 +23,7 @@
 
 #include "key_rules.h"
 
-#define SVD_KEY_HEX 65  /* 64 hex digits + NUL */
+#define SVD_KEY_HEX 65                     /* 64 hex digits + NUL */
 #define SVD_NAME_MAX SYLVA_UPLOAD_NAME_MAX /* common/key_rules.h */
 
 /* True if name (NUL-terminated) is an acceptable upload/artifact name. */
@@ -35,18 +35,18 @@ bool svd_key_valid(const char *s);
 /* One part of a bake: bytes in memory (data/size) or a file on disk (path,
  * size read from the file). */
 typedef struct svd_key_part {
-    const char *name;       /* upload name (ignored for the spec) */
-    const uint8_t *data;    /* in-memory bytes, or NULL to read path */
-    size_t size;            /* length of data when data is non-NULL */
-    const char *path;       /* file to hash when data is NULL */
+    const char *name;    /* upload name (ignored for the spec) */
+    const uint8_t *data; /* in-memory bytes, or NULL to read path */
+    size_t size;         /* length of data when data is non-NULL */
+    const char *path;    /* file to hash when data is NULL */
 } svd_key_part;
 
 /* Computes the key of spec + mesh + files (files in any order: they are
  * sorted by name here). Fails with SV_ERR_SPEC naming the part for an invalid
  * or duplicate name, SV_ERR_IO for an unreadable file, SV_ERR_NOMEM. */
 sv_status svd_key_compute(const svd_key_part *spec, const svd_key_part *mesh,
-                          const svd_key_part *files, size_t file_count,
-                          char out[SVD_KEY_HEX], sv_error *err);
+                          const svd_key_part *files, size_t file_count, char out[SVD_KEY_HEX],
+                          sv_error *err);
 
 /* SHA-256 of a buffer, as lowercase hex. */
 void svd_sha256_hex(const void *data, size_t size, char out[SVD_KEY_HEX]);

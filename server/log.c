@@ -11,8 +11,8 @@
 
 struct svd_log {
     pthread_mutex_t mu;
-    FILE *f;          /* stderr or an owned file */
-    char *path;       /* NULL for stderr */
+    FILE *f;    /* stderr or an owned file */
+    char *path; /* NULL for stderr */
     svd_log_level level;
 };
 
@@ -76,11 +76,21 @@ static void put_escaped(FILE *f, const char *s)
     fputc('"', f);
     for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
         switch (*p) {
-        case '"': fputs("\\\"", f); break;
-        case '\\': fputs("\\\\", f); break;
-        case '\n': fputs("\\n", f); break;
-        case '\r': fputs("\\r", f); break;
-        case '\t': fputs("\\t", f); break;
+        case '"':
+            fputs("\\\"", f);
+            break;
+        case '\\':
+            fputs("\\\\", f);
+            break;
+        case '\n':
+            fputs("\\n", f);
+            break;
+        case '\r':
+            fputs("\\r", f);
+            break;
+        case '\t':
+            fputs("\\t", f);
+            break;
         default:
             if (*p < 0x20) fprintf(f, "\\u%04x", *p);
             else fputc(*p, f);
@@ -97,8 +107,8 @@ static void line_start(svd_log *log, svd_log_level level, const char *event)
     gmtime_r(&ts.tv_sec, &tm);
     char buf[64];
     strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &tm);
-    fprintf(log->f, "{\"ts\":\"%s.%03ldZ\",\"level\":\"%s\",\"event\":", buf,
-            ts.tv_nsec / 1000000L, level_names[level]);
+    fprintf(log->f, "{\"ts\":\"%s.%03ldZ\",\"level\":\"%s\",\"event\":", buf, ts.tv_nsec / 1000000L,
+            level_names[level]);
     put_escaped(log->f, event);
 }
 

@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-const char *const svd_stage_names[SVD_STAGE_COUNT] = {
-    "import", "validate", "classify", "method", "bake", "pack", "evaluate", "write"};
+const char *const svd_stage_names[SVD_STAGE_COUNT] = {"import", "validate", "classify", "method",
+                                                      "bake",   "pack",     "evaluate", "write"};
 
 int svd_stage_index(const char *name)
 {
@@ -17,8 +17,8 @@ int svd_stage_index(const char *name)
     return -1;
 }
 
-static const unsigned statuses[] = {200, 201, 202, 204, 206, 304, 400, 401, 404, 405, 409,
-                                    413, 415, 416, 422, 429, 500, 503, 507};
+static const unsigned statuses[] = {200, 201, 202, 204, 206, 304, 400, 401, 404, 405,
+                                    409, 413, 415, 416, 422, 429, 500, 503, 507};
 #define NSTATUS (sizeof statuses / sizeof statuses[0] + 1) /* + "other" */
 
 static const char *const finals[] = {"done", "failed", "cancelled"};
@@ -153,7 +153,8 @@ char *svd_metrics_render(svd_metrics *m, const svd_gauges *g)
     sb_printf(&b, "# HELP sylva_stage_seconds Worker time per bake stage.\n"
                   "# TYPE sylva_stage_seconds summary\n");
     for (int s = 0; s < SVD_STAGE_COUNT; s++) {
-        sb_printf(&b, "sylva_stage_seconds_sum{stage=\"%s\"} %.6f\n", svd_stage_names[s], m->stage_sum[s]);
+        sb_printf(&b, "sylva_stage_seconds_sum{stage=\"%s\"} %.6f\n", svd_stage_names[s],
+                  m->stage_sum[s]);
         sb_printf(&b, "sylva_stage_seconds_count{stage=\"%s\"} %llu\n", svd_stage_names[s],
                   (unsigned long long)m->stage_count[s]);
     }
@@ -166,10 +167,11 @@ char *svd_metrics_render(svd_metrics *m, const svd_gauges *g)
                   "# TYPE sylva_job_seconds_total counter\n");
     for (int i = 0; i < 3; i++)
         sb_printf(&b, "sylva_job_seconds_total{state=\"%s\"} %.6f\n", finals[i], m->job_seconds[i]);
-    sb_printf(&b, "# HELP sylva_worker_crashes_total Worker attempts that crashed or timed out.\n"
-                  "# TYPE sylva_worker_crashes_total counter\n"
-                  "sylva_worker_crashes_total{reason=\"crash\"} %llu\n"
-                  "sylva_worker_crashes_total{reason=\"timeout\"} %llu\n",
+    sb_printf(&b,
+              "# HELP sylva_worker_crashes_total Worker attempts that crashed or timed out.\n"
+              "# TYPE sylva_worker_crashes_total counter\n"
+              "sylva_worker_crashes_total{reason=\"crash\"} %llu\n"
+              "sylva_worker_crashes_total{reason=\"timeout\"} %llu\n",
               (unsigned long long)m->crashes, (unsigned long long)m->timeouts);
     sb_printf(&b, "# TYPE sylva_upload_bytes_total counter\nsylva_upload_bytes_total %llu\n",
               (unsigned long long)m->upload_bytes);

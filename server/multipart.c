@@ -24,7 +24,8 @@ struct svd_multipart {
 
 sv_status svd_multipart_boundary(const char *ct, char out[71], sv_error *err)
 {
-    if (!ct) return sv_fail(err, SV_ERR_FORMAT, "missing Content-Type: expected multipart/form-data");
+    if (!ct)
+        return sv_fail(err, SV_ERR_FORMAT, "missing Content-Type: expected multipart/form-data");
     while (*ct == ' ' || *ct == '\t') ct++;
     if (strncasecmp(ct, "multipart/form-data", 19) != 0 ||
         (ct[19] != '\0' && ct[19] != ';' && ct[19] != ' '))
@@ -184,8 +185,9 @@ static sv_status parse_headers(svd_multipart *mp, const char *hdr, size_t n, svd
         size_t klen = (size_t)(colon - p);
         if (klen == 19 && strncasecmp(p, "Content-Disposition", 19) == 0) {
             if (parse_disposition(colon + 1, eol, info) != 0)
-                return mp_error(mp, SV_ERR_PARSE,
-                                "multipart part: Content-Disposition must be form-data with a name");
+                return mp_error(
+                    mp, SV_ERR_PARSE,
+                    "multipart part: Content-Disposition must be form-data with a name");
             have_disp = 1;
         } else if (klen == 12 && strncasecmp(p, "Content-Type", 12) == 0) {
             const char *v = colon + 1;

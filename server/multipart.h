@@ -13,15 +13,15 @@
 
 #include "sv.h"
 
-#define SVD_MP_HEADER_MAX 8192   /* bytes of headers per part */
-#define SVD_MP_FIELD_MAX 256     /* name / filename / content type, bytes */
+#define SVD_MP_HEADER_MAX 8192 /* bytes of headers per part */
+#define SVD_MP_FIELD_MAX 256   /* name / filename / content type, bytes */
 
 typedef struct svd_part_info {
-    char name[SVD_MP_FIELD_MAX];          /* form field name ("spec", "mesh", "file") */
-    char filename[SVD_MP_FIELD_MAX];      /* "" when the part has no filename */
-    char content_type[SVD_MP_FIELD_MAX];  /* "" when absent */
+    char name[SVD_MP_FIELD_MAX];         /* form field name ("spec", "mesh", "file") */
+    char filename[SVD_MP_FIELD_MAX];     /* "" when the part has no filename */
+    char content_type[SVD_MP_FIELD_MAX]; /* "" when absent */
     int has_filename;
-    size_t filename_len;                  /* the whole value's length: longer than
+    size_t filename_len; /* the whole value's length: longer than
                                              filename holds = truncated, refuse it */
 } svd_part_info;
 
@@ -49,8 +49,7 @@ svd_multipart *svd_multipart_create(const char *boundary, const svd_multipart_ca
 /* Consumes size bytes. Returns SV_ERR_PARSE with a message on malformed input
  * (bad part headers, headers over SVD_MP_HEADER_MAX, missing name), SV_ERR_IO if
  * a callback refused. After an error every further call returns it again. */
-sv_status svd_multipart_feed(svd_multipart *mp, const uint8_t *data, size_t size,
-                             sv_error *err);
+sv_status svd_multipart_feed(svd_multipart *mp, const uint8_t *data, size_t size, sv_error *err);
 
 /* Declares the end of the body: SV_OK only if the closing delimiter was seen. */
 sv_status svd_multipart_finish(svd_multipart *mp, sv_error *err);

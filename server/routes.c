@@ -5,11 +5,11 @@
 #include <string.h>
 
 static const char *const labels[SVD_R_COUNT] = {
-    [SVD_R_NONE] = "other",     [SVD_R_HEALTH] = "health", [SVD_R_METRICS] = "metrics",
-    [SVD_R_INFO] = "info",      [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
-    [SVD_R_STATUS] = "status",  [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
-    [SVD_R_LIST] = "list",      [SVD_R_VIEW] = "view",     [SVD_R_INPUT] = "input",
-    [SVD_R_INPUTS] = "inputs",  [SVD_R_VIEWER] = "viewer",
+    [SVD_R_NONE] = "other",    [SVD_R_HEALTH] = "health", [SVD_R_METRICS] = "metrics",
+    [SVD_R_INFO] = "info",     [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
+    [SVD_R_STATUS] = "status", [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
+    [SVD_R_LIST] = "list",     [SVD_R_VIEW] = "view",     [SVD_R_INPUT] = "input",
+    [SVD_R_INPUTS] = "inputs", [SVD_R_VIEWER] = "viewer",
 };
 
 const char *svd_route_label(svd_route r)
@@ -74,7 +74,8 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     if (kl != 64) return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
     memcpy(m->key, k, 64);
     m->key[64] = '\0';
-    if (!svd_key_valid(m->key)) return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
+    if (!svd_key_valid(m->key))
+        return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
     if (!slash) {
         if (get) m->route = SVD_R_STATUS;
         else if (strcmp(method, "PUT") == 0) m->route = SVD_R_PUT;
@@ -82,7 +83,8 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
         else return fail(m, 405, "method not allowed", "GET, HEAD, PUT, DELETE");
         return;
     }
-    if (strcmp(slash, "/view") == 0 || strcmp(slash, "/inputs") == 0 || strcmp(slash, "/inputs/") == 0) {
+    if (strcmp(slash, "/view") == 0 || strcmp(slash, "/inputs") == 0 ||
+        strcmp(slash, "/inputs/") == 0) {
         if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
         m->route = slash[1] == 'v' ? SVD_R_VIEW : SVD_R_INPUTS;
         return;
@@ -93,8 +95,10 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     else if (strncmp(slash, "/inputs/", 8) == 0) route = SVD_R_INPUT, name = slash + 8;
     else return fail(m, 404, "no such resource", NULL);
     if (!svd_name_valid(name))
-        return fail(m, 404, route == SVD_R_ARTIFACT ? "no such artifact: invalid artifact name"
-                                                    : "no such input: invalid file name", NULL);
+        return fail(m, 404,
+                    route == SVD_R_ARTIFACT ? "no such artifact: invalid artifact name"
+                                            : "no such input: invalid file name",
+                    NULL);
     if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
     snprintf(m->name, sizeof m->name, "%s", name);
     m->route = route;

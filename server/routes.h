@@ -6,30 +6,30 @@
 #include "key.h"
 
 typedef enum svd_route {
-    SVD_R_NONE = 0,     /* no route: see status */
-    SVD_R_HEALTH,       /* GET /v1/health */
-    SVD_R_METRICS,      /* GET /v1/metrics */
-    SVD_R_INFO,         /* GET /v1/info */
-    SVD_R_SUBMIT,       /* POST /v1/bakes */
-    SVD_R_PUT,          /* PUT /v1/bakes/{key} */
-    SVD_R_STATUS,       /* GET /v1/bakes/{key} */
-    SVD_R_DELETE,       /* DELETE /v1/bakes/{key} */
-    SVD_R_ARTIFACT,     /* GET /v1/bakes/{key}/artifacts/{name} */
-    SVD_R_LIST,         /* GET /v1/bakes: the caller's bakes */
-    SVD_R_VIEW,         /* GET /v1/bakes/{key}/view: the viewer page */
-    SVD_R_INPUT,        /* GET /v1/bakes/{key}/inputs/{name}: an uploaded file */
-    SVD_R_INPUTS,       /* GET /v1/bakes/{key}/inputs: the list of them */
-    SVD_R_VIEWER,       /* GET /v1/viewer/{path}: the viewer page's own files */
+    SVD_R_NONE = 0, /* no route: see status */
+    SVD_R_HEALTH,   /* GET /v1/health */
+    SVD_R_METRICS,  /* GET /v1/metrics */
+    SVD_R_INFO,     /* GET /v1/info */
+    SVD_R_SUBMIT,   /* POST /v1/bakes */
+    SVD_R_PUT,      /* PUT /v1/bakes/{key} */
+    SVD_R_STATUS,   /* GET /v1/bakes/{key} */
+    SVD_R_DELETE,   /* DELETE /v1/bakes/{key} */
+    SVD_R_ARTIFACT, /* GET /v1/bakes/{key}/artifacts/{name} */
+    SVD_R_LIST,     /* GET /v1/bakes: the caller's bakes */
+    SVD_R_VIEW,     /* GET /v1/bakes/{key}/view: the viewer page */
+    SVD_R_INPUT,    /* GET /v1/bakes/{key}/inputs/{name}: an uploaded file */
+    SVD_R_INPUTS,   /* GET /v1/bakes/{key}/inputs: the list of them */
+    SVD_R_VIEWER,   /* GET /v1/viewer/{path}: the viewer page's own files */
     SVD_R_COUNT
 } svd_route;
 
 typedef struct svd_route_match {
     svd_route route;
-    int status;                      /* 0 on a match, else 400, 404 or 405 */
-    const char *allow;               /* for 405: the Allow header value */
-    const char *message;             /* for errors: why */
-    char key[SVD_KEY_HEX];           /* for bake routes */
-    char name[SVD_NAME_MAX + 1];     /* SVD_R_ARTIFACT, SVD_R_INPUT: a valid name;
+    int status;                  /* 0 on a match, else 400, 404 or 405 */
+    const char *allow;           /* for 405: the Allow header value */
+    const char *message;         /* for errors: why */
+    char key[SVD_KEY_HEX];       /* for bake routes */
+    char name[SVD_NAME_MAX + 1]; /* SVD_R_ARTIFACT, SVD_R_INPUT: a valid name;
                                         SVD_R_VIEWER: a path (svd_viewer_path_valid) */
 } svd_route_match;
 

@@ -58,10 +58,9 @@ static int lock_store(const char *root, sv_error *err)
         long pid = n > 0 ? strtol(buf, NULL, 10) : 0;
         close(fd);
         if (e == EWOULDBLOCK)
-            sv_fail(err, SV_ERR_IO, "store %s is in use by another sylvad (pid %ld; %s)", root,
-                    pid, p);
-        else
-            sv_fail(err, SV_ERR_IO, "cannot lock %s: %s", p, strerror(e));
+            sv_fail(err, SV_ERR_IO, "store %s is in use by another sylvad (pid %ld; %s)", root, pid,
+                    p);
+        else sv_fail(err, SV_ERR_IO, "cannot lock %s: %s", p, strerror(e));
         return -1;
     }
     char buf[32];
@@ -131,7 +130,6 @@ static sv_status mkdir_p1(const char *path, sv_error *err)
     return SV_OK;
 }
 
-
 /* Issue 22 item 9: workers of a daemon that was SIGKILLed (or crashed)
  * outlived it and wrote into the next daemon's tmp/. Workers now die with
  * their daemon (sylva-bake --parent-pid: PR_SET_PDEATHSIG); this sweep, run
@@ -167,7 +165,8 @@ static int sweep_stray_workers(const char *root)
         for (const char *a = cmd; a < cmd + n; a += strlen(a) + 1) {
             if (strcmp(a, "bake") == 0) bake = true;
             else if (strcmp(a, "--progress-fd") == 0) pfd = true;
-            else if (strcmp(a, "--out") == 0 && a + strlen(a) + 1 < cmd + n) out = a + strlen(a) + 1;
+            else if (strcmp(a, "--out") == 0 && a + strlen(a) + 1 < cmd + n)
+                out = a + strlen(a) + 1;
         }
         if (!bake || !pfd || !out) continue;
         char where[PATH_MAX + 64], real_out[PATH_MAX];
@@ -211,7 +210,8 @@ svd_store *svd_store_open(const char *root, sv_error *err)
     for (int i = 0; i < 3; i++) {
         snprintf(p, sizeof p, "%s/%s", root, subs[i]);
         struct stat st;
-        if (i == 0 && lstat(p, &st) == 0 && !S_ISDIR(st.st_mode)) svd_rm_rf(p); /* not a directory */
+        if (i == 0 && lstat(p, &st) == 0 && !S_ISDIR(st.st_mode))
+            svd_rm_rf(p);              /* not a directory */
         else if (i == 0) empty_dir(p); /* stray temp files from a crash */
         if (mkdir_p1(p, err) != SV_OK) {
             close(lock_fd);
@@ -247,7 +247,10 @@ void svd_store_close(svd_store *s)
     free(s);
 }
 
-const char *svd_store_root(const svd_store *s) { return s->root; }
+const char *svd_store_root(const svd_store *s)
+{
+    return s->root;
+}
 
 void svd_store_job_path(const svd_store *s, const char *key, const char *sub,
                         char out[SVD_STORE_PATH])
@@ -262,8 +265,8 @@ sv_status svd_store_mktemp(svd_store *s, const char *prefix, char out[SVD_STORE_
     snprintf(out, SVD_STORE_PATH, "%s/tmp/%s-XXXXXX", s->root, prefix);
     if (!mkdtemp(out)) {
         int e = errno;
-        return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO, "%s: cannot create temp dir: %s", out,
-                       strerror(e));
+        return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO,
+                       "%s: cannot create temp dir: %s", out, strerror(e));
     }
     return SV_OK;
 }
@@ -285,7 +288,8 @@ sv_status svd_store_write_file(const char *dir, const char *name, const void *da
             int e = errno;
             close(fd);
             unlink(tmp);
-            return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO, "%s: write failed: %s", tmp, strerror(e));
+            return sv_fail(err, e == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO, "%s: write failed: %s", tmp,
+                           strerror(e));
         }
         p += w;
         left -= (size_t)w;
@@ -348,7 +352,8 @@ sv_status svd_store_install(svd_store *s, const char *src, const char *key, cons
     svd_store_job_path(s, key, sub, dst);
     struct stat st;
     if (lstat(dst, &st) == 0) return sv_fail(err, SV_ERR_IO, "%s: already exists", dst);
-    if (rename(src, dst) != 0) return sv_fail(err, SV_ERR_IO, "%s: rename failed: %s", dst, strerror(errno));
+    if (rename(src, dst) != 0)
+        return sv_fail(err, SV_ERR_IO, "%s: rename failed: %s", dst, strerror(errno));
     return svd_fsync_parent(dst, err);
 }
 
@@ -372,7 +377,8 @@ static size_t slot_of(const char *path)
 {
     /* FNV-1a: only picks a cache slot; the entry stores the full path. */
     uint64_t h = 1469598103934665603ull;
-    for (const unsigned char *p = (const unsigned char *)path; *p; p++) h = (h ^ *p) * 1099511628211ull;
+    for (const unsigned char *p = (const unsigned char *)path; *p; p++)
+        h = (h ^ *p) * 1099511628211ull;
     return (size_t)(h % VCACHE);
 }
 
@@ -380,7 +386,8 @@ sv_status svd_store_verify(svd_store *s, const char *path, uint64_t size, const 
                            sv_error *err)
 {
     struct stat st;
-    if (stat(path, &st) != 0) return sv_fail(err, SV_ERR_IO, "%s: missing: %s", path, strerror(errno));
+    if (stat(path, &st) != 0)
+        return sv_fail(err, SV_ERR_IO, "%s: missing: %s", path, strerror(errno));
     size_t slot = slot_of(path);
     pthread_mutex_lock(&s->mu);
     vcache_entry *c = &s->cache[slot];

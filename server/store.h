@@ -52,8 +52,8 @@ sv_status svd_store_mktemp(svd_store *s, const char *prefix, char out[SVD_STORE_
                            sv_error *err);
 
 /* Writes data to dir/name atomically (dir/.name.tmp, fsync, rename, fsync dir). */
-sv_status svd_store_write_file(const char *dir, const char *name, const void *data,
-                               size_t size, sv_error *err);
+sv_status svd_store_write_file(const char *dir, const char *name, const void *data, size_t size,
+                               sv_error *err);
 
 /* fsyncs every regular file directly in dir and in its subdirectories (one
  * level), then the directories themselves. */
@@ -69,8 +69,8 @@ void svd_store_remove(svd_store *s, const char *key, const char *sub);
 
 /* Verifies that path has the given size and SHA-256. SV_ERR_INVALID on a
  * mismatch (the caller quarantines), SV_ERR_IO if unreadable. */
-sv_status svd_store_verify(svd_store *s, const char *path, uint64_t size,
-                           const char *sha256, sv_error *err);
+sv_status svd_store_verify(svd_store *s, const char *path, uint64_t size, const char *sha256,
+                           sv_error *err);
 
 /* Moves path into ROOT/quarantine/ under KEY-NAME-N. */
 void svd_store_quarantine(svd_store *s, const char *key, const char *path);

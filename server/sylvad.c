@@ -91,7 +91,8 @@ int main(int argc, char **argv)
 
     if (!svd_config_is_loopback(&cfg) && !cfg.tokens[0]) {
         svd_log_kv(log, SVD_LOG_ERROR, "config_error", "msg",
-                   "listening beyond loopback requires --tokens FILE (bearer auth)", (const char *)NULL);
+                   "listening beyond loopback requires --tokens FILE (bearer auth)",
+                   (const char *)NULL);
         rc = 2;
         goto out;
     }
@@ -113,7 +114,8 @@ int main(int argc, char **argv)
     snprintf(viewer_index, sizeof viewer_index, "%s/index.html", cfg.viewer_dir);
     if (access(viewer_index, R_OK) != 0)
         svd_log_kv(log, SVD_LOG_WARN, "viewer_missing", "path", cfg.viewer_dir, "msg",
-                   "no viewer page there: GET /v1/bakes/{key}/view answers 404", (const char *)NULL);
+                   "no viewer page there: GET /v1/bakes/{key}/view answers 404",
+                   (const char *)NULL);
 
     /* Block the signals we take synchronously before any thread starts. */
     sigset_t sigs;
@@ -145,9 +147,11 @@ int main(int argc, char **argv)
     snprintf(port, sizeof port, "%u", svd_http_port(http));
     snprintf(nworkers, sizeof nworkers, "%u", cfg.workers);
     if (cfg.port_file[0] && svd_config_write_port_file(cfg.port_file, svd_http_port(http)) != 0)
-        svd_log_kv(log, SVD_LOG_ERROR, "port_file_failed", "path", cfg.port_file, (const char *)NULL);
-    svd_log_kv(log, SVD_LOG_INFO, "listening", "host", cfg.listen_host, "port", port, "store", cfg.store,
-               "workers", nworkers, "worker", cfg.worker, "version", SV_VERSION, (const char *)NULL);
+        svd_log_kv(log, SVD_LOG_ERROR, "port_file_failed", "path", cfg.port_file,
+                   (const char *)NULL);
+    svd_log_kv(log, SVD_LOG_INFO, "listening", "host", cfg.listen_host, "port", port, "store",
+               cfg.store, "workers", nworkers, "worker", cfg.worker, "version", SV_VERSION,
+               (const char *)NULL);
 
     double drain_deadline = 0;
     for (;;) {

@@ -88,11 +88,11 @@ static sv_status check_inputs(svd_store *store, const char *key, cJSON **inputs_
 }
 
 typedef struct run_result {
-    int status;        /* waitpid status */
+    int status; /* waitpid status */
     int timed_out, cancelled, aborted, spawn_failed;
-    int zygote_lost;   /* the pool's zygote died mid-bake (and the worker with it) */
+    int zygote_lost; /* the pool's zygote died mid-bake (and the worker with it) */
     char spawn_error[256];
-    struct rusage ru;  /* of the reaped worker (wait4) */
+    struct rusage ru; /* of the reaped worker (wait4) */
 } run_result;
 
 static void apply_rlimits(pid_t pid, const svd_config *c)
@@ -136,7 +136,8 @@ static int spawn_child(const char *path, char *const argv[], const char *out, in
     posix_spawnattr_setsigmask(&at, &none);
     posix_spawnattr_setsigdefault(&at, &def);
     posix_spawnattr_setpgroup(&at, 0);
-    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF |
+                                      POSIX_SPAWN_SETPGROUP);
     int rc = posix_spawn(pid, path, &fa, &at, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     posix_spawnattr_destroy(&at);
@@ -152,7 +153,8 @@ static void handle_line(svd_jobs *jobs, svd_ticket *t, const char *line)
     const cJSON *tn = cJSON_GetObjectItemCaseSensitive(j, "tries");
     if (stage)
         svd_jobs_progress(jobs, t, stage, cJSON_IsNumber(pr) ? pr->valuedouble : -1,
-                          cJSON_IsNumber(tk) ? tk->valueint : 0, cJSON_IsNumber(tn) ? tn->valueint : 0);
+                          cJSON_IsNumber(tk) ? tk->valueint : 0,
+                          cJSON_IsNumber(tn) ? tn->valueint : 0);
     cJSON_Delete(j);
 }
 
@@ -191,8 +193,8 @@ static const char *kill_reason(svd_workers *w, svd_ticket *t, double deadline, r
     else if (svd_jobs_cancelled(w->jobs, t)) rr->cancelled = 1, why = "cancel";
     else if (svd_jobs_aborting(w->jobs)) rr->aborted = 1, why = "drain";
     if (why)
-        svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "worker_killed", "key", t->key, "reason", why,
-                   (const char *)NULL);
+        svd_log_kv(svd_jobs_log(w->jobs), SVD_LOG_WARN, "worker_killed", "key", t->key, "reason",
+                   why, (const char *)NULL);
     return why;
 }
 
@@ -216,7 +218,8 @@ static void run_exec(svd_workers *w, svd_ticket *t, char **argv, const char *log
     if (rc != 0) {
         close(p[0]);
         rr->spawn_failed = 1;
-        snprintf(rr->spawn_error, sizeof rr->spawn_error, "cannot start %s: %s", argv[0], strerror(rc));
+        snprintf(rr->spawn_error, sizeof rr->spawn_error, "cannot start %s: %s", argv[0],
+                 strerror(rc));
         return;
     }
     if (!c->prlimit[0]) apply_rlimits(pid, c);
@@ -270,8 +273,7 @@ static void zygote_stop(zygote *z)
     if (z->fd >= 0) close(z->fd);
     if (z->pid > 0) {
         kill(z->pid, SIGKILL);
-        while (waitpid(z->pid, NULL, 0) < 0 && errno == EINTR) {
-        }
+        while (waitpid(z->pid, NULL, 0) < 0 && errno == EINTR) {}
     }
     z->pid = 0;
     z->fd = -1;
@@ -325,8 +327,10 @@ static sv_status zygote_start(svd_workers *w, zygote *z, sv_error *err)
     int got = zygote_recv(z->fd, &h, sizeof h, ZYGOTE_HELLO_WAIT);
     sv_status st = SV_OK;
     if (got == 0)
-        st = sv_fail(err, SV_ERR_IO, "%s exited without a zygote's hello (a worker that does not "
-                     "speak the pool protocol)", w->path);
+        st = sv_fail(err, SV_ERR_IO,
+                     "%s exited without a zygote's hello (a worker that does not "
+                     "speak the pool protocol)",
+                     w->path);
     else if (got < 0 || h.type != SVZ_HELLO)
         st = sv_fail(err, SV_ERR_IO, "%s zygote: no valid hello within %.0f s", w->path,
                      ZYGOTE_HELLO_WAIT);
@@ -334,10 +338,13 @@ static sv_status zygote_start(svd_workers *w, zygote *z, sv_error *err)
         st = sv_fail(err, SV_ERR_IO, "%s zygote speaks protocol version %u, not %u", w->path,
                      h.version, SVZ_VERSION);
     else if (h.threads != 1)
-        st = sv_fail(err, SV_ERR_IO, "%s zygote has %d threads after loading its libraries: "
-                     "fork() would not be safe", w->path, h.threads);
+        st = sv_fail(err, SV_ERR_IO,
+                     "%s zygote has %d threads after loading its libraries: "
+                     "fork() would not be safe",
+                     w->path, h.threads);
     else if (h.pid != pid)
-        st = sv_fail(err, SV_ERR_IO, "%s zygote says it is pid %d, not %d", w->path, h.pid, (int)pid);
+        st = sv_fail(err, SV_ERR_IO, "%s zygote says it is pid %d, not %d", w->path, h.pid,
+                     (int)pid);
     if (st != SV_OK) zygote_stop(z);
     return st;
 }
@@ -346,9 +353,12 @@ static sv_status zygote_start(svd_workers *w, zygote *z, sv_error *err)
  * length in *len, or -1 when it does not fit SVZ_MAX_MSG. */
 static int build_run(const svd_config *c, char *const *argv, char *msg, size_t *len)
 {
-    svz_run rq = {.type = SVZ_RUN, .as_bytes = c->worker_as_bytes,
-                  .cpu_seconds = c->worker_cpu_seconds, .nofile = c->worker_nofile,
-                  .fsize_bytes = c->worker_fsize_bytes, .nice = (int32_t)c->worker_nice};
+    svz_run rq = {.type = SVZ_RUN,
+                  .as_bytes = c->worker_as_bytes,
+                  .cpu_seconds = c->worker_cpu_seconds,
+                  .nofile = c->worker_nofile,
+                  .fsize_bytes = c->worker_fsize_bytes,
+                  .nice = (int32_t)c->worker_nice};
     size_t at = sizeof rq;
     for (; argv[rq.argc]; rq.argc++) {
         size_t l = strlen(argv[rq.argc]) + 1;
@@ -398,8 +408,8 @@ static int run_pool(svd_workers *w, zygote *z, svd_ticket *t, char **argv, const
     char cbuf[CMSG_SPACE(sizeof fds)];
     memset(cbuf, 0, sizeof cbuf);
     struct iovec iov = {msg, len};
-    struct msghdr mh = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = cbuf,
-                        .msg_controllen = sizeof cbuf};
+    struct msghdr mh = {
+        .msg_iov = &iov, .msg_iovlen = 1, .msg_control = cbuf, .msg_controllen = sizeof cbuf};
     struct cmsghdr *cm = CMSG_FIRSTHDR(&mh);
     cm->cmsg_level = SOL_SOCKET;
     cm->cmsg_type = SCM_RIGHTS;
@@ -416,9 +426,11 @@ static int run_pool(svd_workers *w, zygote *z, svd_ticket *t, char **argv, const
     if (got <= 0 || s.type != SVZ_STARTED || s.err != 0 || s.pid <= 0) {
         close(p[0]);
         char why[96];
-        snprintf(why, sizeof why, "%s", got == 0 ? "the zygote is gone"
+        snprintf(why, sizeof why, "%s",
+                 got == 0  ? "the zygote is gone"
                  : got < 0 ? "no answer from the zygote"
-                 : s.err ? strerror(s.err) : "a bad answer from the zygote");
+                 : s.err   ? strerror(s.err)
+                           : "a bad answer from the zygote");
         svd_log_kv(svd_jobs_log(jobs), SVD_LOG_WARN, "zygote_failed", "key", t->key, "reason", why,
                    (const char *)NULL);
         zygote_stop(z);
@@ -448,7 +460,8 @@ static int run_pool(svd_workers *w, zygote *z, svd_ticket *t, char **argv, const
             rr->zygote_lost = 1;
             break;
         }
-        struct pollfd pfd[2] = {{.fd = z->fd, .events = POLLIN}, {.fd = eof ? -1 : p[0], .events = POLLIN}};
+        struct pollfd pfd[2] = {{.fd = z->fd, .events = POLLIN},
+                                {.fd = eof ? -1 : p[0], .events = POLLIN}};
         int ms = (int)((deadline - now) * 1000);
         if (ms > 100) ms = 100;
         if (ms < 0) ms = 0;
@@ -543,7 +556,8 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
     bool oom = false, too_many = false;
     struct dirent *e;
     while ((e = readdir(d))) {
-        if (!svd_name_valid(e->d_name) || e->d_name[0] == '.' || strcmp(e->d_name, "manifest.json") == 0)
+        if (!svd_name_valid(e->d_name) || e->d_name[0] == '.' ||
+            strcmp(e->d_name, "manifest.json") == 0)
             continue;
         char p[SVD_STORE_PATH + 300];
         snprintf(p, sizeof p, "%s/%s", outdir, e->d_name);
@@ -566,8 +580,9 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
     cJSON *arr = m ? cJSON_AddArrayToObject(m, "artifacts") : NULL;
     sv_status st = oom || !arr || !cJSON_AddStringToObject(m, "key", key)
                        ? sv_fail(err, SV_ERR_NOMEM, "manifest: out of memory")
-                   : too_many ? sv_fail(err, SV_ERR_LIMIT, "the worker wrote more than %zu artifacts",
-                                        sizeof names / sizeof names[0])
+                   : too_many
+                       ? sv_fail(err, SV_ERR_LIMIT, "the worker wrote more than %zu artifacts",
+                                 sizeof names / sizeof names[0])
                    : n ? SV_OK
                        : sv_fail(err, SV_ERR_IO, "the worker exited 0 but wrote no artifacts");
     for (size_t i = 0; i < n && st == SV_OK; i++) {
@@ -603,8 +618,8 @@ static char *install_result(svd_store *store, const char *key, const char *outdi
                 cJSON_GetObjectItemCaseSensitive(rep, "input"), "warnings");
             cJSON *wl = cJSON_AddArrayToObject(m, "warnings");
             const cJSON *x;
-            cJSON_ArrayForEach(x, w)
-                if (wl && cJSON_IsString(x)) cJSON_AddItemToArray(wl, cJSON_CreateString(x->valuestring));
+            cJSON_ArrayForEach(x, w) if (wl && cJSON_IsString(x))
+                cJSON_AddItemToArray(wl, cJSON_CreateString(x->valuestring));
             cJSON_Delete(rep);
         }
     }
@@ -655,8 +670,8 @@ static void tail_of_log(const char *path, char *out, size_t cap)
  * allocations fail, which C++ code (assimp) turns into std::bad_alloc and
  * abort(), recognised by the last line the worker logged. Anything else:
  * "worker killed by signal N". */
-static void signal_reason(const svd_config *c, const run_result *rr, const char *logpath,
-                          char *msg, size_t cap)
+static void signal_reason(const svd_config *c, const run_result *rr, const char *logpath, char *msg,
+                          size_t cap)
 {
     int sig = WTERMSIG(rr->status);
     double cpu = (double)rr->ru.ru_utime.tv_sec + rr->ru.ru_utime.tv_usec / 1e6 +
@@ -664,7 +679,8 @@ static void signal_reason(const svd_config *c, const run_result *rr, const char 
     if (c->worker_cpu_seconds &&
         (sig == SIGXCPU || (sig == SIGKILL && cpu >= 0.8 * c->worker_cpu_seconds))) {
         snprintf(msg, cap,
-                 "worker killed by signal %d after %.1f s of CPU: the CPU time limit of %u s (RLIMIT_CPU)",
+                 "worker killed by signal %d after %.1f s of CPU: the CPU time limit of %u s "
+                 "(RLIMIT_CPU)",
                  sig, cpu, c->worker_cpu_seconds);
         return;
     }
@@ -674,7 +690,8 @@ static void signal_reason(const svd_config *c, const run_result *rr, const char 
         (strstr(tail, "bad_alloc") || strcasestr(tail, "out of memory") ||
          strcasestr(tail, "cannot allocate memory") || strstr(tail, "MemoryError"))) {
         snprintf(msg, cap,
-                 "worker killed by signal %d out of memory: the address-space limit of %llu bytes (RLIMIT_AS)",
+                 "worker killed by signal %d out of memory: the address-space limit of %llu bytes "
+                 "(RLIMIT_AS)",
                  sig, (unsigned long long)c->worker_as_bytes);
         return;
     }
@@ -714,7 +731,8 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
         free(inpaths);
         cJSON_Delete(inputs);
         svd_rm_rf(outdir);
-        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "out of memory building the worker's command line", NULL);
+        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL,
+                        "out of memory building the worker's command line", NULL);
         return;
     }
     char *owned[8] = {0};
@@ -773,7 +791,8 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
     memset(&rr, 0, sizeof rr);
     if (oom) { /* as a spawn that could not happen: retried */
         rr.spawn_failed = 1;
-        snprintf(rr.spawn_error, sizeof rr.spawn_error, "out of memory building the worker's command line");
+        snprintf(rr.spawn_error, sizeof rr.spawn_error,
+                 "out of memory building the worker's command line");
     } else {
         run_process(w, z, t, argv, base, ppid, sizeof ppid, logpath, &rr);
     }
@@ -796,8 +815,8 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
         svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, msg, NULL);
     } else if (rr.zygote_lost) { /* as a crash: retried */
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
-        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL, "the worker pool's zygote died during the bake",
-                        NULL);
+        svd_jobs_finish(jobs, t, SVD_OUT_RETRY, NULL,
+                        "the worker pool's zygote died during the bake", NULL);
     } else if (WIFSIGNALED(rr.status)) {
         svd_metrics_worker_crash(svd_jobs_metrics(jobs), 0);
         signal_reason(c, &rr, logpath, msg, sizeof msg);

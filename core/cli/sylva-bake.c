@@ -51,7 +51,7 @@
 #include "zygote_proto.h"
 
 #define MAX_FILES 256
-#define EXIT_TARGET_UNMET 3 /* bake: outputs written, the spec's target not met */
+#define EXIT_TARGET_UNMET 3      /* bake: outputs written, the spec's target not met */
 #define SV_DEFAULT_CPU_LIMIT 600 /* seconds of CPU time */
 
 static const char usage[] =
@@ -223,7 +223,8 @@ static bool parse_cpu_limit(const char *s, long *out)
     errno = 0;
     long v = strtol(s, &end, 10);
     if (errno || end == s || *end || v < 0 || v > 10000000) {
-        fprintf(stderr, "sylva-bake: --cpu-limit: expected whole seconds (0 = none), not '%s'\n", s);
+        fprintf(stderr, "sylva-bake: --cpu-limit: expected whole seconds (0 = none), not '%s'\n",
+                s);
         return false;
     }
     *out = v;
@@ -265,7 +266,9 @@ static void cpu_guard(long requested, const char *mesh, const char *out_dir)
              "more than that to import or bake",
              base, (unsigned long long)n.rlim_cur, why);
     int len = snprintf(g_xcpu_line, sizeof g_xcpu_line, "sylva-bake: %.400s: %s\n", mesh, msg);
-    g_xcpu_line_len = len < 0 ? 0 : (size_t)len < sizeof g_xcpu_line ? (size_t)len : sizeof g_xcpu_line - 1;
+    g_xcpu_line_len = len < 0                            ? 0
+                      : (size_t)len < sizeof g_xcpu_line ? (size_t)len
+                                                         : sizeof g_xcpu_line - 1;
     g_xcpu_json_path[0] = 0;
     if (out_dir) {
         cJSON *root = cJSON_CreateObject(), *o = cJSON_AddObjectToObject(root, "error");
@@ -295,12 +298,12 @@ static void cpu_guard(long requested, const char *mesh, const char *out_dir)
 typedef enum { PROGRESS_AUTO, PROGRESS_BAR, PROGRESS_PLAIN, PROGRESS_NONE } progress_mode;
 
 typedef struct progress_ctx {
-    int fd;                   /* --progress-fd: JSON lines for sylvad, or -1 */
-    progress_mode mode;       /* resolved: BAR, PLAIN or NONE */
-    double t0;                /* start, for the elapsed time */
-    int try_k, try_most;      /* target search: try k of at most try_most; 0 = none */
-    char last[48];            /* the last plain line's stage and try */
-    bool drawn;               /* a bar is on the terminal line */
+    int fd;              /* --progress-fd: JSON lines for sylvad, or -1 */
+    progress_mode mode;  /* resolved: BAR, PLAIN or NONE */
+    double t0;           /* start, for the elapsed time */
+    int try_k, try_most; /* target search: try k of at most try_most; 0 = none */
+    char last[48];       /* the last plain line's stage and try */
+    bool drawn;          /* a bar is on the terminal line */
 } progress_ctx;
 
 static double now_s(void)
@@ -366,8 +369,7 @@ static int cmd_info(int argc, char **argv)
         else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
             if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
-        }
-        else if (argv[i][0] == '-' && argv[i][1] == '-') {
+        } else if (argv[i][0] == '-' && argv[i][1] == '-') {
             fprintf(stderr, "sylva-bake: unknown option %s\n%s", argv[i], usage);
             return 2;
         } else if (n < MAX_FILES) paths[n++] = argv[i];
@@ -467,16 +469,18 @@ static int report_outcome(const char *out_dir, bool quiet)
     char *text = read_all(path, &len);
     cJSON *rep = text ? cJSON_ParseWithLength(text, len) : NULL;
     const cJSON *w;
-    cJSON_ArrayForEach(w, cJSON_GetObjectItem(cJSON_GetObjectItem(rep, "input"), "warnings"))
-        if (cJSON_IsString(w) && !quiet)
-            fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
+    cJSON_ArrayForEach(w, cJSON_GetObjectItem(cJSON_GetObjectItem(rep, "input"),
+                                              "warnings")) if (cJSON_IsString(w) && !quiet)
+        fprintf(stderr, "sylva-bake: warning: %s\n", w->valuestring);
     const cJSON *t = cJSON_GetObjectItem(rep, "target");
     int rc = 0;
     if (cJSON_IsFalse(cJSON_GetObjectItem(t, "met"))) {
         const char *why = cJSON_GetStringValue(cJSON_GetObjectItem(t, "reason"));
         fprintf(stderr, "sylva-bake: target not met: %s\n", why ? why : "see report.json, target");
-        fprintf(stderr, "sylva-bake: the outputs in %s are that bake (report.json: \"target\"); "
-                        "exit %d\n", out_dir, EXIT_TARGET_UNMET);
+        fprintf(stderr,
+                "sylva-bake: the outputs in %s are that bake (report.json: \"target\"); "
+                "exit %d\n",
+                out_dir, EXIT_TARGET_UNMET);
         rc = EXIT_TARGET_UNMET;
     }
     cJSON_Delete(rep);
@@ -570,8 +574,7 @@ static int cmd_bake(int argc, char **argv)
         if (strcmp(argv[i], "--sandbox") == 0) sandbox = true;
         else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
             if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
-        }
-        else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
+        } else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
         else if (strcmp(argv[i], "--quiet") == 0) quiet = true;
         else if (strcmp(argv[i], "--parent-pid") == 0 && i + 1 < argc) {
@@ -581,20 +584,20 @@ static int cmd_bake(int argc, char **argv)
                 fprintf(stderr, "sylva-bake: --parent-pid: expected a process id\n");
                 return 2;
             }
-        }
-        else if (strcmp(argv[i], "--progress") == 0 && i + 1 < argc) {
+        } else if (strcmp(argv[i], "--progress") == 0 && i + 1 < argc) {
             const char *m = argv[++i];
             if (strcmp(m, "auto") == 0) mode = PROGRESS_AUTO;
             else if (strcmp(m, "bar") == 0) mode = PROGRESS_BAR;
             else if (strcmp(m, "plain") == 0) mode = PROGRESS_PLAIN;
             else if (strcmp(m, "none") == 0) mode = PROGRESS_NONE;
             else {
-                fprintf(stderr, "sylva-bake: --progress: expected auto, bar, plain or none, not "
-                                "'%s'\n", m);
+                fprintf(stderr,
+                        "sylva-bake: --progress: expected auto, bar, plain or none, not "
+                        "'%s'\n",
+                        m);
                 return 2;
             }
-        }
-        else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
+        } else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
             char *end;
             long fd = strtol(argv[++i], &end, 10);
             if (*end || fd < 0 || fd > 65535) {

@@ -89,8 +89,8 @@ static ssize_t recv_msg(int fd, void *buf, size_t cap, int fds[2], int *nfds)
 {
     char cbuf[CMSG_SPACE(2 * sizeof(int))];
     struct iovec iov = {buf, cap};
-    struct msghdr mh = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = cbuf,
-                        .msg_controllen = sizeof cbuf};
+    struct msghdr mh = {
+        .msg_iov = &iov, .msg_iovlen = 1, .msg_control = cbuf, .msg_controllen = sizeof cbuf};
     ssize_t n;
     do n = recvmsg(fd, &mh, MSG_CMSG_CLOEXEC);
     while (n < 0 && errno == EINTR);
@@ -197,8 +197,7 @@ static int wait_child(int fd, pid_t pid)
     kill(-pid, SIGKILL);
     svz_exited ex = {.type = SVZ_EXITED, .pid = pid};
     int st = 0;
-    while (wait4(pid, &st, 0, &ex.ru) < 0 && errno == EINTR) {
-    }
+    while (wait4(pid, &st, 0, &ex.ru) < 0 && errno == EINTR) {}
     ex.status = st;
     if (pidfd >= 0) close(pidfd);
     if (gone) return -1;
@@ -231,10 +230,8 @@ int sv_zygote_serve(int fd, long parent, char *title, size_t title_room, sv_zygo
         char **argv = NULL;
         if (n >= (ssize_t)sizeof rq) {
             memcpy(&rq, buf, sizeof rq);
-            if (rq.type != SVZ_RUN || nf != 2 || rq.argc < 3 || rq.argc > 65536)
-                argv = NULL;
-            else
-                argv = calloc((size_t)rq.argc + 1, sizeof *argv);
+            if (rq.type != SVZ_RUN || nf != 2 || rq.argc < 3 || rq.argc > 65536) argv = NULL;
+            else argv = calloc((size_t)rq.argc + 1, sizeof *argv);
         }
         /* the strings: exactly argc, NUL-terminated, filling the message */
         size_t at = sizeof rq;
@@ -254,7 +251,8 @@ int sv_zygote_serve(int fd, long parent, char *title, size_t title_room, sv_zygo
         }
         if (!argv) { /* a kill that came too late is harmless; anything else is not */
             for (int i = 0; i < nf; i++) close(fds[i]);
-            if (n == (ssize_t)sizeof(svz_kill) && ((svz_kill *)(void *)buf)->type == SVZ_KILL) continue;
+            if (n == (ssize_t)sizeof(svz_kill) && ((svz_kill *)(void *)buf)->type == SVZ_KILL)
+                continue;
             rc = 1;
             break;
         }

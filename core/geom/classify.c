@@ -38,25 +38,25 @@
 #include <string.h>
 
 static const char *const FOLIAGE_WORDS[] = {
-    "leaf", "leaves", "foliage", "needle", "twig", "frond", "branch-card", "branchcard",
-    "branch_card", "card", "blossom", "petal", "flower", "grass", "fern", "ivy", NULL};
-static const char *const TRUNK_WORDS[] = {
-    "bark", "trunk", "wood", "stem", "branch", "root", "stump", "limb", "pot",
-    "soil", "ground", "earth", "dirt", "rock", "stone", NULL};
+    "leaf",        "leaves",     "foliage",     "needle", "twig",    "frond",
+    "branch-card", "branchcard", "branch_card", "card",   "blossom", "petal",
+    "flower",      "grass",      "fern",        "ivy",    NULL};
+static const char *const TRUNK_WORDS[] = {"bark",  "trunk", "wood",  "stem", "branch", "root",
+                                          "stump", "limb",  "pot",   "soil", "ground", "earth",
+                                          "dirt",  "rock",  "stone", NULL};
 
-#define WELD_REL_TOL 1e-5      /* weld tolerance, relative to the bounding radius */
-#define SMALL_DIAG_REL 0.25    /* rule 3: piece diagonal <= this × tree diameter */
-#define SMALL_AREA_REL 0.05    /* rule 3: piece area <= this × mesh area */
-#define FLAT_COHERENCE 0.6     /* rule 3: λmax(Σ a n nᵀ) / Σ a */
-#define ALPHA_CARD_MIN 0.05    /* rule 2c: transparent fraction range of a cut-out */
+#define WELD_REL_TOL 1e-5   /* weld tolerance, relative to the bounding radius */
+#define SMALL_DIAG_REL 0.25 /* rule 3: piece diagonal <= this × tree diameter */
+#define SMALL_AREA_REL 0.05 /* rule 3: piece area <= this × mesh area */
+#define FLAT_COHERENCE 0.6  /* rule 3: λmax(Σ a n nᵀ) / Σ a */
+#define ALPHA_CARD_MIN 0.05 /* rule 2c: transparent fraction range of a cut-out */
 #define ALPHA_CARD_MAX 0.95
-#define SPLIT_AREA 16.0        /* leaves: split pieces with area > 16 × median */
-#define SPLIT_RADIUS 4.0       /* ... or radius > 4 × the median radius */
-#define SPLIT_COHERENCE 0.8    /* ... or normals spread (crossed cards, needle tufts) */
+#define SPLIT_AREA 16.0     /* leaves: split pieces with area > 16 × median */
+#define SPLIT_RADIUS 4.0    /* ... or radius > 4 × the median radius */
+#define SPLIT_COHERENCE 0.8 /* ... or normals spread (crossed cards, needle tufts) */
 #define SPLIT_MAX_DEPTH 48
 
 /* ---------- small linear algebra ---------- */
-
 
 /* Eigen-decomposition of the symmetric 3×3 matrix m (row-major) through the
  * shared Jacobi solver (eigen3.h): val[] descending, vec[i] the unit eigenvector
@@ -79,7 +79,8 @@ static void tri_centroid(const sv_mesh *m, uint32_t t, double c[3])
     for (int k = 0; k < 3; k++)
         c[k] = ((double)m->positions[3 * (size_t)ix[0] + k] +
                 (double)m->positions[3 * (size_t)ix[1] + k] +
-                (double)m->positions[3 * (size_t)ix[2] + k]) / 3.0;
+                (double)m->positions[3 * (size_t)ix[2] + k]) /
+               3.0;
 }
 
 /* ---------- welding (hash grid) and connected components ---------- */
@@ -421,12 +422,11 @@ static sv_status classify_by_components(const sv_mesh *m, const uint8_t *undecid
         double frac = (double)flat_tris[mi] / mc->triangles;
         if (frac > 0.5)
             set_reason(mc, SV_PART_FOLIAGE,
-                       "components: %.0f%% of its triangles in %u small flat pieces",
-                       100 * frac, flat_pieces[mi]);
+                       "components: %.0f%% of its triangles in %u small flat pieces", 100 * frac,
+                       flat_pieces[mi]);
         else
             set_reason(mc, SV_PART_TRUNK,
-                       "components: only %.0f%% of its triangles in small flat pieces",
-                       100 * frac);
+                       "components: only %.0f%% of its triangles in small flat pieces", 100 * frac);
     }
 out:
     free(weld);
@@ -439,8 +439,8 @@ out:
     return st;
 }
 
-sv_status sv_classify(const sv_mesh *mesh, const sv_classify_options *opt,
-                      sv_classification *out, sv_error *err)
+sv_status sv_classify(const sv_mesh *mesh, const sv_classify_options *opt, sv_classification *out,
+                      sv_error *err)
 {
     memset(out, 0, sizeof *out);
     if (!mesh) return sv_fail(err, SV_ERR_INTERNAL, "sv_classify: NULL mesh");
@@ -499,8 +499,7 @@ sv_status sv_classify(const sv_mesh *mesh, const sv_classify_options *opt,
             double f = img_frac[ti];
             if (f >= ALPHA_CARD_MIN && f <= ALPHA_CARD_MAX) {
                 set_reason(mc, SV_PART_FOLIAGE,
-                           "base texture has cut-out alpha (%.0f%% transparent texels)",
-                           100 * f);
+                           "base texture has cut-out alpha (%.0f%% transparent texels)", 100 * f);
                 continue;
             }
         }
@@ -555,7 +554,8 @@ static void piece_compute(const sv_mesh *m, const uint32_t *tris, uint32_t n, pi
 {
     memset(ps, 0, sizeof *ps);
     double ref[3];
-    for (int k = 0; k < 3; k++) ref[k] = m->positions[3 * (size_t)m->indices[3 * (size_t)tris[0]] + k];
+    for (int k = 0; k < 3; k++)
+        ref[k] = m->positions[3 * (size_t)m->indices[3 * (size_t)tris[0]] + k];
     double nn[6] = {0}, sum_c[3] = {0}, plain_c[3] = {0}, raw_n[3] = {0};
     double area = 0;
     for (uint32_t i = 0; i < n; i++) {

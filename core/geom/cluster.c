@@ -39,7 +39,7 @@ typedef struct leaf_rec {
 
 typedef struct plane_l {
     double n[3];
-    double d;    /* local frame */
+    double d; /* local frame */
 } plane_l;
 
 /* Weighted statistics of a cluster: W, centroid (local frame), scatter about
@@ -62,10 +62,12 @@ static uint64_t rng_next(uint64_t *s)
 }
 
 /* Uniform in [0, 1). */
-static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
+static double rng_unit(uint64_t *s)
+{
+    return (double)(rng_next(s) >> 11) * 0x1.0p-53;
+}
 
 /* ---- small geometry ---- */
-
 
 static double rec_error(const leaf_rec *r, const plane_l *pl, double alpha)
 {
@@ -194,8 +196,8 @@ static sv_status make_records(const sv_leaf *leaves, const uint32_t *idx, uint32
         uint32_t id = idx ? idx[i] : i;
         for (int j = 0; j < 3; j++)
             if (!isfinite(l->centre[j]) || !isfinite(l->normal[j]))
-                return sv_fail(err, SV_ERR_INVALID, "cluster: leaf %u has a non-finite centre or normal",
-                               id);
+                return sv_fail(err, SV_ERR_INVALID,
+                               "cluster: leaf %u has a non-finite centre or normal", id);
         double len = sqrt(sv_dot3(l->normal, l->normal));
         if (!(len > 1e-12) || !isfinite(len))
             return sv_fail(err, SV_ERR_INVALID, "cluster: leaf %u has a zero normal", id);
@@ -233,7 +235,10 @@ static sv_status make_records(const sv_leaf *leaves, const uint32_t *idx, uint32
     return SV_OK;
 }
 
-static double orient_tol(double extent) { return 1e-9 * (extent > 0.0 ? extent : 1.0); }
+static double orient_tol(double extent)
+{
+    return 1e-9 * (extent > 0.0 ? extent : 1.0);
+}
 
 /* Converts a local plane to world (oriented by ref_local) in out. */
 static void plane_to_world(const plane_l *pl, const double origin[3], const double ref_local[3],
@@ -246,11 +251,12 @@ static void plane_to_world(const plane_l *pl, const double origin[3], const doub
     *d += 0.0;
 }
 
-sv_status sv_cluster_fit_plane(const sv_leaf *leaves, const uint32_t *idx, uint32_t n,
-                               double alpha, bool area_weighted, const double *centre,
-                               double normal[3], double *d, double *error, sv_error *err)
+sv_status sv_cluster_fit_plane(const sv_leaf *leaves, const uint32_t *idx, uint32_t n, double alpha,
+                               bool area_weighted, const double *centre, double normal[3],
+                               double *d, double *error, sv_error *err)
 {
-    if (!leaves || n == 0) return sv_fail(err, SV_ERR_INVALID, "cluster: fitting a plane to no leaves");
+    if (!leaves || n == 0)
+        return sv_fail(err, SV_ERR_INVALID, "cluster: fitting a plane to no leaves");
     leaf_rec *r;
     double origin[3], extent;
     sv_status st = make_records(leaves, idx, n, area_weighted, &r, origin, &extent, err);
@@ -462,8 +468,8 @@ static void level_finish(sv_cluster_level *l, const leaf_rec *r, uint32_t n, con
 
 /* Merges the finer level's clusters down to at most `target`, least error
  * increase first (§2.4). st (fine->count entries) is overwritten. */
-static sv_status merge_level(const sv_cluster_level *fine, sv_cluster_level *coarse, uint32_t target,
-                             uint32_t n, stats *st, double alpha)
+static sv_status merge_level(const sv_cluster_level *fine, sv_cluster_level *coarse,
+                             uint32_t target, uint32_t n, stats *st, double alpha)
 {
     uint32_t k = fine->count;
     size_t kk;
@@ -544,14 +550,16 @@ sv_status sv_cluster_build(const sv_leaf *leaves, uint32_t count, const sv_clust
     if (!leaves || count == 0) return sv_fail(err, SV_ERR_INVALID, "cluster: no leaves to cluster");
     if (nlev == 0) return sv_fail(err, SV_ERR_INVALID, "cluster: no levels requested");
     for (uint32_t l = 0; l < nlev; l++) {
-        if (levels[l] == 0) return sv_fail(err, SV_ERR_INVALID, "cluster: level %u asks for 0 clusters", l);
+        if (levels[l] == 0)
+            return sv_fail(err, SV_ERR_INVALID, "cluster: level %u asks for 0 clusters", l);
         if (l > 0 && levels[l] >= levels[l - 1])
             return sv_fail(err, SV_ERR_INVALID,
-                           "cluster: level counts must strictly decrease (level %u: %u after %u)", l,
-                           levels[l], levels[l - 1]);
+                           "cluster: level counts must strictly decrease (level %u: %u after %u)",
+                           l, levels[l], levels[l - 1]);
     }
     if (!(o.alpha >= 0.0) || !isfinite(o.alpha))
-        return sv_fail(err, SV_ERR_INVALID, "cluster: alpha must be finite and >= 0 (got %g)", o.alpha);
+        return sv_fail(err, SV_ERR_INVALID, "cluster: alpha must be finite and >= 0 (got %g)",
+                       o.alpha);
     uint32_t max_it = o.max_iterations ? o.max_iterations : DEFAULT_ITERATIONS;
     uint32_t tries = o.seed_tries ? o.seed_tries : DEFAULT_SEED_TRIES;
     double alpha = o.alpha;
@@ -572,7 +580,8 @@ sv_status sv_cluster_build(const sv_leaf *leaves, uint32_t count, const sv_clust
     double *tmp = sv_calloc(count, sizeof *tmp);
     out->levels = sv_calloc(nlev, sizeof *out->levels);
     if (!planes || !sts || !assign || !size || !lerr || !tmp || !out->levels) {
-        st = sv_fail(err, SV_ERR_NOMEM, "cluster: out of memory for %u leaves, %u clusters", count, k);
+        st = sv_fail(err, SV_ERR_NOMEM, "cluster: out of memory for %u leaves, %u clusters", count,
+                     k);
         goto out;
     }
     out->level_count = nlev;

@@ -78,13 +78,14 @@ void sv_mesh_rotate_up(sv_mesh *m, int z_up)
             float *p = arrs[a];
             if (!p) continue;
             float y = p[1], z = p[2];
-            p[1] = s * z;  /* +1: y' = z,  z' = -y;  -1: y' = -z, z' = y */
+            p[1] = s * z; /* +1: y' = z,  z' = -y;  -1: y' = -z, z' = y */
             p[2] = -s * y;
         }
     }
 }
 
-static void append(char *buf, size_t cap, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void append(char *buf, size_t cap, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 static void append(char *buf, size_t cap, const char *fmt, ...)
 {
     size_t len = strnlen(buf, cap);
@@ -104,8 +105,7 @@ void sv_plausibility_warnings(const sv_up_guess *g, double height, bool rotated,
         append(buf, cap,
                "the tree looks %s (%s): it would bake lying down; set import.up to \"%s\" or "
                "\"auto\"",
-               g->z_up > 0 ? "Z-up" : "upside down along Z", g->reason,
-               g->z_up > 0 ? "Z" : "auto");
+               g->z_up > 0 ? "Z-up" : "upside down along Z", g->reason, g->z_up > 0 ? "Z" : "auto");
     if (height > SV_TALLEST_TREE_M)
         append(buf, cap,
                "the tree is %.4g m tall, taller than any tree (%.0f m): are the units right? "

@@ -69,8 +69,8 @@ static sv_status trunk_mesh_err(const sv_mesh *mesh, const uint8_t *tri_part, do
         memcpy(&pu[5 * (size_t)v], &sub->positions[3 * (size_t)v], 3 * sizeof(float));
         memcpy(&pu[5 * (size_t)v + 3], &sub->uvs[2 * (size_t)v], 2 * sizeof(float));
     }
-    size_t unique = meshopt_generateVertexRemap(weld, NULL, sub->vertex_count, pu, sub->vertex_count,
-                                5 * sizeof(float));
+    size_t unique = meshopt_generateVertexRemap(weld, NULL, sub->vertex_count, pu,
+                                                sub->vertex_count, 5 * sizeof(float));
     free(pu);
     /* Simplify on the compact welded buffer: meshoptimizer classifies vertices
      * that share a position as seams, so unreferenced duplicates must not be
@@ -103,8 +103,8 @@ static sv_status trunk_mesh_err(const sv_mesh *mesh, const uint8_t *tri_part, do
         size_t target = (size_t)((double)(k / 3) * ratio) * 3;
         if (target < 3) target = 3;
         float result_error = 0;
-        size_t got = meshopt_simplify(&dst[total], src, k, cpos, unique, 3 * sizeof(float),
-                                      target, rel, 0, &result_error);
+        size_t got = meshopt_simplify(&dst[total], src, k, cpos, unique, 3 * sizeof(float), target,
+                                      rel, 0, &result_error);
         if (rel_error && result_error > *rel_error) *rel_error = result_error;
         for (size_t i = 0; i < got / 3; i++) mat[total / 3 + i] = m;
         total += got;
@@ -168,7 +168,8 @@ static void pick_uv_consistent(const sv_mesh *m, const unsigned int *tri, const 
                                  cand[first[tri[2]] + c]};
                 double per = 0;
                 for (int k = 0; k < 3; k++) {
-                    const float *p = &m->uvs[2 * (size_t)v[k]], *q = &m->uvs[2 * (size_t)v[(k + 1) % 3]];
+                    const float *p = &m->uvs[2 * (size_t)v[k]],
+                                *q = &m->uvs[2 * (size_t)v[(k + 1) % 3]];
                     per += hypot((double)p[0] - q[0], (double)p[1] - q[1]);
                 }
                 if (per < bp) {
@@ -207,8 +208,8 @@ static sv_status simplify_welded(sv_mesh *m, uint32_t max_triangles, float rel, 
         st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
         goto out;
     }
-    size_t unique = meshopt_generateVertexRemap(weld, m->indices, ni, m->positions,
-                                                m->vertex_count, 3 * sizeof(float));
+    size_t unique = meshopt_generateVertexRemap(weld, m->indices, ni, m->positions, m->vertex_count,
+                                                3 * sizeof(float));
     meshopt_remapVertexBuffer(cpos, m->positions, m->vertex_count, 3 * sizeof(float), weld);
     for (size_t i = 0; i < ni; i++) src[i] = weld[m->indices[i]];
     for (uint32_t v = m->vertex_count; v-- > 0;)
@@ -278,7 +279,8 @@ static sv_status trunk_mesh_bounded(const sv_mesh *mesh, const uint8_t *tri_part
     bool done = false;
     uint32_t before = m->triangle_count;
     if ((st = simplify_welded(m, target, rel, false, false, true, &done, NULL, err))) goto fail;
-    if (!done && (st = simplify_welded(m, target, rel, true, false, true, &done, NULL, err))) goto fail;
+    if (!done && (st = simplify_welded(m, target, rel, true, false, true, &done, NULL, err)))
+        goto fail;
     if (m->triangle_count == before) return SV_OK;
     uint32_t *all = malloc((size_t)m->triangle_count * sizeof *all);
     if (!all) {
@@ -320,7 +322,8 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     /* 2: the budget wins over the bound: shape-preserving collapse without a
      * bound; 3: only then the sloppy clustering (it can cut thin parts) */
     bool done = false;
-    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, false, false, &done, NULL, err)) && !done)
+    if (!(st = simplify_welded(m, max_triangles, 1.0f, false, false, false, &done, NULL, err)) &&
+        !done)
         st = simplify_welded(m, max_triangles, 0, true, true, false, &done, NULL, err);
     sv_mesh *o = NULL;
     if (!st && done) {
@@ -337,7 +340,6 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
     *out = st ? NULL : o;
     return st;
 }
-
 
 /* A trunk vertex's position and material, and the part it belongs to. */
 typedef struct vkey {
@@ -391,7 +393,8 @@ static uint32_t simplify_part(const sv_mesh *sub, const unsigned int *wb, const 
             if (loc[w] == UINT32_MAX) {
                 loc[w] = nv;
                 lrep[nv] = rep[w];
-                memcpy(&lpos[3 * (size_t)nv], &sub->positions[3 * (size_t)rep[w]], 3 * sizeof(float));
+                memcpy(&lpos[3 * (size_t)nv], &sub->positions[3 * (size_t)rep[w]],
+                       3 * sizeof(float));
                 nv++;
             }
             lidx[3 * (size_t)i + c] = loc[w];
@@ -448,7 +451,8 @@ static sv_status trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, 
     float *key = malloc((size_t)nv * 6 * sizeof *key);
     unsigned int *wa = malloc((size_t)nv * sizeof *wa), *wb = malloc((size_t)nv * sizeof *wb);
     uint32_t *rep = malloc((size_t)nv * sizeof *rep), *par = malloc((size_t)nv * sizeof *par);
-    uint32_t *tpart = malloc((size_t)nt * sizeof *tpart), *order = malloc((size_t)nt * sizeof *order);
+    uint32_t *tpart = malloc((size_t)nt * sizeof *tpart),
+             *order = malloc((size_t)nt * sizeof *order);
     uint32_t *loc = malloc((size_t)nv * sizeof *loc), *lrep = malloc((size_t)nv * sizeof *lrep);
     unsigned int *lidx = malloc((size_t)nt * 3 * sizeof *lidx);
     unsigned int *ldst = malloc((size_t)nt * 3 * sizeof *ldst);
@@ -458,8 +462,8 @@ static sv_status trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, 
     uint32_t *bomat = malloc((size_t)(limit + 1) * sizeof *bomat);
     float *lpos = malloc((size_t)nv * 3 * sizeof *lpos);
     trunk_part *parts = NULL;
-    if (!key || !wa || !wb || !rep || !par || !tpart || !order || !loc || !lrep || !lidx ||
-        !ldst || !oidx || !omat || !boidx || !bomat || !lpos) {
+    if (!key || !wa || !wb || !rep || !par || !tpart || !order || !loc || !lrep || !lidx || !ldst ||
+        !oidx || !omat || !boidx || !bomat || !lpos) {
         st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
         goto out;
     }
@@ -817,7 +821,8 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
         if (part[t] != SV_PART_TRUNK) continue;
         double c[3] = {0, 0, 0};
         for (int v = 0; v < 3; v++)
-            for (int i = 0; i < 3; i++) c[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+            for (int i = 0; i < 3; i++)
+                c[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
         int a[3], b[3];
         cell_range(&g, c, c, a, b);
         size_t cell = ((size_t)a[2] * KEPT_GRID + (size_t)a[1]) * KEPT_GRID + (size_t)a[0];
@@ -825,7 +830,8 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
             uint32_t u = g.tris[q];
             double p[3][3];
             for (int v = 0; v < 3; v++)
-                for (int i = 0; i < 3; i++) p[v][i] = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
+                for (int i = 0; i < 3; i++)
+                    p[v][i] = k->positions[3 * (size_t)k->indices[3 * (size_t)u + v] + i];
             if (point_tri_dist2(c, p[0], p[1], p[2]) <= lim2) skip[t] = 1;
         }
     }
@@ -833,4 +839,3 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
     free(g.tris);
     return SV_OK;
 }
-

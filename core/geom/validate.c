@@ -127,8 +127,9 @@ static sv_status check_content(const sv_mesh *m, sv_error *err)
         const int32_t tex[3] = {mt->base_texture, mt->normal_texture, mt->occlusion_texture};
         for (int k = 0; k < 3; k++)
             if (tex[k] < -1 || (tex[k] >= 0 && (uint32_t)tex[k] >= m->image_count))
-                return sv_fail(err, SV_ERR_INVALID, "material %u ('%.100s') refers to image %d of %u",
-                               i, mt->name, tex[k], m->image_count);
+                return sv_fail(err, SV_ERR_INVALID,
+                               "material %u ('%.100s') refers to image %d of %u", i, mt->name,
+                               tex[k], m->image_count);
     }
     return SV_OK;
 }
@@ -166,7 +167,8 @@ static sv_status remove_bad_triangles(sv_mesh *m, sv_validate_report *r, sv_erro
             continue;
         }
         if (kept != t) {
-            memmove(&m->indices[3 * (size_t)kept], &m->indices[3 * (size_t)t], 3 * sizeof(uint32_t));
+            memmove(&m->indices[3 * (size_t)kept], &m->indices[3 * (size_t)t],
+                    3 * sizeof(uint32_t));
             m->tri_material[kept] = m->tri_material[t];
         }
         table[slot] = kept++;
@@ -183,7 +185,8 @@ static sv_status repair_normals(sv_mesh *m, sv_validate_report *r, sv_error *err
     if (!used || !acc) {
         free(used);
         free(acc);
-        return sv_fail(err, SV_ERR_NOMEM, "cannot allocate normals for %u vertices", m->vertex_count);
+        return sv_fail(err, SV_ERR_NOMEM, "cannot allocate normals for %u vertices",
+                       m->vertex_count);
     }
     for (uint32_t t = 0; t < m->triangle_count; t++) {
         double n[3];
@@ -228,8 +231,9 @@ sv_status sv_validate(sv_mesh *mesh, const sv_limits *limits, sv_validate_report
     if ((st = check_content(mesh, err)) != SV_OK) return st;
     if ((st = remove_bad_triangles(mesh, report, err)) != SV_OK) return st;
     if (mesh->triangle_count == 0)
-        return sv_fail(err, SV_ERR_INVALID,
-                       "mesh has no triangles left after removing %u zero-area and %u duplicate ones",
-                       report->removed_degenerate, report->removed_duplicate);
+        return sv_fail(
+            err, SV_ERR_INVALID,
+            "mesh has no triangles left after removing %u zero-area and %u duplicate ones",
+            report->removed_degenerate, report->removed_duplicate);
     return repair_normals(mesh, report, err);
 }

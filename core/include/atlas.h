@@ -12,9 +12,9 @@
 
 typedef struct sv_chart {
     /* input */
-    uint32_t w, h;      /* chart size in texels, >= 1 */
+    uint32_t w, h; /* chart size in texels, >= 1 */
     /* output */
-    uint32_t x, y;      /* top-left texel of the chart itself (its padding lies around it) */
+    uint32_t x, y; /* top-left texel of the chart itself (its padding lies around it) */
 } sv_chart;
 
 /* Packs charts[0..n) into a width × height atlas, each chart reserving
@@ -22,8 +22,7 @@ typedef struct sv_chart {
  * apart (and charts keep padding/2 texels from the atlas border). Deterministic
  * (stable sort, no qsort). Returns true when every chart fits; x,y are then set.
  * Returns false (x,y unspecified) when they do not fit or memory runs out. */
-bool sv_atlas_pack(sv_chart *charts, uint32_t n, uint32_t width, uint32_t height,
-                   uint32_t padding);
+bool sv_atlas_pack(sv_chart *charts, uint32_t n, uint32_t width, uint32_t height, uint32_t padding);
 
 /* Packs into the smallest power-of-two atlas with sides <= max_side: the
  * smallest square that fits, then half its height if that still fits.
@@ -39,8 +38,8 @@ void sv_chart_size(double half_u, double half_v, double texel, uint32_t *w, uint
  * extents half[2i], half[2i+1] (i < n) pack into max_side × max_side with
  * `padding`: binary search on the density with the real packer.
  * SV_ERR_LIMIT when not even 1-texel charts fit. */
-sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding,
-                                uint32_t max_side, double *texel, sv_error *err);
+sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding, uint32_t max_side,
+                                double *texel, sv_error *err);
 
 /* Downsamples an RGBA8 image of (w·s) × (h·s) samples whose alpha is coverage
  * (0 = empty) into w × h texels (dst, RGBA8, caller storage): a texel is opaque
@@ -67,7 +66,7 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
  * fill_channels channels are written (alpha is left untouched). mask has
  * w*h bytes, nonzero = has a value; it is not modified. img: 8 or 16 bits.
  * SV_ERR_NOMEM on allocation failure (img unchanged). */
-sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
-                    uint32_t passes, sv_error *err);
+sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
+                    sv_error *err);
 
 #endif

@@ -37,23 +37,23 @@ typedef struct sv_bake_options {
 } sv_bake_options;
 
 typedef struct sv_baked_lod {
-    sv_mesh *mesh;            /* the stand-in as drawn: 2 triangles per quad (atlas
+    sv_mesh *mesh;        /* the stand-in as drawn: 2 triangles per quad (atlas
                                  material, alpha MASK, double-sided) followed by the
                                  kept geometry (trunk, explicit geometry) with its
                                  own materials. Images: the atlases and kept textures. */
-    uint32_t quad_count;      /* quad i is triangles 2i and 2i+1 of mesh */
-    float *uv_rects;          /* 4 per quad: u0, v0, u1, v1 in atlas UV (glTF: v down) */
-    sv_image albedo;          /* RGBA8 atlas, binary alpha */
-    sv_image normal;          /* RGB8 tangent-space normal atlas (data NULL when not baked) */
-    sv_image ao;              /* 8-bit AO atlas, 1 channel, 255 = open sky: fraction of 12 fixed
+    uint32_t quad_count;  /* quad i is triangles 2i and 2i+1 of mesh */
+    float *uv_rects;      /* 4 per quad: u0, v0, u1, v1 in atlas UV (glTF: v down) */
+    sv_image albedo;      /* RGBA8 atlas, binary alpha */
+    sv_image normal;      /* RGB8 tangent-space normal atlas (data NULL when not baked) */
+    sv_image ao;          /* 8-bit AO atlas, 1 channel, 255 = open sky: fraction of 12 fixed
                                  upper-hemisphere directions from which the texel's surface
                                  point is not occluded (data NULL when not baked) */
-    sv_image depth;           /* 16-bit, 1 channel: |distance of the surface from the quad plane|
+    sv_image depth;       /* 16-bit, 1 channel: |distance of the surface from the quad plane|
                                  / quad slab (the baked faces' largest distance when slab
                                  is 0), clamped to 1, × 65535; 0 = on the plane
                                  (data NULL when not baked) */
-    double texel_size;        /* world units per texel used */
-    uint32_t supersample;     /* factor used */
+    double texel_size;    /* world units per texel used */
+    uint32_t supersample; /* factor used */
     double seconds_render, seconds_pack;
 } sv_baked_lod;
 
@@ -61,8 +61,8 @@ typedef struct sv_baked_lod {
  * result mesh. keep (may be NULL) is geometry appended as is (trunk, explicit
  * LOD geometry), already in world space. */
 sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *src,
-                      const sv_lod_plan *lod, const sv_mesh *keep,
-                      const sv_bake_options *opt, sv_baked_lod *out, sv_error *err);
+                      const sv_lod_plan *lod, const sv_mesh *keep, const sv_bake_options *opt,
+                      sv_baked_lod *out, sv_error *err);
 
 void sv_baked_lod_free(sv_baked_lod *b);
 

@@ -31,19 +31,19 @@
 #include "sv.h"
 
 typedef struct sv_bbc_options {
-    double epsilon;              /* validity distance in world units (>= 0) */
-    uint32_t grid_theta;         /* dual grid: θ columns, even (default 32) */
-    uint32_t grid_phi;           /* φ rows (default 16) */
-    uint32_t grid_rho;           /* ρ bins over [0, R] (default 32) */
-    uint32_t refine_levels;      /* 3×3 direction refinements of the picked cell (default 5) */
-    double miss_penalty;         /* Décoret's penalty for planes that nearly miss a face,
+    double epsilon;          /* validity distance in world units (>= 0) */
+    uint32_t grid_theta;     /* dual grid: θ columns, even (default 32) */
+    uint32_t grid_phi;       /* φ rows (default 16) */
+    uint32_t grid_rho;       /* ρ bins over [0, R] (default 32) */
+    uint32_t refine_levels;  /* 3×3 direction refinements of the picked cell (default 5) */
+    double miss_penalty;     /* Décoret's penalty for planes that nearly miss a face,
                                     as a fraction of its contribution; coarse grid only
                                     (§3.2.2: omitted for sub-cells). Default 0.5, 0 = off */
-    double max_angle_deg;        /* a face is simplified by a plane only within this angle
+    double max_angle_deg;    /* a face is simplified by a plane only within this angle
                                     (the Fig. 4b remedy; 90 = the papers' plain rule).
                                     Default 75 */
-    bool horizontal_penalty;     /* §3.3.5 (default off; the method turns it on for ground viewers) */
-    double horizontal_value;     /* maximum penalty at the poles, default 0.6 */
+    bool horizontal_penalty; /* §3.3.5 (default off; the method turns it on for ground viewers) */
+    double horizontal_value; /* maximum penalty at the poles, default 0.6 */
     double horizontal_angle_deg; /* cutoff: no penalty below this elevation of the normal,
                                     default 50 */
     bool tweak;                  /* post-plane tweaking §3.3.3 (default true) */
@@ -60,55 +60,55 @@ typedef struct sv_bbc_options {
 void sv_bbc_options_init(sv_bbc_options *opt);
 
 typedef struct sv_bbc_input {
-    const double *positions;     /* 3 per vertex, world units */
+    const double *positions; /* 3 per vertex, world units */
     uint32_t vertex_count;
-    const uint32_t *indices;     /* 3 per triangle */
+    const uint32_t *indices; /* 3 per triangle */
     uint32_t triangle_count;
-    const uint32_t *elem_tris;   /* triangle ids grouped by element */
-    const uint32_t *elem_first;  /* elem_count + 1 offsets into elem_tris */
-    const uint8_t *elem_part;    /* elem_count: SV_PART_TRUNK (welded pass) or SV_PART_FOLIAGE;
+    const uint32_t *elem_tris;  /* triangle ids grouped by element */
+    const uint32_t *elem_first; /* elem_count + 1 offsets into elem_tris */
+    const uint8_t *elem_part;   /* elem_count: SV_PART_TRUNK (welded pass) or SV_PART_FOLIAGE;
                                     NULL = all foliage */
     uint32_t elem_count;
-    double centre[3];            /* bounding sphere: every vertex within radius of centre */
+    double centre[3]; /* bounding sphere: every vertex within radius of centre */
     double radius;
 } sv_bbc_input;
 
 typedef enum sv_bbc_origin {
-    SV_BBC_REFINED = 0,          /* densest cell, refined */
-    SV_BBC_FAILSAFE_SUPPORT,     /* §3.3.2: supporting plane of a face of the cell */
-    SV_BBC_FAILSAFE_AVERAGE,     /* §3.3.2: averaged plane of the cell's faces */
-    SV_BBC_CARDBOARD             /* §3.3.6 */
+    SV_BBC_REFINED = 0,      /* densest cell, refined */
+    SV_BBC_FAILSAFE_SUPPORT, /* §3.3.2: supporting plane of a face of the cell */
+    SV_BBC_FAILSAFE_AVERAGE, /* §3.3.2: averaged plane of the cell's faces */
+    SV_BBC_CARDBOARD         /* §3.3.6 */
 } sv_bbc_origin;
 
 typedef struct sv_bbc_plane {
-    double normal[3];            /* unit */
-    double d;                    /* normal·x + d = 0, world units */
-    uint8_t part;                /* pass: SV_PART_TRUNK or SV_PART_FOLIAGE */
-    uint8_t origin;              /* sv_bbc_origin */
-    bool tweaked;                /* §3.3.3 refinement was kept */
-    int32_t cardboard_of;        /* -1 for a primary plane, else the index of its primary */
-    uint32_t first, count;       /* triangles in result.tris: those simplified (primary), or
+    double normal[3];      /* unit */
+    double d;              /* normal·x + d = 0, world units */
+    uint8_t part;          /* pass: SV_PART_TRUNK or SV_PART_FOLIAGE */
+    uint8_t origin;        /* sv_bbc_origin */
+    bool tweaked;          /* §3.3.3 refinement was kept */
+    int32_t cardboard_of;  /* -1 for a primary plane, else the index of its primary */
+    uint32_t first, count; /* triangles in result.tris: those simplified (primary), or
                                     the primary's faces valid for it (cardboard: simplifies none) */
-    double area;                 /* total area of those triangles */
-    double coverage;             /* cardboard: coverage ratio; primary: 1 */
+    double area;           /* total area of those triangles */
+    double coverage;       /* cardboard: coverage ratio; primary: 1 */
 } sv_bbc_plane;
 
 typedef struct sv_bbc_stats {
-    double epsilon;              /* ε finally used (after the max_planes search) */
-    uint32_t runs;               /* greedy runs (1 + ε search steps) */
+    double epsilon; /* ε finally used (after the max_planes search) */
+    uint32_t runs;  /* greedy runs (1 + ε search steps) */
     uint32_t primary_planes, cardboard_planes, failsafe_planes, tweaked_planes;
-    uint32_t elements;           /* elements in the final run, after splitting */
-    uint32_t split_elements;     /* input elements split into triangles (thicker than ε) */
+    uint32_t elements;       /* elements in the final run, after splitting */
+    uint32_t split_elements; /* input elements split into triangles (thicker than ε) */
     uint32_t welded_vertices;
-    double seconds_setup;        /* element geometry (all runs) */
-    double seconds_grid;         /* dual-grid accumulation and updates (all runs) */
-    double seconds_refine;       /* refinement, fail-safe, tweak, assignment (all runs) */
+    double seconds_setup;  /* element geometry (all runs) */
+    double seconds_grid;   /* dual-grid accumulation and updates (all runs) */
+    double seconds_refine; /* refinement, fail-safe, tweak, assignment (all runs) */
     double seconds_cardboard;
     double seconds_total;
 } sv_bbc_stats;
 
 typedef struct sv_bbc_result {
-    sv_bbc_plane *planes;        /* trunk pass first, then foliage; cardboards follow their pass */
+    sv_bbc_plane *planes; /* trunk pass first, then foliage; cardboards follow their pass */
     uint32_t plane_count;
     uint32_t *tris;
     uint32_t tri_count;
@@ -133,9 +133,8 @@ void sv_bbc_result_free(sv_bbc_result *r);
  * projected onto the primary plane that simplifies it (unchanged if none), so
  * the caller can run sv_bbc_select again with the same elements and a larger ε.
  * *vertex_count_out = 3 × in->triangle_count. */
-sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res,
-                         double **positions_out, uint32_t **indices_out,
-                         uint32_t *vertex_count_out, sv_error *err);
+sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res, double **positions_out,
+                         uint32_t **indices_out, uint32_t *vertex_count_out, sv_error *err);
 
 /* k-planes refinement (bbcloud_kplanes.c): first adds foliage planes until
  * res has target_planes planes in all (0 or fewer = none added; each seeded

@@ -17,15 +17,15 @@
 typedef enum sv_part { SV_PART_TRUNK = 0, SV_PART_FOLIAGE = 1 } sv_part;
 
 typedef struct sv_classify_options {
-    const char *const *foliage;   /* material names or globs forced to foliage */
+    const char *const *foliage; /* material names or globs forced to foliage */
     size_t foliage_count;
-    const char *const *trunk;     /* material names or globs forced to trunk */
+    const char *const *trunk; /* material names or globs forced to trunk */
     size_t trunk_count;
 } sv_classify_options;
 
 typedef struct sv_material_class {
     sv_part part;
-    char reason[160];             /* e.g. "name matches 'leaf'", "alpha mask", "listed by caller" */
+    char reason[160]; /* e.g. "name matches 'leaf'", "alpha mask", "listed by caller" */
     uint32_t triangles;
 } sv_material_class;
 
@@ -38,33 +38,33 @@ typedef struct sv_classification {
 
 /* Classifies every triangle. On success *out must be released with
  * sv_classification_free. */
-sv_status sv_classify(const sv_mesh *mesh, const sv_classify_options *opt,
-                      sv_classification *out, sv_error *err);
+sv_status sv_classify(const sv_mesh *mesh, const sv_classify_options *opt, sv_classification *out,
+                      sv_error *err);
 void sv_classification_free(sv_classification *c);
 
 typedef struct sv_leaf {
-    double centre[3];   /* area-weighted centroid */
-    double normal[3];   /* unit; area-weighted average after flipping into one half-space */
+    double centre[3]; /* area-weighted centroid */
+    double normal[3]; /* unit; area-weighted average after flipping into one half-space */
     double area;
-    double radius;      /* max distance of a vertex from centre */
-    uint32_t first;     /* first index into sv_leaves.tris */
-    uint32_t count;     /* number of triangles */
+    double radius;  /* max distance of a vertex from centre */
+    uint32_t first; /* first index into sv_leaves.tris */
+    uint32_t count; /* number of triangles */
 } sv_leaf;
 
 typedef struct sv_leaves {
     sv_leaf *leaves;
     uint32_t count;
-    uint32_t *tris;     /* triangle indices grouped by leaf */
+    uint32_t *tris; /* triangle indices grouped by leaf */
     uint32_t tri_count;
     double median_area; /* statistics for reports */
     double max_area;
-    uint32_t split;     /* pieces split because they were far larger than a typical leaf */
+    uint32_t split; /* pieces split because they were far larger than a typical leaf */
 } sv_leaves;
 
 /* Builds leaf elements from the foliage triangles. Deterministic order (by the
  * lowest triangle index of each element). */
-sv_status sv_leaves_build(const sv_mesh *mesh, const sv_classification *c,
-                          sv_leaves *out, sv_error *err);
+sv_status sv_leaves_build(const sv_mesh *mesh, const sv_classification *c, sv_leaves *out,
+                          sv_error *err);
 void sv_leaves_free(sv_leaves *l);
 
 #endif

@@ -24,24 +24,24 @@
 #include "classify.h"
 
 typedef struct sv_cluster_options {
-    const uint32_t *levels;   /* cluster counts per level, finest first, strictly
+    const uint32_t *levels;  /* cluster counts per level, finest first, strictly
                                  decreasing, each >= 1; NULL = {32, 16, 8} */
-    uint32_t level_count;     /* entries in levels (ignored when levels is NULL) */
-    double alpha;             /* α of eq. 1, length² (>= 0); 0 = distance only */
-    bool area_weighted;       /* weight leaves by area (see above) */
-    uint32_t max_iterations;  /* k-means iterations at the finest level; 0 = 50 */
-    uint32_t seed_tries;      /* k-means++ candidates per seed (greedy); 0 = 4 */
-    uint64_t seed;            /* every random choice derives from it */
-    const double *centre;     /* orientation reference (3 doubles); NULL = centre
+    uint32_t level_count;    /* entries in levels (ignored when levels is NULL) */
+    double alpha;            /* α of eq. 1, length² (>= 0); 0 = distance only */
+    bool area_weighted;      /* weight leaves by area (see above) */
+    uint32_t max_iterations; /* k-means iterations at the finest level; 0 = 50 */
+    uint32_t seed_tries;     /* k-means++ candidates per seed (greedy); 0 = 4 */
+    uint64_t seed;           /* every random choice derives from it */
+    const double *centre;    /* orientation reference (3 doubles); NULL = centre
                                  of the bounding box of the leaf centres */
 } sv_cluster_options;
 
 typedef struct sv_cluster_plane {
-    double normal[3];         /* unit */
-    double d;                 /* plane: normal·x + d = 0, oriented as above */
-    double error;             /* Σ of eq. 1 over the member leaves (weighted) */
-    double weight;            /* Σ wᵢ of the members */
-    uint32_t leaves;          /* member count (>= 1: empty clusters are dropped) */
+    double normal[3]; /* unit */
+    double d;         /* plane: normal·x + d = 0, oriented as above */
+    double error;     /* Σ of eq. 1 over the member leaves (weighted) */
+    double weight;    /* Σ wᵢ of the members */
+    uint32_t leaves;  /* member count (>= 1: empty clusters are dropped) */
 } sv_cluster_plane;
 
 typedef struct sv_cluster_level {
@@ -58,10 +58,10 @@ typedef struct sv_clusters {
     sv_cluster_level *levels; /* finest first */
     uint32_t level_count;
     uint32_t leaf_count;
-    uint32_t iterations;      /* k-means iterations run at the finest level */
-    uint32_t reseeds;         /* empty clusters reseeded with the worst-fitting leaf */
-    double alpha;             /* α used */
-    double weight;            /* Σ wᵢ over all leaves (≈ leaf_count) */
+    uint32_t iterations; /* k-means iterations run at the finest level */
+    uint32_t reseeds;    /* empty clusters reseeded with the worst-fitting leaf */
+    double alpha;        /* α used */
+    double weight;       /* Σ wᵢ over all leaves (≈ leaf_count) */
 } sv_clusters;
 
 /* Error of eq. 1 for one leaf with weight 1. */
@@ -75,9 +75,9 @@ double sv_cluster_leaf_error(const sv_leaf *leaf, const double normal[3], double
  * plane, so the largest-component rule applies). *error receives the weighted total of
  * eq. 1 (may be NULL). Fails with SV_ERR_INVALID when n is 0 or a leaf is not
  * finite. */
-sv_status sv_cluster_fit_plane(const sv_leaf *leaves, const uint32_t *idx, uint32_t n,
-                               double alpha, bool area_weighted, const double *centre,
-                               double normal[3], double *d, double *error, sv_error *err);
+sv_status sv_cluster_fit_plane(const sv_leaf *leaves, const uint32_t *idx, uint32_t n, double alpha,
+                               bool area_weighted, const double *centre, double normal[3],
+                               double *d, double *error, sv_error *err);
 
 /* Orients the plane (normal, *d) by the convention above relative to ref, with
  * `tol` the distance below which ref counts as on the plane. */

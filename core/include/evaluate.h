@@ -35,25 +35,25 @@
 /* ---- options and results ------------------------------------------------ */
 
 typedef struct sv_eval_options {
-    sv_viewer viewer;          /* view placement (default ORBIT, the zero value) */
-    uint32_t view_count;       /* 0 = 24 */
+    sv_viewer viewer;                  /* view placement (default ORBIT, the zero value) */
+    uint32_t view_count;               /* 0 = 24 */
     uint32_t sizes[SV_EVAL_MAX_SIZES]; /* screen sizes in pixels, any order; */
-    uint32_t size_count;       /* 0 = {256, 128, 64, 32} */
-    uint32_t supersample;      /* 0 = 4; base = max(sizes) × supersample, capped
+    uint32_t size_count;               /* 0 = {256, 128, 64, 32} */
+    uint32_t supersample;              /* 0 = 4; base = max(sizes) × supersample, capped
                                   by the renderer's maximum size */
-    sv_render_options render;  /* shading of both renders (zero = albedo) */
+    sv_render_options render;          /* shading of both renders (zero = albedo) */
 } sv_eval_options;
 
 typedef struct sv_eval_metrics {
-    double iou;                /* 1 = same silhouette */
-    double color_error;        /* 0 = same premultiplied colour */
-    double depth_error;        /* relative to the bounding radius */
+    double iou;         /* 1 = same silhouette */
+    double color_error; /* 0 = same premultiplied colour */
+    double depth_error; /* relative to the bounding radius */
 } sv_eval_metrics;
 
 typedef struct sv_eval_size {
-    uint32_t pixels;           /* screen size (sphere diameter in pixels) */
-    sv_eval_metrics mean;      /* mean over views */
-    sv_eval_metrics worst;     /* lowest iou, highest errors over views (each on its own) */
+    uint32_t pixels;       /* screen size (sphere diameter in pixels) */
+    sv_eval_metrics mean;  /* mean over views */
+    sv_eval_metrics worst; /* lowest iou, highest errors over views (each on its own) */
 } sv_eval_size;
 
 typedef struct sv_eval_result {
@@ -76,13 +76,13 @@ void sv_eval_result_free(sv_eval_result *r);
  * filtered images are blended with the weights (coverage, premultiplied colour
  * and depth all blend linearly). Returns SV_OK or an error that aborts. */
 typedef struct sv_eval_subset {
-    const uint32_t *tris;      /* NULL = every triangle */
+    const uint32_t *tris; /* NULL = every triangle */
     uint32_t tri_count;
     double weight;
 } sv_eval_subset;
 typedef sv_status (*sv_eval_subset_fn)(void *user, const double view_dir[3],
-                                       sv_eval_subset subsets[SV_EVAL_MAX_SUBSETS],
-                                       uint32_t *count, sv_error *err);
+                                       sv_eval_subset subsets[SV_EVAL_MAX_SUBSETS], uint32_t *count,
+                                       sv_error *err);
 
 /* Draws a stand-in that is not drawn as triangles (octahedral impostors:
  * the CPU reference runtime) with camera cam into a w × h RGBA8 image
@@ -115,8 +115,8 @@ sv_status sv_evaluate(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_result
 
 /* sv_evaluate for a stand-in drawn by `draw` (called once per view at the
  * base resolution). SV_ERR_INTERNAL when draw is NULL. */
-sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user,
-                            sv_eval_result *out, sv_error *err);
+sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user, sv_eval_result *out,
+                            sv_error *err);
 
 /* The result of evaluating the original against itself (IoU 1, errors 0 at
  * every view and size) without rendering: for a level that is the original
@@ -178,18 +178,18 @@ void sv_eval_camera(const double centre[3], double radius, const double dir[3], 
 /* Linear image planes that box-filter and blend exactly. */
 typedef struct sv_eval_image {
     uint32_t width, height;
-    float *coverage;           /* w*h, [0,1] */
-    float *color;              /* 3*w*h, premultiplied rgb in [0,1] */
-    float *depth;              /* w*h, coverage × depth (divide by coverage for depth) */
+    float *coverage; /* w*h, [0,1] */
+    float *color;    /* 3*w*h, premultiplied rgb in [0,1] */
+    float *depth;    /* w*h, coverage × depth (divide by coverage for depth) */
 } sv_eval_image;
 
 sv_status sv_eval_image_alloc(sv_eval_image *img, uint32_t w, uint32_t h, sv_error *err);
-void sv_eval_image_free(sv_eval_image *img);  /* NULL is fine; zeroes the struct */
+void sv_eval_image_free(sv_eval_image *img); /* NULL is fine; zeroes the struct */
 
 /* Converts a render (RGBA8 colour whose alpha is coverage, and its depth buffer
  * or NULL) into planes of the same size: a sample is covered when alpha >= 128. */
-sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth,
-                                    sv_eval_image *out, sv_error *err);
+sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                                    sv_error *err);
 
 /* sv_eval_image_from_render then sv_eval_image_downsample to w × h, in one
  * pass over the render when w and h divide its size (the evaluator's case),

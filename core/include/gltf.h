@@ -30,20 +30,20 @@
 /* An extra per-vertex float attribute (glTF: application-specific semantics
  * must begin with '_', e.g. "_LEAF_CENTRE", "_ORDER"). */
 typedef struct sv_gltf_attribute {
-    const char *name;       /* must start with '_' and be at most 63 bytes */
-    const float *data;      /* components * mesh->vertex_count floats, finite */
-    uint32_t components;    /* 1 (SCALAR) .. 4 (VEC4) */
+    const char *name;    /* must start with '_' and be at most 63 bytes */
+    const float *data;   /* components * mesh->vertex_count floats, finite */
+    uint32_t components; /* 1 (SCALAR) .. 4 (VEC4) */
 } sv_gltf_attribute;
 
 typedef struct sv_gltf_lod {
-    const char *name;               /* node and mesh name; NULL = "lod<i>" */
-    const sv_mesh *mesh;            /* may have zero triangles: the node has no mesh */
-    double screen_coverage;         /* MSFT_screencoverage: lower bound of this LOD, in [0,1] */
+    const char *name;       /* node and mesh name; NULL = "lod<i>" */
+    const sv_mesh *mesh;    /* may have zero triangles: the node has no mesh */
+    double screen_coverage; /* MSFT_screencoverage: lower bound of this LOD, in [0,1] */
     const sv_gltf_attribute *attributes; /* optional extra vertex attributes */
     uint32_t attribute_count;
-    const cJSON *extras;            /* optional object merged into the node's extras
+    const cJSON *extras;   /* optional object merged into the node's extras
                                        (e.g. the fade window); copied, not owned */
-    const char *mesh_name;          /* mesh name; NULL = the node's name */
+    const char *mesh_name; /* mesh name; NULL = the node's name */
 } sv_gltf_lod;
 
 /* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a

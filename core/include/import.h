@@ -18,7 +18,7 @@
 #include "mesh.h"
 
 typedef struct sv_file {
-    const char *name;     /* base name as uploaded, e.g. "tree.obj" */
+    const char *name; /* base name as uploaded, e.g. "tree.obj" */
     const uint8_t *data;
     size_t size;
 } sv_file;
@@ -52,9 +52,9 @@ sv_status sv_upload_find(const sv_file *files, size_t count, const char *ref, si
                          sv_error *err);
 
 typedef struct sv_import_options {
-    double unit_scale;  /* metres per source unit; 0 = format default (1) */
-    char up_axis;       /* 'Y' (default, 0 means Y) or 'Z': Z-up sources are rotated to Y-up */
-    sv_limits limits;   /* zero fields = defaults */
+    double unit_scale;       /* metres per source unit; 0 = format default (1) */
+    char up_axis;            /* 'Y' (default, 0 means Y) or 'Z': Z-up sources are rotated to Y-up */
+    sv_limits limits;        /* zero fields = defaults */
     bool missing_files_warn; /* false (default): a referenced .mtl or base-colour texture
                                 that was not uploaded fails with SV_ERR_MISSING; true: a
                                 warning, the material keeps its plain colour */
@@ -62,14 +62,14 @@ typedef struct sv_import_options {
 
 typedef struct sv_import_info {
     sv_format format;
-    double unit_scale;      /* what was applied */
+    double unit_scale; /* what was applied */
     char up_axis;
     uint32_t source_meshes; /* assimp meshes merged */
     uint32_t textures_decoded;
-    uint32_t textures_missing; /* not uploaded or not decodable: material keeps its colour */
-    uint32_t files_missing;    /* referenced files (.mtl, textures) that were not uploaded */
-    char missing_files[256];   /* their names, ", "-separated (", ..." when cut short) */
-    char warnings[4096];    /* '\n'-separated notes (missing textures, ...); the importer
+    uint32_t textures_missing;  /* not uploaded or not decodable: material keeps its colour */
+    uint32_t files_missing;     /* referenced files (.mtl, textures) that were not uploaded */
+    char missing_files[256];    /* their names, ", "-separated (", ..." when cut short) */
+    char warnings[4096];        /* '\n'-separated notes (missing textures, ...); the importer
                                fills at most 3 KiB and says how many it left out, so
                                later checks (plausibility.h) always have room */
     uint32_t warnings_left_out; /* import notes that did not fit */
@@ -82,17 +82,16 @@ typedef struct sv_import_info {
  * A referenced .mtl or base-colour texture that is not among the files fails
  * with SV_ERR_MISSING naming every such file (info->missing_files), unless
  * opt->missing_files_warn (then it is in info->warnings). */
-sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt,
-                    sv_mesh **out, sv_import_info *info, sv_error *err);
+sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt, sv_mesh **out,
+                    sv_import_info *info, sv_error *err);
 
 /* Pre-check of a glTF JSON document or GLB container without assimp: header and
  * chunk lengths, JSON syntax, node graph depth <= limits.max_node_depth and no
  * cycles, node/mesh/accessor counts and accessor sizes within limits, every
  * buffer/image URI either data: or the name of a file in `files`.
  * Exposed for tests and fuzzing. */
-sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb,
-                           const sv_file *files, size_t count,
-                           const sv_limits *limits, sv_error *err);
+sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const sv_file *files,
+                           size_t count, const sv_limits *limits, sv_error *err);
 
 /* Structural pre-check of an OBJ, PLY, FBX or COLLADA file (core/io/mesh_precheck.c)
  * without assimp, iterative and bounded by size: a PLY header must be complete

@@ -13,11 +13,7 @@
 #include "sv.h"
 #include "image.h"
 
-typedef enum sv_alpha_mode {
-    SV_ALPHA_OPAQUE = 0,
-    SV_ALPHA_MASK,
-    SV_ALPHA_BLEND
-} sv_alpha_mode;
+typedef enum sv_alpha_mode { SV_ALPHA_OPAQUE = 0, SV_ALPHA_MASK, SV_ALPHA_BLEND } sv_alpha_mode;
 
 typedef struct sv_material {
     char name[128];
@@ -26,11 +22,11 @@ typedef struct sv_material {
     int32_t normal_texture;    /* tangent-space normal map, -1 when none */
     int32_t occlusion_texture; /* R channel = ambient occlusion, -1 when none */
     sv_alpha_mode alpha_mode;
-    float alpha_cutoff;        /* MASK: texels with alpha < cutoff are discarded (default 0.5) */
+    float alpha_cutoff; /* MASK: texels with alpha < cutoff are discarded (default 0.5) */
     bool double_sided;
-    bool unlit;                /* colour already holds its lighting (baked static light):
+    bool unlit;            /* colour already holds its lighting (baked static light):
                                   drawn as is even when lighting is on (glTF KHR_materials_unlit) */
-    char texture_uri[256];     /* the source's name for base_texture (for reports) */
+    char texture_uri[256]; /* the source's name for base_texture (for reports) */
 } sv_material;
 
 typedef struct sv_mesh {
@@ -49,8 +45,8 @@ typedef struct sv_mesh {
 
 /* Allocates a mesh with room for the given counts (arrays zeroed, materials
  * initialised with sv_material_init). Returns NULL on overflow/allocation failure. */
-sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count,
-                        uint32_t material_count, uint32_t image_count);
+sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count, uint32_t material_count,
+                        uint32_t image_count);
 
 /* Frees the mesh, its arrays and images. NULL is fine. */
 void sv_mesh_destroy(sv_mesh *mesh);
@@ -85,8 +81,8 @@ void sv_tri_normal(const sv_mesh *mesh, uint32_t t, double n[3]);
  * an empty mesh. */
 void sv_mesh_frame_sphere(const sv_mesh *m, double c[3], double *r);
 
-sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count,
-                         sv_mesh **out, sv_error *err);
+sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count, sv_mesh **out,
+                         sv_error *err);
 
 /* New mesh with the triangles of a followed by those of b (either may be NULL);
  * b's material and image indices are offset past a's. */

@@ -21,15 +21,15 @@ typedef struct sv_method_input {
     const sv_mesh *mesh;
     const sv_classification *cls;
     const sv_leaves *leaves;
-    double centre[3];         /* bounding sphere (sv_mesh_sphere) */
+    double centre[3]; /* bounding sphere (sv_mesh_sphere) */
     double radius;
     const sv_scene *scene;
-    uint64_t seed;            /* spec "seed" (default 1): every random choice derives from it */
+    uint64_t seed; /* spec "seed" (default 1): every random choice derives from it */
 } sv_method_input;
 
 typedef struct sv_method {
-    const char *name;         /* spec "method" value and settings key */
-    const char *summary;      /* one line for `GET /v1/info` and --help */
+    const char *name;    /* spec "method" value and settings key */
+    const char *summary; /* one line for `GET /v1/info` and --help */
     /* Validates settings without running (the daemon calls this). */
     sv_status (*check)(const cJSON *settings, sv_error *err);
     /* Builds the stand-in. out is zero-initialised by the caller. */
@@ -69,12 +69,12 @@ const sv_method *const *sv_method_list(size_t *count);
 /* Helpers for strict settings parsing shared by the methods: each returns
  * SV_ERR_SPEC naming `method.key` when the value has the wrong type or lies
  * outside [lo, hi]; a missing key leaves *out unchanged (the default). */
-sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key,
-                            double lo, double hi, double *out, sv_error *err);
-sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key,
-                         long lo, long hi, long *out, sv_error *err);
-sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key,
-                          bool *out, sv_error *err);
+sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key, double lo,
+                            double hi, double *out, sv_error *err);
+sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key, long lo, long hi,
+                         long *out, sv_error *err);
+sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key, bool *out,
+                          sv_error *err);
 /* A per-level integer: a number (every level) or an array of 1..n numbers
  * (level i; the last repeats). out has n entries; missing key: unchanged. */
 sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const char *key, long lo,

@@ -71,14 +71,14 @@
 #define SV_OCTA_GROUND_SCALE 0.5
 
 typedef struct sv_octa_grid {
-    uint32_t n;               /* frames per side, 2..SV_OCTA_MAX_GRID */
-    bool hemi;                /* upper hemisphere only */
-    uint32_t frame_pixels;    /* F: texels per frame side */
-    double centre[3];         /* frame planes pass through it */
-    double half;              /* frame half extent, world units */
-    double cutoff;            /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
-    uint32_t proxy_quads;     /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
-    double elev_scale;        /* S in (0, 1]: directions squashed towards the horizon (1 = Brucks) */
+    uint32_t n;            /* frames per side, 2..SV_OCTA_MAX_GRID */
+    bool hemi;             /* upper hemisphere only */
+    uint32_t frame_pixels; /* F: texels per frame side */
+    double centre[3];      /* frame planes pass through it */
+    double half;           /* frame half extent, world units */
+    double cutoff;         /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
+    uint32_t proxy_quads;  /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
+    double elev_scale;     /* S in (0, 1]: directions squashed towards the horizon (1 = Brucks) */
 } sv_octa_grid;
 
 /* uv in [-1,1]² of unit direction d (conventions above; elev_scale S in
@@ -106,8 +106,8 @@ void sv_octa_select(const sv_octa_grid *g, const double view_dir[3], uint32_t fr
  * camera's forward from its origin plane, INFINITY where not drawn; depth
  * may be NULL). One sample per pixel centre. rgba is allocated. */
 sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv_image *depth_map,
-                         const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba,
-                         float *depth, sv_error *err);
+                         const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba, float *depth,
+                         sv_error *err);
 
 /* Fits g for mesh m: n frames a side, hemi or not, elevation scale
  * elev_scale (outside (0, 1]: 1); centre = the bounds'
@@ -118,7 +118,7 @@ sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv
  * SV_ERR_SPEC for n outside [2, SV_OCTA_MAX_GRID], SV_ERR_UNBAKEABLE for an
  * empty mesh. */
 sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, double elev_scale, sv_octa_grid *g,
-                     sv_error *err);
+                      sv_error *err);
 
 /* Renders the n × n frames of g (F = g->frame_pixels texels each,
  * supersample² samples per texel, 0 = 2, lowered to fit the renderer) into

@@ -26,8 +26,8 @@
 
 #include <stdint.h>
 
-#define SV_PARALLEL_MAX 16     /* chunks (threads) per call, at most */
-#define SV_PARALLEL_DEFAULT 2  /* threads when the caller has no setting: the cores */
+#define SV_PARALLEL_MAX 16    /* chunks (threads) per call, at most */
+#define SV_PARALLEL_DEFAULT 2 /* threads when the caller has no setting: the cores */
 
 /* One chunk's work: chunk index t (0-based), indices [lo, hi). */
 typedef void (*sv_range_fn)(void *ctx, uint32_t t, uint32_t lo, uint32_t hi);

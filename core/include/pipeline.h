@@ -20,14 +20,14 @@ typedef bool (*sv_progress_fn)(void *user, const char *stage, double fraction);
 typedef void (*sv_search_fn)(void *user, int k, int most);
 
 typedef struct sv_bake_request {
-    const sv_file *files;     /* files[0] is the main mesh */
+    const sv_file *files; /* files[0] is the main mesh */
     size_t file_count;
-    const char *spec_json;    /* may be NULL or empty: "{}" */
+    const char *spec_json; /* may be NULL or empty: "{}" */
     size_t spec_len;
-    const char *out_dir;      /* must exist */
-    sv_progress_fn progress;  /* may be NULL */
+    const char *out_dir;     /* must exist */
+    sv_progress_fn progress; /* may be NULL */
     void *user;
-    sv_search_fn search;      /* may be NULL; called with user */
+    sv_search_fn search; /* may be NULL; called with user */
 } sv_bake_request;
 
 /* Runs the bake. On failure nothing but partial files may remain in out_dir

@@ -7,19 +7,19 @@
 
 #include "mesh.h"
 
-#define SV_TALLEST_TREE_M 150.0  /* taller than any living tree: wrong units */
-#define SV_SMALLEST_TREE_M 0.05  /* shorter than 5 cm: wrong units */
+#define SV_TALLEST_TREE_M 150.0 /* taller than any living tree: wrong units */
+#define SV_SMALLEST_TREE_M 0.05 /* shorter than 5 cm: wrong units */
 
 typedef struct sv_up_guess {
-    int z_up;          /* +1: looks Z-up (trunk base at the lowest Z), -1: base at the
+    int z_up;         /* +1: looks Z-up (trunk base at the lowest Z), -1: base at the
                           highest Z, 0: looks Y-up or cannot tell */
-    double height;     /* extent along the up axis the guess implies, metres */
-    char reason[200];  /* why, for warnings and the report */
+    double height;    /* extent along the up axis the guess implies, metres */
+    char reason[200]; /* why, for warnings and the report */
 } sv_up_guess;
 
-#define SV_UP_SLAB 0.05        /* base slab: 5 % of the box's longest side */
-#define SV_UP_AREA_RATIO 2.0   /* a Z extreme holds this much more trunk than the lowest Y */
-#define SV_UP_LONG 1.5         /* "much longer in Z than in Y" */
+#define SV_UP_SLAB 0.05      /* base slab: 5 % of the box's longest side */
+#define SV_UP_AREA_RATIO 2.0 /* a Z extreme holds this much more trunk than the lowest Y */
+#define SV_UP_LONG 1.5       /* "much longer in Z than in Y" */
 
 /* Decides whether mesh (in sylva's frame, +Y up) looks Z-up, from its trunk
  * triangles (tri_part[t] == SV_PART_TRUNK; tri_part may be NULL: every

@@ -13,10 +13,10 @@ typedef struct sv_preview_level {
     sv_eval_draw_fn draw;     /* non-NULL: drawn by this instead of gpu (impostors) */
     void *user;               /* for select or draw */
     const char *name;
-    double pixels;            /* switch size: bounding-sphere diameter in pixels */
+    double pixels; /* switch size: bounding-sphere diameter in pixels */
     double triangles, texels;
-    double iou;               /* mean IoU near the switch size, < 0 = not measured */
-    double iou_pixels;        /* the size that IoU was measured at */
+    double iou;        /* mean IoU near the switch size, < 0 = not measured */
+    double iou_pixels; /* the size that IoU was measured at */
 } sv_preview_level;
 
 /* Renders the original and levels[0..n) with cam (framing the tree's bounding

@@ -19,26 +19,26 @@
 #include "mesh.h"
 
 typedef struct sv_camera {
-    double origin[3];     /* world point at the image centre */
-    double right[3];      /* unit */
-    double up[3];         /* unit, orthogonal to right */
-    double half_width;    /* world units from centre to left/right edge */
-    double half_height;   /* world units from centre to top/bottom edge */
-    double near_dist;     /* clip: keep points with near <= (p-origin)·forward <= far; may be negative */
+    double origin[3];   /* world point at the image centre */
+    double right[3];    /* unit */
+    double up[3];       /* unit, orthogonal to right */
+    double half_width;  /* world units from centre to left/right edge */
+    double half_height; /* world units from centre to top/bottom edge */
+    double near_dist; /* clip: keep points with near <= (p-origin)·forward <= far; may be negative */
     double far_dist;
 } sv_camera;
 
 typedef enum sv_shade {
-    SV_SHADE_ALBEDO = 0,  /* RGBA = base colour × texture, unlit */
-    SV_SHADE_NORMAL,      /* RGB = 0.5 + 0.5 n in camera frame (x=right, y=up, z=toward camera),
+    SV_SHADE_ALBEDO = 0, /* RGBA = base colour × texture, unlit */
+    SV_SHADE_NORMAL,     /* RGB = 0.5 + 0.5 n in camera frame (x=right, y=up, z=toward camera),
                              n facing the camera for two-sided faces; A = coverage */
-    SV_SHADE_LIT          /* albedo × (ambient + diffuse) from `light_dir` (static lighting) */
+    SV_SHADE_LIT         /* albedo × (ambient + diffuse) from `light_dir` (static lighting) */
 } sv_shade;
 
 typedef struct sv_render_options {
     sv_shade shade;
-    double light_dir[3];  /* SV_SHADE_LIT: unit direction towards the light, world space */
-    double ambient;       /* SV_SHADE_LIT: ambient term, default 0 means 0.35 */
+    double light_dir[3]; /* SV_SHADE_LIT: unit direction towards the light, world space */
+    double ambient;      /* SV_SHADE_LIT: ambient term, default 0 means 0.35 */
 } sv_render_options;
 
 typedef struct sv_renderer sv_renderer;
@@ -55,8 +55,7 @@ uint32_t sv_renderer_max_size(const sv_renderer *r);
 
 /* Uploads a mesh (vertices, indices, textures) once for many draws. The mesh
  * must outlive the handle. */
-sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out,
-                             sv_error *err);
+sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out, sv_error *err);
 void sv_gpu_mesh_free(sv_gpu_mesh *g);
 
 /* Draws triangles `tris[0..tri_count)` of the uploaded mesh (all triangles when
@@ -64,10 +63,9 @@ void sv_gpu_mesh_free(sv_gpu_mesh *g);
  * color (may be NULL) receives RGBA8 (allocated by the call; caller frees with
  * sv_image_free). depth (may be NULL) receives width*height floats: distance
  * along forward from the camera origin plane, or INFINITY where nothing was drawn. */
-sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
-                    uint32_t tri_count, const sv_camera *cam,
-                    const sv_render_options *opt, uint32_t width, uint32_t height,
-                    sv_image *color, float *depth, sv_error *err);
+sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, uint32_t tri_count,
+                    const sv_camera *cam, const sv_render_options *opt, uint32_t width,
+                    uint32_t height, sv_image *color, float *depth, sv_error *err);
 
 /* forward = up × right for the camera. */
 void sv_camera_forward(const sv_camera *cam, double fwd[3]);

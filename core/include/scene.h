@@ -12,26 +12,35 @@
 /* STATIC: light baked into the albedo; DYNAMIC: unlit albedo + normal map;
  * UNLIT (the default): albedo as the material shows it, no light, no normal map
  * (what an engine lights itself, and what does not pop at a LOD switch). */
-typedef enum sv_lighting { SV_LIGHTING_STATIC = 0, SV_LIGHTING_DYNAMIC, SV_LIGHTING_UNLIT } sv_lighting;
+typedef enum sv_lighting {
+    SV_LIGHTING_STATIC = 0,
+    SV_LIGHTING_DYNAMIC,
+    SV_LIGHTING_UNLIT
+} sv_lighting;
 /* SIDE (the default): a helix of views from -10° to 40° elevation, the views
  * trees are seen from and the ones ../shared/tools/sveval judges by;
  * ORBIT: the whole sphere; GROUND: 0..20°; AERIAL: 40..90°. */
-typedef enum sv_viewer { SV_VIEWER_ORBIT = 0, SV_VIEWER_GROUND, SV_VIEWER_AERIAL, SV_VIEWER_SIDE } sv_viewer;
+typedef enum sv_viewer {
+    SV_VIEWER_ORBIT = 0,
+    SV_VIEWER_GROUND,
+    SV_VIEWER_AERIAL,
+    SV_VIEWER_SIDE
+} sv_viewer;
 
 typedef struct sv_scene {
     sv_lighting lighting;
-    double light_dir[3];       /* unit, towards the light (static lighting) */
-    bool shadows;              /* depth maps */
-    bool ambient_occlusion;    /* AO maps (dynamic lighting only) */
+    double light_dir[3];    /* unit, towards the light (static lighting) */
+    bool shadows;           /* depth maps */
+    bool ambient_occlusion; /* AO maps (dynamic lighting only) */
     sv_viewer viewer;
-    double distance_min;       /* metres from the camera to the tree */
+    double distance_min; /* metres from the camera to the tree */
     double distance_max;
-    bool distance_auto;        /* true (the default, or "distance": "auto"): the
+    bool distance_auto;     /* true (the default, or "distance": "auto"): the
                                 * distances follow the tree's size once it is
                                 * known (sv_scene_resolve_distance) */
-    uint32_t screen_height;    /* pixels */
-    double fov_y_deg;          /* vertical field of view */
-    double camera_speed;       /* m/s; > 0 enables Cook's motion term */
+    uint32_t screen_height; /* pixels */
+    double fov_y_deg;       /* vertical field of view */
+    double camera_speed;    /* m/s; > 0 enables Cook's motion term */
 } sv_scene;
 
 /* The automatic distance range: from where the tree fills the screen's

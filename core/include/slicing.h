@@ -55,9 +55,8 @@ void sv_slab_bounds_uniform(double lo, double hi, uint32_t k, double *bounds);
  * give slabs of zero thickness). bounds[0] = lo, bounds[k] = hi.
  * Fails with SV_ERR_NOMEM, or SV_ERR_INVALID when lo >= hi or k == 0.
  * With no foliage area at all the bounds are uniform. */
-sv_status sv_slab_bounds_foliage(const double *proj, const double *area, size_t count,
-                                 double lo, double hi, uint32_t k, double *bounds,
-                                 sv_error *err);
+sv_status sv_slab_bounds_foliage(const double *proj, const double *area, size_t count, double lo,
+                                 double hi, uint32_t k, double *bounds, sv_error *err);
 
 /* The blending rule (docs/methods/slicing.md). For a unit view direction v
  * (either sign: the rule is symmetric, v and −v give the same answer):

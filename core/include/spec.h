@@ -21,50 +21,51 @@
 
 typedef struct sv_spec {
     char method[32];
-    cJSON *root;                  /* the parsed document, owned */
-    const cJSON *settings;        /* root[method] or NULL (defaults) */
+    cJSON *root;           /* the parsed document, owned */
+    const cJSON *settings; /* root[method] or NULL (defaults) */
     sv_scene scene;
-    uint64_t seed;                /* default 1 */
+    uint64_t seed; /* default 1 */
     /* import */
-    double unit_scale;            /* metres per unit; 0 = format default */
-    char up_axis;                 /* 'Y', 'Z' or 'A' ("auto": detected, plausibility.h) */
-    bool missing_files_warn;      /* import.missing_files "warn": a referenced .mtl or texture
+    double unit_scale;       /* metres per unit; 0 = format default */
+    char up_axis;            /* 'Y', 'Z' or 'A' ("auto": detected, plausibility.h) */
+    bool missing_files_warn; /* import.missing_files "warn": a referenced .mtl or texture
                                      that was not supplied is a warning; false ("error", the
                                      default): the import fails (SV_ERR_MISSING) */
     /* classify */
-    const char **foliage;         /* pointers into root */
+    const char **foliage; /* pointers into root */
     size_t foliage_count;
     const char **trunk;
     size_t trunk_count;
     /* bake */
-    uint32_t max_atlas;           /* default 2048 */
-    uint32_t max_supersample;     /* default 8 */
-    double texel_size;            /* 0 = auto */
-    double alpha_threshold;       /* 0 = "calibrated" (the default): coverage alpha, cutoff
+    uint32_t max_atlas;       /* default 2048 */
+    uint32_t max_supersample; /* default 8 */
+    double texel_size;        /* 0 = auto */
+    double alpha_threshold;   /* 0 = "calibrated" (the default): coverage alpha, cutoff
                                      calibrated per level; else a binary threshold */
-    uint32_t texel_pixels;        /* default 256: texels are at least 2·radius / texel_pixels
+    uint32_t texel_pixels;    /* default 256: texels are at least 2·radius / texel_pixels
                                      (0 = no floor: the finest that fits max_atlas) */
-    uint32_t padding;             /* default 4 */
-    uint32_t dilate;              /* default 8 */
+    uint32_t padding;         /* default 4 */
+    uint32_t dilate;          /* default 8 */
     /* evaluate */
-    bool evaluate;                /* default true */
-    uint32_t eval_views;          /* default 24 */
-    uint32_t eval_supersample;    /* default 4 */
+    bool evaluate;                          /* default true */
+    uint32_t eval_views;                    /* default 24 */
+    uint32_t eval_supersample;              /* default 4 */
     uint32_t eval_sizes[SV_MAX_EVAL_SIZES]; /* default 256,128,64,32 */
     uint32_t eval_size_count;
     /* lod */
-    double lod_tolerance;         /* max (1 - coverage IoU) for a LOD at lod_tolerance_pixels, default 0.1 */
-    double lod_tolerance_pixels;  /* size where lod_tolerance holds; it scales as 1/size (default 64; 0 = one tolerance at every size) */
-    bool lod_chain;               /* full mesh → stochastic levels → method → coarsest (default true) */
-    char lod_coarsest[32];        /* method appended as the coarsest LOD, "" = none
+    double lod_tolerance; /* max (1 - coverage IoU) for a LOD at lod_tolerance_pixels, default 0.1 */
+    double
+        lod_tolerance_pixels; /* size where lod_tolerance holds; it scales as 1/size (default 64; 0 = one tolerance at every size) */
+    bool lod_chain; /* full mesh → stochastic levels → method → coarsest (default true) */
+    char lod_coarsest[32]; /* method appended as the coarsest LOD, "" = none
                                      (default "crossed_quads"); docs/lod.md */
     /* target (docs/spec.md "target"): search the method's knobs, cheapest first */
-    bool has_target;              /* a "target" object was given */
-    double target_iou;            /* coverage IoU to reach, 0 = none */
-    uint32_t target_pixels;       /* screen size the IoU is judged at (an evaluate size) */
-    bool target_worst;            /* judge the worst view instead of the mean */
-    uint32_t target_max_planes;   /* 0 = no budget */
-    uint32_t target_max_triangles;/* 0 = no budget */
+    bool has_target;               /* a "target" object was given */
+    double target_iou;             /* coverage IoU to reach, 0 = none */
+    uint32_t target_pixels;        /* screen size the IoU is judged at (an evaluate size) */
+    bool target_worst;             /* judge the worst view instead of the mean */
+    uint32_t target_max_planes;    /* 0 = no budget */
+    uint32_t target_max_triangles; /* 0 = no budget */
 } sv_spec;
 
 /* Parses and validates a spec (including the method's own settings through its

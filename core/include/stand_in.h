@@ -15,17 +15,17 @@
 #define SV_PARTS_FOLIAGE 2u
 
 typedef struct sv_quad {
-    double normal[3];     /* unit plane normal; the texture is seen from +normal */
-    double d;             /* plane: normal·x + d = 0 */
-    double centre[3];     /* rectangle centre, on the plane */
-    double axis_u[3];     /* unit, in the plane: texture +u (image +x) */
-    double axis_v[3];     /* unit, in the plane: texture +v (image +y, up); normal = u × v */
-    double half_u, half_v;/* half extents in world units */
-    double slab;          /* half thickness: faces whose vertices all satisfy |n·p + d| <= slab are
+    double normal[3];      /* unit plane normal; the texture is seen from +normal */
+    double d;              /* plane: normal·x + d = 0 */
+    double centre[3];      /* rectangle centre, on the plane */
+    double axis_u[3];      /* unit, in the plane: texture +u (image +x) */
+    double axis_v[3];      /* unit, in the plane: texture +v (image +y, up); normal = u × v */
+    double half_u, half_v; /* half extents in world units */
+    double slab;     /* half thickness: faces whose vertices all satisfy |n·p + d| <= slab are
                              baked (or, with clip, every face cut by the slab's two planes) */
-    bool clip;            /* true: clip geometry at the slab planes (slicings) instead of
+    bool clip;       /* true: clip geometry at the slab planes (slicings) instead of
                              selecting whole faces (billboard clouds, clusters) */
-    uint32_t *faces;      /* faces this quad simplifies (assigned), owned */
+    uint32_t *faces; /* faces this quad simplifies (assigned), owned */
     uint32_t face_count;
     double face_area;     /* total area of the assigned faces */
     uint8_t parts;        /* when bake_faces is NULL: mask of triangle parts eligible
@@ -33,14 +33,14 @@ typedef struct sv_quad {
     uint32_t *bake_faces; /* faces to render into the texture; NULL = every face of the
                              method's input set within the slab */
     uint32_t bake_face_count;
-    int32_t group;        /* slicing index, cluster level, ... (-1 none) */
-    int32_t parent;       /* index of the coarser-level quad this one merges into (-1 none) */
+    int32_t group;  /* slicing index, cluster level, ... (-1 none) */
+    int32_t parent; /* index of the coarser-level quad this one merges into (-1 none) */
 } sv_quad;
 
 typedef enum sv_trunk_mode {
-    SV_TRUNK_NONE = 0,    /* the trunk is in the quads */
-    SV_TRUNK_MESH,        /* the trunk triangles are kept as they are */
-    SV_TRUNK_SIMPLIFIED   /* the trunk triangles simplified (meshoptimizer) to trunk_ratio */
+    SV_TRUNK_NONE = 0,  /* the trunk is in the quads */
+    SV_TRUNK_MESH,      /* the trunk triangles are kept as they are */
+    SV_TRUNK_SIMPLIFIED /* the trunk triangles simplified (meshoptimizer) to trunk_ratio */
 } sv_trunk_mode;
 
 #define SV_MAX_VIEW_SETS 4
@@ -57,25 +57,25 @@ typedef uint32_t (*sv_view_select_fn)(const struct sv_lod_plan *lod, const doubl
                                       double weights[SV_MAX_VIEW_SETS]);
 
 typedef struct sv_lod_plan {
-    char name[32];            /* "lod0", "clusters32", ... */
-    sv_quad *quads;           /* owned */
+    char name[32];  /* "lod0", "clusters32", ... */
+    sv_quad *quads; /* owned */
     uint32_t quad_count;
-    sv_mesh *geometry;        /* optional explicit mesh drawn as is (stochastic levels); owned */
+    sv_mesh *geometry; /* optional explicit mesh drawn as is (stochastic levels); owned */
     sv_trunk_mode trunk;
-    double trunk_ratio;       /* SV_TRUNK_SIMPLIFIED: target fraction of trunk triangles */
+    double trunk_ratio;           /* SV_TRUNK_SIMPLIFIED: target fraction of trunk triangles */
     uint32_t trunk_max_triangles; /* SV_TRUNK_SIMPLIFIED: hard cap on the kept trunk's
                                  triangles (0 = none): simplified within the error
                                  bound first, then meshopt_simplifySloppy to the cap */
-    sv_view_select_fn select; /* optional: view-dependent drawing (see above); the kept
+    sv_view_select_fn select;     /* optional: view-dependent drawing (see above); the kept
                                  geometry is always drawn */
-    void *select_data;        /* for select's use (owned by the method; freed with
+    void *select_data;            /* for select's use (owned by the method; freed with
                                  free() by sv_stand_in_free) */
-    struct sv_octa_grid *octa;/* non-NULL: an octahedral impostor (octahedral.h) instead of
+    struct sv_octa_grid *octa;    /* non-NULL: an octahedral impostor (octahedral.h) instead of
                                  quads; owned, freed with free() */
 } sv_lod_plan;
 
 typedef struct sv_stand_in {
-    sv_lod_plan *lods;        /* finest first; owned */
+    sv_lod_plan *lods; /* finest first; owned */
     uint32_t lod_count;
     char method[32];
 } sv_stand_in;

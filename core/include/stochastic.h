@@ -90,9 +90,9 @@ typedef sv_status (*sv_coverage_fn)(void *user, const uint32_t *tris, uint32_t c
                                     double *covered, sv_error *err);
 
 typedef struct sv_stoch_ratio {
-    double r;                  /* the measured ratio */
-    double covered_all;        /* coverage of every leaf */
-    double covered_sub;        /* coverage of the first n_sub leaves of the order */
+    double r;           /* the measured ratio */
+    double covered_all; /* coverage of every leaf */
+    double covered_sub; /* coverage of the first n_sub leaves of the order */
     uint32_t n_sub, n;
 } sv_stoch_ratio;
 
@@ -113,18 +113,18 @@ typedef struct sv_stochastic_settings {
     uint32_t level_triangles[SV_STOCH_MAX_LEVELS]; /* {"triangles": N} entries (0 = given as λ):
                                            the level draws at most N triangles, trunk included */
     uint32_t level_count;
-    double h;                  /* "h": in (0, 1), default 0.5 */
-    double d0;                 /* "d0": metres where simplification starts; 0 = scene.distance_min */
-    sv_stoch_order_mode order; /* "order": "random" (default) | "area" */
-    double fade;               /* "fade": fade radius, [0, 0.5], default 0.1 (Cook) */
-    bool area_preservation;    /* "area_preservation": default true */
-    bool contrast_preservation;/* "contrast_preservation": default true */
-    double shutter;            /* "shutter": seconds of exposure for the motion term, default 1/60 */
-    double ratio_fraction;     /* "ratio_fraction": leaf fraction drawn to measure r, default 0.1 */
-    bool simplify_leaves;      /* "simplify_leaves": default true: below λ = 1 a leaf modelled
+    double h;  /* "h": in (0, 1), default 0.5 */
+    double d0; /* "d0": metres where simplification starts; 0 = scene.distance_min */
+    sv_stoch_order_mode order;  /* "order": "random" (default) | "area" */
+    double fade;                /* "fade": fade radius, [0, 0.5], default 0.1 (Cook) */
+    bool area_preservation;     /* "area_preservation": default true */
+    bool contrast_preservation; /* "contrast_preservation": default true */
+    double shutter;        /* "shutter": seconds of exposure for the motion term, default 1/60 */
+    double ratio_fraction; /* "ratio_fraction": leaf fraction drawn to measure r, default 0.1 */
+    bool simplify_leaves;  /* "simplify_leaves": default true: below λ = 1 a leaf modelled
                                   with several triangles is simplified to the level's error
                                   (sv_stochastic_level_error) before leaves are dropped */
-    double visible_ratio;      /* "visible_ratio": r given by the user, in (0, 1]; 0 (default) =
+    double visible_ratio;  /* "visible_ratio": r given by the user, in (0, 1]; 0 (default) =
                                   the pipeline measures it by rendering. The method's run()
                                   (without a renderer) needs it given. */
 } sv_stochastic_settings;
@@ -168,33 +168,33 @@ double sv_stochastic_level_error(const sv_stochastic_settings *s, const sv_scene
                                  double radius, double lambda);
 
 typedef struct sv_stoch_level {
-    double lambda;             /* the level: its foliage triangles are about λ of the tree's */
-    double leaf_fraction;      /* μ = leaves / N: λ, or more when simplified leaves fit more */
-    double leaf_error;         /* metres each kept leaf's outline may move (0 = as modelled) */
-    uint64_t leaf_triangles;   /* foliage triangles drawn */
-    double area_scale;         /* s(r, μ) (1 when area preservation is off) */
-    double area_gamma;         /* leaves scaled by (s × gain)^(γ/2): 1 (the paper) unless the
+    double lambda;               /* the level: its foliage triangles are about λ of the tree's */
+    double leaf_fraction;        /* μ = leaves / N: λ, or more when simplified leaves fit more */
+    double leaf_error;           /* metres each kept leaf's outline may move (0 = as modelled) */
+    uint64_t leaf_triangles;     /* foliage triangles drawn */
+    double area_scale;           /* s(r, μ) (1 when area preservation is off) */
+    double area_gamma;           /* leaves scaled by (s × gain)^(γ/2): 1 (the paper) unless the
                                   scorer found 0.85 or 0.7 closer to the original */
-    double contrast_alpha;     /* √μ (1 when contrast preservation is off) */
-    uint32_t leaves;           /* ⌈μN⌉ */
-    double fade_lo, fade_hi;   /* sv_stochastic_fade at μ */
-    sv_mesh *geometry;         /* the drawn leaves (owned until moved out) */
-    float *leaf_centre;        /* 3 per geometry vertex: its leaf's centre */
-    float *leaf_order;         /* 1 per geometry vertex: (order position + 0.5) / N */
-    bool trunk_in_geometry;    /* the trunk was built first and leads the geometry */
-    double trunk_error;        /* when trunk_in_geometry: the bound its trunk was built to (m) */
-    uint32_t trunk_vertices;   /* when trunk_in_geometry: the geometry's first vertices */
-    uint32_t trunk_triangles;  /* when trunk_in_geometry: the geometry's first triangles */
+    double contrast_alpha;       /* √μ (1 when contrast preservation is off) */
+    uint32_t leaves;             /* ⌈μN⌉ */
+    double fade_lo, fade_hi;     /* sv_stochastic_fade at μ */
+    sv_mesh *geometry;           /* the drawn leaves (owned until moved out) */
+    float *leaf_centre;          /* 3 per geometry vertex: its leaf's centre */
+    float *leaf_order;           /* 1 per geometry vertex: (order position + 0.5) / N */
+    bool trunk_in_geometry;      /* the trunk was built first and leads the geometry */
+    double trunk_error;          /* when trunk_in_geometry: the bound its trunk was built to (m) */
+    uint32_t trunk_vertices;     /* when trunk_in_geometry: the geometry's first vertices */
+    uint32_t trunk_triangles;    /* when trunk_in_geometry: the geometry's first triangles */
     uint32_t contrast_materials; /* material copies added for contrast bins */
-    uint32_t contrast_capped;  /* leaves whose brightening was capped at factor 1 */
+    uint32_t contrast_capped;    /* leaves whose brightening was capped at factor 1 */
 } sv_stoch_level;
 
 typedef struct sv_stoch_result {
     sv_stoch_level levels[SV_STOCH_MAX_LEVELS];
     uint32_t level_count;
-    uint32_t *order;           /* N leaf indices */
-    uint32_t leaf_count;       /* N */
-    double mean_color[3];      /* c̄, area-weighted mean leaf colour (0..1) */
+    uint32_t *order;      /* N leaf indices */
+    uint32_t leaf_count;  /* N */
+    double mean_color[3]; /* c̄, area-weighted mean leaf colour (0..1) */
     double r;
 } sv_stoch_result;
 
@@ -240,9 +240,8 @@ typedef struct sv_stoch_scorer {
  * to Ȳ + √μ (Y − Ȳ) by a base-colour factor, quantised in steps of 2^(1/16);
  * factors are capped where the base colour would exceed 1). On failure out is
  * freed. */
-sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
-                              double r, const sv_stoch_scorer *scorer, sv_stoch_result *out,
-                              sv_error *err);
+sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s, double r,
+                              const sv_stoch_scorer *scorer, sv_stoch_result *out, sv_error *err);
 
 /* The trunk cap of level i built as L: for a level given as {"triangles": N},
  * N minus the leaf triangles drawn (at least 1), so leaves and trunk together

@@ -59,13 +59,13 @@ sv_status sv_fail(sv_error *err, sv_status st, const char *fmt, ...)
 /* Limits on what the importer and validator accept. Zero fields mean "use the
  * default" (see sv_limits_default). */
 typedef struct sv_limits {
-    uint64_t max_triangles;     /* default 5,000,000 */
-    uint64_t max_vertices;      /* default 15,000,000 */
-    uint32_t max_texture_size;  /* per side, default 16384 */
-    uint32_t max_materials;     /* default 4096 */
-    uint32_t max_node_depth;    /* glTF node depth, default 256 */
-    uint32_t max_nodes;         /* glTF node count, default 100,000 */
-    uint64_t max_file_bytes;    /* per file, default 1 GiB */
+    uint64_t max_triangles;    /* default 5,000,000 */
+    uint64_t max_vertices;     /* default 15,000,000 */
+    uint32_t max_texture_size; /* per side, default 16384 */
+    uint32_t max_materials;    /* default 4096 */
+    uint32_t max_node_depth;   /* glTF node depth, default 256 */
+    uint32_t max_nodes;        /* glTF node count, default 100,000 */
+    uint64_t max_file_bytes;   /* per file, default 1 GiB */
 } sv_limits;
 
 /* Returns l with every zero field replaced by its default. */

@@ -27,10 +27,10 @@ static uint32_t rd32(const uint8_t *p)
 }
 
 typedef struct buffer_info {
-    uint64_t declared;    /* byteLength */
-    const uint8_t *data;  /* bytes, when available in memory */
-    size_t size;          /* actual size of data */
-    uint8_t *owned;       /* decoded data: URI, freed at the end */
+    uint64_t declared;   /* byteLength */
+    const uint8_t *data; /* bytes, when available in memory */
+    size_t size;         /* actual size of data */
+    uint8_t *owned;      /* decoded data: URI, freed at the end */
 } buffer_info;
 
 typedef struct precheck {
@@ -74,8 +74,8 @@ static sv_status get_index(precheck *pc, const cJSON *obj, const char *key, cons
     *out = -1;
     if (!present) return SV_OK;
     if (v >= (uint64_t)n)
-        return sv_fail(pc->err, SV_ERR_PARSE, "glTF %s %d: '%s' refers to %s %llu of %d", what,
-                       idx, key, target, (unsigned long long)v, n);
+        return sv_fail(pc->err, SV_ERR_PARSE, "glTF %s %d: '%s' refers to %s %llu of %d", what, idx,
+                       key, target, (unsigned long long)v, n);
     *out = (int64_t)v;
     return SV_OK;
 }
@@ -174,10 +174,11 @@ static sv_status resolve_uri(precheck *pc, const char *uri, const char *what, in
             return sv_fail(pc->err, SV_ERR_PARSE, "glTF %s %d: data: URI is not base64", what, idx);
         size_t n = strlen(comma + 1), k = 0;
         if (!b64_decode(comma + 1, n, NULL, &k))
-            return sv_fail(pc->err, SV_ERR_PARSE, "glTF %s %d: data: URI is not valid base64",
-                           what, idx);
+            return sv_fail(pc->err, SV_ERR_PARSE, "glTF %s %d: data: URI is not valid base64", what,
+                           idx);
         uint8_t *o = malloc(k ? k : 1);
-        if (!o) return sv_fail(pc->err, SV_ERR_NOMEM, "glTF %s %d: cannot decode data: URI", what, idx);
+        if (!o)
+            return sv_fail(pc->err, SV_ERR_NOMEM, "glTF %s %d: cannot decode data: URI", what, idx);
         b64_decode(comma + 1, n, o, &k);
         *data = *owned = o;
         *size = k;
@@ -223,9 +224,10 @@ static sv_status check_glb(precheck *pc, const uint8_t *d, size_t size, const ui
     int chunk = 0;
     while (off < size) {
         if (size - off < 8)
-            return sv_fail(pc->err, SV_ERR_PARSE,
-                           "GLB chunk %d truncated: %zu bytes left at offset %zu, a chunk header is 8",
-                           chunk, size - off, off);
+            return sv_fail(
+                pc->err, SV_ERR_PARSE,
+                "GLB chunk %d truncated: %zu bytes left at offset %zu, a chunk header is 8", chunk,
+                size - off, off);
         uint32_t clen = rd32(d + off), ctype = rd32(d + off + 4);
         if ((uint64_t)clen > size - off - 8)
             return sv_fail(pc->err, SV_ERR_PARSE,
@@ -258,7 +260,8 @@ static sv_status check_buffers(precheck *pc, bool is_glb, const uint8_t *bin, si
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
         if (!uri) {
             if (!(is_glb && i == 0 && bin))
-                return sv_fail(pc->err, SV_ERR_PARSE, "glTF buffer %d has no uri and no GLB BIN chunk", i);
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF buffer %d has no uri and no GLB BIN chunk", i);
             pc->buf[i].data = bin;
             pc->buf[i].size = bin_len;
         } else {
@@ -290,13 +293,15 @@ static sv_status check_buffers(precheck *pc, bool is_glb, const uint8_t *bin, si
         if (st == SV_OK) st = get_uint(pc, v, "byteStride", "bufferView", i, &stride, &present);
         if (st != SV_OK) return st;
         if (present && (stride < 4 || stride > 252))
-            return sv_fail(pc->err, SV_ERR_PARSE, "glTF bufferView %d: byteStride %llu is not in 4..252",
-                           i, (unsigned long long)stride);
-        if (off > pc->buf[bi].declared || len > pc->buf[bi].declared - off)
             return sv_fail(pc->err, SV_ERR_PARSE,
-                           "glTF bufferView %d (offset %llu, length %llu) overruns buffer %lld of %llu bytes",
-                           i, (unsigned long long)off, (unsigned long long)len, (long long)bi,
-                           (unsigned long long)pc->buf[bi].declared);
+                           "glTF bufferView %d: byteStride %llu is not in 4..252", i,
+                           (unsigned long long)stride);
+        if (off > pc->buf[bi].declared || len > pc->buf[bi].declared - off)
+            return sv_fail(
+                pc->err, SV_ERR_PARSE,
+                "glTF bufferView %d (offset %llu, length %llu) overruns buffer %lld of %llu bytes",
+                i, (unsigned long long)off, (unsigned long long)len, (long long)bi,
+                (unsigned long long)pc->buf[bi].declared);
     }
     return SV_OK;
 }
@@ -304,17 +309,27 @@ static sv_status check_buffers(precheck *pc, bool is_glb, const uint8_t *bin, si
 static int component_size(uint64_t ct)
 {
     switch (ct) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    case 5125: case 5126: return 4;
-    default: return 0;
+    case 5120:
+    case 5121:
+        return 1;
+    case 5122:
+    case 5123:
+        return 2;
+    case 5125:
+    case 5126:
+        return 4;
+    default:
+        return 0;
     }
 }
 
 static int type_components(const char *t)
 {
-    static const struct { const char *name; int n; } types[] = {
-        {"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}, {"MAT2", 4}, {"MAT3", 9}, {"MAT4", 16}};
+    static const struct {
+        const char *name;
+        int n;
+    } types[] = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
+                 {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
     for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
         if (strcmp(t, types[i].name) == 0) return types[i].n;
     return 0;
@@ -354,7 +369,8 @@ static sv_status check_accessors(precheck *pc)
         uint64_t need = off + (count - 1) * stride + elem; /* count < 2^32, stride <= 252 */
         if (off > vlen || need > vlen)
             return sv_fail(pc->err, SV_ERR_PARSE,
-                           "glTF accessor %d needs %llu bytes (count %llu × stride %llu) but bufferView %lld has %llu",
+                           "glTF accessor %d needs %llu bytes (count %llu × stride %llu) but "
+                           "bufferView %lld has %llu",
                            i, (unsigned long long)need, (unsigned long long)count,
                            (unsigned long long)stride, (long long)vi, (unsigned long long)vlen);
     }
@@ -364,7 +380,8 @@ static sv_status check_accessors(precheck *pc)
 /* Reads the accessor's element count (validated above). */
 static uint64_t accessor_count(precheck *pc, int64_t ai)
 {
-    const cJSON *c = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(pc->accessors, (int)ai), "count");
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(pc->accessors, (int)ai),
+                                                      "count");
     return (uint64_t)c->valuedouble;
 }
 
@@ -381,8 +398,8 @@ static sv_status check_index_values(precheck *pc, int mesh, int prim, int64_t ai
     int cs = component_size(ct);
     if (ct != 5121 && ct != 5123 && ct != 5125)
         return sv_fail(pc->err, SV_ERR_PARSE,
-                       "glTF mesh %d primitive %d: index accessor %lld has componentType %llu", mesh,
-                       prim, (long long)ai, (unsigned long long)ct);
+                       "glTF mesh %d primitive %d: index accessor %lld has componentType %llu",
+                       mesh, prim, (long long)ai, (unsigned long long)ct);
     uint64_t aoff = 0, voff = 0, stride = 0, count = accessor_count(pc, ai);
     bool present;
     get_uint(pc, a, "byteOffset", "accessor", (int)ai, &aoff, &present);
@@ -418,7 +435,8 @@ static sv_status check_meshes(precheck *pc)
             const cJSON *pr = cJSON_GetArrayItem(prims, p);
             const cJSON *attrs = cJSON_GetObjectItemCaseSensitive(pr, "attributes");
             if (!cJSON_IsObject(attrs))
-                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no attributes", m, p);
+                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no attributes",
+                               m, p);
             int64_t pos, ind, mat;
             uint64_t mode = 4;
             bool present;
@@ -437,10 +455,13 @@ static sv_status check_meshes(precheck *pc)
             if (st == SV_OK) st = get_uint(pc, pr, "mode", "mesh", m, &mode, &present);
             if (st != SV_OK) return st;
             if (pos < 0)
-                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no POSITION", m, p);
+                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no POSITION",
+                               m, p);
             uint64_t nv = accessor_count(pc, pos);
             uint64_t ni = ind >= 0 ? accessor_count(pc, ind) : nv;
-            uint64_t tris = mode == 4 ? ni / 3 : (mode == 5 || mode == 6) ? (ni >= 3 ? ni - 2 : 0) : 0;
+            uint64_t tris = mode == 4                  ? ni / 3
+                            : (mode == 5 || mode == 6) ? (ni >= 3 ? ni - 2 : 0)
+                                                       : 0;
             pc->mesh_tris[m] += tris;
             pc->mesh_verts[m] += nv;
             if (ind >= 0) {
@@ -466,9 +487,10 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
             tris += pc->mesh_tris[mesh];
             verts += pc->mesh_verts[mesh];
             if (tris > pc->lim.max_triangles)
-                return sv_fail(pc->err, SV_ERR_LIMIT,
-                               "glTF declares more than %llu triangles (node %d instances mesh %lld)",
-                               (unsigned long long)pc->lim.max_triangles, i, (long long)mesh);
+                return sv_fail(
+                    pc->err, SV_ERR_LIMIT,
+                    "glTF declares more than %llu triangles (node %d instances mesh %lld)",
+                    (unsigned long long)pc->lim.max_triangles, i, (long long)mesh);
             if (verts > pc->lim.max_vertices)
                 return sv_fail(pc->err, SV_ERR_LIMIT, "glTF declares more than %llu vertices",
                                (unsigned long long)pc->lim.max_vertices);
@@ -480,11 +502,13 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
         for (const cJSON *c = ch->child; c; c = c->next) {
             double d = c->valuedouble;
             if (!cJSON_IsNumber(c) || !(d >= 0) || d >= n || floor(d) != d)
-                return sv_fail(pc->err, SV_ERR_PARSE, "glTF node %d has a child that is not a node index", i);
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF node %d has a child that is not a node index", i);
             int k = (int)d;
             if (pc->parent[k] >= 0)
                 return sv_fail(pc->err, SV_ERR_PARSE,
-                               "glTF node %d is a child of both node %d and node %d (the node graph must be a tree)",
+                               "glTF node %d is a child of both node %d and node %d (the node "
+                               "graph must be a tree)",
                                k, pc->parent[k], i);
             pc->parent[k] = i;
         }
@@ -495,9 +519,11 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
             verts += pc->mesh_verts[m];
         }
         if (tris > pc->lim.max_triangles || verts > pc->lim.max_vertices)
-            return sv_fail(pc->err, SV_ERR_LIMIT, "glTF declares %llu triangles, %llu vertices (limits %llu, %llu)",
+            return sv_fail(pc->err, SV_ERR_LIMIT,
+                           "glTF declares %llu triangles, %llu vertices (limits %llu, %llu)",
                            (unsigned long long)tris, (unsigned long long)verts,
-                           (unsigned long long)pc->lim.max_triangles, (unsigned long long)pc->lim.max_vertices);
+                           (unsigned long long)pc->lim.max_triangles,
+                           (unsigned long long)pc->lim.max_vertices);
     }
     /* Iterative depth-first walk from the roots. Every node has at most one
      * parent, so each is pushed at most once; a node never reached lies on (or
@@ -515,7 +541,8 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
                 return sv_fail(pc->err, SV_ERR_LIMIT,
                                "glTF node graph is deeper than %u levels (node %u is at depth %u)",
                                pc->lim.max_node_depth, node, depth);
-            const cJSON *ch = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(pc->nodes, (int)node), "children");
+            const cJSON *ch = cJSON_GetObjectItemCaseSensitive(
+                cJSON_GetArrayItem(pc->nodes, (int)node), "children");
             for (const cJSON *c = ch ? ch->child : NULL; c; c = c->next) {
                 stack[sp++] = (uint32_t)c->valuedouble;
                 stack[sp++] = depth + 1;
@@ -530,7 +557,9 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
                 j = pc->parent[j];
                 steps++;
             }
-            if (j >= 0) return sv_fail(pc->err, SV_ERR_PARSE, "glTF node graph has a cycle through node %d", i);
+            if (j >= 0)
+                return sv_fail(pc->err, SV_ERR_PARSE, "glTF node graph has a cycle through node %d",
+                               i);
         }
         return sv_fail(pc->err, SV_ERR_PARSE, "glTF node graph has a cycle");
     }
@@ -545,7 +574,8 @@ static sv_status check_nodes(precheck *pc, const cJSON *root)
         for (const cJSON *c = sn ? sn->child : NULL; c; c = c->next) {
             double d = c->valuedouble;
             if (!cJSON_IsNumber(c) || !(d >= 0) || d >= n || floor(d) != d)
-                return sv_fail(pc->err, SV_ERR_PARSE, "glTF scene %d refers to a node that does not exist", si);
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF scene %d refers to a node that does not exist", si);
         }
     }
     return SV_OK;
@@ -560,7 +590,8 @@ static sv_status check_images(precheck *pc)
         if (st != SV_OK) return st;
         const cJSON *uri = cJSON_GetObjectItemCaseSensitive(im, "uri");
         if (!uri) continue;
-        if (!cJSON_IsString(uri)) return sv_fail(pc->err, SV_ERR_PARSE, "glTF image %d: uri is not a string", i);
+        if (!cJSON_IsString(uri))
+            return sv_fail(pc->err, SV_ERR_PARSE, "glTF image %d: uri is not a string", i);
         if (strncmp(uri->valuestring, "data:", 5) == 0) continue; /* decoded by the importer */
         const uint8_t *d;
         size_t sz;
@@ -597,7 +628,8 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const 
     cJSON *root = cJSON_ParseWithLengthOpts((const char *)json, json_len, &end, 0);
     if (!root) {
         size_t at = end ? (size_t)(end - (const char *)json) : 0;
-        return sv_fail(err, SV_ERR_PARSE, "glTF JSON syntax error at byte %zu of %zu", at, json_len);
+        return sv_fail(err, SV_ERR_PARSE, "glTF JSON syntax error at byte %zu of %zu", at,
+                       json_len);
     }
     if (!cJSON_IsObject(root)) {
         st = sv_fail(err, SV_ERR_PARSE, "glTF JSON is not an object");
@@ -610,7 +642,8 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const 
         goto out;
     }
     if (ver->valuestring[0] != '2' || ver->valuestring[1] != '.') {
-        st = sv_fail(err, SV_ERR_FORMAT, "glTF version '%.20s' is not supported (2.x only)", ver->valuestring);
+        st = sv_fail(err, SV_ERR_FORMAT, "glTF version '%.20s' is not supported (2.x only)",
+                     ver->valuestring);
         goto out;
     }
     if ((st = get_array(&pc, root, "nodes", &pc.nodes, &pc.n_nodes)) != SV_OK ||
@@ -622,11 +655,13 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const 
         (st = get_array(&pc, root, "materials", &pc.materials, &pc.n_materials)) != SV_OK)
         goto out;
     if ((uint64_t)pc.n_nodes > pc.lim.max_nodes) {
-        st = sv_fail(err, SV_ERR_LIMIT, "glTF has %d nodes (limit %u)", pc.n_nodes, pc.lim.max_nodes);
+        st = sv_fail(err, SV_ERR_LIMIT, "glTF has %d nodes (limit %u)", pc.n_nodes,
+                     pc.lim.max_nodes);
         goto out;
     }
     if ((uint64_t)pc.n_meshes > pc.lim.max_nodes) {
-        st = sv_fail(err, SV_ERR_LIMIT, "glTF has %d meshes (limit %u)", pc.n_meshes, pc.lim.max_nodes);
+        st = sv_fail(err, SV_ERR_LIMIT, "glTF has %d meshes (limit %u)", pc.n_meshes,
+                     pc.lim.max_nodes);
         goto out;
     }
     if ((uint64_t)pc.n_materials > pc.lim.max_materials) {

@@ -56,7 +56,8 @@ static sv_status bin_append(writer *w, const void *data, size_t size, size_t *of
     if (padded < size || w->bin_len > SIZE_MAX - padded) return nomem(w);
     size_t need = w->bin_len + padded;
     if (need > 0xFFFFFFF0u)
-        return w->last = sv_fail(w->err, SV_ERR_LIMIT, "glTF writer: binary chunk would exceed 4 GiB");
+        return w->last = sv_fail(w->err, SV_ERR_LIMIT,
+                                 "glTF writer: binary chunk would exceed 4 GiB");
     if (need > w->bin_cap) {
         size_t cap = w->bin_cap ? w->bin_cap : 4096;
         while (cap < need) cap *= 2;
@@ -105,9 +106,8 @@ static const char *type_name(uint32_t components)
 /* Appends data as a new buffer view + accessor; returns accessor index or -1
  * (error already recorded in w->err). min/max (may be NULL) have `components`
  * entries each. */
-static int add_accessor(writer *w, const void *data, size_t bytes, int component_type,
-                        size_t count, uint32_t components, int target, const double *mn,
-                        const double *mx)
+static int add_accessor(writer *w, const void *data, size_t bytes, int component_type, size_t count,
+                        uint32_t components, int target, const double *mn, const double *mx)
 {
     size_t off;
     if (bin_append(w, data, bytes, &off) != SV_OK) return -1;
@@ -335,10 +335,12 @@ static sv_status check_lod(const sv_gltf_lod *l, uint32_t i, sv_error *err)
         for (size_t v = 0; v < (size_t)m->vertex_count * 3; v++)
             if (!isfinite(m->positions[v]))
                 return sv_fail(err, SV_ERR_INVALID,
-                               "glTF writer: LOD %u vertex %zu has a non-finite position", i, v / 3);
+                               "glTF writer: LOD %u vertex %zu has a non-finite position", i,
+                               v / 3);
     if (!(l->screen_coverage >= 0.0 && l->screen_coverage <= 1.0))
-        return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u screen coverage %g is not in [0,1]",
-                       i, l->screen_coverage);
+        return sv_fail(err, SV_ERR_INVALID,
+                       "glTF writer: LOD %u screen coverage %g is not in [0,1]", i,
+                       l->screen_coverage);
     if (l->attribute_count && !l->attributes)
         return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attributes missing", i);
     for (uint32_t a = 0; a < l->attribute_count; a++) {
@@ -347,15 +349,16 @@ static sv_status check_lod(const sv_gltf_lod *l, uint32_t i, sv_error *err)
             at->components > 4 || (!at->data && m->vertex_count))
             return sv_fail(err, SV_ERR_INVALID,
                            "glTF writer: LOD %u attribute %u must be named '_...' with 1-4 "
-                           "components and data", i, a);
+                           "components and data",
+                           i, a);
         for (uint32_t b = 0; b < a; b++)
             if (strcmp(l->attributes[b].name, at->name) == 0)
                 return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attribute %s given twice",
                                i, at->name);
         for (size_t v = 0; v < (size_t)m->vertex_count * at->components; v++)
             if (!isfinite(at->data[v]))
-                return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u attribute %s is not finite",
-                               i, at->name);
+                return sv_fail(err, SV_ERR_INVALID,
+                               "glTF writer: LOD %u attribute %s is not finite", i, at->name);
     }
     return SV_OK;
 }
@@ -365,7 +368,8 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
 {
     const sv_mesh *m = l->mesh;
     size_t nv = m->vertex_count, bytes3, bytes2;
-    if (!sv_mul_size(nv, 3 * sizeof(float), &bytes3) || !sv_mul_size(nv, 2 * sizeof(float), &bytes2))
+    if (!sv_mul_size(nv, 3 * sizeof(float), &bytes3) ||
+        !sv_mul_size(nv, 2 * sizeof(float), &bytes2))
         return nomem(w);
     double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < nv; v++)
@@ -447,8 +451,8 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
                 else ((uint32_t *)idx)[k] = v;
             }
         }
-        int acc = add_accessor(w, idx, bytes, small ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, count,
-                               1, GL_ELEMENT_ARRAY_BUFFER, NULL, NULL);
+        int acc = add_accessor(w, idx, bytes, small ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, count, 1,
+                               GL_ELEMENT_ARRAY_BUFFER, NULL, NULL);
         free(idx);
         idx = NULL;
         if (acc < 0) {
@@ -547,7 +551,8 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
         cJSON *extras = NULL;
         if (l->extras) {
             if (!cJSON_IsObject(l->extras))
-                return sv_fail(w->err, SV_ERR_INVALID, "glTF writer: LOD %u extras is not an object", i);
+                return sv_fail(w->err, SV_ERR_INVALID,
+                               "glTF writer: LOD %u extras is not an object", i);
             if (!(extras = cJSON_Duplicate(l->extras, true))) return nomem(w);
         }
         if (i == 0 && lod_count > 1) {
@@ -605,11 +610,12 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
         }
         cJSON_AddItemToArray(used, s);
     }
-    static const char *const optional[] = {"meshes",    "materials",  "textures", "samplers",
-                                           "images",    "accessors", "bufferViews"};
+    static const char *const optional[] = {"meshes", "materials", "textures",   "samplers",
+                                           "images", "accessors", "bufferViews"};
     for (size_t k = 0; k < sizeof optional / sizeof *optional; k++) {
         cJSON *a = cJSON_GetObjectItemCaseSensitive(r, optional[k]);
-        if (a && cJSON_GetArraySize(a) == 0) cJSON_DeleteItemFromObjectCaseSensitive(r, optional[k]);
+        if (a && cJSON_GetArraySize(a) == 0)
+            cJSON_DeleteItemFromObjectCaseSensitive(r, optional[k]);
     }
     return SV_OK;
 }

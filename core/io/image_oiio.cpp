@@ -50,7 +50,8 @@ extern "C" {
 
 using namespace OIIO;
 
-namespace {
+namespace
+{
 
 bool ends_with_ci(const char *s, const char *suffix)
 {
@@ -222,7 +223,8 @@ sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const c
 
 } // namespace
 
-namespace {
+namespace
+{
 
 /* The decoders' shared frame: argument checks, the format from the bytes,
  * PNG chunk check, and no C++ exception escaping. gray16: the first channel
@@ -268,16 +270,16 @@ sv_status decode_any(const void *data, size_t size, const char *name, uint32_t m
 
 /* The plugin's entry points (image_plugin.c finds them by name): as
  * sv_image_decode_rgba8 and sv_image_decode_gray16 in image.h. */
-extern "C" __attribute__((visibility("default"))) sv_status
-sv_plugin_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
-                       sv_image *out, sv_error *err)
+extern "C" __attribute__((visibility("default"))) sv_status sv_plugin_decode_rgba8(
+    const void *data, size_t size, const char *name, uint32_t max_size, sv_image *out,
+    sv_error *err)
 {
     return decode_any(data, size, name, max_size, out, err, false);
 }
 
-extern "C" __attribute__((visibility("default"))) sv_status
-sv_plugin_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
-                        sv_image *out, sv_error *err)
+extern "C" __attribute__((visibility("default"))) sv_status sv_plugin_decode_gray16(
+    const void *data, size_t size, const char *name, uint32_t max_size, sv_image *out,
+    sv_error *err)
 {
     return decode_any(data, size, name, max_size, out, err, true);
 }

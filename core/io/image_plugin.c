@@ -79,20 +79,20 @@ static void load_once(void)
         if (try_open(path)) return;
         if (!first_error[0]) memcpy(first_error, load_error, sizeof first_error);
     }
-    if (first_error[0])
-        memcpy(load_error, first_error, sizeof load_error);
+    if (first_error[0]) memcpy(load_error, first_error, sizeof load_error);
     else
-        snprintf(load_error, sizeof load_error,
-                 "libsvimage.so is neither beside %.200s nor in ../lib/sylva (set SYLVA_IMAGE_PLUGIN)",
-                 exe);
+        snprintf(
+            load_error, sizeof load_error,
+            "libsvimage.so is neither beside %.200s nor in ../lib/sylva (set SYLVA_IMAGE_PLUGIN)",
+            exe);
 }
 
 sv_status sv_image_plugin_load(sv_error *err)
 {
     pthread_once(&once, load_once);
     if (decode_rgba8) return SV_OK;
-    return sv_fail(err, SV_ERR_INTERNAL, "the image decoder (OpenImageIO plugin) cannot be loaded: %s",
-                   load_error);
+    return sv_fail(err, SV_ERR_INTERNAL,
+                   "the image decoder (OpenImageIO plugin) cannot be loaded: %s", load_error);
 }
 
 void *sv_image_plugin_symbol(const char *name)
@@ -108,8 +108,8 @@ sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
     return st != SV_OK ? st : decode_rgba8(data, size, name, max_size, out, err);
 }
 
-sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name,
-                                 uint32_t max_size, sv_image *out, sv_error *err)
+sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
+                                 sv_image *out, sv_error *err)
 {
     if (out) memset(out, 0, sizeof *out);
     sv_status st = sv_image_plugin_load(err);

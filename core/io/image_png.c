@@ -50,7 +50,10 @@ static void sink_write(png_structp png, png_bytep bytes, png_size_t n)
     s->size += n;
 }
 
-static void sink_flush(png_structp png) { (void)png; }
+static void sink_flush(png_structp png)
+{
+    (void)png;
+}
 
 /* libpng reports errors by longjmp from here; the message goes to the
  * caller's sv_error through the error pointer. */

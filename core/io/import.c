@@ -77,10 +77,10 @@ typedef struct io_ctx {
     const char *main_name; /* what assimp is told files[0] is called */
     sv_status refused;     /* SV_ERR_REFUSED once a reference was refused */
     char refused_msg[400];
-    char fallback_mtl[160]; /* assimp's OBJ fallback: main_name with .mtl */
+    char fallback_mtl[160];            /* assimp's OBJ fallback: main_name with .mtl */
     char missing[IO_MISSING_MAX][160]; /* safe names asked for but not uploaded */
-    unsigned missing_count;             /* all of them (the first IO_MISSING_MAX named) */
-    bool fallback_used;    /* fallback_mtl was uploaded and opened after a miss */
+    unsigned missing_count;            /* all of them (the first IO_MISSING_MAX named) */
+    bool fallback_used;                /* fallback_mtl was uploaded and opened after a miss */
 } io_ctx;
 
 static bool ends_with_mtl(const char *name)
@@ -111,9 +111,18 @@ static size_t mf_write(struct aiFile *f, const char *buf, size_t size, size_t co
     return 0;
 }
 
-static size_t mf_tell(struct aiFile *f) { return ((mem_file *)f->UserData)->pos; }
-static size_t mf_size(struct aiFile *f) { return ((mem_file *)f->UserData)->size; }
-static void mf_flush(struct aiFile *f) { (void)f; }
+static size_t mf_tell(struct aiFile *f)
+{
+    return ((mem_file *)f->UserData)->pos;
+}
+static size_t mf_size(struct aiFile *f)
+{
+    return ((mem_file *)f->UserData)->size;
+}
+static void mf_flush(struct aiFile *f)
+{
+    (void)f;
+}
 
 static enum aiReturn mf_seek(struct aiFile *f, size_t off, enum aiOrigin origin)
 {
@@ -257,17 +266,26 @@ static const char *expected_reader(sv_format f)
 {
     switch (f) {
     case SV_FORMAT_GLB:
-    case SV_FORMAT_GLTF: return "glTF2 ";
-    case SV_FORMAT_OBJ: return "Wavefront Object";
-    case SV_FORMAT_PLY: return "(PLY)";
-    case SV_FORMAT_FBX: return "Autodesk FBX";
-    case SV_FORMAT_COLLADA: return "Collada";
-    case SV_FORMAT_UNKNOWN: break;
+    case SV_FORMAT_GLTF:
+        return "glTF2 ";
+    case SV_FORMAT_OBJ:
+        return "Wavefront Object";
+    case SV_FORMAT_PLY:
+        return "(PLY)";
+    case SV_FORMAT_FBX:
+        return "Autodesk FBX";
+    case SV_FORMAT_COLLADA:
+        return "Collada";
+    case SV_FORMAT_UNKNOWN:
+        break;
     }
     return "?";
 }
 
-static bool is_gltf(sv_format f) { return f == SV_FORMAT_GLB || f == SV_FORMAT_GLTF; }
+static bool is_gltf(sv_format f)
+{
+    return f == SV_FORMAT_GLB || f == SV_FORMAT_GLTF;
+}
 
 typedef struct image_slot {
     char key[64]; /* "*N" or "file:<index>" */
@@ -302,7 +320,8 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
         char *end = NULL;
         unsigned long n = strtoul(path + 1, &end, 10);
         if (!end || *end || n >= scene->mNumTextures) {
-            add_warning(im->info, "material '%s': embedded texture '%s' does not exist", mname, shown);
+            add_warning(im->info, "material '%s': embedded texture '%s' does not exist", mname,
+                        shown);
             im->info->textures_missing++;
             return SV_OK;
         }
@@ -399,8 +418,7 @@ static sv_status convert_material(importer *im, const struct aiScene *scene,
     struct aiString s;
     if (aiGetMaterialString(am, AI_MATKEY_NAME, &s) == aiReturn_SUCCESS)
         copy_str(m->name, sizeof m->name, s.data);
-    else
-        snprintf(m->name, sizeof m->name, "material%u", mi);
+    else snprintf(m->name, sizeof m->name, "material%u", mi);
     bool gltf = is_gltf(im->format);
     struct aiColor4D c;
     if ((gltf && aiGetMaterialColor(am, AI_MATKEY_BASE_COLOR, &c) == aiReturn_SUCCESS) ||
@@ -412,7 +430,8 @@ static sv_status convert_material(importer *im, const struct aiScene *scene,
     }
     ai_real opacity = 1;
     unsigned int one = 1;
-    if (!gltf && aiGetMaterialFloatArray(am, AI_MATKEY_OPACITY, &opacity, &one) == aiReturn_SUCCESS &&
+    if (!gltf &&
+        aiGetMaterialFloatArray(am, AI_MATKEY_OPACITY, &opacity, &one) == aiReturn_SUCCESS &&
         isfinite(opacity) && opacity >= 0 && opacity <= 1)
         m->base_color[3] = opacity;
     for (int k = 0; k < 4; k++)
@@ -422,7 +441,8 @@ static sv_status convert_material(importer *im, const struct aiScene *scene,
                                 ? aiTextureType_BASE_COLOR
                                 : aiTextureType_DIFFUSE;
     if (aiGetMaterialTextureCount(am, tt) > 0 &&
-        aiGetMaterialTexture(am, tt, 0, &s, NULL, NULL, NULL, NULL, NULL, NULL) == aiReturn_SUCCESS &&
+        aiGetMaterialTexture(am, tt, 0, &s, NULL, NULL, NULL, NULL, NULL, NULL) ==
+            aiReturn_SUCCESS &&
         s.length > 0) {
         copy_str(m->texture_uri, sizeof m->texture_uri, s.data);
         sv_status st = load_texture(im, scene, s.data, m->name, &m->base_texture);
@@ -443,7 +463,8 @@ static sv_status convert_material(importer *im, const struct aiScene *scene,
         }
         ai_real cut = 0.5f;
         one = 1;
-        if (aiGetMaterialFloatArray(am, AI_MATKEY_GLTF_ALPHACUTOFF, &cut, &one) == aiReturn_SUCCESS &&
+        if (aiGetMaterialFloatArray(am, AI_MATKEY_GLTF_ALPHACUTOFF, &cut, &one) ==
+                aiReturn_SUCCESS &&
             isfinite(cut) && cut >= 0 && cut <= 1)
             m->alpha_cutoff = cut;
     } else {
@@ -482,7 +503,8 @@ static sv_status normals_for_range(sv_mesh *mesh, uint32_t t0, uint32_t t1, uint
         double *a = &acc[3 * (size_t)(v - v0)];
         double l = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
         for (int k = 0; k < 3; k++)
-            mesh->normals[3 * (size_t)v + k] = (l > 0 && isfinite(l)) ? (float)(a[k] / l) : (k == 1);
+            mesh->normals[3 * (size_t)v + k] = (l > 0 && isfinite(l)) ? (float)(a[k] / l)
+                                                                      : (k == 1);
     }
     free(acc);
     return SV_OK;
@@ -526,13 +548,13 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
     for (uint32_t i = 0; i < nmat; i++) {
         if (i < scene->mNumMaterials)
             st = convert_material(im, scene, scene->mMaterials[i], i, &mats[i]);
-        else
-            sv_material_init(&mats[i]);
+        else sv_material_init(&mats[i]);
         if (st != SV_OK) goto out;
     }
     mesh = sv_mesh_create((uint32_t)nv, (uint32_t)nt, nmat, im->image_count);
     if (!mesh) {
-        st = sv_fail(im->err, SV_ERR_NOMEM, "cannot allocate a mesh of %llu vertices, %llu triangles",
+        st = sv_fail(im->err, SV_ERR_NOMEM,
+                     "cannot allocate a mesh of %llu vertices, %llu triangles",
                      (unsigned long long)nv, (unsigned long long)nt);
         goto out;
     }
@@ -638,8 +660,8 @@ static void main_file_name(const sv_file *f, sv_format fmt, char *out, size_t ca
     snprintf(out, cap, "%s.%s", stem, ext);
 }
 
-sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt,
-                    sv_mesh **out, sv_import_info *info, sv_error *err)
+sv_status sv_import(const sv_file *files, size_t count, const sv_import_options *opt, sv_mesh **out,
+                    sv_import_info *info, sv_error *err)
 {
     sv_import_info local_info;
     if (!info) info = &local_info;
@@ -684,8 +706,8 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
 
     /* Refuse what is over the limits before assimp allocates for it. */
     if (is_gltf(fmt)) {
-        sv_status st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB,
-                                        files, count, &lim, err);
+        sv_status st = sv_gltf_precheck(files[0].data, files[0].size, fmt == SV_FORMAT_GLB, files,
+                                        count, &lim, err);
         if (st != SV_OK) { /* name the file, as sv_mesh_precheck does */
             char msg[sizeof err->message];
             copy_str(msg, sizeof msg, err ? err->message : "");
@@ -738,12 +760,12 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
             else
                 add_missing(info, ctx.missing[i],
                             ends_with_mtl(ctx.missing[i]) ? "its materials are plain grey"
-                                                           : "it was not read");
+                                                          : "it was not read");
         }
         if (ctx.missing_count > IO_MISSING_MAX) /* counted, not named */
             add_missing(info, "...", "more files were asked for than are named here");
-        importer im = {.files = files, .count = count, .lim = lim, .format = fmt, .info = info,
-                       .err = err};
+        importer im = {
+            .files = files, .count = count, .lim = lim, .format = fmt, .info = info, .err = err};
         st = merge_scene(&im, scene, scale, up, out);
         if (info->warnings_left_out) { /* into the reserved KiB: never lost silently */
             size_t len = strlen(info->warnings);
@@ -761,8 +783,8 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
                          "'%s' references %s that %s not supplied: %s. Supply %s with the mesh, "
                          "or set \"import\": {\"missing_files\": \"warn\"} to bake with "
                          "plain-coloured materials",
-                         shown, what, info->files_missing > 1 ? "were" : "was",
-                         info->missing_files, info->files_missing > 1 ? "them" : "it");
+                         shown, what, info->files_missing > 1 ? "were" : "was", info->missing_files,
+                         info->files_missing > 1 ? "them" : "it");
         }
     }
     if (scene) aiReleaseImport(scene);

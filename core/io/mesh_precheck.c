@@ -72,10 +72,10 @@ static unsigned ply_type_size(const char *t, size_t len, bool *is_float)
         const char *name;
         unsigned size;
         bool fl;
-    } types[] = {{"char", 1, 0},    {"uchar", 1, 0},   {"short", 2, 0},   {"ushort", 2, 0},
-                 {"int", 4, 0},     {"uint", 4, 0},    {"float", 4, 1},   {"double", 8, 1},
-                 {"int8", 1, 0},    {"uint8", 1, 0},   {"int16", 2, 0},   {"uint16", 2, 0},
-                 {"int32", 4, 0},   {"uint32", 4, 0},  {"float32", 4, 1}, {"float64", 8, 1}};
+    } types[] = {{"char", 1, 0},  {"uchar", 1, 0},  {"short", 2, 0},   {"ushort", 2, 0},
+                 {"int", 4, 0},   {"uint", 4, 0},   {"float", 4, 1},   {"double", 8, 1},
+                 {"int8", 1, 0},  {"uint8", 1, 0},  {"int16", 2, 0},   {"uint16", 2, 0},
+                 {"int32", 4, 0}, {"uint32", 4, 0}, {"float32", 4, 1}, {"float64", 8, 1}};
     for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
         if (strlen(types[i].name) == len && memcmp(types[i].name, t, len) == 0) {
             if (is_float) *is_float = types[i].fl;
@@ -123,8 +123,8 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
         lineno++;
         for (size_t k = 0; k < len; k++)
             if ((unsigned char)line[k] < 0x20 && line[k] != '\t')
-                return sv_fail(err, SV_ERR_PARSE,
-                               "'%s': PLY header line %u has a control byte", shown, lineno);
+                return sv_fail(err, SV_ERR_PARSE, "'%s': PLY header line %u has a control byte",
+                               shown, lineno);
         const char *tok[8];
         size_t tl[8];
         size_t nt = tokens(line, len, tok, tl, 6);
@@ -133,8 +133,8 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
         if (nt == 0) continue;
         if (tok_is(tok[0], tl[0], "comment") || tok_is(tok[0], tl[0], "obj_info")) continue;
         if (nt > 6)
-            return sv_fail(err, SV_ERR_PARSE, "'%s': PLY header line %u has too many words",
-                           shown, lineno);
+            return sv_fail(err, SV_ERR_PARSE, "'%s': PLY header line %u has too many words", shown,
+                           lineno);
         if (lineno == 2) {
             if (nt != 3 || !tok_is(tok[0], tl[0], "format"))
                 return sv_fail(err, SV_ERR_PARSE, "'%s': PLY header line 2 is not 'format ...'",
@@ -165,9 +165,10 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
                                shown, SV_PLY_MAX_ELEMENTS);
             uint64_t c = 0;
             if (tl[2] == 0 || tl[2] > 10)
-                return sv_fail(err, SV_ERR_PARSE,
-                               "'%s': PLY element count '%.*s' on line %u is not a count below 2^32",
-                               shown, (int)(tl[2] < 40 ? tl[2] : 40), tok[2], lineno);
+                return sv_fail(
+                    err, SV_ERR_PARSE,
+                    "'%s': PLY element count '%.*s' on line %u is not a count below 2^32", shown,
+                    (int)(tl[2] < 40 ? tl[2] : 40), tok[2], lineno);
             for (size_t k = 0; k < tl[2]; k++) {
                 if (!isdigit((unsigned char)tok[2][k]))
                     return sv_fail(err, SV_ERR_PARSE,
@@ -193,15 +194,16 @@ static sv_status ply_parse_header(const uint8_t *d, size_t n, const char *shown,
             ply_elem *e = &h->elems[h->nelems - 1];
             if (e->nprops >= SV_PLY_MAX_PROPERTIES)
                 return sv_fail(err, SV_ERR_PARSE,
-                               "'%s': PLY element '%s' has more than %u properties", shown,
-                               e->name, SV_PLY_MAX_PROPERTIES);
+                               "'%s': PLY element '%s' has more than %u properties", shown, e->name,
+                               SV_PLY_MAX_PROPERTIES);
             ply_prop *p = &e->props[e->nprops];
             bool fl = false;
             if (nt >= 2 && tok_is(tok[1], tl[1], "list")) {
                 if (nt != 5)
-                    return sv_fail(err, SV_ERR_PARSE,
-                                   "'%s': PLY header line %u: expected 'property list TYPE TYPE NAME'",
-                                   shown, lineno);
+                    return sv_fail(
+                        err, SV_ERR_PARSE,
+                        "'%s': PLY header line %u: expected 'property list TYPE TYPE NAME'", shown,
+                        lineno);
                 p->count_size = (uint8_t)ply_type_size(tok[2], tl[2], &fl);
                 p->count_float = fl;
                 p->size = (uint8_t)ply_type_size(tok[3], tl[3], NULL);
@@ -264,8 +266,7 @@ static bool numeric_token(const uint8_t *t, size_t len)
     if (len == 0 || len > 64) return false;
     for (size_t k = 0; k < len; k++) {
         int c = t[k];
-        if (!(isdigit(c) || c == '-' || c == '+' || c == '.' || c == 'e' || c == 'E'))
-            return false;
+        if (!(isdigit(c) || c == '-' || c == '+' || c == '.' || c == 'e' || c == 'E')) return false;
     }
     return true;
 }
@@ -291,8 +292,7 @@ static sv_status ply_walk_body(const uint8_t *d, size_t n, const char *shown, co
                 if (h->format == 0) {
                     size_t s, len;
                     if (p->count_size) {
-                        if (!next_token(d, n, &pos, &s, &len))
-                            goto short_body;
+                        if (!next_token(d, n, &pos, &s, &len)) goto short_body;
                         uint64_t c = 0;
                         if (len > 10) goto bad_count;
                         for (size_t k = 0; k < len; k++) {
@@ -363,10 +363,11 @@ static sv_status ply_check_counts(size_t n, const char *shown, const ply_header 
                            (unsigned long long)e->count, (unsigned long long)lim->max_triangles);
         uint64_t body = n - h->body, per = h->format == 0 ? 2 : 1;
         if (e->count > body / per / e->nprops + 1)
-            return sv_fail(err, SV_ERR_PARSE,
-                           "'%s': PLY element '%s' declares %llu instances, more than its %llu-byte "
-                           "body can hold",
-                           shown, e->name, (unsigned long long)e->count, (unsigned long long)body);
+            return sv_fail(
+                err, SV_ERR_PARSE,
+                "'%s': PLY element '%s' declares %llu instances, more than its %llu-byte "
+                "body can hold",
+                shown, e->name, (unsigned long long)e->count, (unsigned long long)body);
     }
     return SV_OK;
 }
@@ -471,25 +472,46 @@ static sv_status fbx_props(const fbx_walk *w, size_t rec, size_t p, size_t end, 
         uint8_t t = d[p++];
         size_t left = end - p;
         switch (t) {
-        case 'C': case 'B': if (left < 1) goto short_prop; p += 1; break;
-        case 'Y': if (left < 2) goto short_prop; p += 2; break;
-        case 'I': case 'F': if (left < 4) goto short_prop; p += 4; break;
-        case 'D': case 'L': if (left < 8) goto short_prop; p += 8; break;
-        case 'S': case 'R': {
+        case 'C':
+        case 'B':
+            if (left < 1) goto short_prop;
+            p += 1;
+            break;
+        case 'Y':
+            if (left < 2) goto short_prop;
+            p += 2;
+            break;
+        case 'I':
+        case 'F':
+            if (left < 4) goto short_prop;
+            p += 4;
+            break;
+        case 'D':
+        case 'L':
+            if (left < 8) goto short_prop;
+            p += 8;
+            break;
+        case 'S':
+        case 'R': {
             if (left < 4) goto short_prop;
             uint64_t len = rd_uint(d + p, 4, false);
             if (left - 4 < len) goto short_prop;
             p += 4 + (size_t)len;
             break;
         }
-        case 'f': case 'd': case 'l': case 'i': case 'b': {
+        case 'f':
+        case 'd':
+        case 'l':
+        case 'i':
+        case 'b': {
             if (left < 12) goto short_prop;
             uint64_t alen = rd_uint(d + p, 4, false), enc = rd_uint(d + p + 4, 4, false),
                      clen = rd_uint(d + p + 8, 4, false);
             unsigned es = (t == 'd' || t == 'l') ? 8 : (t == 'b') ? 1 : 4;
             if (left - 12 < clen) goto short_prop;
             if (enc == 0) {
-                if (alen * es != clen) return fbx_fail(w, rec, "array length disagrees with its size");
+                if (alen * es != clen)
+                    return fbx_fail(w, rec, "array length disagrees with its size");
             } else if (enc == 1) {
                 /* zlib inflates at most ~1032:1 */
                 if (alen * es > clen * 1032 + 64)
@@ -530,7 +552,8 @@ static sv_status fbx_binary_check(const uint8_t *d, size_t n, const char *shown,
             depth--;
             continue;
         }
-        if (limit - pos < hdr) return fbx_fail(&w, pos, "record header runs past its parent or the file");
+        if (limit - pos < hdr)
+            return fbx_fail(&w, pos, "record header runs past its parent or the file");
         uint64_t endo = rd_uint(d + pos, (unsigned)osz, false);
         uint64_t nprops = rd_uint(d + pos + osz, (unsigned)osz, false);
         uint64_t plen = rd_uint(d + pos + 2 * osz, (unsigned)osz, false);
@@ -578,8 +601,9 @@ static sv_status fbx_ascii_check(const uint8_t *d, size_t n, const char *shown, 
 {
     for (size_t i = 0; i < n; i++)
         if ((d[i] < 0x20 && d[i] != '\t' && d[i] != '\n' && d[i] != '\r') || d[i] == 0x7f)
-            return sv_fail(err, SV_ERR_PARSE, "'%s': FBX text holds control byte 0x%02x at offset %zu",
-                           shown, d[i], i);
+            return sv_fail(err, SV_ERR_PARSE,
+                           "'%s': FBX text holds control byte 0x%02x at offset %zu", shown, d[i],
+                           i);
     unsigned depth = 0, elements = 0, seen = 0;
     bool in_values = false; /* top level: after "Key:", before its '{' */
     size_t line = 1, key_line = 0;
@@ -716,8 +740,7 @@ static sv_status dae_check(const uint8_t *d, size_t n, const char *shown, sv_err
     for (size_t i = 0; i < n; i++) {
         if (d[i] != '<') continue;
         size_t k = i + 1;
-        while (k < n && (isalnum(d[k]) || d[k] == '_' || d[k] == ':' || d[k] == '-' ||
-                         d[k] == '.'))
+        while (k < n && (isalnum(d[k]) || d[k] == '_' || d[k] == ':' || d[k] == '-' || d[k] == '.'))
             k++;
         size_t len = k - i - 1;
         if (len < 6 || memcmp(d + k - 6, "_array", 6) != 0) continue;
@@ -738,16 +761,21 @@ sv_status sv_mesh_precheck(sv_format fmt, const uint8_t *data, size_t size, cons
     if (!shown) shown = "(unnamed)";
     if (!data || size == 0) return sv_fail(err, SV_ERR_PARSE, "'%s' is empty", shown);
     switch (fmt) {
-    case SV_FORMAT_PLY: return ply_check(data, size, shown, &lim, err);
-    case SV_FORMAT_OBJ: return obj_check(data, size, shown, &lim, err);
+    case SV_FORMAT_PLY:
+        return ply_check(data, size, shown, &lim, err);
+    case SV_FORMAT_OBJ:
+        return obj_check(data, size, shown, &lim, err);
     case SV_FORMAT_FBX:
         if (size >= 18 && memcmp(data, "Kaydara FBX Binary", 18) == 0)
             return fbx_binary_check(data, size, shown, err);
         return fbx_ascii_check(data, size, shown, err);
-    case SV_FORMAT_COLLADA: return dae_check(data, size, shown, err);
+    case SV_FORMAT_COLLADA:
+        return dae_check(data, size, shown, err);
     case SV_FORMAT_GLB:
-    case SV_FORMAT_GLTF: return SV_OK; /* sv_gltf_precheck */
-    case SV_FORMAT_UNKNOWN: break;
+    case SV_FORMAT_GLTF:
+        return SV_OK; /* sv_gltf_precheck */
+    case SV_FORMAT_UNKNOWN:
+        break;
     }
     return sv_fail(err, SV_ERR_FORMAT, "'%s' is not a mesh format sylva accepts", shown);
 }

@@ -15,13 +15,20 @@
 const char *sv_format_name(sv_format f)
 {
     switch (f) {
-    case SV_FORMAT_GLB: return "glb";
-    case SV_FORMAT_GLTF: return "gltf";
-    case SV_FORMAT_OBJ: return "obj";
-    case SV_FORMAT_PLY: return "ply";
-    case SV_FORMAT_FBX: return "fbx";
-    case SV_FORMAT_COLLADA: return "dae";
-    case SV_FORMAT_UNKNOWN: break;
+    case SV_FORMAT_GLB:
+        return "glb";
+    case SV_FORMAT_GLTF:
+        return "gltf";
+    case SV_FORMAT_OBJ:
+        return "obj";
+    case SV_FORMAT_PLY:
+        return "ply";
+    case SV_FORMAT_FBX:
+        return "fbx";
+    case SV_FORMAT_COLLADA:
+        return "dae";
+    case SV_FORMAT_UNKNOWN:
+        break;
     }
     return "unknown";
 }
@@ -59,10 +66,11 @@ static bool contains(const uint8_t *d, size_t n, const char *needle)
 static bool looks_like_obj(const uint8_t *d, size_t n)
 {
     static const char *const keywords[] = {
-        "v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mtllib", "usemtl", "usemap",
-        "maplib", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
-        "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod",
-        "shadow_obj", "trace_obj", "ctech", "stech", "call", "csh"};
+        "v",    "vt",         "vn",        "vp",     "f",      "l",      "p",        "o",
+        "g",    "s",          "mtllib",    "usemtl", "usemap", "maplib", "cstype",   "deg",
+        "bmat", "step",       "curv",      "curv2",  "surf",   "parm",   "trim",     "hole",
+        "scrv", "sp",         "end",       "con",    "mg",     "bevel",  "c_interp", "d_interp",
+        "lod",  "shadow_obj", "trace_obj", "ctech",  "stech",  "call",   "csh"};
     size_t lim = n < 65536 ? n : 65536;
     if (memchr(d, 0, lim)) return false;
     size_t i = 0;
@@ -92,8 +100,7 @@ sv_format sv_sniff_format(const uint8_t *data, size_t size)
 {
     if (!data || size == 0) return SV_FORMAT_UNKNOWN;
     if (has_prefix(data, size, "glTF")) return SV_FORMAT_GLB;
-    if (has_prefix(data, size, "Kaydara FBX Binary"))
-        return SV_FORMAT_FBX;
+    if (has_prefix(data, size, "Kaydara FBX Binary")) return SV_FORMAT_FBX;
     if (has_prefix(data, size, "ply\n") || has_prefix(data, size, "ply\r\n")) {
         size_t i = data[3] == '\n' ? 4 : 5;
         if (has_prefix(data + i, size - i, "format ")) return SV_FORMAT_PLY;
@@ -122,8 +129,7 @@ sv_format sv_sniff_format(const uint8_t *data, size_t size)
 static const char *printable(const char *ref, char *out, size_t cap)
 {
     size_t i = 0;
-    for (; ref[i] && i + 1 < cap; i++)
-        out[i] = (ref[i] >= 0x20 && ref[i] < 0x7f) ? ref[i] : '?';
+    for (; ref[i] && i + 1 < cap; i++) out[i] = (ref[i] >= 0x20 && ref[i] < 0x7f) ? ref[i] : '?';
     out[i] = 0;
     return out;
 }

@@ -15,8 +15,8 @@ static const cJSON *item_of(const cJSON *obj, const char *key)
     return cJSON_GetObjectItemCaseSensitive(obj, key);
 }
 
-sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key,
-                            double lo, double hi, double *out, sv_error *err)
+sv_status sv_setting_number(const cJSON *obj, const char *method, const char *key, double lo,
+                            double hi, double *out, sv_error *err)
 {
     const cJSON *it = item_of(obj, key);
     if (!it) return SV_OK;
@@ -29,8 +29,8 @@ sv_status sv_setting_number(const cJSON *obj, const char *method, const char *ke
     return SV_OK;
 }
 
-sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key, long lo,
-                         long hi, long *out, sv_error *err)
+sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key, long lo, long hi,
+                         long *out, sv_error *err)
 {
     const cJSON *it = item_of(obj, key);
     if (!it) return SV_OK;
@@ -40,8 +40,7 @@ sv_status sv_setting_int(const cJSON *obj, const char *method, const char *key, 
     double v = it->valuedouble;
     /* Compare in double first so huge values cannot overflow the conversion. */
     if (!(v >= (double)lo && v <= (double)hi))
-        return sv_fail(err, SV_ERR_SPEC, "%s.%s: %g is outside [%ld, %ld]", method, key, v, lo,
-                       hi);
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: %g is outside [%ld, %ld]", method, key, v, lo, hi);
     *out = (long)v;
     return SV_OK;
 }
@@ -61,8 +60,7 @@ sv_status sv_setting_only(const cJSON *obj, const char *method, const char *cons
                           sv_error *err)
 {
     if (!obj) return SV_OK;
-    if (!cJSON_IsObject(obj))
-        return sv_fail(err, SV_ERR_SPEC, "%s: expected an object", method);
+    if (!cJSON_IsObject(obj)) return sv_fail(err, SV_ERR_SPEC, "%s: expected an object", method);
     for (const cJSON *it = obj->child; it; it = it->next) {
         bool found = false;
         for (size_t i = 0; known && known[i]; i++)
@@ -91,7 +89,8 @@ sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const c
     }
     int count = cJSON_GetArraySize(a), i = 0;
     if (count < 1 || count > n)
-        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected a number or 1 to %d numbers", method, key, n);
+        return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected a number or 1 to %d numbers", method, key,
+                       n);
     for (const cJSON *it = a->child; it; it = it->next, i++) {
         double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
         if (!isfinite(v) || v != floor(v) || v < (double)lo || v > (double)hi)

@@ -4,12 +4,8 @@
 #include <string.h>
 
 static const sv_method *const registry[] = {
-    &sv_method_crossed_quads,
-    &sv_method_leaf_clusters,
-    &sv_method_stochastic,
-    &sv_method_slicing,
-    &sv_method_billboard_cloud,
-    &sv_method_octahedral,
+    &sv_method_crossed_quads, &sv_method_leaf_clusters,   &sv_method_stochastic,
+    &sv_method_slicing,       &sv_method_billboard_cloud, &sv_method_octahedral,
 };
 
 const sv_method *const *sv_method_list(size_t *count)

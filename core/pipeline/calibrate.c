@@ -36,8 +36,8 @@ static void calib_options(const run *r, uint32_t px, sv_eval_options *eo)
     eo->supersample = 128 / px;
 }
 
-sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                              sv_evaluator **out, sv_error *err)
+sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_evaluator **out,
+                              sv_error *err)
 {
     sv_eval_options eo;
     calib_options(r, SV_CALIB_PIXELS, &eo);
@@ -147,8 +147,8 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
 #define SV_ATLAS_MIN_SIDE 16u
 
 sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                             const sv_stand_in *si, lod_out *lods, double tree_h,
-                             bool calibrate, sv_error *err)
+                             const sv_stand_in *si, lod_out *lods, double tree_h, bool calibrate,
+                             sv_error *err)
 {
     sv_evaluator *ev = NULL;
     uint32_t ev_px = 0;
@@ -156,13 +156,15 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
     for (uint32_t i = 1; i < si->lod_count && !st; i++) {
         lod_out *l = &lods[i];
         sv_baked_lod *b = &l->baked;
-        if (!b->albedo.data || !(b->texel_size > 0) || !(l->switch_pixels > 0) || !b->mesh) continue;
+        if (!b->albedo.data || !(b->texel_size > 0) || !(l->switch_pixels > 0) || !b->mesh)
+            continue;
         double want = tree_h / (l->switch_pixels * SV_ATLAS_TEXELS_PER_PIXEL);
         uint32_t side = b->albedo.width > b->albedo.height ? b->albedo.width : b->albedo.height;
         uint32_t other = b->albedo.width + b->albedo.height - side;
         int k = 0;
         sv_octa_grid *og = si->lods[i].octa; /* frames stay whole: at least 16 texels */
-        while (b->texel_size * ldexp(1.0, k + 1) <= want && (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE &&
+        while (b->texel_size * ldexp(1.0, k + 1) <= want &&
+               (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE &&
                (!og || (og->frame_pixels >> (k + 1)) >= 16))
             k++;
         if (!k) continue;
@@ -199,4 +201,3 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
     sv_evaluator_destroy(ev);
     return st;
 }
-

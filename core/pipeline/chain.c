@@ -72,11 +72,12 @@ static sv_status count_cover(void *user, const uint32_t *tris, uint32_t count, d
         memset(&ro, 0, sizeof ro);
         sv_image img = {0};
         if (count == 0) return SV_OK;
-        sv_status st = sv_render(c->ren, c->g, tris, count, &cam, &ro, COVER_SIZE, COVER_SIZE,
-                                 &img, NULL, err);
+        sv_status st = sv_render(c->ren, c->g, tris, count, &cam, &ro, COVER_SIZE, COVER_SIZE, &img,
+                                 NULL, err);
         if (st) return st;
         const uint8_t *px = img.data;
-        for (size_t i = 0; i < (size_t)COVER_SIZE * COVER_SIZE; i++) *covered += px[4 * i + 3] >= 128;
+        for (size_t i = 0; i < (size_t)COVER_SIZE * COVER_SIZE; i++)
+            *covered += px[4 * i + 3] >= 128;
         sv_image_free(&img);
     }
     return SV_OK;
@@ -272,8 +273,9 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
                                   &c->ss, err)) ||
         (st = sv_stochastic_resolve(&c->ss, p->mesh->triangle_count, err)))
         return st;
-    sv_method_input in = {p->mesh, &p->cls, &p->leaves, {p->centre[0], p->centre[1], p->centre[2]},
-                          p->radius, &spec->scene, spec->seed};
+    sv_method_input in = {
+        p->mesh,   &p->cls,      &p->leaves, {p->centre[0], p->centre[1], p->centre[2]},
+        p->radius, &spec->scene, spec->seed};
     snprintf(si->method, sizeof si->method, "%s", spec->method);
     if ((is_stoch || spec->lod_chain) &&
         (st = compose_stochastic(r, ren, gsrc, &in, is_stoch, si, c, err)))
@@ -291,8 +293,7 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
  * (the size at the nearest distance where λ(d) <= its λ), since nothing was
  * measured above. Without evaluation only the schedule is known: quad LODs
  * get 0 and the limits are made non-increasing along the chain. */
-void svp_plan_switches(const run *r, const chain *c, lod_out *lods, uint32_t n,
-                       double tree_h)
+void svp_plan_switches(const run *r, const chain *c, lod_out *lods, uint32_t n, double tree_h)
 {
     const sv_spec *s = &r->spec;
     double prev = INFINITY;
@@ -352,25 +353,24 @@ static void note_lod(cJSON *note, const lod_out *l)
 
 /* Dominated LODs: drop[i] when a later, cheaper LOD is good up to at least
  * its own limit. When that leaves nothing, the finest stays (the best there is). */
-static void drop_dominated(const run *r, chain *c, lod_out *lods, const sv_stand_in *si,
-                           bool *drop)
+static void drop_dominated(const run *r, chain *c, lod_out *lods, const sv_stand_in *si, bool *drop)
 {
     uint32_t n = si->lod_count;
     double later = 0;
     for (uint32_t i = n; i-- > 0;) {
         drop[i] = !(lods[i].own_pixels > later);
         if (drop[i]) {
-            cJSON *note =
-                lods[i].meets_tolerance
-                    ? skip_note(c, si->lods[i].name, "switch",
-                                "never drawn: a cheaper LOD later in the chain meets the "
-                                "tolerance (%g at %g px) up to %.4g px, this one only up to "
-                                "%.4g px",
-                                r->spec.lod_tolerance, r->spec.lod_tolerance_pixels, later,
-                                lods[i].own_pixels)
-                    : skip_note(c, si->lods[i].name, "switch",
-                                "fails the tolerance (%g at %g px) at every size",
-                                r->spec.lod_tolerance, r->spec.lod_tolerance_pixels);
+            cJSON *note = lods[i].meets_tolerance
+                              ? skip_note(
+                                    c, si->lods[i].name, "switch",
+                                    "never drawn: a cheaper LOD later in the chain meets the "
+                                    "tolerance (%g at %g px) up to %.4g px, this one only up to "
+                                    "%.4g px",
+                                    r->spec.lod_tolerance, r->spec.lod_tolerance_pixels, later,
+                                    lods[i].own_pixels)
+                              : skip_note(c, si->lods[i].name, "switch",
+                                          "fails the tolerance (%g at %g px) at every size",
+                                          r->spec.lod_tolerance, r->spec.lod_tolerance_pixels);
             note_lod(note, &lods[i]);
         } else {
             later = lods[i].own_pixels;
@@ -538,4 +538,3 @@ void svp_compact_lods(sv_stand_in *si, lod_out *lods, chain *c, const bool *drop
     si->lod_count = w;
     sv_stand_in_free(&gone);
 }
-

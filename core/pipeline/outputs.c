@@ -38,10 +38,14 @@ const char *const svp_map_names[4] = {"albedo", "normal", "ao", "depth"};
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
 {
     switch (i) {
-    case 0: return &b->albedo;
-    case 1: return &b->normal;
-    case 2: return &b->ao;
-    default: return &b->depth;
+    case 0:
+        return &b->albedo;
+    case 1:
+        return &b->normal;
+    case 2:
+        return &b->ao;
+    default:
+        return &b->depth;
     }
 }
 
@@ -63,7 +67,7 @@ sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
     for (uint32_t i = 0; i < si->lod_count; i++)
         if (si->lods[i].octa &&
             (st = sv_octa_write_mips(r->req->out_dir, si->lods[i].name, si->lods[i].octa,
-                                  &lods[i].baked.albedo, &lods[i].mip_count, err)))
+                                     &lods[i].baked.albedo, &lods[i].mip_count, err)))
             return st;
     return SV_OK;
 }
@@ -92,8 +96,9 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         if (ch->info[i].stochastic)
-            st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level, ch->info[i].geom_vertices,
-                                    lods[i].baked.mesh, &gx[i], &gl[i], err);
+            st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level,
+                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], &gl[i],
+                                    err);
     }
     snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);
@@ -110,8 +115,8 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
 
 /* preview.h's description of level i: how it is drawn, its switch size,
  * cost, and the mean IoU at the measured size nearest its switch size. */
-static sv_status preview_level(const bake_state *b, uint32_t i, sv_preview_level *pv,
-                               view_sets *vs, bool *vs_ok, octa_draw_ctx *oc, sv_error *err)
+static sv_status preview_level(const bake_state *b, uint32_t i, sv_preview_level *pv, view_sets *vs,
+                               bool *vs_ok, octa_draw_ctx *oc, sv_error *err)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
     const lod_out *l = &b->lods[i];

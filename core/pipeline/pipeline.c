@@ -107,8 +107,8 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
 /* ---- octahedral impostors (core/methods/octahedral/octahedral.c; docs/methods/octahedral.md) ---- */
 
 /* sv_eval_draw_fn: the C reference runtime (sv_octa_render). */
-sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
-                        sv_image *color, float *depth, sv_error *err)
+sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
+                        float *depth, sv_error *err)
 {
     const octa_draw_ctx *c = user;
     return sv_octa_render(c->g, &c->b->albedo, c->b->depth.data ? &c->b->depth : NULL, cam, w, h,
@@ -419,8 +419,8 @@ static sv_status stage_plan(run *r, bake_state *b, sv_error *err)
         double cov = next / (double)spec->scene.screen_height;
         b->lods[i].coverage = cov > 1 ? 1 : cov;
     }
-    return svp_shrink_atlases(r, r->ren, r->gsrc, &b->si, b->lods, b->tree_h,
-                              b->bo.coverage_alpha, err);
+    return svp_shrink_atlases(r, r->ren, r->gsrc, &b->si, b->lods, b->tree_h, b->bo.coverage_alpha,
+                              err);
 }
 
 static void bake_state_free(bake_state *b)

@@ -25,8 +25,17 @@
 #include "stochastic.h"
 #include "validate.h"
 
-enum { ST_IMPORT, ST_VALIDATE, ST_CLASSIFY, ST_METHOD, ST_BAKE, ST_PACK, ST_EVALUATE, ST_WRITE,
-       ST_COUNT };
+enum {
+    ST_IMPORT,
+    ST_VALIDATE,
+    ST_CLASSIFY,
+    ST_METHOD,
+    ST_BAKE,
+    ST_PACK,
+    ST_EVALUATE,
+    ST_WRITE,
+    ST_COUNT
+};
 /* "import", "validate", ...: progress reports and report.json "times" */
 extern const char *const svp_stage_names[ST_COUNT];
 
@@ -36,8 +45,8 @@ typedef struct prepared {
     sv_validate_report repairs;
     sv_classification cls;
     sv_leaves leaves;
-    sv_up_guess up;           /* the up-axis check (plausibility.h) */
-    bool up_rotated;          /* import.up "auto" found the tree Z-up and rotated it */
+    sv_up_guess up;  /* the up-axis check (plausibility.h) */
+    bool up_rotated; /* import.up "auto" found the tree Z-up and rotated it */
     double centre[3], radius;
 } prepared;
 
@@ -45,7 +54,7 @@ typedef struct prepared {
 typedef struct trial_out {
     uint32_t quads, triangles;
     double texels;
-    double iou;               /* at spec.target_pixels (mean or worst), -1 = not measured */
+    double iou; /* at spec.target_pixels (mean or worst), -1 = not measured */
 } trial_out;
 
 typedef struct run {
@@ -55,12 +64,12 @@ typedef struct run {
     double times[ST_COUNT];
     double t0;
     int stage;
-    double pa, pb;            /* progress is mapped into [pa, pb] (the target search) */
-    int search_most;          /* the target search's bound on tries (sv_search_fn) */
-    bool trial;               /* stop after evaluation, write nothing, fill tout */
+    double pa, pb;   /* progress is mapped into [pa, pb] (the target search) */
+    int search_most; /* the target search's bound on tries (sv_search_fn) */
+    bool trial;      /* stop after evaluation, write nothing, fill tout */
     trial_out tout;
-    cJSON *target_json;       /* report "target" (deterministic part), owned */
-    cJSON *target_times;      /* report times.target: seconds per try, owned */
+    cJSON *target_json;  /* report "target" (deterministic part), owned */
+    cJSON *target_times; /* report times.target: seconds per try, owned */
     /* Kept across the bakes of one run (a target search bakes once per try,
      * issue 19 item 6): the renderer, the original on it, and the evaluator
      * with its reference renders, reused while its options stay the same. */
@@ -68,7 +77,7 @@ typedef struct run {
     sv_gpu_mesh *gsrc;
     sv_evaluator *ev;
     sv_eval_options ev_opt;
-    sv_evaluator *calib_ev;   /* the alpha calibration's (calibrate.c) */
+    sv_evaluator *calib_ev; /* the alpha calibration's (calibrate.c) */
     sv_eval_options calib_opt;
 } run;
 
@@ -76,7 +85,7 @@ typedef struct run {
 
 typedef struct chain_lod {
     bool stochastic;
-    int level;              /* index into the stochastic result */
+    int level; /* index into the stochastic result */
     double lambda;
     double distance;        /* stochastic: nearest distance where λ(d) <= λ (Cook's schedule) */
     double trunk_error;     /* metres: meshoptimizer bound, one pixel at `distance` */
@@ -89,10 +98,10 @@ typedef struct chain {
     sv_stoch_result sres;
     sv_stoch_ratio ratio;
     bool ratio_measured, has_stochastic;
-    chain_lod *info;        /* one per si LOD */
-    cJSON *skipped;         /* [{name, stage, reason}] */
-    int required;           /* the spec method's last LOD (-1: none) */
-    int required_first;     /* the spec method's first LOD */
+    chain_lod *info;    /* one per si LOD */
+    cJSON *skipped;     /* [{name, stage, reason}] */
+    int required;       /* the spec method's last LOD (-1: none) */
+    int required_first; /* the spec method's first LOD */
 } chain;
 
 /* r, the stochastic visible ratio, is measured on COVER_VIEWS renders of
@@ -106,26 +115,26 @@ typedef struct lod_out {
     sv_gpu_mesh *gpu;
     sv_eval_result eval;
     bool evaluated;
-    double switch_pixels;   /* largest screen height at which this LOD meets the tolerance */
-    double own_pixels;      /* the same before the chain made it non-increasing */
-    double coverage;        /* MSFT_screencoverage threshold below which the next LOD is used */
+    double switch_pixels; /* largest screen height at which this LOD meets the tolerance */
+    double own_pixels;    /* the same before the chain made it non-increasing */
+    double coverage;      /* MSFT_screencoverage threshold below which the next LOD is used */
     bool meets_tolerance;
-    char maps[4][64];       /* atlas file names: albedo, normal, ao, depth */
-    char file[96];          /* standalone glTF of this level: lod<i>_<name>.glb */
-    char node[96];          /* its node name (also in model.glb): <asset>_LOD<i> */
-    double alpha_cutoff;    /* calibrated atlas cutoff (0 = not calibrated) */
-    double calib_iou;       /* mean IoU at SV_CALIB_PIXELS with that cutoff */
-    uint32_t mip_count;     /* octahedral: albedo mips written after level 0 */
+    char maps[4][64];    /* atlas file names: albedo, normal, ao, depth */
+    char file[96];       /* standalone glTF of this level: lod<i>_<name>.glb */
+    char node[96];       /* its node name (also in model.glb): <asset>_LOD<i> */
+    double alpha_cutoff; /* calibrated atlas cutoff (0 = not calibrated) */
+    double calib_iou;    /* mean IoU at SV_CALIB_PIXELS with that cutoff */
+    uint32_t mip_count;  /* octahedral: albedo mips written after level 0 */
 } lod_out;
 
 /* One bake of the chain (svp_bake_all): filled stage by stage. */
 typedef struct bake_state {
-    sv_stand_in si;         /* the chain's plans (compose) */
-    chain ch;               /* how each LOD was made (compose) */
-    lod_out *lods;          /* one per si LOD (bake, evaluate, plan, write) */
-    sv_bake_options bo;     /* from the spec (bake) */
-    double fc[3], fr;       /* the evaluator's framing sphere (plan) */
-    double tree_h;          /* its diameter: screen sizes are measured on it (plan) */
+    sv_stand_in si;     /* the chain's plans (compose) */
+    chain ch;           /* how each LOD was made (compose) */
+    lod_out *lods;      /* one per si LOD (bake, evaluate, plan, write) */
+    sv_bake_options bo; /* from the spec (bake) */
+    double fc[3], fr;   /* the evaluator's framing sphere (plan) */
+    double tree_h;      /* its diameter: screen sizes are measured on it (plan) */
 } bake_state;
 
 /* Texels per screen pixel a level's atlas keeps (octahedral frames, svp_shrink_atlases). */
@@ -162,8 +171,8 @@ typedef struct octa_draw_ctx {
     const sv_octa_grid *g;
     const sv_baked_lod *b;
 } octa_draw_ctx;
-sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h,
-                        sv_image *color, float *depth, sv_error *err);
+sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
+                        float *depth, sv_error *err);
 
 /* ---- chain.c: which LODs, and where each is drawn ---- */
 
@@ -187,8 +196,8 @@ void svp_compact_lods(sv_stand_in *si, lod_out *lods, chain *c, const bool *drop
 
 /* The alpha calibration's evaluator (64 px, 8 views), made once per run and
  * kept in r; *out is r's, not the caller's. */
-sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                              sv_evaluator **out, sv_error *err);
+sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_evaluator **out,
+                              sv_error *err);
 /* sv_stoch_scorer on a stoch_score_ctx: mean IoU of a candidate at 64 px. */
 typedef struct stoch_score_ctx {
     run *r;

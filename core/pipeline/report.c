@@ -120,21 +120,24 @@ static cJSON *chain_json(const run *r, const chain *c)
         cJSON_AddNumberToObject(st, "d0", c->ss.d0 > 0 ? c->ss.d0 : s->scene.distance_min);
         cJSON_AddStringToObject(st, "order",
                                 c->ss.order == SV_STOCH_ORDER_AREA ? "area" : "random");
-        cJSON_AddItemToObject(st, "mean_leaf_color", cJSON_CreateDoubleArray(c->sres.mean_color, 3));
+        cJSON_AddItemToObject(st, "mean_leaf_color",
+                              cJSON_CreateDoubleArray(c->sres.mean_color, 3));
         cJSON *vr = cJSON_AddObjectToObject(st, "visible_ratio");
         cJSON_AddNumberToObject(vr, "r", c->sres.r);
         if (c->ratio_measured) {
-            cJSON_AddStringToObject(vr, "source", "measured by rendering (covered pixels of a "
-                                                  "leaf prefix vs all leaves)");
+            cJSON_AddStringToObject(vr, "source",
+                                    "measured by rendering (covered pixels of a "
+                                    "leaf prefix vs all leaves)");
             cJSON_AddNumberToObject(vr, "views", COVER_VIEWS);
             cJSON_AddNumberToObject(vr, "pixels", COVER_SIZE);
             cJSON_AddNumberToObject(vr, "covered_all", c->ratio.covered_all);
             cJSON_AddNumberToObject(vr, "covered_prefix", c->ratio.covered_sub);
             cJSON_AddNumberToObject(vr, "prefix_leaves", c->ratio.n_sub);
         } else {
-            cJSON_AddStringToObject(vr, "source", c->ss.area_preservation
-                                                      ? "given in the spec (stochastic.visible_ratio)"
-                                                      : "not used (area_preservation is off)");
+            cJSON_AddStringToObject(vr, "source",
+                                    c->ss.area_preservation
+                                        ? "given in the spec (stochastic.visible_ratio)"
+                                        : "not used (area_preservation is off)");
         }
         cJSON *terms = cJSON_AddArrayToObject(st, "lambda_terms");
         cJSON *t = cJSON_CreateObject();
@@ -146,8 +149,9 @@ static cJSON *chain_json(const run *r, const chain *c)
         bool mv = s->scene.camera_speed > 0;
         cJSON_AddStringToObject(t, "term", "motion");
         cJSON_AddStringToObject(t, "status", mv ? "done" : "skipped");
-        cJSON_AddStringToObject(t, "reason", mv ? "scene.camera_speed > 0: b /= 1 + blur pixels"
-                                                : "no camera motion in the scene");
+        cJSON_AddStringToObject(t, "reason",
+                                mv ? "scene.camera_speed > 0: b /= 1 + blur pixels"
+                                   : "no camera motion in the scene");
         cJSON_AddItemToArray(terms, t);
     }
     cJSON_AddItemToObject(j, "skipped", cJSON_Duplicate(c->skipped, true));
@@ -165,21 +169,20 @@ static cJSON *effects_json(const sv_spec *s, const sv_bake_options *bo)
         {"albedo", true, "always baked"},
         {"lit_albedo", bo->lit,
          bo->lit ? "scene.lighting is static: light baked into the albedo"
-         : bo->normal_map ? "scene.lighting is dynamic: the engine lights the normal map"
-                          : "scene.lighting is unlit: the albedo keeps the material's own brightness"},
+         : bo->normal_map
+             ? "scene.lighting is dynamic: the engine lights the normal map"
+             : "scene.lighting is unlit: the albedo keeps the material's own brightness"},
         {"normal_map", bo->normal_map,
          bo->normal_map ? "scene.lighting is dynamic"
-                        : bo->lit ? "scene.lighting is static: no normal map needed"
-                                  : "scene.lighting is unlit: no normal map needed"},
+         : bo->lit      ? "scene.lighting is static: no normal map needed"
+                        : "scene.lighting is unlit: no normal map needed"},
         {"ambient_occlusion", bo->ao_map,
-         bo->ao_map ? "scene.ambient_occlusion is true"
-                    : "scene.ambient_occlusion is false"},
+         bo->ao_map ? "scene.ambient_occlusion is true" : "scene.ambient_occlusion is false"},
         {"depth_map", bo->depth_map,
          bo->depth_map ? "scene.shadows is true" : "scene.shadows is false"},
         {"horizontal_plane_penalty", s->scene.viewer == SV_VIEWER_GROUND,
-         s->scene.viewer == SV_VIEWER_GROUND
-             ? "scene.viewer is ground (used by billboard_cloud)"
-             : "scene.viewer is not ground"},
+         s->scene.viewer == SV_VIEWER_GROUND ? "scene.viewer is ground (used by billboard_cloud)"
+                                             : "scene.viewer is not ground"},
         {"motion_term", s->scene.camera_speed > 0,
          s->scene.camera_speed > 0 ? "scene.camera_speed > 0 (used by stochastic)"
                                    : "no camera motion in the scene"},
@@ -248,9 +251,9 @@ static cJSON *planes_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON_AddStringToObject(o, "node", l->node);
     cJSON_AddNumberToObject(o, "screen_coverage", l->coverage);
     cJSON_AddNumberToObject(o, "switch_pixels", l->switch_pixels);
-    cJSON_AddNumberToObject(o, "switch_distance",
-                            sv_scene_distance_for_pixels(&r->spec.scene, b->tree_h,
-                                                         l->switch_pixels));
+    cJSON_AddNumberToObject(
+        o, "switch_distance",
+        sv_scene_distance_for_pixels(&r->spec.scene, b->tree_h, l->switch_pixels));
     cJSON_AddNumberToObject(o, "texel_size", bk->texel_size);
     cJSON *at = cJSON_AddObjectToObject(o, "atlas");
     cJSON_AddNumberToObject(at, "width", bk->albedo.width);
@@ -325,9 +328,9 @@ static cJSON *report_lod_json(const run *r, const bake_state *b, uint32_t i)
         cJSON_AddNumberToObject(o, "alpha_calibration_iou", l->calib_iou);
     }
     cJSON_AddNumberToObject(o, "switch_pixels", l->switch_pixels);
-    cJSON_AddNumberToObject(o, "switch_distance",
-                            sv_scene_distance_for_pixels(&r->spec.scene, b->tree_h,
-                                                         l->switch_pixels));
+    cJSON_AddNumberToObject(
+        o, "switch_distance",
+        sv_scene_distance_for_pixels(&r->spec.scene, b->tree_h, l->switch_pixels));
     cJSON_AddNumberToObject(o, "screen_coverage", l->coverage);
     cJSON_AddBoolToObject(o, "meets_tolerance", l->meets_tolerance);
     if (l->evaluated) cJSON_AddItemToObject(o, "accuracy", svp_accuracy_json(&l->eval));

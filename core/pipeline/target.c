@@ -67,7 +67,8 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
     size_t n = 0;
     if (goal->target_iou > 0)
         n += (size_t)snprintf(g + n, sizeof g - n, "IoU %.3g at %u px (%s)", goal->target_iou,
-                              goal->target_pixels, goal->target_worst ? "worst view" : "mean of views");
+                              goal->target_pixels,
+                              goal->target_worst ? "worst view" : "mean of views");
     if (goal->target_max_planes && n < sizeof g)
         n += (size_t)snprintf(g + n, sizeof g - n, "%sat most %u planes", n ? ", " : "",
                               goal->target_max_planes);
@@ -100,7 +101,8 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
                  "goal %s: even the cheapest setting, %s, is over the budget; it was baked anyway",
                  g, what);
     else
-        snprintf(out, cap, "goal %s: no setting reached it; the best within budget, %s, reached IoU %.3f%s",
+        snprintf(out, cap,
+                 "goal %s: no setting reached it; the best within budget, %s, reached IoU %.3f%s",
                  g, what, cJSON_IsNumber(iou) ? iou->valuedouble : 0.0,
                  stopped ? ", and the next step was over the budget" : "");
 }
@@ -108,9 +110,9 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
 /* One step of a target search (issue 19 item 6): what a try found. */
 typedef struct step_try {
     bool tried, baked, within, reached;
-    double iou;     /* -1 when not measured */
-    int index;      /* its place in the report's tries */
-    cJSON *set;     /* the method's settings, owned */
+    double iou; /* -1 when not measured */
+    int index;  /* its place in the report's tries */
+    cJSON *set; /* the method's settings, owned */
 } step_try;
 
 /* Bakes step i of the method's ladder as a trial (appending its entry to
@@ -176,14 +178,14 @@ static sv_status try_step(run *r, const sv_spec *goal, const char *method, const
 /* One search: the goal, the ladder and what each try found. */
 typedef struct search {
     run *r;
-    sv_spec goal;             /* the user's scalars; root stays owned by r->spec */
+    sv_spec goal; /* the user's scalars; root stays owned by r->spec */
     char method[32];
-    cJSON *user_root;         /* the user's spec document, owned */
-    const cJSON *us;          /* its settings of the method (may be NULL) */
-    int steps, n;             /* the ladder's length; tries made */
-    step_try *sr;             /* one per step */
-    cJSON *tries, *secs;      /* report target.tries and times.target_tries, owned */
-    sv_status last;           /* the last try that could not be baked, and why */
+    cJSON *user_root;    /* the user's spec document, owned */
+    const cJSON *us;     /* its settings of the method (may be NULL) */
+    int steps, n;        /* the ladder's length; tries made */
+    step_try *sr;        /* one per step */
+    cJSON *tries, *secs; /* report target.tries and times.target_tries, owned */
+    sv_status last;      /* the last try that could not be baked, and why */
     sv_error last_err;
 } search;
 

@@ -104,7 +104,8 @@ static sv_status load_impostor(const char *dir, const char *lod, sv_octa_grid *g
         const cJSON *dep = cJSON_GetObjectItemCaseSensitive(maps, "depth");
         memset(g, 0, sizeof *g);
         if (!cJSON_IsNumber(n) || !cJSON_IsNumber(fp) || !cJSON_IsNumber(half) ||
-            !cJSON_IsString(alb) || !vec3_of(cJSON_GetObjectItemCaseSensitive(e, "centre"), g->centre)) {
+            !cJSON_IsString(alb) ||
+            !vec3_of(cJSON_GetObjectItemCaseSensitive(e, "centre"), g->centre)) {
             st = sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s lacks a field", lod);
             break;
         }
@@ -117,8 +118,10 @@ static sv_status load_impostor(const char *dir, const char *lod, sv_octa_grid *g
         const cJSON *es = cJSON_GetObjectItemCaseSensitive(e, "elevation_scale");
         g->elev_scale = cJSON_IsNumber(es) ? es->valuedouble : 1.0;
         if (!(g->elev_scale > 0 && g->elev_scale <= 1)) {
-            st = sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s: elevation_scale %g "
-                         "outside (0, 1]", lod, g->elev_scale);
+            st = sv_fail(err, SV_ERR_PARSE,
+                         "view: impostor.json: level %s: elevation_scale %g "
+                         "outside (0, 1]",
+                         lod, g->elev_scale);
             break;
         }
         if ((st = decode(dir, alb->valuestring, false, albedo, err))) break;
@@ -140,8 +143,7 @@ sv_status sv_view_render(const char *out_dir, const char *lod, const double dir_
     double dir[3] = {dir_in[0], dir_in[1], dir_in[2]};
     if (size < 1 || size > 4096)
         return sv_fail(err, SV_ERR_INVALID, "view: size %u outside [1, 4096]", size);
-    if (!(sv_norm3(dir) > 0))
-        return sv_fail(err, SV_ERR_INVALID, "view: the direction is zero");
+    if (!(sv_norm3(dir) > 0)) return sv_fail(err, SV_ERR_INVALID, "view: the direction is zero");
     sv_normalize3(dir);
     cJSON *rep = read_json(out_dir, "report.json", err);
     if (!rep) return err ? err->status : SV_ERR_PARSE;
@@ -196,7 +198,8 @@ sv_status sv_view_render(const char *out_dir, const char *lod, const double dir_
     }
     if (st == SV_OK) {
         uint8_t *p = out.data; /* covered (alpha >= 128, the evaluator's rule) or not */
-        for (size_t i = 0; i < (size_t)size * size; i++) p[4 * i + 3] = p[4 * i + 3] >= 128 ? 255 : 0;
+        for (size_t i = 0; i < (size_t)size * size; i++)
+            p[4 * i + 3] = p[4 * i + 3] >= 128 ? 255 : 0;
         st = sv_image_write_png(&out, png_path, err);
     }
 done:

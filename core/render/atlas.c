@@ -23,22 +23,17 @@ static void sv_stable_sort(void *base, size_t n, size_t size,
 static void merge_sort(unsigned char *a, unsigned char *tmp, size_t n, size_t size,
                        int (*cmp)(const void *, const void *))
 {
-    if (n < 2)
-        return;
+    if (n < 2) return;
     size_t h = n / 2;
     merge_sort(a, tmp, h, size, cmp);
     merge_sort(a + h * size, tmp, n - h, size, cmp);
     size_t i = 0, j = h, k = 0;
     while (i < h && j < n) {
-        if (cmp(a + j * size, a + i * size) < 0)
-            memcpy(tmp + (k++) * size, a + (j++) * size, size);
-        else
-            memcpy(tmp + (k++) * size, a + (i++) * size, size);
+        if (cmp(a + j * size, a + i * size) < 0) memcpy(tmp + (k++) * size, a + (j++) * size, size);
+        else memcpy(tmp + (k++) * size, a + (i++) * size, size);
     }
-    while (i < h)
-        memcpy(tmp + (k++) * size, a + (i++) * size, size);
-    while (j < n)
-        memcpy(tmp + (k++) * size, a + (j++) * size, size);
+    while (i < h) memcpy(tmp + (k++) * size, a + (i++) * size, size);
+    while (j < n) memcpy(tmp + (k++) * size, a + (j++) * size, size);
     memcpy(a, tmp, n * size);
 }
 
@@ -53,8 +48,7 @@ static void sv_stable_sort(void *base, size_t n, size_t size,
     }
     /* No memory: stable insertion sort in place (rects are small structs). */
     unsigned char *a = base, swap[64];
-    if (size > sizeof swap)
-        return;
+    if (size > sizeof swap) return;
     for (size_t i = 1; i < n; i++)
         for (size_t j = i; j > 0 && cmp(a + j * size, a + (j - 1) * size) < 0; j--) {
             memcpy(swap, a + j * size, size);
@@ -63,22 +57,18 @@ static void sv_stable_sort(void *base, size_t n, size_t size,
         }
 }
 
-bool sv_atlas_pack(sv_chart *charts, uint32_t n, uint32_t width, uint32_t height,
-                   uint32_t padding)
+bool sv_atlas_pack(sv_chart *charts, uint32_t n, uint32_t width, uint32_t height, uint32_t padding)
 {
-    if (n == 0)
-        return true;
-    if (width == 0 || height == 0 || width > INT32_MAX / 2 || height > INT32_MAX / 2)
-        return false;
+    if (n == 0) return true;
+    if (width == 0 || height == 0 || width > INT32_MAX / 2 || height > INT32_MAX / 2) return false;
     for (uint32_t i = 0; i < n; i++)
-        if (charts[i].w == 0 || charts[i].h == 0 ||
-            (uint64_t)charts[i].w + padding > width || (uint64_t)charts[i].h + padding > height)
+        if (charts[i].w == 0 || charts[i].h == 0 || (uint64_t)charts[i].w + padding > width ||
+            (uint64_t)charts[i].h + padding > height)
             return false;
     stbrp_rect *rects = sv_calloc(n, sizeof *rects);
     stbrp_node *nodes = sv_calloc(width, sizeof *nodes);
     bool ok = false;
-    if (!rects || !nodes)
-        goto out;
+    if (!rects || !nodes) goto out;
     for (uint32_t i = 0; i < n; i++) {
         rects[i].id = (int)i;
         rects[i].w = (stbrp_coord)(charts[i].w + padding);
@@ -102,16 +92,12 @@ bool sv_atlas_fit(sv_chart *charts, uint32_t n, uint32_t padding, uint32_t max_s
                   uint32_t *width, uint32_t *height)
 {
     uint32_t side = 1;
-    while (side <= max_side / 2)
-        side *= 2; /* the largest power of two <= max_side */
-    if (max_side == 0 || !sv_atlas_pack(charts, n, side, side, padding))
-        return false;
+    while (side <= max_side / 2) side *= 2; /* the largest power of two <= max_side */
+    if (max_side == 0 || !sv_atlas_pack(charts, n, side, side, padding)) return false;
     /* Shrink while the next smaller square still fits. */
-    while (side > 1 && sv_atlas_pack(charts, n, side / 2, side / 2, padding))
-        side /= 2;
+    while (side > 1 && sv_atlas_pack(charts, n, side / 2, side / 2, padding)) side /= 2;
     uint32_t h = side;
-    if (side > 1 && sv_atlas_pack(charts, n, side, side / 2, padding))
-        h = side / 2;
+    if (side > 1 && sv_atlas_pack(charts, n, side, side / 2, padding)) h = side / 2;
     bool ok = sv_atlas_pack(charts, n, side, h, padding); /* final layout */
     *width = side;
     *height = h;
@@ -121,10 +107,8 @@ bool sv_atlas_fit(sv_chart *charts, uint32_t n, uint32_t padding, uint32_t max_s
 static uint32_t texels_for(double half, double texel)
 {
     double t = ceil(2.0 * half / texel - 1e-9);
-    if (!(t >= 1.0))
-        return 1;
-    if (t > (double)(UINT32_MAX / 4))
-        return UINT32_MAX / 4;
+    if (!(t >= 1.0)) return 1;
+    if (t > (double)(UINT32_MAX / 4)) return UINT32_MAX / 4;
     return (uint32_t)t;
 }
 
@@ -134,16 +118,16 @@ void sv_chart_size(double half_u, double half_v, double texel, uint32_t *w, uint
     *h = texels_for(half_v, texel);
 }
 
-static bool fits_at(const double *half, uint32_t n, uint32_t padding, uint32_t side,
-                    double texel, sv_chart *charts)
+static bool fits_at(const double *half, uint32_t n, uint32_t padding, uint32_t side, double texel,
+                    sv_chart *charts)
 {
     for (uint32_t i = 0; i < n; i++)
         sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
     return sv_atlas_pack(charts, n, side, side, padding);
 }
 
-sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding,
-                                uint32_t max_side, double *texel, sv_error *err)
+sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding, uint32_t max_side,
+                                double *texel, sv_error *err)
 {
     *texel = 0;
     if (n == 0) {
@@ -151,21 +135,18 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
         return SV_OK;
     }
     uint32_t side = 1;
-    while (side <= max_side / 2)
-        side *= 2;
+    while (side <= max_side / 2) side *= 2;
     double area = 0, biggest = 0;
     for (uint32_t i = 0; i < n; i++) {
         double a = 2 * half[2 * i], b = 2 * half[2 * i + 1];
         if (!isfinite(a) || !isfinite(b) || a < 0 || b < 0)
-            return sv_fail(err, SV_ERR_INTERNAL, "atlas: quad %u has bad extents %g x %g", i,
-                           a, b);
+            return sv_fail(err, SV_ERR_INTERNAL, "atlas: quad %u has bad extents %g x %g", i, a, b);
         area += a * b;
         if (a > biggest) biggest = a;
         if (b > biggest) biggest = b;
     }
     sv_chart *charts = sv_calloc(n, sizeof *charts);
-    if (!charts)
-        return sv_fail(err, SV_ERR_NOMEM, "atlas: out of memory for %u charts", n);
+    if (!charts) return sv_fail(err, SV_ERR_NOMEM, "atlas: out of memory for %u charts", n);
     double hi = biggest > 0 ? biggest : 1.0; /* every chart 1×1 */
     if (!fits_at(half, n, padding, side, hi, charts)) {
         free(charts);
@@ -175,17 +156,13 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
     }
     /* Lower bound: the charts' total area equals the atlas area. */
     double lo = area > 0 ? sqrt(area) / side : hi * 1e-6;
-    if (lo >= hi)
-        lo = hi * 0.5;
-    if (fits_at(half, n, padding, side, lo, charts))
-        hi = lo;
+    if (lo >= hi) lo = hi * 0.5;
+    if (fits_at(half, n, padding, side, lo, charts)) hi = lo;
     else
         for (int it = 0; it < 60 && hi / lo > 1.0 + 1e-4; it++) {
             double mid = sqrt(lo * hi);
-            if (fits_at(half, n, padding, side, mid, charts))
-                hi = mid;
-            else
-                lo = mid;
+            if (fits_at(half, n, padding, side, mid, charts)) hi = mid;
+            else lo = mid;
         }
     free(charts);
     *texel = hi;
@@ -194,32 +171,32 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
 
 /* k-th smallest of a[0..n) (quickselect, median-of-three pivot); reorders a.
  * One body for the two element types the median filters use. */
-#define SV_DEFINE_SELECT(name, T)                                                              \
-    static T name(T *a, uint32_t n, uint32_t k)                                                \
-    {                                                                                          \
-        uint32_t lo = 0, hi = n - 1;                                                           \
-        while (lo < hi) {                                                                      \
-            uint32_t mid = lo + (hi - lo) / 2;                                                 \
-            T x = a[lo], y = a[mid], z = a[hi];                                                \
-            T pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));   \
-            uint32_t i = lo, j = hi;                                                           \
-            while (i <= j) {                                                                   \
-                while (a[i] < pivot) i++;                                                      \
-                while (a[j] > pivot) j--;                                                      \
-                if (i <= j) {                                                                  \
-                    T t = a[i];                                                                \
-                    a[i] = a[j];                                                               \
-                    a[j] = t;                                                                  \
-                    i++;                                                                       \
-                    if (j == 0) break;                                                         \
-                    j--;                                                                       \
-                }                                                                              \
-            }                                                                                  \
-            if (k <= j) hi = j;                                                                \
-            else if (k >= i) lo = i;                                                           \
-            else return a[k];                                                                  \
-        }                                                                                      \
-        return a[k];                                                                           \
+#define SV_DEFINE_SELECT(name, T)                                                            \
+    static T name(T *a, uint32_t n, uint32_t k)                                              \
+    {                                                                                        \
+        uint32_t lo = 0, hi = n - 1;                                                         \
+        while (lo < hi) {                                                                    \
+            uint32_t mid = lo + (hi - lo) / 2;                                               \
+            T x = a[lo], y = a[mid], z = a[hi];                                              \
+            T pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y)); \
+            uint32_t i = lo, j = hi;                                                         \
+            while (i <= j) {                                                                 \
+                while (a[i] < pivot) i++;                                                    \
+                while (a[j] > pivot) j--;                                                    \
+                if (i <= j) {                                                                \
+                    T t = a[i];                                                              \
+                    a[i] = a[j];                                                             \
+                    a[j] = t;                                                                \
+                    i++;                                                                     \
+                    if (j == 0) break;                                                       \
+                    j--;                                                                     \
+                }                                                                            \
+            }                                                                                \
+            if (k <= j) hi = j;                                                              \
+            else if (k >= i) lo = i;                                                         \
+            else return a[k];                                                                \
+        }                                                                                    \
+        return a[k];                                                                         \
     }
 SV_DEFINE_SELECT(select_u8, uint8_t)
 SV_DEFINE_SELECT(select_f32, float)
@@ -232,14 +209,14 @@ static uint32_t needed(double thr, uint32_t s)
     return n < 1 ? 1 : (uint32_t)n;
 }
 
-void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
-                          double thr, uint8_t *dst)
+void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                          uint8_t *dst)
 {
     bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
     uint32_t need = needed(thr, s);
     size_t sw = (size_t)w * s;
     uint8_t ch[4][256];
-    uint8_t (*buf)[256] = ch;
+    uint8_t(*buf)[256] = ch;
     uint8_t *big = NULL;
     if ((size_t)s * s > 256) {
         big = malloc(4 * (size_t)s * s);
@@ -255,8 +232,7 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
                 const uint8_t *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4;
                 for (uint32_t x = 0; x < s; x++) {
                     const uint8_t *p = row + 4 * (size_t)x;
-                    if (p[3] == 0)
-                        continue;
+                    if (p[3] == 0) continue;
                     for (int k = 0; k < 4; k++) {
                         if (big) big[(size_t)k * s * s + c] = p[k];
                         else buf[k][c] = p[k];
@@ -281,8 +257,8 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
     free(big);
 }
 
-void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s,
-                              double thr, float *dst)
+void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                              float *dst)
 {
     uint32_t need = needed(thr, s);
     size_t sw = (size_t)w * s;
@@ -293,22 +269,20 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
             for (uint32_t y = 0; y < s && buf; y++) {
                 const float *row = src + ((size_t)ty * s + y) * sw + (size_t)tx * s;
                 for (uint32_t x = 0; x < s; x++)
-                    if (isfinite(row[x]))
-                        buf[c++] = row[x];
+                    if (isfinite(row[x])) buf[c++] = row[x];
             }
-            dst[(size_t)ty * w + tx] = c < need || !buf ? INFINITY : select_f32(buf, c, (c - 1) / 2);
+            dst[(size_t)ty * w + tx] = c < need || !buf ? INFINITY
+                                                        : select_f32(buf, c, (c - 1) / 2);
         }
     free(buf);
 }
 
-sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
-                    uint32_t passes, sv_error *err)
+sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
+                    sv_error *err)
 {
-    if (!img || !img->data || img->width == 0 || img->height == 0)
-        return SV_OK;
+    if (!img || !img->data || img->width == 0 || img->height == 0) return SV_OK;
     uint32_t w = img->width, h = img->height, nc = img->channels;
-    if (fill_channels > nc)
-        fill_channels = nc;
+    if (fill_channels > nc) fill_channels = nc;
     size_t npx = (size_t)w * h;
     uint8_t *known = malloc(npx);
     uint32_t *fresh = malloc(npx * sizeof *fresh);
@@ -322,18 +296,19 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
     bool wide = img->bits == 16;
     uint8_t *p8 = img->data;
     uint16_t *p16 = img->data;
-#define GET(i, k) (wide ? (uint32_t)p16[(i) * nc + (k)] : (uint32_t)p8[(i) * nc + (k)])
-#define PUT(i, k, v) do { if (wide) p16[(i) * nc + (k)] = (uint16_t)(v); \
-                          else p8[(i) * nc + (k)] = (uint8_t)(v); } while (0)
-    for (size_t i = 0; i < npx; i++)
-        known[i] = mask[i] != 0;
+#define GET(i, k) (wide ? (uint32_t)p16[(i)*nc + (k)] : (uint32_t)p8[(i)*nc + (k)])
+#define PUT(i, k, v)                                 \
+    do {                                             \
+        if (wide) p16[(i)*nc + (k)] = (uint16_t)(v); \
+        else p8[(i)*nc + (k)] = (uint8_t)(v);        \
+    } while (0)
+    for (size_t i = 0; i < npx; i++) known[i] = mask[i] != 0;
     for (uint32_t pass = 0; pass < passes; pass++) {
         size_t nf = 0;
         for (uint32_t y = 0; y < h; y++)
             for (uint32_t x = 0; x < w; x++) {
                 size_t i = (size_t)y * w + x;
-                if (known[i])
-                    continue;
+                if (known[i]) continue;
                 uint32_t sum[4] = {0, 0, 0, 0}, cnt = 0;
                 for (int dy = -1; dy <= 1; dy++)
                     for (int dx = -1; dx <= 1; dx++) {
@@ -341,25 +316,20 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
                         if ((dx == 0 && dy == 0) || yy < 0 || xx < 0 || yy >= h || xx >= w)
                             continue;
                         size_t j = (size_t)yy * w + (size_t)xx;
-                        if (known[j] != 1)
-                            continue;
-                        for (uint32_t k = 0; k < fill_channels; k++)
-                            sum[k] += GET(j, k);
+                        if (known[j] != 1) continue;
+                        for (uint32_t k = 0; k < fill_channels; k++) sum[k] += GET(j, k);
                         cnt++;
                     }
-                if (!cnt)
-                    continue;
+                if (!cnt) continue;
                 for (uint32_t k = 0; k < fill_channels; k++)
                     vals[4 * nf + k] = (sum[k] + cnt / 2) / cnt;
                 fresh[nf++] = (uint32_t)i;
             }
-        if (nf == 0)
-            break;
+        if (nf == 0) break;
         /* Commit after the pass so each pass grows the valued region by one texel. */
         for (size_t f = 0; f < nf; f++) {
             size_t i = fresh[f];
-            for (uint32_t k = 0; k < fill_channels; k++)
-                PUT(i, k, vals[4 * f + k]);
+            for (uint32_t k = 0; k < fill_channels; k++) PUT(i, k, vals[4 * f + k]);
             known[i] = 1;
         }
     }
@@ -367,15 +337,13 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels,
     uint64_t total[4] = {0, 0, 0, 0}, cnt = 0;
     for (size_t i = 0; i < npx; i++)
         if (known[i]) {
-            for (uint32_t k = 0; k < fill_channels; k++)
-                total[k] += GET(i, k);
+            for (uint32_t k = 0; k < fill_channels; k++) total[k] += GET(i, k);
             cnt++;
         }
     if (cnt && cnt < npx)
         for (size_t i = 0; i < npx; i++)
             if (!known[i])
-                for (uint32_t k = 0; k < fill_channels; k++)
-                    PUT(i, k, (total[k] + cnt / 2) / cnt);
+                for (uint32_t k = 0; k < fill_channels; k++) PUT(i, k, (total[k] + cnt / 2) / cnt);
 #undef GET
 #undef PUT
     free(known);

@@ -52,8 +52,7 @@ void sv_bake_options_init(sv_bake_options *opt)
 
 void sv_baked_lod_free(sv_baked_lod *b)
 {
-    if (!b)
-        return;
+    if (!b) return;
     sv_mesh_destroy(b->mesh);
     free(b->uv_rects);
     sv_image_free(&b->albedo);
@@ -62,8 +61,6 @@ void sv_baked_lod_free(sv_baked_lod *b)
     sv_image_free(&b->depth);
     memset(b, 0, sizeof *b);
 }
-
-
 
 /* Per quad: the faces to render and the depth range that holds them. */
 typedef struct quad_job {
@@ -75,8 +72,7 @@ typedef struct quad_job {
 
 static bool part_ok(const sv_quad *q, const uint8_t *tri_part, uint32_t t)
 {
-    if (q->parts == 0)
-        return true;
+    if (q->parts == 0) return true;
     uint8_t part = tri_part ? tri_part[t] : SV_PART_TRUNK;
     return (q->parts & (part == SV_PART_FOLIAGE ? SV_PARTS_FOLIAGE : SV_PARTS_TRUNK)) != 0;
 }
@@ -114,11 +110,9 @@ static sv_status select_faces(const sv_mesh *src, const sv_quad *q, uint32_t qi,
             return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for quad %u faces", qi);
         double tol = 1e-9 * (fabs(q->d) + q->half_u + q->half_v + slab);
         for (uint32_t t = 0; t < src->triangle_count; t++) {
-            if (!part_ok(q, tri_part, t))
-                continue;
+            if (!part_ok(q, tri_part, t)) continue;
             double f[3][3];
-            for (int j = 0; j < 3; j++)
-                vertex_frame(src, q, src->indices[3 * (size_t)t + j], f[j]);
+            for (int j = 0; j < 3; j++) vertex_frame(src, q, src->indices[3 * (size_t)t + j], f[j]);
             double dmin = fmin(f[0][0], fmin(f[1][0], f[2][0]));
             double dmax = fmax(f[0][0], fmax(f[1][0], f[2][0]));
             if (q->clip ? (dmin > slab + tol || dmax < -slab - tol)
@@ -138,8 +132,7 @@ static sv_status select_faces(const sv_mesh *src, const sv_quad *q, uint32_t qi,
         for (int j = 0; j < 3; j++) {
             double f[3];
             vertex_frame(src, q, src->indices[3 * (size_t)job->tris[i] + j], f);
-            if (fabs(f[0]) > ext)
-                ext = fabs(f[0]);
+            if (fabs(f[0]) > ext) ext = fabs(f[0]);
         }
     double range = q->clip ? slab : fmax(slab, ext);
     double eps = 1e-5 * (range + q->half_u + q->half_v) + 1e-9;
@@ -160,8 +153,8 @@ static int cmp_double(const void *a, const void *b)
 }
 
 /* 5th percentile of sqrt(area) over the faces of every job (each face once). */
-static sv_status face_size_p5(const sv_mesh *src, const quad_job *jobs, uint32_t n,
-                              double *size, sv_error *err)
+static sv_status face_size_p5(const sv_mesh *src, const quad_job *jobs, uint32_t n, double *size,
+                              sv_error *err)
 {
     *size = 0;
     uint8_t *seen = sv_calloc(src->triangle_count ? src->triangle_count : 1, 1);
@@ -175,12 +168,10 @@ static sv_status face_size_p5(const sv_mesh *src, const quad_job *jobs, uint32_t
     for (uint32_t i = 0; i < n; i++)
         for (uint32_t k = 0; k < jobs[i].count; k++) {
             uint32_t t = jobs[i].tris[k];
-            if (seen[t])
-                continue;
+            if (seen[t]) continue;
             seen[t] = 1;
             double a = sv_tri_area(src, t);
-            if (a > 0 && isfinite(a))
-                sz[c++] = sqrt(a);
+            if (a > 0 && isfinite(a)) sz[c++] = sqrt(a);
         }
     if (c) {
         qsort(sz, c, sizeof *sz, cmp_double);
@@ -220,21 +211,18 @@ typedef struct ao_views {
 
 static void ao_free(ao_views *a)
 {
-    for (int i = 0; i < SV_AO_DIRS; i++)
-        free(a->depth[i]);
+    for (int i = 0; i < SV_AO_DIRS; i++) free(a->depth[i]);
 }
 
-static sv_status ao_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mesh *src,
-                            ao_views *a, sv_error *err)
+static sv_status ao_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mesh *src, ao_views *a,
+                            sv_error *err)
 {
     memset(a, 0, sizeof *a);
     double c[3], rad;
     sv_mesh_sphere(src, c, &rad);
-    if (!(rad > 0))
-        rad = 1;
+    if (!(rad > 0)) rad = 1;
     uint32_t res = SV_AO_RES;
-    if (res > sv_renderer_max_size(r))
-        res = sv_renderer_max_size(r);
+    if (res > sv_renderer_max_size(r)) res = sv_renderer_max_size(r);
     a->bias = 2.0 * (2.0 * rad * 1.01 / res); /* two depth-map texels */
     const double golden = M_PI * (3.0 - sqrt(5.0));
     for (int i = 0; i < SV_AO_DIRS; i++) {
@@ -290,8 +278,7 @@ static double ao_visibility(const ao_views *a, uint32_t res, const double p[3])
             continue;
         }
         float stored = a->depth[i][(size_t)y * res + (size_t)x];
-        if (z <= (double)stored + a->bias)
-            vis++;
+        if (z <= (double)stored + a->bias) vis++;
     }
     return (double)vis / SV_AO_DIRS;
 }
@@ -302,20 +289,19 @@ typedef struct bake_ctx {
     const sv_bake_options *opt;
     uint32_t s;
     double thr;
-    uint32_t aw, ah;          /* atlas size */
-    uint8_t *mask;            /* aw*ah: texel opaque */
+    uint32_t aw, ah; /* atlas size */
+    uint8_t *mask;   /* aw*ah: texel opaque */
     sv_baked_lod *out;
     const ao_views *ao;
     uint32_t ao_res;
 } bake_ctx;
 
-static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job,
-                           const sv_chart *ch, sv_error *err)
+static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, const sv_chart *ch,
+                           sv_error *err)
 {
     uint32_t s = b->s;
     uint32_t tile = SV_BAKE_TILE_SAMPLES / s;
-    if (tile == 0)
-        tile = 1;
+    if (tile == 0) tile = 1;
     uint32_t w = ch->w, h = ch->h;
     sv_status st = SV_OK;
     uint8_t *tex = malloc((size_t)tile * tile * 4);
@@ -335,10 +321,9 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job,
             uint32_t tw = x1 - x0, th = y1 - y0;
             sv_camera cam = tile_camera(q, job, w, h, x0, x1, y0, y1);
             sv_image img;
-            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img,
-                           zs, err);
-            if (st != SV_OK)
-                goto out;
+            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img, zs,
+                           err);
+            if (st != SV_OK) goto out;
             sv_downsample_median(img.data, tw, th, s, b->thr, tex);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
@@ -349,13 +334,12 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job,
                     const uint8_t *t = tex + 4 * ((size_t)y * tw + x);
                     memcpy(alb + 4 * ai, t, 4);
                     b->mask[ai] = t[3] != 0;
-                    if (!t[3])
-                        continue;
+                    if (!t[3]) continue;
                     float dist = zt[(size_t)y * tw + x];
                     if (b->out->depth.data) {
                         double v = fabs((double)dist) / job->depth_norm;
-                        ((uint16_t *)b->out->depth.data)[ai] =
-                            (uint16_t)lround(65535.0 * (v < 1 ? v : 1));
+                        ((uint16_t *)b->out->depth.data)[ai] = (uint16_t)lround(65535.0 *
+                                                                                (v < 1 ? v : 1));
                     }
                     if (b->out->ao.data) {
                         double pu = -q->half_u + (x0 + x + 0.5) * tu;
@@ -369,10 +353,9 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job,
                     }
                 }
             if (b->out->normal.data) {
-                st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s,
-                               &img, NULL, err);
-                if (st != SV_OK)
-                    goto out;
+                st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s, &img,
+                               NULL, err);
+                if (st != SV_OK) goto out;
                 sv_downsample_median(img.data, tw, th, s, b->thr, tex);
                 sv_image_free(&img);
                 uint8_t *nm = b->out->normal.data;
@@ -397,8 +380,7 @@ static sv_status build_mesh(const sv_lod_plan *lod, const sv_mesh *keep, bool li
 {
     uint32_t n = lod->quad_count;
     if (n == 0) {
-        if (keep)
-            return sv_mesh_merge(NULL, keep, &out->mesh, err);
+        if (keep) return sv_mesh_merge(NULL, keep, &out->mesh, err);
         out->mesh = sv_mesh_create(0, 0, 0, 0);
         return out->mesh ? SV_OK : sv_fail(err, SV_ERR_NOMEM, "bake: out of memory");
     }
@@ -406,8 +388,7 @@ static sv_status build_mesh(const sv_lod_plan *lod, const sv_mesh *keep, bool li
         return sv_fail(err, SV_ERR_LIMIT, "bake: %u quads overflow the result mesh", n);
     uint32_t nimg = 1 + (out->normal.data != NULL) + (out->ao.data != NULL);
     sv_mesh *m = sv_mesh_create(4 * n, 2 * n, 1, nimg);
-    if (!m)
-        return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for the result mesh");
+    if (!m) return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for the result mesh");
     static const float cu[4] = {0, 1, 1, 0}, cv[4] = {1, 1, 0, 0}; /* corner → (u, v down) */
     for (uint32_t i = 0; i < n; i++) {
         const sv_quad *q = &lod->quads[i];
@@ -424,8 +405,7 @@ static sv_status build_mesh(const sv_lod_plan *lod, const sv_mesh *keep, bool li
             m->uvs[2 * v + 1] = rect[1] + cv[c] * (rect[3] - rect[1]);
         }
         static const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
-        for (int k = 0; k < 6; k++)
-            m->indices[6 * (size_t)i + k] = 4 * i + tri[k];
+        for (int k = 0; k < 6; k++) m->indices[6 * (size_t)i + k] = 4 * i + tri[k];
         m->tri_material[2 * i] = m->tri_material[2 * i + 1] = 0;
     }
     sv_material *mat = &m->materials[0];
@@ -461,18 +441,16 @@ static sv_status build_mesh(const sv_lod_plan *lod, const sv_mesh *keep, bool li
 }
 
 sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *src,
-                      const sv_lod_plan *lod, const sv_mesh *keep,
-                      const sv_bake_options *opt_in, sv_baked_lod *out, sv_error *err)
+                      const sv_lod_plan *lod, const sv_mesh *keep, const sv_bake_options *opt_in,
+                      sv_baked_lod *out, sv_error *err)
 {
     memset(out, 0, sizeof *out);
     if (!r || !gsrc || !src || !lod)
         return sv_fail(err, SV_ERR_INTERNAL, "bake: NULL renderer, mesh or LOD");
     double t_start = sv_now(), t_pack = 0;
     sv_bake_options opt;
-    if (opt_in)
-        opt = *opt_in;
-    else
-        sv_bake_options_init(&opt);
+    if (opt_in) opt = *opt_in;
+    else sv_bake_options_init(&opt);
     if (!opt.max_atlas) opt.max_atlas = 2048;
     if (!opt.max_supersample) opt.max_supersample = 8;
     if (opt.max_supersample > SV_BAKE_MAX_SS) opt.max_supersample = SV_BAKE_MAX_SS;
@@ -505,12 +483,10 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
         const sv_quad *q = &lod->quads[i];
         if (!(q->half_u >= 0) || !(q->half_v >= 0) || !isfinite(q->half_u) ||
             !isfinite(q->half_v) || !isfinite(q->d)) {
-            st = sv_fail(err, SV_ERR_INTERNAL, "bake: quad %u of %s has bad extents", i,
-                         lod->name);
+            st = sv_fail(err, SV_ERR_INTERNAL, "bake: quad %u of %s has bad extents", i, lod->name);
             goto out;
         }
-        if ((st = select_faces(src, q, i, opt.tri_part, &jobs[i], err)) != SV_OK)
-            goto out;
+        if ((st = select_faces(src, q, i, opt.tri_part, &jobs[i], err)) != SV_OK) goto out;
         half[2 * i] = q->half_u;
         half[2 * i + 1] = q->half_v;
     }
@@ -521,10 +497,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     if (n && !(texel > 0) &&
         (st = sv_atlas_choose_texel(half, n, opt.padding, opt.max_atlas, &texel, err)) != SV_OK)
         goto out;
-    if (!(opt.texel_size > 0) && opt.texel_floor > texel)
-        texel = opt.texel_floor;
-    if (!(texel > 0))
-        texel = 1.0;
+    if (!(opt.texel_size > 0) && opt.texel_floor > texel) texel = opt.texel_floor;
+    if (!(texel > 0)) texel = 1.0;
     uint32_t aw = 1, ah = 1;
     for (uint32_t i = 0; i < n; i++)
         sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
@@ -540,9 +514,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
             sv_chart_size(half[2 * i], half[2 * i + 1], texel, &charts[i].w, &charts[i].h);
     }
     if (n && !sv_atlas_fit(charts, n, opt.padding, opt.max_atlas, &aw, &ah)) {
-        st = sv_fail(err, SV_ERR_LIMIT,
-                     "bake: %u charts at texel size %g do not fit a %ux%u atlas", n, texel,
-                     opt.max_atlas, opt.max_atlas);
+        st = sv_fail(err, SV_ERR_LIMIT, "bake: %u charts at texel size %g do not fit a %ux%u atlas",
+                     n, texel, opt.max_atlas, opt.max_atlas);
         goto out;
     }
     t_pack = sv_now() - tp0;
@@ -557,16 +530,13 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
 
     /* Supersampling: the 5th-percentile face covers at least one sample. */
     double p5 = 0;
-    if ((st = face_size_p5(src, jobs, n, &p5, err)) != SV_OK)
-        goto out;
+    if ((st = face_size_p5(src, jobs, n, &p5, err)) != SV_OK) goto out;
     double sf = p5 > 0 ? ceil(texel / p5 - 1e-9) : 1;
     if (opt.coverage_alpha && sf < 4)
         sf = 4; /* coverage needs a few levels between empty and full */
     uint32_t s = sf < 1 ? 1 : sf > opt.max_supersample ? opt.max_supersample : (uint32_t)sf;
-    if (s > sv_renderer_max_size(r))
-        s = sv_renderer_max_size(r);
-    if (s > SV_BAKE_TILE_SAMPLES)
-        s = SV_BAKE_TILE_SAMPLES;
+    if (s > sv_renderer_max_size(r)) s = sv_renderer_max_size(r);
+    if (s > SV_BAKE_TILE_SAMPLES) s = SV_BAKE_TILE_SAMPLES;
     out->supersample = s;
 
     if (n) {
@@ -581,16 +551,22 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
             goto out;
         }
         if (opt.ao_map) {
-            if ((st = ao_prepare(r, gsrc, src, &ao, err)) != SV_OK)
-                goto out;
+            if ((st = ao_prepare(r, gsrc, src, &ao, err)) != SV_OK) goto out;
             have_ao = true;
         }
-        bake_ctx b = {r, gsrc, &opt, s, opt.coverage_alpha ? 0 : opt.alpha_threshold, aw, ah, mask, out,
-                      have_ao ? &ao : NULL, SV_AO_RES < sv_renderer_max_size(r)
-                                               ? SV_AO_RES : sv_renderer_max_size(r)};
+        bake_ctx b = {r,
+                      gsrc,
+                      &opt,
+                      s,
+                      opt.coverage_alpha ? 0 : opt.alpha_threshold,
+                      aw,
+                      ah,
+                      mask,
+                      out,
+                      have_ao ? &ao : NULL,
+                      SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r)};
         for (uint32_t i = 0; i < n; i++)
-            if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK)
-                goto out;
+            if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK) goto out;
         /* Dilation: colour (not alpha) grows into empty texels of every map. */
         if ((st = sv_dilate(&out->albedo, mask, 3, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->normal, mask, 3, opt.dilate, err)) != SV_OK ||
@@ -600,10 +576,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     }
     st = build_mesh(lod, keep, opt.lit, out, err);
 out:
-    if (have_ao)
-        ao_free(&ao);
-    for (uint32_t i = 0; jobs && i < n; i++)
-        free(jobs[i].tris);
+    if (have_ao) ao_free(&ao);
+    for (uint32_t i = 0; jobs && i < n; i++) free(jobs[i].tris);
     free(jobs);
     free(charts);
     free(half);

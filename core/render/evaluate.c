@@ -27,14 +27,14 @@ struct sv_evaluator {
     uint32_t view_count, size_count, base;
     uint32_t sizes[SV_EVAL_MAX_SIZES]; /* descending */
     sv_render_options ropt;
-    double *dirs;                      /* 3 × view_count */
-    sv_eval_image *orig;               /* view_count × size_count */
-    sv_eval_image full;                /* scratch: one render at base resolution */
-    float *depth;                      /* scratch: base × base depth buffer */
+    double *dirs;                         /* 3 × view_count */
+    sv_eval_image *orig;                  /* view_count × size_count */
+    sv_eval_image full;                   /* scratch: one render at base resolution */
+    float *depth;                         /* scratch: base × base depth buffer */
     sv_eval_image tmp[SV_EVAL_MAX_SIZES]; /* scratch: one subset, per size */
-    double *ftmp;                      /* scratch: the fused filter's rows (filter_render) */
-    int src[SV_EVAL_MAX_SIZES];        /* size s > 0 is filtered from size src[s]; -1: from full */
-    bool need_full;                    /* some size is filtered from full: it is filled every render */
+    double *ftmp;                         /* scratch: the fused filter's rows (filter_render) */
+    int src[SV_EVAL_MAX_SIZES]; /* size s > 0 is filtered from size src[s]; -1: from full */
+    bool need_full;             /* some size is filtered from full: it is filled every render */
     /* Cropping (issue 20): most of a view is background, which filters to
      * exact zeros. When every size is filtered by integer factors (the fused
      * filter for the largest, then size from size), the base image is cut
@@ -42,9 +42,9 @@ struct sv_evaluator {
      * each filtered pixel of every size lies in one tile; only the tiles of a
      * row between its first and last covered one are filtered and compared.
      * tile 0: sizes that do not divide, every pixel is processed. */
-    uint32_t tile, tiles;              /* tile side in base pixels; tiles per side */
-    uint32_t *orig_span;               /* view_count × 2·tiles: the original's spans (lo, hi) */
-    uint32_t *span;                    /* scratch 4 × 2·tiles: where the result's images (acc)
+    uint32_t tile, tiles; /* tile side in base pixels; tiles per side */
+    uint32_t *orig_span;  /* view_count × 2·tiles: the original's spans (lo, hi) */
+    uint32_t *span;       /* scratch 4 × 2·tiles: where the result's images (acc)
                                           and one subset's (tmp) may be non-zero, the union of
                                           a result's and the original's, a new render's */
 };
@@ -79,8 +79,6 @@ void sv_eval_place_views(sv_viewer viewer, uint32_t n, double *dirs)
         dirs[3 * i + 2] = rr * sin(phi);
     }
 }
-
-
 
 void sv_eval_camera(const double centre[3], double radius, const double dir[3], sv_camera *cam)
 {
@@ -145,8 +143,8 @@ static sv_status from_render_into(const sv_image *rgba, const float *depth, sv_e
 {
     if (rgba->channels != 4 || rgba->bits != 8 || rgba->width != out->width ||
         rgba->height != out->height || !rgba->data)
-        return sv_fail(err, SV_ERR_INTERNAL, "evaluate: render is not RGBA8 of %ux%u",
-                       out->width, out->height);
+        return sv_fail(err, SV_ERR_INTERNAL, "evaluate: render is not RGBA8 of %ux%u", out->width,
+                       out->height);
     size_t n = (size_t)out->width * out->height;
     const uint8_t *p = rgba->data;
     for (size_t i = 0; i < n; i++, p += 4) {
@@ -159,8 +157,8 @@ static sv_status from_render_into(const sv_image *rgba, const float *depth, sv_e
     return SV_OK;
 }
 
-sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth,
-                                    sv_eval_image *out, sv_error *err)
+sv_status sv_eval_image_from_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
+                                    sv_error *err)
 {
     memset(out, 0, sizeof *out);
     sv_status st = sv_eval_image_alloc(out, rgba->width, rgba->height, err);
@@ -331,8 +329,7 @@ static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval
     }
 }
 
-static void filter_render(const sv_image *rgba, const float *depth, sv_eval_image *out,
-                          double *tmp)
+static void filter_render(const sv_image *rgba, const float *depth, sv_eval_image *out, double *tmp)
 {
     filter_render_rect(rgba, depth, out, tmp, 0, out->height, 0, out->width);
 }
@@ -341,10 +338,11 @@ sv_status sv_eval_image_from_render_filtered(const sv_image *rgba, const float *
                                              uint32_t h, sv_eval_image *out, sv_error *err)
 {
     memset(out, 0, sizeof *out);
-    if (rgba->channels != 4 || rgba->bits != 8 || !rgba->data || !w || !h ||
-        rgba->width % w || rgba->height % h)
-        return sv_fail(err, SV_ERR_INVALID, "evaluate: cannot filter a %ux%u render to %ux%u in one pass",
-                       rgba->width, rgba->height, w, h);
+    if (rgba->channels != 4 || rgba->bits != 8 || !rgba->data || !w || !h || rgba->width % w ||
+        rgba->height % h)
+        return sv_fail(err, SV_ERR_INVALID,
+                       "evaluate: cannot filter a %ux%u render to %ux%u in one pass", rgba->width,
+                       rgba->height, w, h);
     size_t n;
     double *tmp = NULL;
     if (!sv_mul_size((size_t)w * 5, rgba->height, &n) || !(tmp = sv_calloc(n, sizeof *tmp)))
@@ -396,7 +394,8 @@ static void accumulate_rect(sv_eval_image *dst, const sv_eval_image *src, float 
             dst->coverage[i] += wf * src->coverage[i];
             dst->depth[i] += wf * src->depth[i];
         }
-        for (size_t i = 3 * (row + x0); i < 3 * (row + x1); i++) dst->color[i] += wf * src->color[i];
+        for (size_t i = 3 * (row + x0); i < 3 * (row + x1); i++)
+            dst->color[i] += wf * src->color[i];
     }
 }
 
@@ -432,7 +431,8 @@ static void compare_rect(const sv_eval_image *a, const sv_eval_image *b, compare
             smax += hi;
             if (hi > 0) {
                 double e = 0;
-                for (int k = 0; k < 3; k++) e += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
+                for (int k = 0; k < 3; k++)
+                    e += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
                 cerr += e / 3.0;
                 covered++;
             }
@@ -556,7 +556,10 @@ void sv_eval_result_free(sv_eval_result *r)
     memset(r, 0, sizeof *r);
 }
 
-uint32_t sv_evaluator_view_count(const sv_evaluator *e) { return e->view_count; }
+uint32_t sv_evaluator_view_count(const sv_evaluator *e)
+{
+    return e->view_count;
+}
 
 void sv_evaluator_view_dir(const sv_evaluator *e, uint32_t view, double dir[3])
 {
@@ -728,7 +731,8 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
     qsort(o.sizes, o.size_count, sizeof *o.sizes, cmp_desc);
     for (uint32_t s = 0; s < o.size_count; s++)
         if (o.sizes[s] == 0 || (s && o.sizes[s] == o.sizes[s - 1]))
-            return sv_fail(err, SV_ERR_INVALID, "evaluate: screen sizes must be positive and distinct");
+            return sv_fail(err, SV_ERR_INVALID,
+                           "evaluate: screen sizes must be positive and distinct");
     if (!o.view_count) o.view_count = DEFAULT_VIEWS;
     if (o.view_count > 4096)
         return sv_fail(err, SV_ERR_INVALID, "evaluate: %u views asked, at most 4096", o.view_count);
@@ -778,7 +782,8 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
     }
     e->need_full = !e->ftmp;
     for (uint32_t s = 1; s < e->size_count; s++) e->need_full |= e->src[s] < 0;
-    if (e->need_full && (st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK) goto out;
+    if (e->need_full && (st = sv_eval_image_alloc(&e->full, e->base, e->base, err)) != SV_OK)
+        goto out;
     if (!(e->depth = sv_calloc((size_t)e->base * e->base, sizeof *e->depth))) {
         st = sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a depth buffer");
         goto out;
@@ -820,8 +825,8 @@ static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
     if (count < 1 || count > SV_EVAL_MAX_SUBSETS || fabs(wsum - 1.0) > 1e-6)
         return sv_fail(err, SV_ERR_INVALID,
                        "evaluate: view %u: subset callback gave %u subsets with weights summing "
-                       "to %g (need 1..%d, non-negative, sum 1)", v, count, wsum,
-                       SV_EVAL_MAX_SUBSETS);
+                       "to %g (need 1..%d, non-negative, sum 1)",
+                       v, count, wsum, SV_EVAL_MAX_SUBSETS);
     uint32_t *sspan = e->tile ? e->span + 2 * (size_t)e->tiles : NULL;
     for (uint32_t s = 0; s < e->size_count; s++)
         if (!e->tile) image_zero(&acc[s]);
@@ -830,8 +835,8 @@ static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
     for (uint32_t k = 0; k < count; k++) {
         if (sub[k].weight == 0) continue;
         if (sub[k].tris && sub[k].tri_count == 0) continue; /* an empty subset draws nothing */
-        if ((st = render_view(e, result, sub[k].tris, sub[k].tri_count, v, e->tmp, sspan,
-                              err)) != SV_OK)
+        if ((st = render_view(e, result, sub[k].tris, sub[k].tri_count, v, e->tmp, sspan, err)) !=
+            SV_OK)
             return st;
         if (!e->tile) {
             for (uint32_t s = 0; s < e->size_count; s++)
@@ -843,8 +848,8 @@ static sv_status render_result(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
             uint32_t ts = tile_side(e, acc[s].width);
             for (uint32_t t = 0; t < e->tiles; t++)
                 if (sspan[t] < sspan[e->tiles + t])
-                    accumulate_rect(&acc[s], &e->tmp[s], (float)sub[k].weight, t * ts,
-                                    (t + 1) * ts, sspan[t] * ts, sspan[e->tiles + t] * ts);
+                    accumulate_rect(&acc[s], &e->tmp[s], (float)sub[k].weight, t * ts, (t + 1) * ts,
+                                    sspan[t] * ts, sspan[e->tiles + t] * ts);
         }
         spans_union(e->tiles, span, sspan, span);
     }
@@ -861,8 +866,7 @@ static sv_status alloc_sizes(const sv_evaluator *e, sv_eval_image *imgs, sv_erro
 }
 
 static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
-                              sv_eval_draw_fn draw, void *user, sv_eval_result *out,
-                              sv_error *err);
+                              sv_eval_draw_fn draw, void *user, sv_eval_result *out, sv_error *err);
 
 sv_status sv_evaluate_subsets(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
                               void *user, sv_eval_result *out, sv_error *err)
@@ -870,8 +874,8 @@ sv_status sv_evaluate_subsets(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
     return evaluate_any(e, result, fn, NULL, user, out, err);
 }
 
-sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user,
-                            sv_eval_result *out, sv_error *err)
+sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user, sv_eval_result *out,
+                            sv_error *err)
 {
     if (!draw) {
         memset(out, 0, sizeof *out);
@@ -881,8 +885,7 @@ sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user,
 }
 
 static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
-                              sv_eval_draw_fn draw, void *user, sv_eval_result *out,
-                              sv_error *err)
+                              sv_eval_draw_fn draw, void *user, sv_eval_result *out, sv_error *err)
 {
     memset(out, 0, sizeof *out);
     double t0 = sv_now();
@@ -989,7 +992,8 @@ static void paint_heat(sv_image *canvas, const sv_eval_image *a, const sv_eval_i
             size_t i = (size_t)y * a->width + x;
             uint8_t *p = (uint8_t *)canvas->data + (size_t)(y0 + y) * stride + (size_t)(x0 + x) * 3;
             double dc = fabs((double)a->coverage[i] - b->coverage[i]), de = 0;
-            for (int k = 0; k < 3; k++) de += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
+            for (int k = 0; k < 3; k++)
+                de += fabs((double)a->color[3 * i + k] - b->color[3 * i + k]);
             /* colour where both are covered (edges are coverage, shown red);
              * colour differences are small: amplify */
             de = fmin(1.0, 4.0 * de / 3.0 * fmin(a->coverage[i], b->coverage[i]));
@@ -999,9 +1003,8 @@ static void paint_heat(sv_image *canvas, const sv_eval_image *a, const sv_eval_i
         }
 }
 
-sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result,
-                               sv_eval_subset_fn fn, void *user, const char *png_path,
-                               sv_error *err)
+sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                               void *user, const char *png_path, sv_error *err)
 {
     const uint32_t rows = 4, t = e->sizes[0];
     sv_image canvas = {0};

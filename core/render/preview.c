@@ -99,7 +99,8 @@ sv_status sv_preview_chain(sv_renderer *r, const sv_gpu_mesh *original,
     for (uint32_t i = 0; st == SV_OK && i < n; i++) {
         const sv_preview_level *l = &levels[i];
         uint32_t x = t * (i + 1);
-        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, t, &img, err))) break;
+        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, t, &img, err)))
+            break;
         blit(&canvas, &img, x, 0);
         sv_image_free(&img);
         double px = l->pixels;
@@ -108,13 +109,15 @@ sv_status sv_preview_chain(sv_renderer *r, const sv_gpu_mesh *original,
         if ((st = draw_by(r, original, NULL, NULL, NULL, view_dir, cam, ro, s, &img, err))) break;
         blit(&canvas, &img, x + half - 1 - s, y);
         sv_image_free(&img);
-        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, s, &img, err))) break;
+        if ((st = draw_by(r, l->gpu, l->select, l->draw, l->user, view_dir, cam, ro, s, &img, err)))
+            break;
         blit(&canvas, &img, x + half + 1, y);
         sv_image_free(&img);
         int ty = (int)(t + half + 4);
         snprintf(line, sizeof line, "LOD%u %s", i, l->name ? l->name : "");
         text(&canvas, (int)x + 4, ty, line);
-        snprintf(line, sizeof line, "switch %.0f px%s", px, px > half - 2 ? " (shown smaller)" : "");
+        snprintf(line, sizeof line, "switch %.0f px%s", px,
+                 px > half - 2 ? " (shown smaller)" : "");
         text(&canvas, (int)x + 4, ty + LINE, line);
         fmt_count(line, sizeof line, "triangles", l->triangles);
         text(&canvas, (int)x + 4, ty + 2 * LINE, line);

@@ -42,34 +42,33 @@
 
 struct sv_renderer {
     OSMesaContext ctx;
-    uint8_t front[4 * 4 * 4];  /* the buffer OSMesa is made current on */
+    uint8_t front[4 * 4 * 4]; /* the buffer OSMesa is made current on */
     uint32_t max_size;
     GLuint program;
     GLint u_mvp, u_ncam, u_base, u_has_tex, u_cutoff, u_shade, u_light, u_ambient, u_tex;
     GLuint fbo, rb_color, rb_depth;
-    uint32_t fb_w, fb_h;       /* allocated size of the renderbuffers */
-    GLuint ibo;                /* per-call index buffer (subset draws) */
-    bool pack_invert;          /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
+    uint32_t fb_w, fb_h; /* allocated size of the renderbuffers */
+    GLuint ibo;          /* per-call index buffer (subset draws) */
+    bool pack_invert;    /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
 };
 
 struct sv_gpu_mesh {
     sv_renderer *r;
     const sv_mesh *mesh;
-    double centre[3];          /* positions are uploaded relative to this */
-    GLuint vbo;                /* interleaved pos3 normal3 uv2 floats */
-    GLuint *textures;          /* one per image, 0 when the image is unusable */
+    double centre[3]; /* positions are uploaded relative to this */
+    GLuint vbo;       /* interleaved pos3 normal3 uv2 floats */
+    GLuint *textures; /* one per image, 0 when the image is unusable */
     uint32_t texture_count;
 };
 
-static const char *VS_SRC =
-    "#version 130\n"
-    "in vec3 a_pos; in vec3 a_nrm; in vec2 a_uv;\n"
-    "uniform mat4 u_mvp; uniform mat3 u_ncam;\n"
-    "out vec3 v_n; out vec2 v_uv;\n"
-    "void main() {\n"
-    "  v_n = u_ncam * a_nrm; v_uv = a_uv;\n"
-    "  gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
-    "}\n";
+static const char *VS_SRC = "#version 130\n"
+                            "in vec3 a_pos; in vec3 a_nrm; in vec2 a_uv;\n"
+                            "uniform mat4 u_mvp; uniform mat3 u_ncam;\n"
+                            "out vec3 v_n; out vec2 v_uv;\n"
+                            "void main() {\n"
+                            "  v_n = u_ncam * a_nrm; v_uv = a_uv;\n"
+                            "  gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
+                            "}\n";
 
 /* u_shade: 0 albedo, 1 normal, 2 lit. u_cutoff < 0: opaque (no alpha test). */
 static const char *FS_SRC =
@@ -113,8 +112,7 @@ static sv_status gl_check(sv_error *err, const char *what)
 
 static bool make_current(sv_renderer *r)
 {
-    if (OSMesaGetCurrentContext() == r->ctx)
-        return true;
+    if (OSMesaGetCurrentContext() == r->ctx) return true;
     return OSMesaMakeCurrent(r->ctx, r->front, GL_UNSIGNED_BYTE, 4, 4) == GL_TRUE;
 }
 
@@ -138,8 +136,7 @@ static GLuint compile(GLenum type, const char *src, sv_error *err)
 static sv_status build_program(sv_renderer *r, sv_error *err)
 {
     GLuint vs = compile(GL_VERTEX_SHADER, VS_SRC, err);
-    if (!vs)
-        return SV_ERR_RENDER;
+    if (!vs) return SV_ERR_RENDER;
     GLuint fs = compile(GL_FRAGMENT_SHADER, FS_SRC, err);
     if (!fs) {
         glDeleteShader(vs);
@@ -179,29 +176,33 @@ static sv_status build_program(sv_renderer *r, sv_error *err)
 sv_status sv_renderer_create(uint32_t max_size, sv_renderer **out, sv_error *err)
 {
     *out = NULL;
-    if (max_size == 0)
-        return sv_fail(err, SV_ERR_RENDER, "render: max_size must be positive");
+    if (max_size == 0) return sv_fail(err, SV_ERR_RENDER, "render: max_size must be positive");
     /* Fixed rasteriser configuration, for byte-identical output (see top). */
     setenv("GALLIUM_DRIVER", "llvmpipe", 1);
     setenv("LP_NUM_THREADS", SV_RENDER_THREADS, 1);
 
     sv_renderer *r = calloc(1, sizeof *r);
-    if (!r)
-        return sv_fail(err, SV_ERR_NOMEM, "render: out of memory");
-    const int attribs[] = {
-        OSMESA_FORMAT, OSMESA_RGBA,
-        OSMESA_DEPTH_BITS, 0,
-        OSMESA_STENCIL_BITS, 0,
-        OSMESA_ACCUM_BITS, 0,
-        OSMESA_PROFILE, OSMESA_COMPAT_PROFILE,
-        OSMESA_CONTEXT_MAJOR_VERSION, 3,
-        OSMESA_CONTEXT_MINOR_VERSION, 0,
-        0
-    };
+    if (!r) return sv_fail(err, SV_ERR_NOMEM, "render: out of memory");
+    const int attribs[] = {OSMESA_FORMAT,
+                           OSMESA_RGBA,
+                           OSMESA_DEPTH_BITS,
+                           0,
+                           OSMESA_STENCIL_BITS,
+                           0,
+                           OSMESA_ACCUM_BITS,
+                           0,
+                           OSMESA_PROFILE,
+                           OSMESA_COMPAT_PROFILE,
+                           OSMESA_CONTEXT_MAJOR_VERSION,
+                           3,
+                           OSMESA_CONTEXT_MINOR_VERSION,
+                           0,
+                           0};
     r->ctx = OSMesaCreateContextAttribs(attribs, NULL);
     if (!r->ctx) {
         free(r);
-        return sv_fail(err, SV_ERR_RENDER, "render: OSMesaCreateContextAttribs failed "
+        return sv_fail(err, SV_ERR_RENDER,
+                       "render: OSMesaCreateContextAttribs failed "
                        "(compatibility profile 3.0)");
     }
     if (!make_current(r)) {
@@ -259,8 +260,7 @@ uint32_t sv_renderer_max_size(const sv_renderer *r)
 
 void sv_renderer_destroy(sv_renderer *r)
 {
-    if (!r)
-        return;
+    if (!r) return;
     if (make_current(r)) {
         if (r->program) glDeleteProgram(r->program);
         if (r->fbo) glDeleteFramebuffers(1, &r->fbo);
@@ -290,29 +290,24 @@ static GLuint upload_texture(const sv_image *img)
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
     /* Row 0 of sv_image is the top row and glTF's v=0 is the top: uploading
      * top-row-first makes texture t = glTF v with no flip. */
-    glTexImage2D(GL_TEXTURE_2D, 0, img->channels == 3 ? GL_RGB8 : GL_RGBA8,
-                 (GLsizei)img->width, (GLsizei)img->height, 0, fmt,
+    glTexImage2D(GL_TEXTURE_2D, 0, img->channels == 3 ? GL_RGB8 : GL_RGBA8, (GLsizei)img->width,
+                 (GLsizei)img->height, 0, fmt,
                  img->bits == 8 ? GL_UNSIGNED_BYTE : GL_UNSIGNED_SHORT, img->data);
     return t;
 }
 
-sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out,
-                             sv_error *err)
+sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out, sv_error *err)
 {
     *out = NULL;
-    if (!r || !mesh)
-        return sv_fail(err, SV_ERR_INTERNAL, "render: upload of a NULL mesh/renderer");
-    if (!make_current(r))
-        return sv_fail(err, SV_ERR_RENDER, "render: OSMesaMakeCurrent failed");
+    if (!r || !mesh) return sv_fail(err, SV_ERR_INTERNAL, "render: upload of a NULL mesh/renderer");
+    if (!make_current(r)) return sv_fail(err, SV_ERR_RENDER, "render: OSMesaMakeCurrent failed");
     sv_gpu_mesh *g = calloc(1, sizeof *g);
-    if (!g)
-        return sv_fail(err, SV_ERR_NOMEM, "render: out of memory");
+    if (!g) return sv_fail(err, SV_ERR_NOMEM, "render: out of memory");
     g->r = r;
     g->mesh = mesh;
     double mn[3], mx[3];
     if (sv_mesh_bounds(mesh, mn, mx))
-        for (int k = 0; k < 3; k++)
-            g->centre[k] = 0.5 * (mn[k] + mx[k]);
+        for (int k = 0; k < 3; k++) g->centre[k] = 0.5 * (mn[k] + mx[k]);
 
     size_t floats = 0, bytes = 0;
     if (!sv_mul_size(mesh->vertex_count, 8, &floats) ||
@@ -355,8 +350,8 @@ sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **
             if (img->width > (uint32_t)max_tex || img->height > (uint32_t)max_tex) {
                 sv_gpu_mesh_free(g);
                 return sv_fail(err, SV_ERR_LIMIT,
-                               "render: texture %u is %ux%u, over the renderer's %d",
-                               i, img->width, img->height, max_tex);
+                               "render: texture %u is %ux%u, over the renderer's %d", i, img->width,
+                               img->height, max_tex);
             }
             g->textures[i] = upload_texture(img);
         }
@@ -372,8 +367,7 @@ sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **
 
 void sv_gpu_mesh_free(sv_gpu_mesh *g)
 {
-    if (!g)
-        return;
+    if (!g) return;
     if (make_current(g->r)) {
         if (g->vbo) glDeleteBuffers(1, &g->vbo);
         for (uint32_t i = 0; i < g->texture_count; i++)
@@ -385,8 +379,7 @@ void sv_gpu_mesh_free(sv_gpu_mesh *g)
 
 static sv_status ensure_fbo(sv_renderer *r, uint32_t w, uint32_t h, sv_error *err)
 {
-    if (w <= r->fb_w && h <= r->fb_h)
-        return SV_OK;
+    if (w <= r->fb_w && h <= r->fb_h) return SV_OK;
     uint32_t nw = w > r->fb_w ? w : r->fb_w, nh = h > r->fb_h ? h : r->fb_h;
     glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
     glBindRenderbuffer(GL_RENDERBUFFER, r->rb_color);
@@ -398,8 +391,8 @@ static sv_status ensure_fbo(sv_renderer *r, uint32_t w, uint32_t h, sv_error *er
     GLenum fs = glCheckFramebufferStatus(GL_FRAMEBUFFER);
     if (fs != GL_FRAMEBUFFER_COMPLETE) {
         r->fb_w = r->fb_h = 0;
-        return sv_fail(err, SV_ERR_RENDER, "render: framebuffer %ux%u incomplete (0x%x)",
-                       nw, nh, (unsigned)fs);
+        return sv_fail(err, SV_ERR_RENDER, "render: framebuffer %ux%u incomplete (0x%x)", nw, nh,
+                       (unsigned)fs);
     }
     r->fb_w = nw;
     r->fb_h = nh;
@@ -409,8 +402,8 @@ static sv_status ensure_fbo(sv_renderer *r, uint32_t w, uint32_t h, sv_error *er
 /* Groups the triangles to draw by material (stable: each material's triangles
  * keep their order), writes their indices to idx and the per-material start
  * (in triangles) to start[0..material_count]. */
-static void group_by_material(const sv_mesh *m, const uint32_t *tris, uint32_t n,
-                              uint32_t *idx, uint32_t *start)
+static void group_by_material(const sv_mesh *m, const uint32_t *tris, uint32_t n, uint32_t *idx,
+                              uint32_t *start)
 {
     uint32_t mc = m->material_count;
     memset(start, 0, (mc + 1) * sizeof *start);
@@ -419,8 +412,7 @@ static void group_by_material(const sv_mesh *m, const uint32_t *tris, uint32_t n
         uint32_t mat = m->tri_material ? m->tri_material[t] : 0;
         start[(mat < mc ? mat : 0) + 1]++;
     }
-    for (uint32_t k = 0; k < mc; k++)
-        start[k + 1] += start[k];
+    for (uint32_t k = 0; k < mc; k++) start[k + 1] += start[k];
     uint32_t *fill = start + mc + 1; /* scratch of mc entries after start */
     memcpy(fill, start, mc * sizeof *fill);
     for (uint32_t i = 0; i < n; i++) {
@@ -432,13 +424,11 @@ static void group_by_material(const sv_mesh *m, const uint32_t *tris, uint32_t n
     }
 }
 
-sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
-                    uint32_t tri_count, const sv_camera *cam,
-                    const sv_render_options *opt, uint32_t width, uint32_t height,
-                    sv_image *color, float *depth, sv_error *err)
+sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, uint32_t tri_count,
+                    const sv_camera *cam, const sv_render_options *opt, uint32_t width,
+                    uint32_t height, sv_image *color, float *depth, sv_error *err)
 {
-    if (color)
-        memset(color, 0, sizeof *color);
+    if (color) memset(color, 0, sizeof *color);
     if (!r || !g || !cam)
         return sv_fail(err, SV_ERR_INTERNAL, "render: NULL renderer, mesh or camera");
     if (width == 0 || height == 0 || width > r->max_size || height > r->max_size)
@@ -449,20 +439,16 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
         return sv_fail(err, SV_ERR_INTERNAL, "render: degenerate camera (half %g x %g)",
                        cam->half_width, cam->half_height);
     const sv_mesh *m = g->mesh;
-    if (!tris)
-        tri_count = m->triangle_count;
+    if (!tris) tri_count = m->triangle_count;
     for (uint32_t i = 0; tris && i < tri_count; i++)
         if (tris[i] >= m->triangle_count)
-            return sv_fail(err, SV_ERR_INTERNAL, "render: triangle %u out of range (%u)",
-                           tris[i], m->triangle_count);
+            return sv_fail(err, SV_ERR_INTERNAL, "render: triangle %u out of range (%u)", tris[i],
+                           m->triangle_count);
     sv_render_options dflt = {0};
-    if (!opt)
-        opt = &dflt;
-    if (!make_current(r))
-        return sv_fail(err, SV_ERR_RENDER, "render: OSMesaMakeCurrent failed");
+    if (!opt) opt = &dflt;
+    if (!make_current(r)) return sv_fail(err, SV_ERR_RENDER, "render: OSMesaMakeCurrent failed");
     sv_status st = ensure_fbo(r, width, height, err);
-    if (st != SV_OK)
-        return st;
+    if (st != SV_OK) return st;
 
     /* Camera: eye frame x = right, y = up, z = back = -forward (right-handed). */
     double fwd[3];
@@ -493,8 +479,7 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
     rows[3][3] = 1.0;
     GLfloat mvp[16], ncam[9], light[3];
     for (int c = 0; c < 4; c++)
-        for (int rr = 0; rr < 4; rr++)
-            mvp[c * 4 + rr] = (GLfloat)rows[rr][c]; /* column-major */
+        for (int rr = 0; rr < 4; rr++) mvp[c * 4 + rr] = (GLfloat)rows[rr][c]; /* column-major */
     for (int c = 0; c < 3; c++) {
         ncam[c * 3 + 0] = (GLfloat)R[c];
         ncam[c * 3 + 1] = (GLfloat)U[c];
@@ -525,8 +510,7 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
         if (!idx || !start) {
             free(idx);
             free(start);
-            return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for %u triangles",
-                           tri_count);
+            return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for %u triangles", tri_count);
         }
         group_by_material(m, tris, tri_count, idx, start);
         glUseProgram(r->program);
@@ -542,15 +526,16 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
         free(idx);
         glUniformMatrix4fv(r->u_mvp, 1, GL_FALSE, mvp);
         glUniformMatrix3fv(r->u_ncam, 1, GL_FALSE, ncam);
-        glUniform1i(r->u_shade, opt->shade == SV_SHADE_NORMAL ? 1 : opt->shade == SV_SHADE_LIT ? 2 : 0);
+        glUniform1i(r->u_shade, opt->shade == SV_SHADE_NORMAL ? 1
+                                : opt->shade == SV_SHADE_LIT  ? 2
+                                                              : 0);
         glUniform3fv(r->u_light, 1, light);
         glUniform1f(r->u_ambient, (GLfloat)(opt->ambient > 0 ? opt->ambient : 0.35));
         glUniform1i(r->u_tex, 0);
         glActiveTexture(GL_TEXTURE0);
         for (uint32_t k = 0; k < mc; k++) {
             uint32_t n = start[k + 1] - start[k];
-            if (n == 0)
-                continue;
+            if (n == 0) continue;
             const sv_material *mat = &m->materials[k];
             GLuint tex = 0;
             if (mat->base_texture >= 0 && (uint32_t)mat->base_texture < g->texture_count)
@@ -560,14 +545,11 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
             glUniform4f(r->u_base, mat->base_color[0], mat->base_color[1], mat->base_color[2],
                         mat->base_color[3]);
             float cutoff = -1.0f;
-            if (mat->alpha_mode == SV_ALPHA_MASK)
-                cutoff = mat->alpha_cutoff;
-            else if (mat->alpha_mode == SV_ALPHA_BLEND)
-                cutoff = 0.5f;
+            if (mat->alpha_mode == SV_ALPHA_MASK) cutoff = mat->alpha_cutoff;
+            else if (mat->alpha_mode == SV_ALPHA_BLEND) cutoff = 0.5f;
             glUniform1f(r->u_cutoff, cutoff);
             /* baked-lit materials are not lit twice */
-            if (opt->shade == SV_SHADE_LIT)
-                glUniform1i(r->u_shade, mat->unlit ? 0 : 2);
+            if (opt->shade == SV_SHADE_LIT) glUniform1i(r->u_shade, mat->unlit ? 0 : 2);
             glDrawElements(GL_TRIANGLES, (GLsizei)(3 * n), GL_UNSIGNED_INT,
                            (const void *)((size_t)start[k] * 3 * sizeof(uint32_t)));
         }
@@ -582,14 +564,12 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
     }
     glFinish();
     st = gl_check(err, "drawing");
-    if (st != SV_OK)
-        return st;
+    if (st != SV_OK) return st;
 
     size_t npx = (size_t)width * height; /* both <= max_size <= 16384: no overflow */
     if (color) {
         st = sv_image_alloc(color, width, height, 4, 8, err);
-        if (st != SV_OK)
-            return st;
+        if (st != SV_OK) return st;
         uint8_t *px = color->data;
         glReadPixels(0, 0, (GLsizei)width, (GLsizei)height, GL_RGBA, GL_UNSIGNED_BYTE, px);
         /* GL's row 0 is the bottom: flip so row 0 is the top (unless
@@ -626,8 +606,7 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris,
         if (zb != depth) free(zb);
     }
     st = gl_check(err, "read back");
-    if (st != SV_OK && color)
-        sv_image_free(color);
+    if (st != SV_OK && color) sv_image_free(color);
     return st;
 }
 

@@ -15,8 +15,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     (void)sv_format_name(f);
     /* Companions the document may name: a .bin and an image. */
     static const uint8_t bin[48] = {0};
-    sv_file files[3] = {{"a.gltf", data, size}, {"a.bin", bin, sizeof bin},
-                        {"leaf.png", bin, 8}};
+    sv_file files[3] = {{"a.gltf", data, size}, {"a.bin", bin, sizeof bin}, {"leaf.png", bin, 8}};
     sv_limits lim = {0};
     lim.max_node_depth = 32;
     lim.max_nodes = 1000;

@@ -57,9 +57,11 @@ static void upload(svd_store *store, unsigned n, svd_upload *up, char *tmp)
     char h[SVD_KEY_HEX], inputs[512];
     svd_sha256_hex(content, (size_t)len, h);
     snprintf(inputs, sizeof inputs,
-             "{\"mesh\":\"tree.obj\",\"files\":[],\"objects\":{\"tree.obj\":{\"size\":%d,\"sha256\":\"%s\"}}}",
+             "{\"mesh\":\"tree.obj\",\"files\":[],\"objects\":{\"tree.obj\":{\"size\":%d,"
+             "\"sha256\":\"%s\"}}}",
              len, h);
-    if (svd_store_write_file(tmp, "inputs.json", inputs, strlen(inputs), &e) != SV_OK) die("write", &e);
+    if (svd_store_write_file(tmp, "inputs.json", inputs, strlen(inputs), &e) != SV_OK)
+        die("write", &e);
     if (svd_store_write_file(tmp, "spec.json", "{}", 2, &e) != SV_OK) die("write", &e);
     svd_key_part m = {.name = "tree.obj", .data = (const uint8_t *)content, .size = (size_t)len};
     memset(up, 0, sizeof *up);
@@ -78,10 +80,12 @@ static void finish_done(svd_jobs *jobs, svd_store *store, svd_ticket *t)
     if (svd_store_write_file(out, "model.glb", "X", 1, &e) != SV_OK) die("write", &e);
     char h[SVD_KEY_HEX], manifest[512];
     svd_sha256_hex("X", 1, h);
-    snprintf(manifest, sizeof manifest,
-             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":1,\"sha256\":\"%s\"}]}",
-             t->key, h);
-    if (svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e) != SV_OK) die("write", &e);
+    snprintf(
+        manifest, sizeof manifest,
+        "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":1,\"sha256\":\"%s\"}]}",
+        t->key, h);
+    if (svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e) != SV_OK)
+        die("write", &e);
     if (svd_store_install(store, out, t->key, "result", &e) != SV_OK) die("install", &e);
     svd_jobs_finish(jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
 }
@@ -117,7 +121,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: bench_jobs DIR N_DONE N_QUEUED [--prepare]\n");
         return 2;
     }
-    unsigned ndone = (unsigned)strtoul(argv[2], NULL, 10), nq = (unsigned)strtoul(argv[3], NULL, 10);
+    unsigned ndone = (unsigned)strtoul(argv[2], NULL, 10),
+             nq = (unsigned)strtoul(argv[3], NULL, 10);
     char root[1100], lp[1100];
     snprintf(root, sizeof root, "%s/store", argv[1]);
     snprintf(lp, sizeof lp, "%s/log", argv[1]);
@@ -133,7 +138,7 @@ int main(int argc, char **argv)
     if (!log || !metrics || !store) die("open", &e);
     svd_jobs *jobs = svd_jobs_create(&cfg, store, log, metrics, &e);
     if (!jobs || svd_jobs_recover(jobs, &e) != SV_OK) die("jobs", &e);
-    char (*keys)[SVD_KEY_HEX] = calloc((size_t)ndone + nq, sizeof *keys);
+    char(*keys)[SVD_KEY_HEX] = calloc((size_t)ndone + nq, sizeof *keys);
     if (!keys) die("out of memory", NULL);
 
     double t0 = sv_now();
@@ -192,7 +197,8 @@ int main(int argc, char **argv)
     if (!lat || n == 0) die("no status measured", NULL);
     qsort(lat, n, sizeof *lat, cmp_d);
     printf("{\"done\":%u,\"queued\":%u,\"setup_s\":%.2f,\"dispatch_s\":%.3f,\"jobs_per_s\":%.1f,"
-           "\"status_calls\":%zu,\"status_p50_ms\":%.3f,\"status_p99_ms\":%.3f,\"status_max_ms\":%.3f}\n",
+           "\"status_calls\":%zu,\"status_p50_ms\":%.3f,\"status_p99_ms\":%.3f,\"status_max_ms\":%."
+           "3f}\n",
            ndone, nq, setup, dispatch, nq / dispatch, n, lat[n / 2], lat[(size_t)(n * 0.99)],
            lat[n - 1]);
     free(lat);

@@ -80,7 +80,8 @@ static sv_status weld(const sv_mesh *m, welded *w, sv_error *err)
         welded_free(w);
         return sv_fail(err, SV_ERR_NOMEM, "out of memory welding %u vertices", m->vertex_count);
     }
-    meshopt_remapVertexBuffer(w->positions, m->positions, m->vertex_count, 3 * sizeof(float), remap);
+    meshopt_remapVertexBuffer(w->positions, m->positions, m->vertex_count, 3 * sizeof(float),
+                              remap);
     for (uint32_t v = m->vertex_count; v-- > 0;)
         if (remap[v] != ~0u) w->rep[remap[v]] = v;
     meshopt_remapIndexBuffer(w->indices, m->indices, ni, remap);
@@ -182,7 +183,8 @@ int main(int argc, char **argv)
         if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
         else if (strcmp(argv[i], "--targets") == 0 && i + 1 < argc) targets_arg = argv[++i];
         else if (argv[i][0] == '-' || np == BENCH_MAX_FILES) {
-            fprintf(stderr, "usage: bench_peers --spec SPEC.json --targets N[,N...] MESH [FILES...]\n");
+            fprintf(stderr,
+                    "usage: bench_peers --spec SPEC.json --targets N[,N...] MESH [FILES...]\n");
             return 2;
         } else paths[np++] = argv[i];
     }

@@ -107,7 +107,7 @@ static inline sv_status bench_spec_load(const char *path, sv_spec *spec, sv_erro
  * wall time of the import alone and *validate_seconds of the validation
  * (either may be NULL). */
 static inline sv_status bench_import(const bench_files *b, const sv_spec *spec, sv_mesh **out,
-                              double *seconds, double *validate_seconds, sv_error *err)
+                                     double *seconds, double *validate_seconds, sv_error *err)
 {
     *out = NULL;
     sv_import_options io;

@@ -94,7 +94,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
 {
     (void)version, (void)upload_data;
     const char *serve_dir = cls;
-    static int seen; /* a marker, not state: its address tags "headers seen" */
+    static int seen;         /* a marker, not state: its address tags "headers seen" */
     if (*con_cls != &seen) { /* first call: headers only */
         *con_cls = &seen;
         return MHD_YES;
@@ -135,7 +135,8 @@ int main(int argc, char **argv)
     sv_error err = {0};
     sv_status st = svd_config_from_args(&cfg, argc, argv, &err);
     if (st == SV_ERR_CANCELLED) {
-        puts("usage: mhd_hello --listen HOST:PORT [--port-file FILE] [--serve-dir DIR] [any sylvad flag]");
+        puts("usage: mhd_hello --listen HOST:PORT [--port-file FILE] [--serve-dir DIR] [any sylvad "
+             "flag]");
         return 0;
     }
     if (st != SV_OK) {
@@ -166,14 +167,12 @@ int main(int argc, char **argv)
     unsigned flags = MHD_USE_EPOLL_INTERNAL_THREAD | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
     if (ai->ai_family == AF_INET6) flags |= MHD_USE_IPv6;
     struct MHD_Daemon *d = MHD_start_daemon(
-        flags, 0, NULL, NULL, on_request, (void *)serve_dir,
-        MHD_OPTION_EXTERNAL_LOGGER, mhd_logger, NULL,
-        MHD_OPTION_SOCK_ADDR, ai->ai_addr,
-        MHD_OPTION_THREAD_POOL_SIZE, (unsigned int)(cfg.http_threads ? cfg.http_threads : 1),
-        MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg.connection_limit,
-        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg.connection_memory,
-        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg.connection_timeout,
-        MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)1,
+        flags, 0, NULL, NULL, on_request, (void *)serve_dir, MHD_OPTION_EXTERNAL_LOGGER, mhd_logger,
+        NULL, MHD_OPTION_SOCK_ADDR, ai->ai_addr, MHD_OPTION_THREAD_POOL_SIZE,
+        (unsigned int)(cfg.http_threads ? cfg.http_threads : 1), MHD_OPTION_CONNECTION_LIMIT,
+        (unsigned int)cfg.connection_limit, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
+        (size_t)cfg.connection_memory, MHD_OPTION_CONNECTION_TIMEOUT,
+        (unsigned int)cfg.connection_timeout, MHD_OPTION_LISTENING_ADDRESS_REUSE, (unsigned int)1,
         MHD_OPTION_END);
     freeaddrinfo(ai);
     if (!d) {
@@ -188,8 +187,7 @@ int main(int argc, char **argv)
         return 1;
     }
     int sig = 0;
-    while (sigwait(&sigs, &sig) != 0 || (sig != SIGTERM && sig != SIGINT)) {
-    }
+    while (sigwait(&sigs, &sig) != 0 || (sig != SIGTERM && sig != SIGINT)) {}
     MHD_stop_daemon(d);
     return 0;
 }

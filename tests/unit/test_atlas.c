@@ -18,10 +18,13 @@ static uint64_t rng(uint64_t *s)
     return *s >> 33;
 }
 
-static bool is_pow2(uint32_t v) { return v && !(v & (v - 1)); }
+static bool is_pow2(uint32_t v)
+{
+    return v && !(v & (v - 1));
+}
 
-static void assert_disjoint_with_padding(const sv_chart *c, uint32_t n, uint32_t pad,
-                                         uint32_t w, uint32_t h)
+static void assert_disjoint_with_padding(const sv_chart *c, uint32_t n, uint32_t pad, uint32_t w,
+                                         uint32_t h)
 {
     for (uint32_t i = 0; i < n; i++) {
         assert_true(c[i].x + c[i].w <= w);
@@ -29,8 +32,7 @@ static void assert_disjoint_with_padding(const sv_chart *c, uint32_t n, uint32_t
         for (uint32_t j = i + 1; j < n; j++) {
             bool apart_x = c[j].x >= c[i].x + c[i].w + pad || c[i].x >= c[j].x + c[j].w + pad;
             bool apart_y = c[j].y >= c[i].y + c[i].h + pad || c[i].y >= c[j].y + c[j].h + pad;
-            if (!apart_x && !apart_y)
-                fail_msg("charts %u and %u closer than %u texels", i, j, pad);
+            if (!apart_x && !apart_y) fail_msg("charts %u and %u closer than %u texels", i, j, pad);
         }
     }
 }
@@ -55,7 +57,8 @@ static void atlas_packs_charts_without_overlap_with_padding(void **state)
 static void atlas_shrinks_to_the_smallest_power_of_two_that_fits(void **state)
 {
     (void)state;
-    sv_chart c[4] = {{.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}};
+    sv_chart c[4] = {
+        {.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}, {.w = 10, .h = 10}};
     uint32_t w = 0, h = 0;
     assert_true(sv_atlas_fit(c, 4, 2, 2048, &w, &h));
     assert_int_equal(w, 32); /* 2×2 of 12-texel cells: 16 is too small */
@@ -94,11 +97,9 @@ static void texel_choice_is_the_finest_density_that_fits(void **state)
     /* 2×2 layout: each chart <= 124 texels: t ≈ 2/124 */
     assert_true(fabs(t - 2.0 / 124) < 2.0 / 124 * 0.01);
     sv_chart c[4];
-    for (int i = 0; i < 4; i++)
-        sv_chart_size(1, 1, t, &c[i].w, &c[i].h);
+    for (int i = 0; i < 4; i++) sv_chart_size(1, 1, t, &c[i].w, &c[i].h);
     assert_true(sv_atlas_pack(c, 4, 256, 256, 4));
-    for (int i = 0; i < 4; i++)
-        sv_chart_size(1, 1, t * 0.98, &c[i].w, &c[i].h);
+    for (int i = 0; i < 4; i++) sv_chart_size(1, 1, t * 0.98, &c[i].w, &c[i].h);
     assert_false(sv_atlas_pack(c, 4, 256, 256, 4));
 }
 
@@ -107,8 +108,7 @@ static void texel_choice_fails_when_not_even_single_texels_fit(void **state)
     (void)state;
     enum { N = 100 };
     double half[2 * N];
-    for (int i = 0; i < 2 * N; i++)
-        half[i] = 1;
+    for (int i = 0; i < 2 * N; i++) half[i] = 1;
     double t = 0;
     sv_error err = {0};
     assert_int_equal(sv_atlas_choose_texel(half, N, 4, 32, &t, &err), SV_ERR_LIMIT);
@@ -134,16 +134,15 @@ static void downsampler_gives_binary_alpha_and_thresholded_coverage(void **state
         }
     uint8_t dst[W * 4];
     sv_downsample_median(src, W, 1, S, 0.3, dst); /* needs ceil(0.3·16) = 5 */
-    for (int t = 0; t < W; t++)
-        assert_true(dst[4 * t + 3] == 0 || dst[4 * t + 3] == 255);
+    for (int t = 0; t < W; t++) assert_true(dst[4 * t + 3] == 0 || dst[4 * t + 3] == 255);
     assert_int_equal(dst[3], 0);
-    assert_int_equal(dst[7], 0);      /* 4/16 < 0.3 */
-    assert_int_equal(dst[11], 255);   /* 5/16 >= 0.3 */
-    assert_int_equal(dst[8], 30);     /* median of 10..50 */
+    assert_int_equal(dst[7], 0);    /* 4/16 < 0.3 */
+    assert_int_equal(dst[11], 255); /* 5/16 >= 0.3 */
+    assert_int_equal(dst[8], 30);   /* median of 10..50 */
     assert_int_equal(dst[9], 77);
-    assert_int_equal(dst[10], 5);     /* the outlier 250 is rejected */
+    assert_int_equal(dst[10], 5); /* the outlier 250 is rejected */
     assert_int_equal(dst[15], 255);
-    assert_int_equal(dst[12], 80);    /* lower median of 10..160 */
+    assert_int_equal(dst[12], 80);                /* lower median of 10..160 */
     sv_downsample_median(src, W, 1, S, 0.2, dst); /* needs 4 */
     assert_int_equal(dst[7], 255);
 }
@@ -160,8 +159,7 @@ static void downsampler_median_matches_sorting_on_random_samples(void **state)
     uint8_t *src = malloc(S * S * W * H * 4), dst[W * H * 4];
     uint64_t s = 99;
     for (int i = 0; i < S * S * W * H; i++) {
-        for (int k = 0; k < 3; k++)
-            src[4 * i + k] = (uint8_t)(rng(&s) % 7 * 40); /* many ties */
+        for (int k = 0; k < 3; k++) src[4 * i + k] = (uint8_t)(rng(&s) % 7 * 40); /* many ties */
         src[4 * i + 3] = rng(&s) % 3 ? 255 : 0;
     }
     sv_downsample_median(src, W, H, S, 0.3, dst);
@@ -193,8 +191,7 @@ static void downsampler_median_matches_sorting_on_random_samples(void **state)
 static void float_downsampler_takes_the_median_of_covered_depths(void **state)
 {
     (void)state;
-    float src[2 * 2 * 2] = {1.0f, 3.0f, INFINITY, INFINITY,
-                            2.0f, 100.0f, INFINITY, 0.5f};
+    float src[2 * 2 * 2] = {1.0f, 3.0f, INFINITY, INFINITY, 2.0f, 100.0f, INFINITY, 0.5f};
     float dst[2];
     sv_downsample_median_f32(src, 2, 1, 2, 0.3, dst);
     assert_true(dst[0] == 2.0f); /* lower median of 1,2,3,100 */
@@ -207,17 +204,24 @@ static void dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_al
     sv_image img;
     assert_int_equal(sv_image_alloc(&img, 8, 8, 4, 8, NULL), SV_OK);
     uint8_t *p = img.data, mask[64] = {0};
-    p[4 * (1 * 8 + 1) + 0] = 255; p[4 * (1 * 8 + 1) + 3] = 255; mask[1 * 8 + 1] = 1; /* red */
-    p[4 * (6 * 8 + 6) + 2] = 255; p[4 * (6 * 8 + 6) + 3] = 255; mask[6 * 8 + 6] = 1; /* blue */
+    p[4 * (1 * 8 + 1) + 0] = 255;
+    p[4 * (1 * 8 + 1) + 3] = 255;
+    mask[1 * 8 + 1] = 1; /* red */
+    p[4 * (6 * 8 + 6) + 2] = 255;
+    p[4 * (6 * 8 + 6) + 3] = 255;
+    mask[6 * 8 + 6] = 1; /* blue */
     assert_int_equal(sv_dilate(&img, mask, 3, 1, NULL), SV_OK);
     const uint8_t *a = p + 4 * (0 * 8 + 0), *b = p + 4 * (2 * 8 + 2);
     const uint8_t *c = p + 4 * (7 * 8 + 7), *d = p + 4 * (4 * 8 + 4);
-    assert_int_equal(a[0], 255); assert_int_equal(a[2], 0);   /* next to red */
+    assert_int_equal(a[0], 255);
+    assert_int_equal(a[2], 0); /* next to red */
     assert_int_equal(b[0], 255);
-    assert_int_equal(c[2], 255); assert_int_equal(c[0], 0);   /* next to blue */
-    assert_int_equal(d[0], 128); assert_int_equal(d[2], 128); /* far: mean of all */
+    assert_int_equal(c[2], 255);
+    assert_int_equal(c[0], 0); /* next to blue */
+    assert_int_equal(d[0], 128);
+    assert_int_equal(d[2], 128); /* far: mean of all */
     for (int i = 0; i < 64; i++)
-        assert_int_equal(p[4 * i + 3], mask[i] ? 255 : 0);   /* alpha untouched */
+        assert_int_equal(p[4 * i + 3], mask[i] ? 255 : 0); /* alpha untouched */
     sv_image_free(&img);
 }
 
@@ -228,8 +232,10 @@ static void dilation_reaches_as_many_texels_as_passes(void **state)
     assert_int_equal(sv_image_alloc(&img, 16, 1, 1, 16, NULL), SV_OK);
     uint16_t *p = img.data;
     uint8_t mask[16] = {0};
-    p[0] = 1000; mask[0] = 1;
-    p[15] = 3000; mask[15] = 1;
+    p[0] = 1000;
+    mask[0] = 1;
+    p[15] = 3000;
+    mask[15] = 1;
     assert_int_equal(sv_dilate(&img, mask, 1, 3, NULL), SV_OK);
     assert_int_equal(p[3], 1000);
     assert_int_equal(p[12], 3000);

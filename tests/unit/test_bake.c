@@ -35,7 +35,9 @@ typedef struct scene {
 
 /* Mesh: rectangles given as z = z0 + sx·x over [x0,x1]×[y0,y1]; rect 0 gets the
  * leaf texture (material 0, MASK), the others a flat colour (material 1). */
-typedef struct rect { double x0, x1, y0, y1, z0, sx; } rect;
+typedef struct rect {
+    double x0, x1, y0, y1, z0, sx;
+} rect;
 
 static scene make_scene(const rect *rs, uint32_t n)
 {
@@ -54,23 +56,20 @@ static scene make_scene(const rect *rs, uint32_t n)
             s.m->uvs[2 * v + 1] = (float)((q->y1 - xy[c][1]) / (q->y1 - q->y0));
         }
         static const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
-        for (int k = 0; k < 6; k++)
-            s.m->indices[6 * i + k] = 4 * i + tri[k];
+        for (int k = 0; k < 6; k++) s.m->indices[6 * i + k] = 4 * i + tri[k];
         s.m->tri_material[2 * i] = s.m->tri_material[2 * i + 1] = i == 0 ? 0 : 1;
     }
     sv_mesh_compute_normals(s.m);
     assert_int_equal(sv_image_alloc(&s.m->images[0], 64, 64, 4, 8, NULL), SV_OK);
     uint8_t *px = s.m->images[0].data;
     for (uint32_t y = 0; y < 64; y++)
-        for (uint32_t x = 0; x < 64; x++)
-            leaf_texel(x / 16, y / 16, px + 4 * (y * 64 + x));
+        for (uint32_t x = 0; x < 64; x++) leaf_texel(x / 16, y / 16, px + 4 * (y * 64 + x));
     s.m->materials[0].base_texture = 0;
     s.m->materials[0].alpha_mode = SV_ALPHA_MASK;
     s.m->materials[0].alpha_cutoff = 0.5f;
     s.m->materials[1].base_color[0] = 0.0f; /* flat cyan */
     sv_error err = {0};
-    if (sv_renderer_create(2048, &s.r, &err) != SV_OK)
-        fail_msg("renderer: %s", err.message);
+    if (sv_renderer_create(2048, &s.r, &err) != SV_OK) fail_msg("renderer: %s", err.message);
     assert_int_equal(sv_gpu_mesh_upload(s.r, s.m, &s.g, NULL), SV_OK);
     return s;
 }
@@ -138,11 +137,9 @@ static void baked_albedo_matches_the_source_texture_where_covered(void **state)
             leaf_texel(x / 16, y / 16, want);
             const uint8_t *got = chart_texel(&b, &b.albedo, 0, x, y);
             assert_int_equal(got[3], want[3]);
-            if (!want[3])
-                continue;
+            if (!want[3]) continue;
             opaque++;
-            for (int k = 0; k < 3; k++)
-                assert_in_range(got[k], want[k] - 2, want[k] + 2);
+            for (int k = 0; k < 3; k++) assert_in_range(got[k], want[k] - 2, want[k] + 2);
         }
     assert_int_equal(opaque, 15 * 14 * 14);
     /* Binary alpha everywhere. */
@@ -231,10 +228,8 @@ static void clip_mode_keeps_only_the_part_of_a_face_inside_the_slab(void **state
     for (uint32_t x = 0; x < 64; x++) {
         double wx = -1 + (x + 0.5) * 2.0 / 64;
         uint8_t a = chart_texel(&b, &b.albedo, 0, x, 32)[3];
-        if (fabs(wx) < 0.23)
-            assert_int_equal(a, 255);
-        else if (fabs(wx) > 0.27)
-            assert_int_equal(a, 0);
+        if (fabs(wx) < 0.23) assert_int_equal(a, 255);
+        else if (fabs(wx) > 0.27) assert_int_equal(a, 0);
     }
     sv_baked_lod_free(&b);
     scene_free(&s);
@@ -366,7 +361,8 @@ static void result_mesh_has_two_triangles_per_quad_then_the_kept_mesh(void **sta
     assert_int_equal(m->materials[0].base_texture, 0);
     assert_int_equal(m->materials[1].base_texture, 1); /* kept texture, re-indexed */
     assert_int_equal(m->tri_material[4], 1);
-    assert_memory_equal(m->images[0].data, b.albedo.data, (size_t)b.albedo.width * b.albedo.height * 4);
+    assert_memory_equal(m->images[0].data, b.albedo.data,
+                        (size_t)b.albedo.width * b.albedo.height * 4);
     assert_ptr_not_equal(m->images[0].data, b.albedo.data);
     /* Corner 3 (-u,+v) is the chart's top-left: uv (u0, v0); corner 1 (+u,-v): (u1, v1). */
     assert_true(m->positions[3 * 3] == -1.0f && m->positions[3 * 3 + 1] == 1.0f);
@@ -405,7 +401,9 @@ static void supersampling_follows_the_smallest_faces_within_the_cap(void **state
 static void bake_is_byte_identical_across_runs(void **state)
 {
     (void)state;
-    rect rs[3] = {{-1, 1, -1, 1, 0, 0}, {-0.5, 0.7, -0.8, 0.3, 0.02, 0.03}, {0.1, 0.9, 0.1, 0.6, -0.05, -0.04}};
+    rect rs[3] = {{-1, 1, -1, 1, 0, 0},
+                  {-0.5, 0.7, -0.8, 0.3, 0.02, 0.03},
+                  {0.1, 0.9, 0.1, 0.6, -0.05, -0.04}};
     sv_baked_lod b[2];
     for (int run = 0; run < 2; run++) {
         scene s = make_scene(rs, 3);
@@ -424,7 +422,8 @@ static void bake_is_byte_identical_across_runs(void **state)
     assert_memory_equal(b[0].normal.data, b[1].normal.data, px * 3);
     assert_memory_equal(b[0].ao.data, b[1].ao.data, px);
     assert_memory_equal(b[0].depth.data, b[1].depth.data, px * 2);
-    assert_memory_equal(b[0].mesh->uvs, b[1].mesh->uvs, b[0].mesh->vertex_count * 2 * sizeof(float));
+    assert_memory_equal(b[0].mesh->uvs, b[1].mesh->uvs,
+                        b[0].mesh->vertex_count * 2 * sizeof(float));
     assert_memory_equal(b[0].uv_rects, b[1].uv_rects, 4 * sizeof(float));
     sv_baked_lod_free(&b[0]);
     sv_baked_lod_free(&b[1]);
@@ -447,12 +446,10 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
     sv_mesh *m = NULL;
     sv_error err = {0};
     double t0 = sv_now();
-    if (sv_import(&file, 1, NULL, &m, NULL, &err) != SV_OK)
-        fail_msg("import: %s", err.message);
+    if (sv_import(&file, 1, NULL, &m, NULL, &err) != SV_OK) fail_msg("import: %s", err.message);
     free(bytes);
     sv_classification cls;
-    if (sv_classify(m, NULL, &cls, &err) != SV_OK)
-        fail_msg("classify: %s", err.message);
+    if (sv_classify(m, NULL, &cls, &err) != SV_OK) fail_msg("classify: %s", err.message);
     double c[3], rad;
     sv_mesh_sphere(m, c, &rad);
     double mn[3], mx[3];
@@ -501,8 +498,7 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
     o.normal_map = true;
     o.max_atlas = 1024; /* keeps the sanitizer run short; 2048 takes ~1.2 s at -O2 */
     sv_baked_lod b;
-    if (sv_bake_lod(r, g, m, &lod, NULL, &o, &b, &err) != SV_OK)
-        fail_msg("bake: %s", err.message);
+    if (sv_bake_lod(r, g, m, &lod, NULL, &o, &b, &err) != SV_OK) fail_msg("bake: %s", err.message);
     double t3 = sv_now();
     size_t px = (size_t)b.albedo.width * b.albedo.height, opaque = 0;
     const uint8_t *p = b.albedo.data;
@@ -513,9 +509,9 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
     printf("oak: %u triangles (%u foliage); import+classify %.2f s, upload %.2f s; "
            "bake of 20 quads (albedo+normal) %.2f s (render %.2f, pack %.3f): atlas %ux%u, "
            "texel %.4f m, supersample %u, %.1f%% opaque\n",
-           m->triangle_count, cls.foliage_triangles, t1 - t0, t2 - t1, t3 - t2,
-           b.seconds_render, b.seconds_pack, b.albedo.width, b.albedo.height, b.texel_size,
-           b.supersample, 100.0 * (double)opaque / (double)px);
+           m->triangle_count, cls.foliage_triangles, t1 - t0, t2 - t1, t3 - t2, b.seconds_render,
+           b.seconds_pack, b.albedo.width, b.albedo.height, b.texel_size, b.supersample,
+           100.0 * (double)opaque / (double)px);
     const char *dump = getenv("SYLVA_BAKE_DUMP"); /* optional: look at the atlases */
     if (dump) {
         char f[1200];
@@ -524,8 +520,8 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
         snprintf(f, sizeof f, "%s/oak20_normal.png", dump);
         sv_image_write_png(&b.normal, f, NULL);
     }
-    printf("oak bounds: %.2f..%.2f x %.2f..%.2f x %.2f..%.2f\n", mn[0], mx[0], mn[1], mx[1],
-           mn[2], mx[2]);
+    printf("oak bounds: %.2f..%.2f x %.2f..%.2f x %.2f..%.2f\n", mn[0], mx[0], mn[1], mx[1], mn[2],
+           mx[2]);
     /* Leaves, not cards: a good part of each chart but far from all of it. */
     assert_true(opaque > px / 50);
     assert_true(opaque < px * 3 / 4);

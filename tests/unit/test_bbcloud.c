@@ -84,7 +84,8 @@ static void geo_element(geo *g, uint8_t part)
 }
 
 /* Adds a triangle as its own element. */
-static void geo_single(geo *g, const double a[3], const double b[3], const double c[3], uint8_t part)
+static void geo_single(geo *g, const double a[3], const double b[3], const double c[3],
+                       uint8_t part)
 {
     uint32_t i = geo_vertex(g, a[0], a[1], a[2]);
     uint32_t j = geo_vertex(g, b[0], b[1], b[2]);
@@ -536,9 +537,9 @@ static void degenerate_faces_are_each_simplified_once(void **state)
     geo g = {0};
     add_box(&g, 0.5, 1, SV_PART_FOLIAGE);
     const double a[3] = {0.1, 0.2, 0.3}, b[3] = {0.2, 0.3, 0.4}, c[3] = {0.3, 0.4, 0.5};
-    geo_single(&g, a, b, c, SV_PART_FOLIAGE);       /* collinear */
-    geo_single(&g, a, a, a, SV_PART_FOLIAGE);       /* a point */
-    geo_single(&g, b, b, c, SV_PART_TRUNK);         /* a segment, alone in its pass */
+    geo_single(&g, a, b, c, SV_PART_FOLIAGE); /* collinear */
+    geo_single(&g, a, a, a, SV_PART_FOLIAGE); /* a point */
+    geo_single(&g, b, b, c, SV_PART_TRUNK);   /* a segment, alone in its pass */
     const double far[3] = {0.45, 0.45, 0.45};
     geo_single(&g, far, far, far, SV_PART_FOLIAGE); /* a point near a corner */
     sv_bbc_input in;
@@ -710,8 +711,9 @@ static void every_face_is_simplified_by_exactly_one_plane(void **state)
             assert_int_equal(t >= 4000, r.planes[k].part == SV_PART_TRUNK);
         }
     }
-    print_message("crown of 2000 leaves + box trunk at eps 6%%: %u planes, %.3f s (grid %.3f, refine %.3f)\n",
-                  r.plane_count, r.stats.seconds_total, r.stats.seconds_grid, r.stats.seconds_refine);
+    print_message(
+        "crown of 2000 leaves + box trunk at eps 6%%: %u planes, %.3f s (grid %.3f, refine %.3f)\n",
+        r.plane_count, r.stats.seconds_total, r.stats.seconds_grid, r.stats.seconds_refine);
     sv_bbc_result_free(&r);
     geo_free(&g);
 }

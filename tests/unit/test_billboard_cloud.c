@@ -112,7 +112,8 @@ static void tree_make(tree *t, int nleaves, uint64_t seed, bool layers)
     sv_mesh_compute_normals(t->mesh);
     t->cls.tri_part = calloc(nt, 1);
     assert_non_null(t->cls.tri_part);
-    for (uint32_t k = 0; k < nt; k++) t->cls.tri_part[k] = k < 2u * nleaves ? SV_PART_FOLIAGE : SV_PART_TRUNK;
+    for (uint32_t k = 0; k < nt; k++)
+        t->cls.tri_part[k] = k < 2u * nleaves ? SV_PART_FOLIAGE : SV_PART_TRUNK;
     t->cls.foliage_triangles = 2 * nleaves;
     t->cls.trunk_triangles = 8;
     t->leaves.leaves = calloc(nleaves, sizeof *t->leaves.leaves);
@@ -189,7 +190,8 @@ static void check_stand_in(const sv_mesh *m, const uint8_t *part, const sv_stand
                 if (q->faces) cnt[t]++;
                 /* with a kept trunk, the branches it cannot hold are foliage elements */
                 if (!trunk_mesh)
-                    assert_int_equal(q->parts, part[t] == SV_PART_TRUNK ? SV_PARTS_TRUNK : SV_PARTS_FOLIAGE);
+                    assert_int_equal(q->parts,
+                                     part[t] == SV_PART_TRUNK ? SV_PARTS_TRUNK : SV_PARTS_FOLIAGE);
                 for (int v = 0; v < 3; v++) {
                     const float *x = &m->positions[3 * m->indices[3 * t + v]];
                     double p[3] = {x[0] - q->centre[0], x[1] - q->centre[1], x[2] - q->centre[2]};
@@ -223,11 +225,12 @@ static void settings_defaults_and_every_documented_key_are_accepted(void **state
     (void)state;
     sv_error err = {0};
     assert_int_equal(BC->check(NULL, &err), SV_OK);
-    cJSON *j = json("{\"epsilon\": 0.05, \"max_planes\": 30, \"lods\": [30, {\"epsilon\": 0.2},"
-                    " {\"max_planes\": 5, \"epsilon\": 0.3}], \"grid\": [48, 24, 48],"
-                    " \"horizontal_penalty\": {\"enabled\": null, \"penalty\": 0.5, \"angle_deg\": 45},"
-                    " \"cardboard\": {\"enabled\": true, \"coverage\": 0.7}, \"tweak\": false,"
-                    " \"weld\": false, \"threads\": 1, \"miss_penalty\": 0, \"max_angle_deg\": 90}");
+    cJSON *j = json(
+        "{\"epsilon\": 0.05, \"max_planes\": 30, \"lods\": [30, {\"epsilon\": 0.2},"
+        " {\"max_planes\": 5, \"epsilon\": 0.3}], \"grid\": [48, 24, 48],"
+        " \"horizontal_penalty\": {\"enabled\": null, \"penalty\": 0.5, \"angle_deg\": 45},"
+        " \"cardboard\": {\"enabled\": true, \"coverage\": 0.7}, \"tweak\": false,"
+        " \"weld\": false, \"threads\": 1, \"miss_penalty\": 0, \"max_angle_deg\": 90}");
     assert_int_equal(BC->check(j, &err), SV_OK);
     cJSON_Delete(j);
     assert_string_equal(BC->name, "billboard_cloud");
@@ -249,8 +252,10 @@ static void settings_errors_name_the_key(void **state)
         {"{\"lods\": [{\"eps\": 0.1}]}", "billboard_cloud.lods[0].eps"},
         {"{\"grid\": [63, 32, 64]}", "billboard_cloud.grid[0]"},
         {"{\"grid\": [64, 32]}", "billboard_cloud.grid"},
-        {"{\"horizontal_penalty\": {\"enabled\": 1}}", "billboard_cloud.horizontal_penalty.enabled"},
-        {"{\"horizontal_penalty\": {\"penalty\": 1.5}}", "billboard_cloud.horizontal_penalty.penalty"},
+        {"{\"horizontal_penalty\": {\"enabled\": 1}}",
+         "billboard_cloud.horizontal_penalty.enabled"},
+        {"{\"horizontal_penalty\": {\"penalty\": 1.5}}",
+         "billboard_cloud.horizontal_penalty.penalty"},
         {"{\"cardboard\": {\"coverage\": -1}}", "billboard_cloud.cardboard.coverage"},
         {"{\"threads\": 0}", "billboard_cloud.threads"},
         {"{\"tweak\": \"yes\"}", "billboard_cloud.tweak"},
@@ -264,7 +269,8 @@ static void settings_errors_name_the_key(void **state)
         cJSON *j = json(bad[i].json);
         sv_error err = {0};
         assert_int_equal(BC->check(j, &err), SV_ERR_SPEC);
-        if (!strstr(err.message, bad[i].key)) fail_msg("%s: message '%s' lacks '%s'", bad[i].json, err.message, bad[i].key);
+        if (!strstr(err.message, bad[i].key))
+            fail_msg("%s: message '%s' lacks '%s'", bad[i].json, err.message, bad[i].key);
         cJSON_Delete(j);
     }
 }
@@ -314,7 +320,8 @@ static void lods_given_as_epsilons_grow_coarser(void **state)
 static double horizontal_share(const sv_lod_plan *l)
 {
     uint32_t h = 0;
-    for (uint32_t k = 0; k < l->quad_count; k++) h += fabs(l->quads[k].normal[1]) > cos(30 * M_PI / 180);
+    for (uint32_t k = 0; k < l->quad_count; k++)
+        h += fabs(l->quads[k].normal[1]) > cos(30 * M_PI / 180);
     return l->quad_count ? (double)h / l->quad_count : 0;
 }
 
@@ -351,7 +358,8 @@ static bool same_stand_in(const sv_stand_in *a, const sv_stand_in *b)
         if (x->quad_count != y->quad_count) return false;
         for (uint32_t k = 0; k < x->quad_count; k++) {
             const sv_quad *p = &x->quads[k], *q = &y->quads[k];
-            if (memcmp(p->normal, q->normal, sizeof p->normal) || memcmp(&p->d, &q->d, sizeof p->d) ||
+            if (memcmp(p->normal, q->normal, sizeof p->normal) ||
+                memcmp(&p->d, &q->d, sizeof p->d) ||
                 memcmp(p->centre, q->centre, sizeof p->centre) ||
                 memcmp(p->axis_u, q->axis_u, sizeof p->axis_u) ||
                 memcmp(&p->half_u, &q->half_u, sizeof p->half_u) ||
@@ -461,14 +469,16 @@ static void refinement_brings_leaves_nearer_their_planes(void **state)
     for (uint32_t k = 0; k < b.lods[0].quad_count; k++) {
         const sv_quad *q = &b.lods[0].quads[k];
         assert_non_null(q->bake_faces); /* assigned faces only */
-        for (uint32_t k2 = 0; k2 < a.lods[0].quad_count; k2++) assert_null(a.lods[0].quads[k2].bake_faces);
+        for (uint32_t k2 = 0; k2 < a.lods[0].quad_count; k2++)
+            assert_null(a.lods[0].quads[k2].bake_faces);
     }
     /* deterministic */
     sv_stand_in c;
     assert_int_equal(BC->run(&t.in, refined, &c, NULL), SV_OK);
     assert_int_equal(c.lods[0].quad_count, b.lods[0].quad_count);
     for (uint32_t k = 0; k < c.lods[0].quad_count; k++) {
-        assert_memory_equal(c.lods[0].quads[k].normal, b.lods[0].quads[k].normal, sizeof(double) * 3);
+        assert_memory_equal(c.lods[0].quads[k].normal, b.lods[0].quads[k].normal,
+                            sizeof(double) * 3);
         assert_int_equal(c.lods[0].quads[k].face_count, b.lods[0].quads[k].face_count);
     }
     sv_stand_in_free(&a);

@@ -54,8 +54,7 @@ static void tri(builder *b, uint32_t a, uint32_t c, uint32_t d, uint32_t m)
 }
 
 /* Quad centre c, half-edge vectors u and v (two triangles, own vertices). */
-static void quad(builder *b, const double c[3], const double u[3], const double v[3],
-                 uint32_t m)
+static void quad(builder *b, const double c[3], const double u[3], const double v[3], uint32_t m)
 {
     uint32_t i[4];
     const double su[4] = {-1, 1, 1, -1}, sv[4] = {-1, -1, 1, 1};
@@ -148,9 +147,9 @@ static void caller_lists_win_over_names_and_alpha(void **state)
 static void names_decide_foliage_and_trunk(void **state)
 {
     (void)state;
-    const char *names[] = {"OldLeaves", "Branches", "PotMat", "GroundMat", "branch-card_01",
-                           "Pine_Needles", "bark", "Wood", "Fern frond"};
-    const sv_part want[] = {SV_PART_FOLIAGE, SV_PART_TRUNK, SV_PART_TRUNK,
+    const char *names[] = {"OldLeaves",    "Branches", "PotMat", "GroundMat", "branch-card_01",
+                           "Pine_Needles", "bark",     "Wood",   "Fern frond"};
+    const sv_part want[] = {SV_PART_FOLIAGE, SV_PART_TRUNK,   SV_PART_TRUNK,
                             SV_PART_TRUNK,   SV_PART_FOLIAGE, SV_PART_FOLIAGE,
                             SV_PART_TRUNK,   SV_PART_TRUNK,   SV_PART_FOLIAGE};
     builder *b = builder_new();
@@ -397,7 +396,7 @@ static void leaves_are_connected_pieces_welded_by_position_in_order(void **state
         assert_true(l.tris[f->first] < l.tris[f->first + 1]);
     }
     const sv_leaf *last = &l.leaves[30];
-    assert_int_equal(l.tris[last->first], 72);  /* after 12 trunk + 60 leaf triangles */
+    assert_int_equal(l.tris[last->first], 72); /* after 12 trunk + 60 leaf triangles */
     assert_int_equal(l.tris[last->first + 1], 85);
     sv_leaves_free(&l);
     sv_classification_free(&c);
@@ -502,7 +501,8 @@ static void offset_and_scale_give_the_same_elements(void **state)
         for (uint32_t i = 0; i < ref.count; i++) {
             const sv_leaf *a = &ref.leaves[i], *g = &got.leaves[i];
             assert_int_equal(a->count, g->count);
-            assert_memory_equal(ref.tris + a->first, got.tris + g->first, a->count * sizeof(uint32_t));
+            assert_memory_equal(ref.tris + a->first, got.tris + g->first,
+                                a->count * sizeof(uint32_t));
             double dot = 0;
             for (int q = 0; q < 3; q++) {
                 dot += a->normal[q] * g->normal[q];
@@ -533,7 +533,8 @@ static sv_mesh *import_tree(const char *data, const tree_case *tc)
     sv_file files[16];
     char names[16][256];
     size_t n = 0;
-    assert_true(snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, tc->file) < (int)sizeof path);
+    assert_true(snprintf(path, sizeof path, "%s/%s/%s", data, tc->dir, tc->file) <
+                (int)sizeof path);
     files[0].name = tc->file;
     files[0].data = sv_test_read_all(path, &files[0].size);
     assert_non_null(files[0].data);

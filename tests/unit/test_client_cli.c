@@ -14,7 +14,7 @@
 
 #define ARGV(...) ((char *[]){"sylva", __VA_ARGS__, NULL})
 #define ARGC(...) ((int)(sizeof((char *[]){"sylva", __VA_ARGS__}) / sizeof(char *)))
-#define PARSE(cli, env_s, env_t, err, ...)                                                    \
+#define PARSE(cli, env_s, env_t, err, ...) \
     sylva_cli_parse(ARGC(__VA_ARGS__), ARGV(__VA_ARGS__), env_s, env_t, cli, err, sizeof err)
 
 static void parse_reads_bake_options_before_and_after_the_command(void **state)
@@ -22,8 +22,8 @@ static void parse_reads_bake_options_before_and_after_the_command(void **state)
     (void)state;
     sylva_cli cli;
     char err[256];
-    assert_int_equal(PARSE(&cli, NULL, NULL, err, "--json", "bake", "t.obj", "t.mtl", "--out",
-                           "o", "--method", "slicing", "--set", "slices=4", "--set=scene.viewer=ground",
+    assert_int_equal(PARSE(&cli, NULL, NULL, err, "--json", "bake", "t.obj", "t.mtl", "--out", "o",
+                           "--method", "slicing", "--set", "slices=4", "--set=scene.viewer=ground",
                            "--timeout=30"),
                      SYLVA_EXIT_OK);
     assert_int_equal(cli.cmd, SYLVA_CMD_BAKE);
@@ -112,9 +112,9 @@ static void usage_errors_name_the_problem(void **state)
                      SYLVA_EXIT_USAGE);
     assert_non_null(strstr(err, "--bogus"));
     sylva_cli_free(&cli);
-    assert_int_equal(PARSE(&cli, NULL, NULL, err, "bake", "t.obj", "--out", "o", "--set",
-                           "noequals"),
-                     SYLVA_EXIT_USAGE);
+    assert_int_equal(
+        PARSE(&cli, NULL, NULL, err, "bake", "t.obj", "--out", "o", "--set", "noequals"),
+        SYLVA_EXIT_USAGE);
     assert_non_null(strstr(err, "key=value"));
     sylva_cli_free(&cli);
     assert_int_equal(PARSE(&cli, NULL, NULL, err, "bake", "t.obj", "--out", "o", "--set", "k=1"),
@@ -129,9 +129,9 @@ static void usage_errors_name_the_problem(void **state)
     assert_int_equal(PARSE(&cli, NULL, NULL, err, "health", "--server"), SYLVA_EXIT_USAGE);
     assert_non_null(strstr(err, "needs a value"));
     sylva_cli_free(&cli);
-    assert_int_equal(PARSE(&cli, NULL, NULL, err, "bake", "t.obj", "--out", "o", "--timeout",
-                           "soon"),
-                     SYLVA_EXIT_USAGE);
+    assert_int_equal(
+        PARSE(&cli, NULL, NULL, err, "bake", "t.obj", "--out", "o", "--timeout", "soon"),
+        SYLVA_EXIT_USAGE);
     sylva_cli_free(&cli);
 }
 
@@ -190,9 +190,9 @@ static void ambiguous_companion_is_refused_with_a_hint(void **state)
     (void)state;
     sylva_cli cli;
     char err[256];
-    assert_int_equal(PARSE(&cli, NULL, NULL, err, "bake", "a/t.obj", "a/t.glb", "a/t.mtl", "--out",
-                           "out"),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        PARSE(&cli, NULL, NULL, err, "bake", "a/t.obj", "a/t.glb", "a/t.mtl", "--out", "out"),
+        SYLVA_EXIT_OK);
     sylva_bake_group *g = NULL;
     size_t n = 0;
     groups(&cli, &g, &n, SYLVA_EXIT_USAGE, err, sizeof err);
@@ -207,9 +207,9 @@ static void double_dash_separates_explicit_groups_and_same_stems_keep_extensions
     (void)state;
     sylva_cli cli;
     char err[256];
-    assert_int_equal(PARSE(&cli, NULL, NULL, err, "bake", "a/t.obj", "a/t.mtl", "--", "a/t.glb",
-                           "--out", "out"),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        PARSE(&cli, NULL, NULL, err, "bake", "a/t.obj", "a/t.mtl", "--", "a/t.glb", "--out", "out"),
+        SYLVA_EXIT_OK);
     sylva_bake_group *g;
     size_t n;
     groups(&cli, &g, &n, SYLVA_EXIT_OK, err, sizeof err);
@@ -242,9 +242,9 @@ static void spec_file_is_sent_byte_for_byte_without_set(void **state)
     char *out = NULL;
     size_t len = 0;
     char err[256];
-    assert_int_equal(sylva_cli_build_spec(base, sizeof base - 1, NULL, NULL, 0, &out, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        sylva_cli_build_spec(base, sizeof base - 1, NULL, NULL, 0, &out, &len, err, sizeof err),
+        SYLVA_EXIT_OK);
     assert_int_equal(len, sizeof base - 1);
     assert_memory_equal(out, base, len);
     free(out);
@@ -256,14 +256,15 @@ static void spec_file_is_sent_byte_for_byte_without_set(void **state)
 static void set_values_parse_as_json_else_string_and_dotted_keys_start_at_the_root(void **state)
 {
     (void)state;
-    const char *sets[] = {"clusters=32", "two_sided=true", "name=oak 1", "weights=[1,2]",
-                          "scene.viewer=ground", "scene.distance_min=5", "clusters=16"};
+    const char *sets[] = {"clusters=32",   "two_sided=true",      "name=oak 1",
+                          "weights=[1,2]", "scene.viewer=ground", "scene.distance_min=5",
+                          "clusters=16"};
     char *out = NULL;
     size_t len = 0;
     char err[256];
-    assert_int_equal(sylva_cli_build_spec(NULL, 0, "leaf_clusters", sets, 7, &out, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        sylva_cli_build_spec(NULL, 0, "leaf_clusters", sets, 7, &out, &len, err, sizeof err),
+        SYLVA_EXIT_OK);
     assert_string_equal(out, "{\"method\":\"leaf_clusters\",\"leaf_clusters\":{\"clusters\":16,"
                              "\"two_sided\":true,\"name\":\"oak 1\",\"weights\":[1,2]},"
                              "\"scene\":{\"viewer\":\"ground\",\"distance_min\":5}}");
@@ -280,20 +281,20 @@ static void set_overrides_a_spec_file_and_uses_its_method(void **state)
     char err[256];
     /* "seed" is a top-level scalar of the spec: the root's (issue 23: `--set
      * seed=2` could not set it); a leading dot names the root for any key. */
-    assert_int_equal(sylva_cli_build_spec(base, sizeof base - 1, NULL, sets, 3, &out, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        sylva_cli_build_spec(base, sizeof base - 1, NULL, sets, 3, &out, &len, err, sizeof err),
+        SYLVA_EXIT_OK);
     assert_string_equal(out, "{\"method\":\"slicing\",\"slicing\":{\"slices\":4},"
                              "\"seed\":9,\"lod\":{\"chain\":false}}");
     free(out);
-    assert_int_equal(sylva_cli_build_spec("[1]", 3, "slicing", sets, 1, &out, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_USAGE);
+    assert_int_equal(
+        sylva_cli_build_spec("[1]", 3, "slicing", sets, 1, &out, &len, err, sizeof err),
+        SYLVA_EXIT_USAGE);
     assert_non_null(strstr(err, "not a JSON object"));
     const char *clash[] = {"scene.viewer=1", "scene.viewer.x=2"};
-    assert_int_equal(sylva_cli_build_spec(NULL, 0, "slicing", clash, 2, &out, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_USAGE);
+    assert_int_equal(
+        sylva_cli_build_spec(NULL, 0, "slicing", clash, 2, &out, &len, err, sizeof err),
+        SYLVA_EXIT_USAGE);
     assert_non_null(strstr(err, "scene"));
 }
 
@@ -352,8 +353,9 @@ static void summary_falls_back_to_the_job_times_and_survives_missing_files(void 
 static void summary_carries_an_unmet_target_and_its_reason(void **state)
 {
     (void)state;
-    const char *report = "{\"target\":{\"goal\":{\"iou\":0.99},\"met\":false,\"chosen\":2,"
-                         "\"reason\":\"goal IoU 0.99: no setting reached it\",\"tries\":[{},{},{}]}}";
+    const char *report =
+        "{\"target\":{\"goal\":{\"iou\":0.99},\"met\":false,\"chosen\":2,"
+        "\"reason\":\"goal IoU 0.99: no setting reached it\",\"tries\":[{},{},{}]}}";
     cJSON *s = sylva_cli_summary(NULL, report, NULL);
     const cJSON *t = cJSON_GetObjectItem(s, "target");
     assert_true(cJSON_IsFalse(cJSON_GetObjectItem(t, "met")));
@@ -423,8 +425,10 @@ static void batch_exit_puts_failures_before_an_unmet_target(void **state)
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_TARGET), SYLVA_EXIT_TARGET);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_OK), SYLVA_EXIT_TARGET);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_FAILED), SYLVA_EXIT_FAILED);
-    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_SERVICE, SYLVA_EXIT_TARGET), SYLVA_EXIT_SERVICE);
-    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_FAILED, SYLVA_EXIT_CANCELLED), SYLVA_EXIT_CANCELLED);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_SERVICE, SYLVA_EXIT_TARGET),
+                     SYLVA_EXIT_SERVICE);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_FAILED, SYLVA_EXIT_CANCELLED),
+                     SYLVA_EXIT_CANCELLED);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_OK), SYLVA_EXIT_OK);
 }
 

@@ -37,9 +37,11 @@ static void key_matches_shell_vector_with_companions_in_any_order(void **state)
         {.name = "a.mtl", .data = MTL, .size = sizeof MTL - 1},
         {.name = "Z.bin", .data = BIN, .size = sizeof BIN},
     };
-    sylva_input in = {.spec = SPEC, .spec_len = sizeof SPEC - 1,
+    sylva_input in = {.spec = SPEC,
+                      .spec_len = sizeof SPEC - 1,
                       .mesh = {.name = "tree.obj", .data = MESH, .size = sizeof MESH - 1},
-                      .files = files, .file_count = 3};
+                      .files = files,
+                      .file_count = 3};
     char key[SYLVA_KEY_HEX + 1];
     char err[256];
     assert_int_equal(sylva_key_compute(&in, key, err, sizeof err), SYLVA_OK);
@@ -64,8 +66,10 @@ static void key_of_files_on_disk_equals_key_of_same_bytes_in_memory(void **state
         const char *path;
         const void *data;
         size_t size;
-    } w[4] = {{p_mesh, MESH, sizeof MESH - 1}, {p_mtl, MTL, sizeof MTL - 1},
-              {p_bin, BIN, sizeof BIN}, {p_png, "PNG", 3}};
+    } w[4] = {{p_mesh, MESH, sizeof MESH - 1},
+              {p_mtl, MTL, sizeof MTL - 1},
+              {p_bin, BIN, sizeof BIN},
+              {p_png, "PNG", 3}};
     for (int i = 0; i < 4; i++) {
         FILE *f = fopen(w[i].path, "wb");
         assert_non_null(f);
@@ -74,8 +78,11 @@ static void key_of_files_on_disk_equals_key_of_same_bytes_in_memory(void **state
     }
     /* Upload names default to the base names of the paths. */
     sylva_file files[3] = {{.path = p_png}, {.path = p_bin}, {.path = p_mtl}};
-    sylva_input in = {.spec = SPEC, .spec_len = sizeof SPEC - 1, .mesh = {.path = p_mesh},
-                      .files = files, .file_count = 3};
+    sylva_input in = {.spec = SPEC,
+                      .spec_len = sizeof SPEC - 1,
+                      .mesh = {.path = p_mesh},
+                      .files = files,
+                      .file_count = 3};
     char key[SYLVA_KEY_HEX + 1];
     char err[256];
     assert_int_equal(sylva_key_compute(&in, key, err, sizeof err), SYLVA_OK);
@@ -86,8 +93,7 @@ static void key_of_files_on_disk_equals_key_of_same_bytes_in_memory(void **state
     char want[SYLVA_KEY_HEX + 1];
     assert_int_equal(sylva_sha256_hex("PNG", 3, want), SYLVA_OK);
     assert_string_equal(hex, want);
-    for (int i = 0; i < 4; i++)
-        unlink(w[i].path);
+    for (int i = 0; i < 4; i++) unlink(w[i].path);
     rmdir(dir);
 }
 
@@ -126,8 +132,8 @@ static void key_refuses_duplicate_companion_names(void **state)
     (void)state;
     sylva_file files[2] = {{.name = "a.png", .data = "1", .size = 1},
                            {.name = "a.png", .data = "2", .size = 1}};
-    sylva_input in = {.mesh = {.name = "t.obj", .data = "x", .size = 1}, .files = files,
-                      .file_count = 2};
+    sylva_input in = {
+        .mesh = {.name = "t.obj", .data = "x", .size = 1}, .files = files, .file_count = 2};
     char key[SYLVA_KEY_HEX + 1];
     char err[256] = "";
     assert_int_equal(sylva_key_compute(&in, key, err, sizeof err), SYLVA_ERR_ARG);
@@ -140,13 +146,13 @@ static void key_refuses_duplicate_companion_names(void **state)
 static void key_refuses_names_that_are_not_base_names(void **state)
 {
     (void)state;
-    const char *bad[] = {"../x.png", "a/b.png", "a\\b.png", ".", "..", "sp ace.png", "tab\t.png",
-                         ""};
+    const char *bad[] = {"../x.png", "a/b.png",    "a\\b.png",  ".",
+                         "..",       "sp ace.png", "tab\t.png", ""};
     char key[SYLVA_KEY_HEX + 1];
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         sylva_file f = {.name = bad[i], .data = "1", .size = 1};
-        sylva_input in = {.mesh = {.name = "t.obj", .data = "x", .size = 1}, .files = &f,
-                          .file_count = 1};
+        sylva_input in = {
+            .mesh = {.name = "t.obj", .data = "x", .size = 1}, .files = &f, .file_count = 1};
         char err[256] = "";
         assert_int_equal(sylva_key_compute(&in, key, err, sizeof err), SYLVA_ERR_ARG);
         assert_true(err[0] != '\0');
@@ -189,12 +195,14 @@ static void status_table_has_a_name_and_message_for_every_code(void **state)
 static void output_names_are_sylvas_own_only(void **state)
 {
     (void)state;
-    const char *ours[] = {"model.glb", "planes.json", "report.json", "preview.png",
-                          "error.json", "impostor.json", "lod0_full.glb",
-                          "lod12_clusters32.glb", "atlas_clusters32_albedo.png", "atlas_x_normal.png"};
-    const char *theirs[] = {"tree.glb", "model.gltf", "lod_x.glb", "lodA_x.glb", "lod3.glb",
-                            "atlas_.png", "atlas.png", "notes.txt", "report.json.bak",
-                            "spec.json", "a/model.glb"};
+    const char *ours[] = {
+        "model.glb",         "planes.json",          "report.json",
+        "preview.png",       "error.json",           "impostor.json",
+        "lod0_full.glb",     "lod12_clusters32.glb", "atlas_clusters32_albedo.png",
+        "atlas_x_normal.png"};
+    const char *theirs[] = {"tree.glb",        "model.gltf", "lod_x.glb",  "lodA_x.glb",
+                            "lod3.glb",        "atlas_.png", "atlas.png",  "notes.txt",
+                            "report.json.bak", "spec.json",  "a/model.glb"};
     for (size_t i = 0; i < sizeof ours / sizeof ours[0]; i++)
         assert_true(sylva_is_output_name(ours[i]));
     for (size_t i = 0; i < sizeof theirs / sizeof theirs[0]; i++) {

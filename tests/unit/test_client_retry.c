@@ -168,7 +168,10 @@ static void job_parse_refuses_what_is_not_a_job(void **state)
 {
     (void)state;
     const char *bad[] = {
-        "", "[]", "{\"state\":\"done\"}", "{\"key\":\"abc\",\"state\":\"done\"}",
+        "",
+        "[]",
+        "{\"state\":\"done\"}",
+        "{\"key\":\"abc\",\"state\":\"done\"}",
         "{\"key\":\"" K64 "\",\"state\":\"exploded\"}",
         "{\"key\":\"" K64 "\"}",
         "{\"error\":{\"code\":\"x\",\"message\":\"y\"}}",
@@ -183,10 +186,9 @@ static void job_parse_refuses_what_is_not_a_job(void **state)
 static void manifest_artifacts_are_listed_with_size_and_hash(void **state)
 {
     (void)state;
-    const char *body =
-        "{\"key\":\"" K64 "\",\"state\":\"done\",\"manifest\":{\"artifacts\":["
-        "{\"name\":\"model.glb\",\"size\":1234,\"sha256\":\"" K64 "\"},"
-        "{\"name\":\"planes.json\",\"size\":0,\"sha256\":\"" K64 "\"}]}}";
+    const char *body = "{\"key\":\"" K64 "\",\"state\":\"done\",\"manifest\":{\"artifacts\":["
+                       "{\"name\":\"model.glb\",\"size\":1234,\"sha256\":\"" K64 "\"},"
+                       "{\"name\":\"planes.json\",\"size\":0,\"sha256\":\"" K64 "\"}]}}";
     sylva_job job = {0};
     assert_int_equal(sylva_job_parse(body, strlen(body), &job), SYLVA_OK);
     assert_true(job.progress == 1.0);

@@ -24,7 +24,10 @@ static uint64_t rng_next(uint64_t *s)
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return z ^ (z >> 31);
 }
-static double urand(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0; }
+static double urand(uint64_t *s)
+{
+    return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+}
 
 static void normalize(double v[3])
 {
@@ -32,7 +35,10 @@ static void normalize(double v[3])
     for (int j = 0; j < 3; j++) v[j] /= l;
 }
 
-static double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void set_leaf(sv_leaf *l, double x, double y, double z, double nx, double ny, double nz,
                      double area)
@@ -77,7 +83,10 @@ static sv_leaf *crown_bias(uint32_t n, uint64_t seed, double bias)
     return l;
 }
 
-static sv_leaf *crown(uint32_t n, uint64_t seed) { return crown_bias(n, seed, 0.8); }
+static sv_leaf *crown(uint32_t n, uint64_t seed)
+{
+    return crown_bias(n, seed, 0.8);
+}
 
 static void assert_finite_unit_planes(const sv_clusters *c)
 {
@@ -156,7 +165,8 @@ static void cluster_keeps_coplanar_leaves_in_one_plane(void **state)
     /* the same plane at 1e6 from the origin, fitted directly */
     for (int i = 0; i < 200; i++) l[i].centre[0] += 1e6;
     double nn[3], d, e;
-    assert_int_equal(sv_cluster_fit_plane(l, NULL, 200, 0.01, false, origin, nn, &d, &e, NULL), SV_OK);
+    assert_int_equal(sv_cluster_fit_plane(l, NULL, 200, 0.01, false, origin, nn, &d, &e, NULL),
+                     SV_OK);
     for (int j = 0; j < 3; j++) assert_true(fabs(nn[j] - n0[j]) < 1e-6);
     assert_true(fabs(d - (d0 - 1e6 * n0[0])) < 1e-6);
 }
@@ -292,10 +302,19 @@ static void leaves_on_a_line_and_isotropic_clouds_give_finite_unit_normals(void 
         for (int i = 0; i < N; i++) {
             double t = i * 0.01;
             switch (kind) {
-            case 0: set_leaf(&l[i], t, 2 * t, -t, 0, 0, 1, 0.01); break;               /* line, one normal */
-            case 1: set_leaf(&l[i], t, 2 * t, -t, urand(&s), urand(&s), urand(&s), 0.01); break;
-            case 2: set_leaf(&l[i], urand(&s), urand(&s), urand(&s), urand(&s), urand(&s), urand(&s), 0.01); break;
-            default: set_leaf(&l[i], t, 0, 0, 1, 2, 0, 0.01); break;                 /* normals along... */
+            case 0:
+                set_leaf(&l[i], t, 2 * t, -t, 0, 0, 1, 0.01);
+                break; /* line, one normal */
+            case 1:
+                set_leaf(&l[i], t, 2 * t, -t, urand(&s), urand(&s), urand(&s), 0.01);
+                break;
+            case 2:
+                set_leaf(&l[i], urand(&s), urand(&s), urand(&s), urand(&s), urand(&s), urand(&s),
+                         0.01);
+                break;
+            default:
+                set_leaf(&l[i], t, 0, 0, 1, 2, 0, 0.01);
+                break; /* normals along... */
             }
         }
         for (int a = 0; a < 2; a++) {
@@ -316,12 +335,13 @@ static void exactly_horizontal_and_vertical_planes_are_recovered_to_rounding(voi
     sv_leaf l[80];
     uint64_t s = 23;
     for (int i = 0; i < 40; i++) {
-        set_leaf(&l[i], urand(&s), 2.0, urand(&s), 0, 1, 0, 0.01);          /* y = 2 */
+        set_leaf(&l[i], urand(&s), 2.0, urand(&s), 0, 1, 0, 0.01);                /* y = 2 */
         set_leaf(&l[40 + i], -1.5, 3 + urand(&s), 2 + urand(&s), -1, 0, 0, 0.01); /* x = -1.5 */
     }
     const uint32_t levels[] = {2};
     double origin[3] = {0, 0, 0};
-    sv_cluster_options o = {.levels = levels, .level_count = 1, .alpha = 0.01, .seed = 2, .centre = origin};
+    sv_cluster_options o = {
+        .levels = levels, .level_count = 1, .alpha = 0.01, .seed = 2, .centre = origin};
     sv_clusters c;
     assert_int_equal(sv_cluster_build(l, 80, &o, &c, NULL), SV_OK);
     assert_int_equal(c.levels[0].count, 2);
@@ -359,9 +379,11 @@ static void area_weighting_pulls_the_plane_towards_big_leaves(void **state)
     for (int i = 0; i < 20; i++) set_leaf(&l[i], (i % 5) - 2, 0, (i / 5) - 1.5, 0, 1, 0, 0.01);
     set_leaf(&l[20], 0, 1, 0, 0, 1, 0, 10.0); /* one huge leaf above */
     double n[3], d_plain, d_area;
-    assert_int_equal(sv_cluster_fit_plane(l, NULL, 21, 0.01, false, NULL, n, &d_plain, NULL, NULL), SV_OK);
+    assert_int_equal(sv_cluster_fit_plane(l, NULL, 21, 0.01, false, NULL, n, &d_plain, NULL, NULL),
+                     SV_OK);
     double h_plain = fabs(d_plain);
-    assert_int_equal(sv_cluster_fit_plane(l, NULL, 21, 0.01, true, NULL, n, &d_area, NULL, NULL), SV_OK);
+    assert_int_equal(sv_cluster_fit_plane(l, NULL, 21, 0.01, true, NULL, n, &d_area, NULL, NULL),
+                     SV_OK);
     double h_area = fabs(d_area);
     assert_true(fabs(h_plain - 1.0 / 21) < 1e-12);
     assert_true(h_area > 0.9); /* centroid near the big leaf */
@@ -453,8 +475,11 @@ static void empty_cluster_is_reseeded_and_every_cluster_kept(void **state)
     /* Configurations found by search in which a cluster loses all its leaves
      * during k-means (rare: seeds are leaves' own planes). The empty cluster
      * must be refilled, so all K clusters survive. */
-    const struct { uint32_t n; uint64_t crown, seed; uint32_t k; } cases[] = {
-        {52, 2, 0, 24}, {52, 3, 12, 21}, {60, 2, 8, 33}};
+    const struct {
+        uint32_t n;
+        uint64_t crown, seed;
+        uint32_t k;
+    } cases[] = {{52, 2, 0, 24}, {52, 3, 12, 21}, {60, 2, 8, 33}};
     uint32_t reseeds = 0;
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         sv_leaf *l = crown_bias(cases[i].n, cases[i].crown, 0.1);
@@ -498,7 +523,8 @@ static void same_seed_gives_byte_identical_planes(void **state)
         assert_memory_equal(a.levels[lv].planes, b.levels[lv].planes,
                             a.levels[lv].count * sizeof(sv_cluster_plane));
         assert_memory_equal(a.levels[lv].assign, b.levels[lv].assign, 500 * sizeof(uint32_t));
-        assert_memory_equal(a.levels[lv].parent, b.levels[lv].parent, a.levels[lv].count * sizeof(int32_t));
+        assert_memory_equal(a.levels[lv].parent, b.levels[lv].parent,
+                            a.levels[lv].count * sizeof(int32_t));
     }
     for (uint64_t seed = 0; seed < 4 && !differs; seed++) {
         sv_clusters c = run(l, 500, NULL, 0, 0.01, seed);
@@ -528,7 +554,8 @@ static void check_transform(double scale, const double rot[3][3], const double t
     for (int r = 0; r < 3; r++) c1[r] = t[r] + scale * dot(rot[r], c0);
     double R = 1.0, alpha_rel = 0.01;
     for (int aw = 0; aw < 2; aw++) {
-        sv_cluster_options oa = {.alpha = alpha_rel * R * R, .area_weighted = aw, .seed = 5, .centre = c0};
+        sv_cluster_options oa = {
+            .alpha = alpha_rel * R * R, .area_weighted = aw, .seed = 5, .centre = c0};
         sv_cluster_options ob = oa;
         ob.alpha = alpha_rel * (scale * R) * (scale * R);
         ob.centre = c1;

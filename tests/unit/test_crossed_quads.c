@@ -13,7 +13,6 @@
 
 #include "method.h"
 
-
 /* A tree: trunk box around (tx, tz) from y 0..4 (material "bark"), and a crown
  * of leaf triangles (material "leaves") off to one side between y 3 and 6. */
 static sv_mesh *make_tree(double tx, double tz, bool with_trunk)
@@ -87,7 +86,10 @@ static void run_done(run_ctx *r)
     sv_mesh_destroy(r->mesh);
 }
 
-static double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 /* Every vertex lies inside the quad's rectangle (projected) and its slab. */
 static void assert_quad_shows_whole_tree(const sv_mesh *m, const sv_quad *q)

@@ -18,7 +18,10 @@ static uint64_t rng_next(uint64_t *s)
     return z ^ (z >> 31);
 }
 
-static double rng_unit(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0; }
+static double rng_unit(uint64_t *s)
+{
+    return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+}
 
 static double frob(const double a[3][3])
 {
@@ -122,8 +125,8 @@ static void repeated_eigenvalues_in_rotated_frame_stay_orthonormal(void **state)
 {
     (void)state;
     uint64_t s = 99;
-    const double cases[][3] = {{1, 1, 2}, {-1, 3, 3}, {0, 0, 1}, {5, 5, 5}, {1, 1 + 1e-14, 2},
-                               {-1e-12, 0, 1e-12}, {0, 0, 0}};
+    const double cases[][3] = {{1, 1, 2},         {-1, 3, 3},         {0, 0, 1}, {5, 5, 5},
+                               {1, 1 + 1e-14, 2}, {-1e-12, 0, 1e-12}, {0, 0, 0}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++)
         for (int t = 0; t < 200; t++) {
             double a[3][3], q[3][3], val[3], vec[3][3];

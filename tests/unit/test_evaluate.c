@@ -51,8 +51,8 @@ static sv_mesh *tree_mesh_h(uint32_t leaves, double h, const double shift[3])
         static const double q[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
         for (int i = 0; i < 4; i++)
             for (int k = 0; k < 3; k++)
-                m->positions[3 * (4 * l + i) + k] =
-                    (float)(c[k] + q[i][0] * u[k] + q[i][1] * v[k] + shift[k]);
+                m->positions[3 * (4 * l + i) + k] = (float)(c[k] + q[i][0] * u[k] + q[i][1] * v[k] +
+                                                            shift[k]);
         uint32_t o = 4 * l, *t = &m->indices[6 * l];
         t[0] = o, t[1] = o + 1, t[2] = o + 2, t[3] = o, t[4] = o + 2, t[5] = o + 3;
         m->tri_material[2 * l] = m->tri_material[2 * l + 1] = l % 3;
@@ -71,8 +71,8 @@ static sv_mesh *tree_mesh_h(uint32_t leaves, double h, const double shift[3])
         t[0] = o, t[1] = o + 1, t[2] = o + 2, t[3] = o, t[4] = o + 2, t[5] = o + 3;
         m->tri_material[2 * leaves + 2 * p] = m->tri_material[2 * leaves + 2 * p + 1] = 3;
     }
-    static const float col[4][3] = {{0.2f, 0.6f, 0.1f}, {0.3f, 0.7f, 0.2f}, {0.1f, 0.4f, 0.1f},
-                                    {0.4f, 0.25f, 0.1f}};
+    static const float col[4][3] = {
+        {0.2f, 0.6f, 0.1f}, {0.3f, 0.7f, 0.2f}, {0.1f, 0.4f, 0.1f}, {0.4f, 0.25f, 0.1f}};
     for (int i = 0; i < 4; i++) {
         memcpy(m->materials[i].base_color, col[i], sizeof col[i]);
         m->materials[i].double_sided = true;
@@ -123,7 +123,8 @@ static void leaf_image(sv_eval_image *img, uint32_t size, uint32_t leaf, int dx,
                 if (px < 0 || py < 0 || px >= size || py >= size) continue;
                 size_t k = (size_t)py * size + (size_t)px;
                 img->coverage[k] = 1;
-                img->color[3 * k] = 0.2f, img->color[3 * k + 1] = 0.6f, img->color[3 * k + 2] = 0.1f;
+                img->color[3 * k] = 0.2f, img->color[3 * k + 1] = 0.6f,
+                               img->color[3 * k + 2] = 0.1f;
                 img->depth[k] = 0.5f;
             }
     }
@@ -131,7 +132,10 @@ static void leaf_image(sv_eval_image *img, uint32_t size, uint32_t leaf, int dx,
 
 /* ---- pure tests: views, cameras, filter, metrics ------------------------ */
 
-static void elevation(const double *d, double *deg) { *deg = asin(d[1]) * DEG; }
+static void elevation(const double *d, double *deg)
+{
+    *deg = asin(d[1]) * DEG;
+}
 
 static void ground_views_stay_near_the_horizon(void **state)
 {
@@ -139,8 +143,9 @@ static void ground_views_stay_near_the_horizon(void **state)
     double d[3 * 24], e, sx = 0, sz = 0;
     sv_eval_place_views(SV_VIEWER_GROUND, 24, d);
     for (int i = 0; i < 24; i++) {
-        assert_float_equal(sqrt(d[3 * i] * d[3 * i] + d[3 * i + 1] * d[3 * i + 1] +
-                                d[3 * i + 2] * d[3 * i + 2]), 1.0, 1e-12);
+        assert_float_equal(
+            sqrt(d[3 * i] * d[3 * i] + d[3 * i + 1] * d[3 * i + 1] + d[3 * i + 2] * d[3 * i + 2]),
+            1.0, 1e-12);
         elevation(&d[3 * i], &e);
         assert_true(e >= 0.0 && e <= 20.0);
         sx += d[3 * i], sz += d[3 * i + 2];
@@ -169,10 +174,11 @@ static void orbit_views_cover_the_whole_sphere_evenly(void **state)
     sv_eval_place_views(SV_VIEWER_ORBIT, 24, d);
     int below = 0, above = 0;
     for (int i = 0; i < 24; i++) {
-        below += d[3 * i + 1] < -0.5, above += d[3 * i + 1] > 0.5;
+        below += d[3 * i + 1]<-0.5, above += d[3 * i + 1]> 0.5;
         for (int k = 0; k < 3; k++) s[k] += d[3 * i + k];
         for (int j = 0; j < i; j++) {
-            double dot = d[3 * i] * d[3 * j] + d[3 * i + 1] * d[3 * j + 1] + d[3 * i + 2] * d[3 * j + 2];
+            double dot = d[3 * i] * d[3 * j] + d[3 * i + 1] * d[3 * j + 1] +
+                         d[3 * i + 2] * d[3 * j + 2];
             min_angle = fmin(min_angle, acos(fmin(1.0, dot)));
         }
     }
@@ -223,7 +229,7 @@ static void box_filter_averages_blocks_and_preserves_total_coverage(void **state
     double sum = 0;
     for (int i = 0; i < 15; i++) sum += b.coverage[i];
     assert_float_equal(sum * (64.0 / 15.0), 24.0, 1e-4);
-    assert_float_equal(b.coverage[0], 1.0, 1e-6);                 /* [0, 2.67) fully covered */
+    assert_float_equal(b.coverage[0], 1.0, 1e-6); /* [0, 2.67) fully covered */
     assert_float_equal(b.coverage[1], (3 - 8.0 / 3) / (8.0 / 3), 1e-5); /* partly */
     sv_eval_image_free(&b);
     sv_eval_image_free(&a);
@@ -257,9 +263,11 @@ static void fused_filter_has_the_bits_of_convert_then_filter(void **state)
     for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
         sv_eval_image full, two, one;
         assert_int_equal(sv_eval_image_from_render(&rgba, depth, &full, NULL), SV_OK);
-        assert_int_equal(sv_eval_image_downsample(&full, sizes[k][0], sizes[k][1], &two, NULL), SV_OK);
-        assert_int_equal(sv_eval_image_from_render_filtered(&rgba, depth, sizes[k][0], sizes[k][1],
-                                                            &one, NULL), SV_OK);
+        assert_int_equal(sv_eval_image_downsample(&full, sizes[k][0], sizes[k][1], &two, NULL),
+                         SV_OK);
+        assert_int_equal(
+            sv_eval_image_from_render_filtered(&rgba, depth, sizes[k][0], sizes[k][1], &one, NULL),
+            SV_OK);
         size_t n = (size_t)sizes[k][0] * sizes[k][1];
         assert_memory_equal(one.coverage, two.coverage, n * sizeof(float));
         assert_memory_equal(one.color, two.color, 3 * n * sizeof(float));
@@ -329,8 +337,8 @@ static void depth_and_colour_errors_measure_the_difference(void **state)
     leaf_image(&a, 32, 2, 0, 0);
     leaf_image(&b, 32, 2, 0, 0);
     for (size_t i = 0; i < 32 * 32; i++) {
-        b.depth[i] = b.coverage[i] * 0.75f;          /* 0.25 deeper */
-        b.color[3 * i + 1] = b.coverage[i] * 0.3f;   /* green 0.6 → 0.3 */
+        b.depth[i] = b.coverage[i] * 0.75f;        /* 0.25 deeper */
+        b.color[3 * i + 1] = b.coverage[i] * 0.3f; /* green 0.6 → 0.3 */
     }
     sv_eval_metrics m = sv_eval_compare(&a, &b, 2.0);
     assert_float_equal(m.iou, 1.0, 0);
@@ -377,7 +385,8 @@ static void accumulate_blends_with_weights(void **state)
     sv_eval_image_accumulate(&acc, &b, 0.75);
     for (size_t i = 0; i < 256; i++) {
         assert_float_equal(acc.coverage[i], 0.25 * a.coverage[i] + 0.75 * b.coverage[i], 1e-6);
-        assert_float_equal(acc.color[3 * i + 1], 0.25 * a.color[3 * i + 1] + 0.75 * b.color[3 * i + 1], 1e-6);
+        assert_float_equal(acc.color[3 * i + 1],
+                           0.25 * a.color[3 * i + 1] + 0.75 * b.color[3 * i + 1], 1e-6);
     }
     sv_eval_image_free(&a);
     sv_eval_image_free(&b);
@@ -393,8 +402,8 @@ static void max_pixels_interpolates_where_the_curve_crosses_the_tolerance(void *
     for (int i = 0; i < 4; i++) r.sizes[i].pixels = px[i], r.sizes[i].mean.iou = iou[i];
     assert_float_equal(sv_eval_max_pixels(&r, 0.85), 64 * sqrt(2.0), 1e-9); /* halfway in log2 */
     assert_float_equal(sv_eval_max_pixels(&r, 0.9), 64, 1e-9);
-    assert_float_equal(sv_eval_max_pixels(&r, 0.5), 256, 0);  /* passes everywhere */
-    assert_float_equal(sv_eval_max_pixels(&r, 0.99), 0, 0);   /* fails everywhere */
+    assert_float_equal(sv_eval_max_pixels(&r, 0.5), 256, 0); /* passes everywhere */
+    assert_float_equal(sv_eval_max_pixels(&r, 0.99), 0, 0);  /* fails everywhere */
     sv_eval_result_free(&r);
     sv_eval_result_free(NULL);
 }
@@ -547,8 +556,8 @@ static void a_size_dividing_no_larger_one_is_measured_too(void **state)
     const double zero[3] = {0, 0, 0}, away[3] = {0.8, 0.3, -0.5};
     sv_mesh *m = tree_mesh(2000, zero), *moved = tree_mesh(2000, away);
     sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
-    sv_eval_options o = {.viewer = SV_VIEWER_ORBIT, .view_count = 6, .size_count = 2,
-                         .sizes = {96, 64}};
+    sv_eval_options o = {
+        .viewer = SV_VIEWER_ORBIT, .view_count = 6, .size_count = 2, .sizes = {96, 64}};
     sv_evaluator *e = NULL;
     sv_error err = {0};
     if (sv_evaluator_create(r, m, g, &o, &e, &err) != SV_OK) fail_msg("create: %s", err.message);
@@ -605,8 +614,11 @@ static void evaluator_places_ground_views_near_the_horizon(void **state)
     const double zero[3] = {0, 0, 0};
     sv_mesh *m = tree_mesh(20, zero);
     sv_gpu_mesh *g = upload(r, m);
-    sv_eval_options o = {.viewer = SV_VIEWER_GROUND, .view_count = 5, .sizes = {64, 16},
-                         .size_count = 2, .supersample = 2};
+    sv_eval_options o = {.viewer = SV_VIEWER_GROUND,
+                         .view_count = 5,
+                         .sizes = {64, 16},
+                         .size_count = 2,
+                         .supersample = 2};
     sv_evaluator *e = NULL;
     assert_int_equal(sv_evaluator_create(r, m, g, &o, &e, NULL), SV_OK);
     assert_int_equal(sv_evaluator_view_count(e), 5);
@@ -628,7 +640,7 @@ static void evaluator_places_ground_views_near_the_horizon(void **state)
 typedef struct pick {
     uint32_t *a, *b; /* triangle lists of the two copies */
     uint32_t na, nb;
-    double wa;       /* weight of a */
+    double wa; /* weight of a */
     int calls;
 } pick;
 
@@ -751,8 +763,9 @@ static void preview_shows_original_result_and_heat_for_four_views(void **state)
 static void full_path_images(const sv_image *rgba, const float *depth, const sv_eval_options *o,
                              sv_eval_image *out)
 {
-    assert_int_equal(sv_eval_image_from_render_filtered(rgba, depth, o->sizes[0], o->sizes[0],
-                                                        &out[0], NULL), SV_OK);
+    assert_int_equal(
+        sv_eval_image_from_render_filtered(rgba, depth, o->sizes[0], o->sizes[0], &out[0], NULL),
+        SV_OK);
     for (uint32_t s = 1; s < o->size_count; s++) {
         uint32_t p = s;
         while (p-- > 0 && o->sizes[p] % o->sizes[s] != 0) {}
@@ -808,8 +821,9 @@ static void paint_pattern(int kind, uint32_t view, uint32_t w, uint32_t h, uint8
         }
         if (kind != DRAW_NOISE) px[4 * i + 3] &= 127;
         s = s * 1103515245u + 12345u;
-        depth[i] = kind == DRAW_NOISE && (s >> 8) % 13 == 0 ? INFINITY
-                                                            : (float)((s >> 8) % 1000) / 300.0f - 1.5f;
+        depth[i] = kind == DRAW_NOISE && (s >> 8) % 13 == 0
+                       ? INFINITY
+                       : (float)((s >> 8) % 1000) / 300.0f - 1.5f;
     }
     if (kind != DRAW_CORNER) return;
     uint32_t x0 = view % 2 ? w - 3 : 0, y0 = (view / 2) % 2 ? h - 2 : 0;
@@ -828,8 +842,8 @@ static sv_status draw_pattern(void *user, const sv_camera *cam, uint32_t w, uint
     return st;
 }
 
-static void assert_same_metrics(const sv_eval_metrics *got, const sv_eval_metrics *want,
-                                uint32_t v, uint32_t s)
+static void assert_same_metrics(const sv_eval_metrics *got, const sv_eval_metrics *want, uint32_t v,
+                                uint32_t s)
 {
     if (memcmp(got, want, sizeof *got) != 0)
         fail_msg("view %u size %u: cropped (%.17g %.17g %.17g) != whole (%.17g %.17g %.17g)", v, s,
@@ -886,7 +900,8 @@ static void cropped_evaluation_of_drawn_images_has_the_bits_of_the_whole_image_p
                         assert_same_metrics(&res.per_view[(size_t)v * n + s], &want, v, s);
                     }
                     if (mi == 1) /* nothing to compare with: IoU 1 only when nothing is drawn */
-                        assert_true(res.per_view[(size_t)v * n].iou == (kind == DRAW_EMPTY ? 1.0 : 0.0));
+                        assert_true(res.per_view[(size_t)v * n].iou ==
+                                    (kind == DRAW_EMPTY ? 1.0 : 0.0));
                     free_images(want_o, n);
                     free_images(want_r, n);
                     sv_image_free(&img);
@@ -910,8 +925,8 @@ static void cropped_blend_of_subsets_has_the_bits_of_the_whole_image_path(void *
     const double zero[3] = {0, 0, 0}, side[3] = {0.6, -0.4, 0};
     sv_mesh *m = tree_mesh(300, zero), *moved = tree_mesh(150, side);
     sv_gpu_mesh *g = upload(r, m), *gm = upload(r, moved);
-    const sv_eval_options o = {.view_count = 4, .sizes = {64, 32, 16}, .size_count = 3,
-                               .supersample = 2};
+    const sv_eval_options o = {
+        .view_count = 4, .sizes = {64, 32, 16}, .size_count = 3, .supersample = 2};
     uint32_t base = 128, n = o.size_count;
     sv_evaluator *e = NULL;
     sv_error err = {0};
@@ -943,8 +958,9 @@ static void cropped_blend_of_subsets_has_the_bits_of_the_whole_image_path(void *
         const double weights[2] = {p.wa, 1.0 - p.wa};
         for (int k = 0; k < 2; k++) {
             sv_image img = {0};
-            assert_int_equal(sv_render(r, gm, tris[k], counts[k], &cam, NULL, base, base, &img,
-                                       depth, NULL), SV_OK);
+            assert_int_equal(
+                sv_render(r, gm, tris[k], counts[k], &cam, NULL, base, base, &img, depth, NULL),
+                SV_OK);
             full_path_images(&img, depth, &o, one);
             for (uint32_t s = 0; s < n; s++) sv_eval_image_accumulate(&acc[s], &one[s], weights[k]);
             free_images(one, n);

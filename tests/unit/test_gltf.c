@@ -111,8 +111,14 @@ static glb parse_glb(const uint8_t *data, size_t size)
     return g;
 }
 
-static cJSON *get(const cJSON *o, const char *k) { return cJSON_GetObjectItemCaseSensitive(o, k); }
-static cJSON *at(const cJSON *a, int i) { return cJSON_GetArrayItem(a, i); }
+static cJSON *get(const cJSON *o, const char *k)
+{
+    return cJSON_GetObjectItemCaseSensitive(o, k);
+}
+static cJSON *at(const cJSON *a, int i)
+{
+    return cJSON_GetArrayItem(a, i);
+}
 static double num(const cJSON *o, const char *k)
 {
     cJSON *x = get(o, k);
@@ -272,8 +278,7 @@ static void each_used_material_gets_one_primitive_with_its_triangles(void **stat
     assert_int_equal(counts[0], 18);
     assert_int_equal(counts[1], 3);
     /* The bark primitive's indices are the triangle's vertices. */
-    const uint16_t *ix =
-        (const uint16_t *)accessor_data(&g, (int)num(at(prims, 1), "indices"), 2);
+    const uint16_t *ix = (const uint16_t *)accessor_data(&g, (int)num(at(prims, 1), "indices"), 2);
     assert_int_equal(ix[0], 12);
     assert_int_equal(ix[2], 14);
     /* A material no triangle uses is not written. */
@@ -440,7 +445,8 @@ static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
-    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL}, {"b", m1, 0.05, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL},
+                           {"b", m1, 0.05, NULL, 0, NULL, NULL}};
     char dir[] = "/tmp/sv_gltf_XXXXXX";
     assert_non_null(mkdtemp(dir));
     char p1[64], p2[64];
@@ -504,7 +510,8 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     (void)state;
     sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
     assert_non_null(e);
-    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL}, {"culled", e, 0.0, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL},
+                           {"culled", e, 0.0, NULL, 0, NULL, NULL}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -527,8 +534,11 @@ static void standalone_level_is_one_named_node_with_embedded_images(void **state
     sv_mesh *m = leaf_mesh(2, 30);
     cJSON *extras = cJSON_CreateObject();
     cJSON_AddNumberToObject(extras, "lambda", 0.5);
-    sv_gltf_lod lod = {.name = "oak_LOD2", .mesh = m, .screen_coverage = 0.25,
-                       .extras = extras, .mesh_name = "clusters16"};
+    sv_gltf_lod lod = {.name = "oak_LOD2",
+                       .mesh = m,
+                       .screen_coverage = 0.25,
+                       .extras = extras,
+                       .mesh_name = "clusters16"};
     uint8_t *buf = NULL;
     size_t size = 0;
     sv_error err = {0};

@@ -114,8 +114,8 @@ static uint8_t *read_file(const char *path, size_t *size)
 /* ---------- running cases under a CPU limit ---------- */
 
 typedef struct icase {
-    char name[96];        /* file name as uploaded */
-    char label[128];      /* for messages */
+    char name[96];   /* file name as uploaded */
+    char label[128]; /* for messages */
     const uint8_t *data;
     size_t size;
     bool spin; /* test of the harness: a busy loop instead of an import */
@@ -220,8 +220,7 @@ static unsigned run_cases(const icase *cases, size_t n, result *res, unsigned bu
         }
         close(p[0]);
         int ws = 0;
-        while (waitpid(pid, &ws, 0) < 0 && errno == EINTR) {
-        }
+        while (waitpid(pid, &ws, 0) < 0 && errno == EINTR) {}
         if (WIFEXITED(ws) && WEXITSTATUS(ws) == 0) {
             assert_int_equal(next, n);
             break;
@@ -234,8 +233,9 @@ static unsigned run_cases(const icase *cases, size_t n, result *res, unsigned bu
         res[next].status = cpu ? R_CPU : R_CRASH;
         res[next].cpu = 0;
         fprintf(stderr, "# %s: %s\n", cases[next].label,
-                cpu ? "over its CPU limit (killed by the RLIMIT_CPU guard)"
-                    : WIFSIGNALED(ws) ? strsignal(WTERMSIG(ws)) : "child exited early");
+                cpu               ? "over its CPU limit (killed by the RLIMIT_CPU guard)"
+                : WIFSIGNALED(ws) ? strsignal(WTERMSIG(ws))
+                                  : "child exited early");
         next++;
     }
     return children;
@@ -472,14 +472,17 @@ static void test_mesh_precheck_messages(void **state)
          "end_header"},
         {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nelement vertex 99999999999\nend_header\n",
          SV_ERR_PARSE, "below 2^32"},
-        {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nelement vertex 20000000\nproperty float x\n"
-                        "end_header\n",
+        {SV_FORMAT_PLY,
+         "ply\nformat ascii 1.0\nelement vertex 20000000\nproperty float x\n"
+         "end_header\n",
          SV_ERR_LIMIT, "vertices"},
-        {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
-                        "end_header\n1\n",
+        {SV_FORMAT_PLY,
+         "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+         "end_header\n1\n",
          SV_ERR_PARSE, "body ends"},
-        {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
-                        "end_header\nabc\n",
+        {SV_FORMAT_PLY,
+         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+         "end_header\nabc\n",
          SV_ERR_PARSE, "not a number"},
         {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nproperty float x\nend_header\n", SV_ERR_PARSE,
          "before any element"},
@@ -487,12 +490,14 @@ static void test_mesh_precheck_messages(void **state)
          "no properties"},
         {SV_FORMAT_PLY, "ply\nformat ascii 1.0\nbogus\nend_header\n", SV_ERR_PARSE,
          "not a header line"},
-        {SV_FORMAT_PLY, "ply\nformat binary_little_endian 1.0\nelement v 1\nproperty int x\n"
-                        "end_header\n\x01\x02\x03",
+        {SV_FORMAT_PLY,
+         "ply\nformat binary_little_endian 1.0\nelement v 1\nproperty int x\n"
+         "end_header\n\x01\x02\x03",
          SV_ERR_PARSE, "body ends"},
         {SV_FORMAT_OBJ, "v 0 0 0\n", SV_OK, ""},
-        {SV_FORMAT_FBX, "; FBX 7.4.0\nFBXHeaderExtension: {\n B: \"x\"\n}\nObjects: {\n}\n"
-                        "Connections: {\n}\n",
+        {SV_FORMAT_FBX,
+         "; FBX 7.4.0\nFBXHeaderExtension: {\n B: \"x\"\n}\nObjects: {\n}\n"
+         "Connections: {\n}\n",
          SV_OK, ""},
         {SV_FORMAT_FBX, "; FBX 7.4.0\nFBXHeaderExtension: {\n}\nObjects: {\n}\n", SV_ERR_PARSE,
          "no top-level Connections"},
@@ -511,10 +516,10 @@ static void test_mesh_precheck_messages(void **state)
         /* the binary FBX header holds NULs: 27 bytes */
         size_t len = cases[i].bytes[0] == 'K' ? 27 : strlen(cases[i].bytes);
         sv_error e = {0};
-        sv_status st = sv_mesh_precheck(cases[i].fmt, (const uint8_t *)cases[i].bytes, len,
-                                        "x.in", NULL, &e);
-        if (st != cases[i].want || (st && (!strstr(e.message, cases[i].says) ||
-                                           !strstr(e.message, "'x.in'"))))
+        sv_status st = sv_mesh_precheck(cases[i].fmt, (const uint8_t *)cases[i].bytes, len, "x.in",
+                                        NULL, &e);
+        if (st != cases[i].want ||
+            (st && (!strstr(e.message, cases[i].says) || !strstr(e.message, "'x.in'"))))
             fail_msg("case %zu: status %s, message '%s' (want %s, '%s')", i, sv_status_code(st),
                      e.message, sv_status_code(cases[i].want), cases[i].says);
     }
@@ -537,7 +542,8 @@ static void test_one_reader_per_extension(void **state)
             snprintf(w, sizeof w, " %s ", exts[k]);
             if (strstr(list, w)) claims++;
         }
-        if (claims != 1) fail_msg(".%s is claimed by %d assimp readers, expected 1", exts[k], claims);
+        if (claims != 1)
+            fail_msg(".%s is claimed by %d assimp readers, expected 1", exts[k], claims);
     }
 }
 

@@ -190,7 +190,8 @@ static void tga_without_magic_decodes_by_its_name(void **state)
     assert_int_equal(d[11], 128);
     sv_image_free(&img);
     /* the same bytes under a name that does not say TGA: no magic, refused */
-    assert_int_equal(sv_image_decode_rgba8(tga, sizeof tga, "leaf.bin", 0, &img, &err), SV_ERR_FORMAT);
+    assert_int_equal(sv_image_decode_rgba8(tga, sizeof tga, "leaf.bin", 0, &img, &err),
+                     SV_ERR_FORMAT);
 }
 
 static void jpeg_from_the_data_set_decodes(void **state)
@@ -282,7 +283,7 @@ static void reduce_halves_with_an_alpha_weighted_box_filter(void **state)
     assert_int_equal(sv_image_reduce(&img, 8, NULL), SV_OK); /* within: unchanged */
     assert_true(img.width == 5 && img.height == 3);
     assert_int_equal(sv_image_reduce(&img, 2, NULL), SV_OK);
-    assert_true(img.width == 2 && img.height == 1);           /* 5x3 -> 3x2 -> 2x1 */
+    assert_true(img.width == 2 && img.height == 1); /* 5x3 -> 3x2 -> 2x1 */
     px = img.data;
     /* the transparent green never bleeds into the colour */
     assert_int_equal(px[0], 200);

@@ -87,7 +87,6 @@ static bool upload_dir(upload *u, const char *dir, const char *main)
     return true;
 }
 
-
 static sv_status import_upload(upload *u, const sv_import_options *opt, sv_mesh **m,
                                sv_import_info *info, sv_error *err)
 {
@@ -164,7 +163,10 @@ static const char *tri_obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 static void sniff_recognises_each_accepted_format_by_its_bytes(void **state)
 {
     (void)state;
-    static const struct { const char *bytes; sv_format want; } cases[] = {
+    static const struct {
+        const char *bytes;
+        sv_format want;
+    } cases[] = {
         {"glTF\x02\0\0\0", SV_FORMAT_GLB},
         {"  {\"asset\":{\"version\":\"2.0\"}}", SV_FORMAT_GLTF},
         {"# exported\nmtllib a.mtl\nv 0 0 0\n", SV_FORMAT_OBJ},
@@ -185,8 +187,12 @@ static void sniff_recognises_each_accepted_format_by_its_bytes(void **state)
 static void sniff_rejects_other_formats_and_noise(void **state)
 {
     (void)state;
-    const char *texts[] = {"", "x", "{\"not\":\"gltf\"}", "<html><body></body></html>",
-                           "hello world\nthis is text\n", "\x89PNG\r\n\x1a\n",
+    const char *texts[] = {"",
+                           "x",
+                           "{\"not\":\"gltf\"}",
+                           "<html><body></body></html>",
+                           "hello world\nthis is text\n",
+                           "\x89PNG\r\n\x1a\n",
                            "solid cube\nfacet normal 0 0 1\n" /* STL: not accepted */};
     for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++)
         assert_int_equal(sv_sniff_format((const uint8_t *)texts[i], strlen(texts[i])),
@@ -208,12 +214,24 @@ static void sniff_rejects_other_formats_and_noise(void **state)
 static void upload_find_refuses_names_that_leave_the_upload(void **state)
 {
     (void)state;
-    sv_file files[] = {{"secret.png", (const uint8_t *)"x", 1}, {"passwd", (const uint8_t *)"x", 1}};
-    const char *bad[] = {"/etc/passwd", "../secret.png", "a/../../secret.png", "..\\secret.png",
-                         "tex\\..\\..\\secret.png", "\\\\server\\share\\secret.png",
-                         "file:secret.png", "file:///etc/passwd", "http://example.com/secret.png",
-                         "C:\\textures\\secret.png", "c:secret.png", "..", "",
-                         "%2e%2e/secret.png", "%2Fetc%2Fpasswd", "a/%2E%2E%5C%2E%2E%5Csecret.png"};
+    sv_file files[] = {{"secret.png", (const uint8_t *)"x", 1},
+                       {"passwd", (const uint8_t *)"x", 1}};
+    const char *bad[] = {"/etc/passwd",
+                         "../secret.png",
+                         "a/../../secret.png",
+                         "..\\secret.png",
+                         "tex\\..\\..\\secret.png",
+                         "\\\\server\\share\\secret.png",
+                         "file:secret.png",
+                         "file:///etc/passwd",
+                         "http://example.com/secret.png",
+                         "C:\\textures\\secret.png",
+                         "c:secret.png",
+                         "..",
+                         "",
+                         "%2e%2e/secret.png",
+                         "%2Fetc%2Fpasswd",
+                         "a/%2E%2E%5C%2E%2E%5Csecret.png"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         size_t idx = 99;
         sv_error err = {0};
@@ -226,7 +244,8 @@ static void upload_find_refuses_names_that_leave_the_upload(void **state)
 static void upload_find_matches_exact_then_base_name_then_case(void **state)
 {
     (void)state;
-    sv_file files[] = {{"tree.obj", NULL, 0}, {"textures/leaf.png", NULL, 0}, {"Bark.JPG", NULL, 0}};
+    sv_file files[] = {
+        {"tree.obj", NULL, 0}, {"textures/leaf.png", NULL, 0}, {"Bark.JPG", NULL, 0}};
     size_t idx = 0;
     assert_int_equal(sv_upload_find(files, 3, "textures/leaf.png", &idx, NULL), SV_OK);
     assert_int_equal(idx, 1);
@@ -317,13 +336,13 @@ static void gltf_with_deep_node_chain_is_refused_before_assimp(void **state)
     const int depth = 20000;
     size_t cap = (size_t)depth * 24 + 256, len = 0;
     char *j = malloc(cap);
-    len += (size_t)snprintf(j + len, cap - len,
-                            "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
+    len += (size_t)snprintf(
+        j + len, cap - len,
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[");
     for (int i = 0; i < depth; i++) {
         if (i + 1 < depth)
             len += (size_t)snprintf(j + len, cap - len, "{\"children\":[%d]},", i + 1);
-        else
-            len += (size_t)snprintf(j + len, cap - len, "{}");
+        else len += (size_t)snprintf(j + len, cap - len, "{}");
     }
     len += (size_t)snprintf(j + len, cap - len, "]}");
     sv_error err = {0};
@@ -344,19 +363,21 @@ static void gltf_node_cycles_and_shared_children_are_refused(void **state)
                               "{\"children\":[2]},{}]}";
     const char *bad_child = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"children\":[5]}]}";
     sv_error err = {0};
-    assert_int_equal(sv_gltf_precheck((const uint8_t *)cycle, strlen(cycle), false, NULL, 0, NULL, &err),
-                     SV_ERR_PARSE);
+    assert_int_equal(
+        sv_gltf_precheck((const uint8_t *)cycle, strlen(cycle), false, NULL, 0, NULL, &err),
+        SV_ERR_PARSE);
     assert_non_null(strstr(err.message, "child of both"));
-    assert_int_equal(sv_gltf_precheck((const uint8_t *)self, strlen(self), false, NULL, 0, NULL, &err),
-                     SV_ERR_PARSE);
+    assert_int_equal(
+        sv_gltf_precheck((const uint8_t *)self, strlen(self), false, NULL, 0, NULL, &err),
+        SV_ERR_PARSE);
     assert_non_null(strstr(err.message, "cycle through node 0"));
-    assert_int_equal(sv_gltf_precheck((const uint8_t *)two_parents, strlen(two_parents), false, NULL,
-                                      0, NULL, &err),
+    assert_int_equal(sv_gltf_precheck((const uint8_t *)two_parents, strlen(two_parents), false,
+                                      NULL, 0, NULL, &err),
                      SV_ERR_PARSE);
     assert_non_null(strstr(err.message, "node 2 is a child of both"));
-    assert_int_equal(sv_gltf_precheck((const uint8_t *)bad_child, strlen(bad_child), false, NULL, 0,
-                                      NULL, &err),
-                     SV_ERR_PARSE);
+    assert_int_equal(
+        sv_gltf_precheck((const uint8_t *)bad_child, strlen(bad_child), false, NULL, 0, NULL, &err),
+        SV_ERR_PARSE);
     assert_non_null(strstr(err.message, "not a node index"));
 }
 
@@ -372,8 +393,9 @@ static void gltf_declared_counts_over_limits_are_refused(void **state)
      * instead ask for fewer nodes than there are */
     const char *nodes = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{},{},{}]}";
     lim.max_nodes = 2;
-    assert_int_equal(sv_gltf_precheck((const uint8_t *)nodes, strlen(nodes), false, NULL, 0, &lim, &err),
-                     SV_ERR_LIMIT);
+    assert_int_equal(
+        sv_gltf_precheck((const uint8_t *)nodes, strlen(nodes), false, NULL, 0, &lim, &err),
+        SV_ERR_LIMIT);
     assert_non_null(strstr(err.message, "3 nodes (limit 2)"));
     /* an accessor whose count × stride overruns its bufferView */
     char *j = malloc(n);
@@ -397,7 +419,6 @@ static void gltf_version_1_and_bad_json_are_refused(void **state)
     expect_import_fails("bad.gltf", bad, strlen(bad), SV_ERR_PARSE, "JSON syntax error");
 }
 
-
 /* The JSON and BIN chunk of make_glb, as a .gltf with the buffer given by `uri`
  * ("%s" is replaced by nothing: the caller supplies the whole uri). */
 static char *gltf_from_glb(const char *uri, uint8_t bin[44])
@@ -415,8 +436,8 @@ static char *gltf_from_glb(const char *uri, uint8_t bin[44])
     assert_non_null(at);
     size_t cap = jn + strlen(uri) + 64;
     char *out = malloc(cap);
-    snprintf(out, cap, "%.*s\"buffers\":[{\"uri\":\"%s\",\"byteLength\":44}]%s", (int)(at - json), json,
-             uri, at + strlen(from));
+    snprintf(out, cap, "%.*s\"buffers\":[{\"uri\":\"%s\",\"byteLength\":44}]%s", (int)(at - json),
+             json, uri, at + strlen(from));
     free(json);
     free(glb);
     return out;
@@ -632,8 +653,8 @@ static void texture_outside_the_upload_is_never_read(void **state)
     }
     /* same through a glTF image uri */
     char json[512];
-    snprintf(json, sizeof json,
-             "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"%s\"}]}", abs_path);
+    snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"%s\"}]}",
+             abs_path);
     expect_import_fails("t.gltf", json, strlen(json), SV_ERR_REFUSED, abs_path);
     const char *rel = "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"../secret.png\"}]}";
     expect_import_fails("t.gltf", rel, strlen(rel), SV_ERR_REFUSED, "../secret.png");
@@ -721,7 +742,8 @@ static void missing_mtl_fails_by_default_and_is_a_warning_with_warn(void **state
     sv_import_options opt = {.missing_files_warn = true};
     assert_int_equal(import_upload(&u, &opt, &m, &info, &err), SV_OK);
     assert_int_equal(info.files_missing, 1);
-    assert_non_null(strstr(info.warnings, "'leaves.mtl' was not supplied: its materials are plain grey"));
+    assert_non_null(
+        strstr(info.warnings, "'leaves.mtl' was not supplied: its materials are plain grey"));
     assert_null(strstr(info.warnings, "t.mtl"));
     sv_mesh_destroy(m);
     upload_free(&u);
@@ -742,7 +764,8 @@ static void missing_mtl_is_forgiven_when_the_stem_mtl_is_read(void **state)
     sv_status st = import_upload(&u, NULL, &m, &info, &err);
     if (st != SV_OK) fail_msg("%s", err.message);
     assert_int_equal(info.files_missing, 0);
-    assert_non_null(strstr(info.warnings, "'old_name.mtl' was not supplied: the materials were read from 't.mtl'"));
+    assert_non_null(strstr(
+        info.warnings, "'old_name.mtl' was not supplied: the materials were read from 't.mtl'"));
     assert_float_equal(m->materials[m->tri_material[0]].base_color[0], 1.0, 1e-6);
     sv_mesh_destroy(m);
     upload_free(&u);
@@ -765,7 +788,8 @@ static void every_missing_file_is_named_once(void **state)
     assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
     assert_int_equal(info.files_missing, 2);
     assert_string_equal(info.missing_files, "leaf.png, bark.jpg");
-    if (!strstr(err.message, "references 2 files that were not supplied: leaf.png, bark.jpg. Supply them"))
+    if (!strstr(err.message,
+                "references 2 files that were not supplied: leaf.png, bark.jpg. Supply them"))
         fail_msg("message: %s", err.message);
     upload_free(&u);
 }
@@ -780,7 +804,8 @@ static void many_missing_files_are_counted_and_never_dropped_silently(void **sta
     for (int i = 0; i < 60; i++) {
         size_t n = strlen(obj), k = strlen(mtl);
         snprintf(obj + n, sizeof obj - n, "usemtl m%02d\nf 1/1 2/2 3/3\n", i);
-        snprintf(mtl + k, sizeof mtl - k, "newmtl m%02d\nmap_Kd a_rather_long_texture_name_%02d.png\n", i, i);
+        snprintf(mtl + k, sizeof mtl - k,
+                 "newmtl m%02d\nmap_Kd a_rather_long_texture_name_%02d.png\n", i, i);
     }
     upload u = {0};
     upload_add_str(&u, "t.obj", obj);
@@ -790,7 +815,8 @@ static void many_missing_files_are_counted_and_never_dropped_silently(void **sta
     sv_error err = {0};
     assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_ERR_MISSING);
     assert_int_equal(info.files_missing, 60);
-    if (!strstr(err.message, "references 60 files that were not supplied: a_rather_long_texture_name_00.png"))
+    if (!strstr(err.message,
+                "references 60 files that were not supplied: a_rather_long_texture_name_00.png"))
         fail_msg("message: %s", err.message);
     assert_non_null(strstr(info.missing_files, ", ..."));
     sv_import_options opt = {.missing_files_warn = true};
@@ -1031,7 +1057,9 @@ static void glb_materials_and_transforms_come_through(void **state)
  * (test_data.h), the one table of them */
 static sv_alpha_mode alpha_named(const char *s)
 {
-    return !strcmp(s, "mask") ? SV_ALPHA_MASK : !strcmp(s, "blend") ? SV_ALPHA_BLEND : SV_ALPHA_OPAQUE;
+    return !strcmp(s, "mask")    ? SV_ALPHA_MASK
+           : !strcmp(s, "blend") ? SV_ALPHA_BLEND
+                                 : SV_ALPHA_OPAQUE;
 }
 
 static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
@@ -1075,23 +1103,25 @@ static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
         printf("%-30s %s: imported %u triangles (README %u), after validate %u "
                "(-%u zero-area, -%u duplicate), %u vertices, %u materials, %s %u triangles, "
                "%u textures (%u missing), height %.2f m, import %.3f s wall, %.3f s CPU\n",
-               tc->file, sv_format_name(info.format), imported, tc->triangles,
-               m->triangle_count, rep.removed_degenerate, rep.removed_duplicate, m->vertex_count,
-               m->material_count, tc->material, mat1, info.textures_decoded, info.textures_missing,
-               mx[1] - mn[1], t1 - t0, cpu);
+               tc->file, sv_format_name(info.format), imported, tc->triangles, m->triangle_count,
+               rep.removed_degenerate, rep.removed_duplicate, m->vertex_count, m->material_count,
+               tc->material, mat1, info.textures_decoded, info.textures_missing, mx[1] - mn[1],
+               t1 - t0, cpu);
         assert_int_equal(imported, tc->triangles);
         assert_int_equal(m->triangle_count + rep.removed_degenerate + rep.removed_duplicate,
                          tc->triangles);
         /* repairs are a small fraction of a real tree */
         assert_true(rep.removed_degenerate + rep.removed_duplicate <= tc->triangles / 100);
-        assert_true(mat1 <= tc->material_triangles && mat1 + tc->material_triangles / 100 >= tc->material_triangles);
+        assert_true(mat1 <= tc->material_triangles &&
+                    mat1 + tc->material_triangles / 100 >= tc->material_triangles);
         assert_int_equal(info.textures_decoded, tc->textures);
         /* alpha: map_d (bush, ez-tree OBJ), an RGBA texture without map_d
          * (bonsai), glTF's own alphaMode (oak GLB: BLEND) */
         for (uint32_t k = 0; k < m->material_count; k++)
             if (strcmp(m->materials[k].name, tc->material) == 0) {
                 assert_int_equal(m->materials[k].alpha_mode, alpha_named(tc->alpha));
-                if (alpha_named(tc->alpha) != SV_ALPHA_OPAQUE) assert_true(m->materials[k].double_sided);
+                if (alpha_named(tc->alpha) != SV_ALPHA_OPAQUE)
+                    assert_true(m->materials[k].double_sided);
             }
         assert_int_equal(info.textures_missing, 0);
         /* plausible tree heights in metres: the cm trees were scaled */

@@ -38,9 +38,15 @@ static uint64_t rng_next(uint64_t *s)
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return z ^ (z >> 31);
 }
-static double urand(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0; }
+static double urand(uint64_t *s)
+{
+    return (double)(rng_next(s) >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+}
 
-static double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static void normalize(double v[3])
 {
@@ -69,9 +75,11 @@ static void toy_make(toy *t, uint32_t nleaves, uint64_t seed)
         double n[3] = {0.3 * (layer - 1.5), 1, 0.2 * (layer % 2)}, u[3], v[3];
         normalize(n);
         double a[3] = {1, 0, 0};
-        u[0] = n[1] * a[2] - n[2] * a[1], u[1] = n[2] * a[0] - n[0] * a[2], u[2] = n[0] * a[1] - n[1] * a[0];
+        u[0] = n[1] * a[2] - n[2] * a[1], u[1] = n[2] * a[0] - n[0] * a[2],
+        u[2] = n[0] * a[1] - n[1] * a[0];
         normalize(u);
-        v[0] = n[1] * u[2] - n[2] * u[1], v[1] = n[2] * u[0] - n[0] * u[2], v[2] = n[0] * u[1] - n[1] * u[0];
+        v[0] = n[1] * u[2] - n[2] * u[1], v[1] = n[2] * u[0] - n[0] * u[2],
+        v[2] = n[0] * u[1] - n[1] * u[0];
         /* the leaf lies in its layer's plane (through (0, 1.5 + 0.6·layer, 0),
          * normal n), within ±0.01 */
         double a0 = 0.8 * urand(&s), b0 = 0.8 * urand(&s), off = 0.01 * urand(&s), c[3];
@@ -79,7 +87,8 @@ static void toy_make(toy *t, uint32_t nleaves, uint64_t seed)
         c[1] += 1.5 + 0.6 * layer;
         const double cu[4] = {-0.05, 0.05, 0.05, -0.05}, cv[4] = {-0.05, -0.05, 0.05, 0.05};
         for (int k = 0; k < 4; k++)
-            for (int j = 0; j < 3; j++) P[3 * (4 * i + k) + j] = (float)(c[j] + cu[k] * u[j] + cv[k] * v[j]);
+            for (int j = 0; j < 3; j++)
+                P[3 * (4 * i + k) + j] = (float)(c[j] + cu[k] * u[j] + cv[k] * v[j]);
         uint32_t b = 4 * i;
         uint32_t q[6] = {b, b + 1, b + 2, b, b + 2, b + 3};
         memcpy(&I[6 * i], q, sizeof q);
@@ -101,7 +110,8 @@ static void toy_make(toy *t, uint32_t nleaves, uint64_t seed)
     }
     /* trunk: a thin vertical fin from y=0 to y=1.5 */
     uint32_t b = 4 * nleaves;
-    const float tv[6][3] = {{-0.05f, 0, 0}, {0.05f, 0, 0}, {0.05f, 1.5f, 0}, {-0.05f, 1.5f, 0}, {0, 0, -0.05f}, {0, 1.5f, 0.05f}};
+    const float tv[6][3] = {{-0.05f, 0, 0},    {0.05f, 0, 0},  {0.05f, 1.5f, 0},
+                            {-0.05f, 1.5f, 0}, {0, 0, -0.05f}, {0, 1.5f, 0.05f}};
     for (int k = 0; k < 6; k++)
         for (int j = 0; j < 3; j++) P[3 * (b + k) + j] = tv[k][j];
     uint32_t tt[12] = {b, b + 1, b + 2, b, b + 2, b + 3, b + 4, b + 1, b + 5, b + 4, b + 5, b + 3};
@@ -154,13 +164,15 @@ static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *i
         for (uint32_t k = 0; k < lod->quad_count; k++) {
             const sv_quad *q = &lod->quads[k];
             assert_true(fabs(dot(q->normal, q->normal) - 1) < 1e-12);
-            assert_true(isfinite(q->d) && isfinite(q->half_u) && isfinite(q->half_v) && isfinite(q->slab));
+            assert_true(isfinite(q->d) && isfinite(q->half_u) && isfinite(q->half_v) &&
+                        isfinite(q->slab));
             /* the tree centre is behind the plane: normal points outward */
             assert_true(dot(q->normal, in->centre) + q->d <= 1e-9 * in->radius);
             assert_int_equal(q->parts, SV_PARTS_FOLIAGE);
             assert_false(q->clip);
             assert_int_equal(q->group, (int32_t)l);
-            if (l + 1 < nlev) assert_true(q->parent >= 0 && (uint32_t)q->parent < s->lods[l + 1].quad_count);
+            if (l + 1 < nlev)
+                assert_true(q->parent >= 0 && (uint32_t)q->parent < s->lods[l + 1].quad_count);
             else assert_int_equal(q->parent, -1);
             assert_int_equal(q->face_count, q->bake_face_count);
             assert_memory_equal(q->faces, q->bake_faces, q->face_count * sizeof(uint32_t));
@@ -178,8 +190,10 @@ static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *i
                     double dist = dot(q->normal, x) + q->d;
                     if (fabs(dist) > slab) slab = fabs(dist);
                     for (int j = 0; j < 3; j++) r[j] = x[j] - q->centre[j];
-                    assert_true(fabs(dot(r, q->axis_u)) <= q->half_u * (1 + 1e-9) + 1e-9 * in->radius);
-                    assert_true(fabs(dot(r, q->axis_v)) <= q->half_v * (1 + 1e-9) + 1e-9 * in->radius);
+                    assert_true(fabs(dot(r, q->axis_u)) <=
+                                q->half_u * (1 + 1e-9) + 1e-9 * in->radius);
+                    assert_true(fabs(dot(r, q->axis_v)) <=
+                                q->half_v * (1 + 1e-9) + 1e-9 * in->radius);
                 }
             }
             assert_true(fabs(slab - q->slab) <= 1e-12 * in->radius);
@@ -188,7 +202,8 @@ static void assert_stand_in_sound(const sv_stand_in *s, const sv_method_input *i
             if (l > 0) {
                 uint32_t child = 0;
                 for (uint32_t c = 0; c < s->lods[l - 1].quad_count; c++)
-                    if (s->lods[l - 1].quads[c].parent == (int32_t)k) child += s->lods[l - 1].quads[c].face_count;
+                    if (s->lods[l - 1].quads[c].parent == (int32_t)k)
+                        child += s->lods[l - 1].quads[c].face_count;
                 assert_int_equal(child, q->face_count);
             }
         }
@@ -298,7 +313,8 @@ static void toy_tree_gives_one_lod_per_level_with_sound_quads(void **state)
     const uint32_t levels[] = {32, 16, 8};
     assert_stand_in_sound(&s, &t.in, levels, 3);
     assert_int_equal(s.lods[0].quad_count, 32);
-    assert_true(s.lods[0].trunk_ratio == 0.5 && s.lods[1].trunk_ratio == 0.25 && s.lods[2].trunk_ratio == 0.1);
+    assert_true(s.lods[0].trunk_ratio == 0.5 && s.lods[1].trunk_ratio == 0.25 &&
+                s.lods[2].trunk_ratio == 0.1);
     sv_stand_in_free(&s);
 
     cJSON *j = json("{\"clusters\":[4,2,1],\"trunk_ratio\":[0.9,0.6,0.3]}");
@@ -356,7 +372,8 @@ static void same_seed_gives_identical_stand_in_and_seed_matters(void **state)
     assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &c, NULL), SV_OK);
     bool differs = false;
     for (uint32_t k = 0; k < a.lods[0].quad_count && !differs; k++)
-        differs = memcmp(a.lods[0].quads[k].normal, c.lods[0].quads[k].normal, sizeof(double[3])) != 0;
+        differs = memcmp(a.lods[0].quads[k].normal, c.lods[0].quads[k].normal, sizeof(double[3])) !=
+                  0;
     assert_true(differs);
     sv_stand_in_free(&a);
     sv_stand_in_free(&b);
@@ -405,8 +422,10 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
     const char *data = sv_test_data("the real-tree clustering");
     const char *set = getenv("SYLVA_TREES");
     bool small = set && strcmp(set, "small") == 0;
-    const char *obj = small ? "eztree_aspen_small/aspen_small.obj" : "scopia_ficusTree/ficusTree.obj";
-    const char *mtl = small ? "eztree_aspen_small/aspen_small.mtl" : "scopia_ficusTree/ficusTree.mtl";
+    const char *obj = small ? "eztree_aspen_small/aspen_small.obj"
+                            : "scopia_ficusTree/ficusTree.obj";
+    const char *mtl = small ? "eztree_aspen_small/aspen_small.mtl"
+                            : "scopia_ficusTree/ficusTree.mtl";
     size_t n_obj = 0, n_mtl = 0;
     uint8_t *b_obj = sv_test_read_data(data, obj, &n_obj);
     uint8_t *b_mtl = sv_test_read_data(data, mtl, &n_mtl);
@@ -414,7 +433,8 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
         free(b_mtl);
         fail_msg("cannot read %s under %s", obj, data);
     }
-    sv_file files[2] = {{strrchr(obj, '/') + 1, b_obj, n_obj}, {strrchr(mtl, '/') + 1, b_mtl, n_mtl}};
+    sv_file files[2] = {{strrchr(obj, '/') + 1, b_obj, n_obj},
+                        {strrchr(mtl, '/') + 1, b_mtl, n_mtl}};
     /* the .mtl names the materials (classification); its texture is not needed
      * for clustering and is left out, which import.missing_files "warn" allows */
     sv_import_options io = {.unit_scale = small ? 1.0 : 0.01, .missing_files_warn = true};
@@ -435,7 +455,9 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
     sv_mesh_sphere(m, in.centre, &in.radius);
 
     /* clustering alone (reported, not asserted: timing is not a behaviour) */
-    sv_cluster_options co = {.alpha = 0.003 * in.radius * in.radius, .area_weighted = true, .seed = 1,
+    sv_cluster_options co = {.alpha = 0.003 * in.radius * in.radius,
+                             .area_weighted = true,
+                             .seed = 1,
                              .centre = in.centre};
     sv_clusters cl;
     double t0 = sv_now();
@@ -453,7 +475,8 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
     sv_stand_in s = {0};
     t0 = sv_now();
     assert_int_equal(sv_method_leaf_clusters.run(&in, NULL, &s, &e), SV_OK);
-    print_message("%s: leaf_clusters method (clustering + quads) %.1f ms\n", obj, 1e3 * (sv_now() - t0));
+    print_message("%s: leaf_clusters method (clustering + quads) %.1f ms\n", obj,
+                  1e3 * (sv_now() - t0));
     const uint32_t levels[] = {32, 16, 8};
     assert_stand_in_sound(&s, &in, levels, 3);
     assert_int_equal(s.lods[0].quad_count, 32);

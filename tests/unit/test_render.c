@@ -34,8 +34,13 @@ static sv_mesh *quad_mesh(double z0, double slope)
 /* Camera on +z looking along -z at the unit square. */
 static sv_camera front_camera(void)
 {
-    sv_camera c = {.origin = {0, 0, 2}, .right = {1, 0, 0}, .up = {0, 1, 0},
-                   .half_width = 1, .half_height = 1, .near_dist = 0, .far_dist = 4};
+    sv_camera c = {.origin = {0, 0, 2},
+                   .right = {1, 0, 0},
+                   .up = {0, 1, 0},
+                   .half_width = 1,
+                   .half_height = 1,
+                   .near_dist = 0,
+                   .far_dist = 4};
     return c;
 }
 
@@ -44,8 +49,7 @@ static sv_renderer *make_renderer(void)
     sv_renderer *r = NULL;
     sv_error err = {0};
     sv_status st = sv_renderer_create(1024, &r, &err);
-    if (st != SV_OK)
-        fail_msg("renderer: %s", err.message);
+    if (st != SV_OK) fail_msg("renderer: %s", err.message);
     return r;
 }
 
@@ -53,8 +57,7 @@ static uint32_t covered(const sv_image *img)
 {
     uint32_t n = 0;
     const uint8_t *p = img->data;
-    for (size_t i = 0; i < (size_t)img->width * img->height; i++)
-        n += p[4 * i + 3] != 0;
+    for (size_t i = 0; i < (size_t)img->width * img->height; i++) n += p[4 * i + 3] != 0;
     return n;
 }
 
@@ -70,7 +73,9 @@ static void masked_quad_covers_only_the_opaque_half_of_its_texture(void **state)
     for (int y = 0; y < 8; y++)
         for (int x = 0; x < 8; x++) {
             uint8_t *p = t + 4 * (y * 8 + x);
-            p[0] = 200; p[1] = 40; p[2] = 10;
+            p[0] = 200;
+            p[1] = 40;
+            p[2] = 10;
             p[3] = x < 4 ? 255 : 0; /* left half opaque */
         }
     m->materials[0].base_texture = 0;
@@ -119,8 +124,7 @@ static void back_facing_triangle_still_renders(void **state)
         m->indices[3 * t + 1] = m->indices[3 * t + 2];
         m->indices[3 * t + 2] = tmp;
     }
-    for (int i = 0; i < 4; i++)
-        m->normals[3 * i + 2] = -1.0f;
+    for (int i = 0; i < 4; i++) m->normals[3 * i + 2] = -1.0f;
     sv_renderer *r = make_renderer();
     sv_gpu_mesh *g = NULL;
     assert_int_equal(sv_gpu_mesh_upload(r, m, &g, NULL), SV_OK);
@@ -238,8 +242,8 @@ static void lit_shading_darkens_faces_turned_from_the_light(void **state)
     assert_int_equal(sv_render(r, g, NULL, 0, &cam, &toward, 8, 8, &a, NULL, NULL), SV_OK);
     assert_int_equal(sv_render(r, g, NULL, 0, &cam, &grazing, 8, 8, &b, NULL, NULL), SV_OK);
     const uint8_t *pa = a.data, *pb = b.data;
-    assert_int_equal(pa[0], 255);                 /* white × (0.35 + 0.65·1) */
-    assert_in_range(pb[0], 88, 91);               /* white × 0.35 (ambient only) */
+    assert_int_equal(pa[0], 255);   /* white × (0.35 + 0.65·1) */
+    assert_in_range(pb[0], 88, 91); /* white × 0.35 (ambient only) */
     sv_image_free(&a);
     sv_image_free(&b);
     sv_gpu_mesh_free(g);
@@ -263,8 +267,7 @@ static sv_mesh *random_leaves(uint32_t n, uint64_t seed)
         m->uvs[2 * i + 1] = (float)(i % 3 == 2);
         m->indices[i] = i;
     }
-    for (uint32_t t = 0; t < n; t++)
-        m->tri_material[t] = t % 2;
+    for (uint32_t t = 0; t < n; t++) m->tri_material[t] = t % 2;
     assert_int_equal(sv_image_alloc(&m->images[0], 16, 16, 4, 8, NULL), SV_OK);
     uint8_t *p = m->images[0].data;
     for (int i = 0; i < 256; i++) {
@@ -290,8 +293,13 @@ static void render_is_byte_identical_across_runs_and_renderers(void **state)
         sv_renderer *r = make_renderer();
         sv_gpu_mesh *g = NULL;
         assert_int_equal(sv_gpu_mesh_upload(r, m, &g, NULL), SV_OK);
-        sv_camera cam = {.origin = {0, 0, 0}, .right = {0.6, 0, 0.8}, .up = {0, 1, 0},
-                         .half_width = 1.3, .half_height = 1.3, .near_dist = -2, .far_dist = 2};
+        sv_camera cam = {.origin = {0, 0, 0},
+                         .right = {0.6, 0, 0.8},
+                         .up = {0, 1, 0},
+                         .half_width = 1.3,
+                         .half_height = 1.3,
+                         .near_dist = -2,
+                         .far_dist = 2};
         z[run] = calloc(300 * 200, sizeof(float));
         sv_render_options o = {.shade = SV_SHADE_ALBEDO};
         /* run 2 re-renders on the same renderer after a different-size draw */

@@ -82,7 +82,7 @@ static void long_token_is_read_whole_not_split(void **state)
     assert_true(check(t, "short-token"));
     assert_false(check(t, tok + 1023)); /* the tail fgets made a token of */
     tok[1023] = '\0';
-    assert_false(check(t, tok));        /* the head */
+    assert_false(check(t, tok)); /* the head */
     svd_tokens_free(t);
     free(tok);
     free(file);
@@ -136,7 +136,8 @@ static void nul_byte_in_a_line_is_refused(void **state)
 static void blank_lines_comments_and_spaces_are_ignored(void **state)
 {
     fx *f = *state;
-    const char *file = "# a comment line that is long enough to matter\n\n   \t\n  tok-one  \n\ttok-two # ci\n";
+    const char *file =
+        "# a comment line that is long enough to matter\n\n   \t\n  tok-one  \n\ttok-two # ci\n";
     write_file(f->path, file, strlen(file));
     svd_tokens *t = svd_tokens_load(f->path, NULL);
     assert_non_null(t);
@@ -193,9 +194,11 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(long_token_is_read_whole_not_split, setup, teardown),
         cmocka_unit_test_setup_teardown(token_at_the_limit_is_accepted, setup, teardown),
-        cmocka_unit_test_setup_teardown(token_over_the_limit_is_refused_naming_file_and_line, setup, teardown),
+        cmocka_unit_test_setup_teardown(token_over_the_limit_is_refused_naming_file_and_line, setup,
+                                        teardown),
         cmocka_unit_test_setup_teardown(nul_byte_in_a_line_is_refused, setup, teardown),
-        cmocka_unit_test_setup_teardown(blank_lines_comments_and_spaces_are_ignored, setup, teardown),
+        cmocka_unit_test_setup_teardown(blank_lines_comments_and_spaces_are_ignored, setup,
+                                        teardown),
         cmocka_unit_test_setup_teardown(file_without_tokens_or_missing_is_refused, setup, teardown),
         cmocka_unit_test_setup_teardown(check_takes_only_the_exact_token, setup, teardown),
     };

@@ -136,7 +136,8 @@ static void multipart_passes_binary_part_with_boundary_lookalikes(void **state)
     memcpy(bin + 1000, "\r\n--bn", 6);
     memcpy(bin + 5000, "\r\n--b\r\n--bnd", 12); /* "\r\n--bnd" would end the part: keep it broken */
     bin[5011] = 'X';
-    const char *head = "--bnd\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"a.glb\"\r\n\r\n";
+    const char *head =
+        "--bnd\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"a.glb\"\r\n\r\n";
     const char *tail = "\r\n--bnd--";
     size_t total = strlen(head) + n + strlen(tail);
     uint8_t *body = malloc(total);
@@ -198,7 +199,8 @@ static void multipart_refuses_headers_over_limit(void **state)
 static void multipart_ignores_preamble_and_epilogue(void **state)
 {
     (void)state;
-    const char *b = "this is a preamble\r\n--q\r\nContent-Disposition: form-data; name=\"spec\"\r\n\r\n{}\r\n--q--\r\nepilogue junk";
+    const char *b = "this is a preamble\r\n--q\r\nContent-Disposition: form-data; "
+                    "name=\"spec\"\r\n\r\n{}\r\n--q--\r\nepilogue junk";
     collected c = {0};
     sv_error e = {0};
     assert_int_equal(parse("q", (const uint8_t *)b, strlen(b), 5, &c, &e), SV_OK);
@@ -220,9 +222,11 @@ static void boundary_is_read_from_content_type(void **state)
     (void)state;
     char b[71];
     sv_error e = {0};
-    assert_int_equal(svd_multipart_boundary("multipart/form-data; boundary=----abc123", b, &e), SV_OK);
+    assert_int_equal(svd_multipart_boundary("multipart/form-data; boundary=----abc123", b, &e),
+                     SV_OK);
     assert_string_equal(b, "----abc123");
-    assert_int_equal(svd_multipart_boundary("Multipart/Form-Data; charset=x; boundary=\"q r\"", b, &e), SV_OK);
+    assert_int_equal(
+        svd_multipart_boundary("Multipart/Form-Data; charset=x; boundary=\"q r\"", b, &e), SV_OK);
     assert_string_equal(b, "q r");
     assert_int_equal(svd_multipart_boundary("application/json", b, &e), SV_ERR_FORMAT);
     assert_int_equal(svd_multipart_boundary(NULL, b, &e), SV_ERR_FORMAT);

@@ -61,7 +61,10 @@ static void routes_refuse_bad_keys_and_traversal(void **state)
     svd_route_match m;
     svd_route_find("GET", "/v1/bakes/abc", &m);
     assert_int_equal(m.status, 400);
-    svd_route_find("GET", "/v1/bakes/" "1230599077439815640ABF9dfe42b62c109efb4e38938921408ddac29212793c", &m);
+    svd_route_find("GET",
+                   "/v1/bakes/"
+                   "1230599077439815640ABF9dfe42b62c109efb4e38938921408ddac29212793c",
+                   &m);
     assert_int_equal(m.status, 400);
     svd_route_find("GET", "/v1/bakes/" KEY "/artifacts/../inputs.json", &m);
     assert_int_equal(m.status, 404);
@@ -89,7 +92,8 @@ static void config_flags_override_file(void **state)
     (void)state;
     char path[] = "/tmp/svcfgXXXXXX";
     int fd = mkstemp(path);
-    const char *text = "# sylvad\nlisten = 0.0.0.0:9000\nworkers = 3   # comment\n\nmax_upload_bytes = 2M\nlog_level = debug\n";
+    const char *text = "# sylvad\nlisten = 0.0.0.0:9000\nworkers = 3   # "
+                       "comment\n\nmax_upload_bytes = 2M\nlog_level = debug\n";
     assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
     close(fd);
     char *argv[] = {"sylvad", "--config", path, "--workers", "5", "--max-wait=7", NULL};

@@ -85,11 +85,13 @@ static void make_upload(fx *f, const char *content, const char *client, svd_uplo
     svd_sha256_hex(content, strlen(content), h);
     char inputs[512];
     snprintf(inputs, sizeof inputs,
-             "{\"mesh\":\"tree.obj\",\"files\":[],\"objects\":{\"tree.obj\":{\"size\":%zu,\"sha256\":\"%s\"}}}",
+             "{\"mesh\":\"tree.obj\",\"files\":[],\"objects\":{\"tree.obj\":{\"size\":%zu,"
+             "\"sha256\":\"%s\"}}}",
              strlen(content), h);
     assert_int_equal(svd_store_write_file(tmp, "inputs.json", inputs, strlen(inputs), &e), SV_OK);
     assert_int_equal(svd_store_write_file(tmp, "spec.json", "{}", 2, &e), SV_OK);
-    svd_key_part m = {.name = "tree.obj", .data = (const uint8_t *)content, .size = strlen(content)};
+    svd_key_part m = {
+        .name = "tree.obj", .data = (const uint8_t *)content, .size = strlen(content)};
     memset(up, 0, sizeof *up);
     assert_int_equal(svd_key_compute(NULL, &m, NULL, 0, up->key, &e), SV_OK);
     up->tmpdir = tmp;
@@ -141,9 +143,11 @@ static void fake_done_with(fx *f, svd_ticket *t, const char *artifact, const cha
     char h[SVD_KEY_HEX], manifest[2048];
     svd_sha256_hex(artifact, strlen(artifact), h);
     snprintf(manifest, sizeof manifest,
-             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%s\"}]%s%s}",
+             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%"
+             "s\"}]%s%s}",
              t->key, strlen(artifact), h, extra[0] ? "," : "", extra);
-    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e), SV_OK);
+    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e),
+                     SV_OK);
     assert_int_equal(svd_store_install(f->store, out, t->key, "result", &e), SV_OK);
     svd_jobs_finish(f->jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
 }
@@ -157,10 +161,12 @@ static void fake_done(fx *f, svd_ticket *t, const char *artifact)
     assert_int_equal(svd_store_write_file(out, "model.glb", artifact, strlen(artifact), &e), SV_OK);
     char h[SVD_KEY_HEX], manifest[512];
     svd_sha256_hex(artifact, strlen(artifact), h);
-    snprintf(manifest, sizeof manifest,
-             "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%s\"}]}",
-             t->key, strlen(artifact), h);
-    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e), SV_OK);
+    snprintf(
+        manifest, sizeof manifest,
+        "{\"key\":\"%s\",\"artifacts\":[{\"name\":\"model.glb\",\"size\":%zu,\"sha256\":\"%s\"}]}",
+        t->key, strlen(artifact), h);
+    assert_int_equal(svd_store_write_file(out, "manifest.json", manifest, strlen(manifest), &e),
+                     SV_OK);
     assert_int_equal(svd_store_install(f->store, out, t->key, "result", &e), SV_OK);
     svd_jobs_finish(f->jobs, t, SVD_OUT_DONE, NULL, NULL, manifest);
 }
@@ -286,7 +292,8 @@ static void reupload_racing_a_delete_of_a_running_bake_wins(void **state)
     assert_int_equal(svd_jobs_delete(f->jobs, k, &body, NULL), SVD_JOBS_ACCEPTED);
     free(body);
     assert_true(svd_jobs_cancelled(f->jobs, &t));
-    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", NULL), SVD_JOBS_OK); /* before the worker stops */
+    assert_int_equal(submit(f, "v 4 4 4\n", "addr:a", NULL),
+                     SVD_JOBS_OK); /* before the worker stops */
     assert_false(svd_jobs_cancelled(f->jobs, &t));
     fake_done(f, &t, "X");
     assert_state(f, k, "done");
@@ -320,7 +327,8 @@ static void corrupt_artifact_is_quarantined_and_job_requeued(void **state)
     uint64_t size;
     assert_int_equal(svd_jobs_artifact(f->jobs, k, "model.glb", path, &size, sha), SVD_JOBS_OK);
     assert_int_equal(svd_store_verify(f->store, path, size, sha, NULL), SV_OK);
-    assert_int_equal(svd_jobs_artifact(f->jobs, k, "../inputs.json", path, &size, sha), SVD_JOBS_NOT_FOUND);
+    assert_int_equal(svd_jobs_artifact(f->jobs, k, "../inputs.json", path, &size, sha),
+                     SVD_JOBS_NOT_FOUND);
     /* flip a byte (new mtime defeats the verify cache) */
     usleep(10000);
     int fd = open(path, O_RDWR);
@@ -349,7 +357,8 @@ static void eviction_drops_least_recent_finished_job_never_a_queued_one(void **s
     svd_jobs_gauges(f->jobs, &g);
     /* limit: what is there now plus a little; the next upload does not fit */
     f->cfg.store_max_bytes = g.store_bytes + 50;
-    assert_int_equal(submit(f, "v 3 3 3\n", "addr:a", kc), SVD_JOBS_ACCEPTED); /* evicts the done job */
+    assert_int_equal(submit(f, "v 3 3 3\n", "addr:a", kc),
+                     SVD_JOBS_ACCEPTED); /* evicts the done job */
     assert_state(f, ka, "missing");
     assert_state(f, kb, "queued");
     /* only queued jobs left: nothing can be evicted */
@@ -366,7 +375,8 @@ static void fresh_result_is_not_the_eviction_victim(void **state)
 {
     fx *f = *state;
     char ka[SVD_KEY_HEX], kb[SVD_KEY_HEX];
-    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", ka), SVD_JOBS_ACCEPTED); /* long bake, uploaded first */
+    assert_int_equal(submit(f, "v 5 5 5\n", "addr:a", ka),
+                     SVD_JOBS_ACCEPTED); /* long bake, uploaded first */
     assert_int_equal(submit(f, "v 6 6 6\n", "addr:a", kb), SVD_JOBS_ACCEPTED);
     svd_ticket ta, tb;
     assert_true(svd_jobs_take(f->jobs, &ta));
@@ -446,7 +456,8 @@ static void status_reports_stage_progress_and_manifest(void **state)
     svd_jobs_status(f->jobs, k, &body, NULL);
     j = cJSON_Parse(body);
     free(body);
-    cJSON *a = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "manifest"), "artifacts"), 0);
+    cJSON *a = cJSON_GetArrayItem(
+        cJSON_GetObjectItem(cJSON_GetObjectItem(j, "manifest"), "artifacts"), 0);
     assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(a, "name")), "model.glb");
     assert_int_equal((int)cJSON_GetObjectItem(a, "size")->valuedouble, 1);
     cJSON_Delete(j);
@@ -490,7 +501,10 @@ static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **stat
     cJSON_Delete(j);
 }
 
-static void on_wake(void *arg) { (*(int *)arg)++; }
+static void on_wake(void *arg)
+{
+    (*(int *)arg)++;
+}
 
 static void waiter_wakes_on_state_change_and_on_deadline(void **state)
 {

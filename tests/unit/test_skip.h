@@ -16,13 +16,13 @@
 
 static int sv_test_skipped;
 
-#define SV_SKIP(...)                                                                     \
-    do {                                                                                 \
-        printf("skipped: " __VA_ARGS__);                                                 \
-        printf("\n");                                                                    \
-        fflush(stdout);                                                                  \
-        sv_test_skipped = 1;                                                             \
-        skip();                                                                          \
+#define SV_SKIP(...)                     \
+    do {                                 \
+        printf("skipped: " __VA_ARGS__); \
+        printf("\n");                    \
+        fflush(stdout);                  \
+        sv_test_skipped = 1;             \
+        skip();                          \
     } while (0)
 
 /* $SYLVA_DATA (the shared trees; tests/run.sh sets it to ../shared/data) when

@@ -19,7 +19,6 @@
 #include "render.h"
 #include "slicing.h"
 
-
 /* ---------- helpers ---------- */
 
 /* Deterministic uniform numbers in [0, 1) (splitmix64). */
@@ -162,15 +161,15 @@ static void clipped_pieces_of_a_triangle_sum_to_its_area(void **state)
         double sum = 0;
         for (uint32_t k = 0; k < K; k++) {
             double poly[5][3];
-            uint32_t c = sv_slab_clip_triangle((const double (*)[3])t, n, b[k], b[k + 1], poly);
+            uint32_t c = sv_slab_clip_triangle((const double(*)[3])t, n, b[k], b[k + 1], poly);
             assert_true(c == 0 || (c >= 3 && c <= 5));
             for (uint32_t j = 0; j < c; j++) { /* every piece lies inside its slab */
                 double x = dot(n, poly[j]);
                 assert_true(x >= b[k] - 1e-12 && x <= b[k + 1] + 1e-12);
             }
-            sum += sv_polygon_area((const double (*)[3])poly, c);
+            sum += sv_polygon_area((const double(*)[3])poly, c);
         }
-        double a = tri_area3((const double (*)[3])t);
+        double a = tri_area3((const double(*)[3])t);
         assert_true(fabs(sum - a) <= 1e-12 * (1 + a));
     }
 }
@@ -191,7 +190,7 @@ static void triangle_outside_the_slab_clips_to_nothing(void **state)
      * equal, but the left piece is the trapezoid of area 0.375 */
     uint32_t c = sv_slab_clip_triangle(t, n, -1.0, 0.5, poly);
     assert_int_equal(c, 4);
-    assert_true(fabs(sv_polygon_area((const double (*)[3])poly, c) - 0.375) < 1e-15);
+    assert_true(fabs(sv_polygon_area((const double(*)[3])poly, c) - 0.375) < 1e-15);
 }
 
 static void uniform_slabs_have_equal_thickness_and_exact_ends(void **state)
@@ -221,7 +220,7 @@ static void foliage_spacing_gives_each_slab_an_equal_share_of_leaf_area(void **s
             lo = fmin(lo, proj[3 * i + j]);
             hi = fmax(hi, proj[3 * i + j]);
         }
-        area[i] = tri_area3((const double (*)[3])p);
+        area[i] = tri_area3((const double(*)[3])p);
         total += area[i];
     }
     const uint32_t K = 5;
@@ -236,8 +235,8 @@ static void foliage_spacing_gives_each_slab_an_equal_share_of_leaf_area(void **s
         for (uint32_t i = 0; i < n; i++) {
             double p[3][3], poly[5][3];
             tri_of(m, first + i, p);
-            uint32_t c = sv_slab_clip_triangle((const double (*)[3])p, dir, b[k], b[k + 1], poly);
-            a += sv_polygon_area((const double (*)[3])poly, c);
+            uint32_t c = sv_slab_clip_triangle((const double(*)[3])p, dir, b[k], b[k + 1], poly);
+            a += sv_polygon_area((const double(*)[3])poly, c);
         }
         assert_true(fabs(a - total / K) < 2e-3 * total);
     }
@@ -335,8 +334,7 @@ static void top_slicing_takes_the_elevation_share(void **state)
     dir_at(15, 45, v);
     assert_int_equal(sv_slicing_blend(6, true, v, idx, w), 3);
     assert_true(idx[0] == 0 && idx[1] == 1 && idx[2] == 6);
-    assert_true(fabs(w[0] - 0.25) < 1e-12 && fabs(w[1] - 0.25) < 1e-12 &&
-                fabs(w[2] - 0.5) < 1e-12);
+    assert_true(fabs(w[0] - 0.25) < 1e-12 && fabs(w[1] - 0.25) < 1e-12 && fabs(w[2] - 0.5) < 1e-12);
     dir_at(60, -30, v); /* from below: the top slicing seen from beneath */
     assert_int_equal(sv_slicing_blend(6, true, v, idx, w), 2);
     assert_true(idx[0] == 2 && idx[1] == 6);
@@ -395,7 +393,7 @@ static void slabs_partition_foliage_in(const run_ctx *r, uint32_t spacing_check)
             bool foliage = r->cls.tri_part[t] == SV_PART_FOLIAGE;
             double p[3][3];
             tri_of(m, t, p);
-            double a = tri_area3((const double (*)[3])p), sum = 0;
+            double a = tri_area3((const double(*)[3])p), sum = 0;
             uint32_t listed = 0, pieces = 0;
             for (uint32_t q = 0; q < lod->quad_count; q++) {
                 const sv_quad *qu = &lod->quads[q];
@@ -403,9 +401,8 @@ static void slabs_partition_foliage_in(const run_ctx *r, uint32_t spacing_check)
                 assert_true(qu->clip);
                 assert_int_equal(qu->parts, SV_PARTS_FOLIAGE);
                 double lo = -qu->d - qu->slab, hi = -qu->d + qu->slab, poly[5][3];
-                uint32_t c = sv_slab_clip_triangle((const double (*)[3])p, qu->normal, lo, hi,
-                                                   poly);
-                double pa = sv_polygon_area((const double (*)[3])poly, c);
+                uint32_t c = sv_slab_clip_triangle((const double(*)[3])p, qu->normal, lo, hi, poly);
+                double pa = sv_polygon_area((const double(*)[3])poly, c);
                 sum += pa;
                 if (c) pieces++;
                 bool in_list = false;
@@ -490,8 +487,10 @@ static void top_slicing_follows_the_aerial_viewer_unless_set(void **state)
         const char *spec;
         sv_viewer viewer;
         uint32_t quads;
-    } c[] = {{NULL, SV_VIEWER_AERIAL, 35}, {NULL, SV_VIEWER_GROUND, 30},
-             {"{\"top\":null}", SV_VIEWER_AERIAL, 35}, {"{\"top\":false}", SV_VIEWER_AERIAL, 30},
+    } c[] = {{NULL, SV_VIEWER_AERIAL, 35},
+             {NULL, SV_VIEWER_GROUND, 30},
+             {"{\"top\":null}", SV_VIEWER_AERIAL, 35},
+             {"{\"top\":false}", SV_VIEWER_AERIAL, 30},
              {"{\"top\":true}", SV_VIEWER_ORBIT, 35}};
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         run_ctx r;
@@ -533,8 +532,7 @@ static void planes_description_names_directions_quads_and_rule(void **state)
 {
     (void)state;
     run_ctx r;
-    assert_int_equal(run(&r, make_tree(300, 4), "{\"slicings\":3}", SV_VIEWER_ORBIT, NULL),
-                     SV_OK);
+    assert_int_equal(run(&r, make_tree(300, 4), "{\"slicings\":3}", SV_VIEWER_ORBIT, NULL), SV_OK);
     const sv_lod_plan *lod = &r.out.lods[0];
     cJSON *j = sv_slicing_describe(lod);
     assert_non_null(j);
@@ -699,8 +697,7 @@ static double planar_crown_iou(sv_mesh *m, uint32_t slicing, const char *spec)
     sv_eval_camera(r.in.centre, r.in.radius, view, &cam);
     sv_image a, b;
     assert_int_equal(sv_render(ren, gsrc, NULL, 0, &cam, NULL, 1024, 1024, &a, NULL, NULL), SV_OK);
-    assert_int_equal(sv_render(ren, gres, tris, nt, &cam, NULL, 1024, 1024, &b, NULL, NULL),
-                     SV_OK);
+    assert_int_equal(sv_render(ren, gres, tris, nt, &cam, NULL, 1024, 1024, &b, NULL, NULL), SV_OK);
     sv_eval_image ia, ib, fa, fb;
     assert_int_equal(sv_eval_image_from_render(&a, NULL, &ia, NULL), SV_OK);
     assert_int_equal(sv_eval_image_from_render(&b, NULL, &ib, NULL), SV_OK);

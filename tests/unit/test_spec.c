@@ -52,7 +52,8 @@ static void full_spec_sets_every_section(void **state)
         "\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
         "\"classify\":{\"foliage\":[\"Leaf*\"],\"trunk\":[\"Bark\",\"Pot\"]},"
         "\"bake\":{\"max_atlas\":1024,\"alpha_threshold\":0.5},"
-        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2,\"tolerance_pixels\":0},\"seed\":7}";
+        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2,\"tolerance_"
+        "pixels\":0},\"seed\":7}";
     assert_int_equal(parse(j, &s, &e), SV_OK);
     assert_string_equal(s.method, "crossed_quads");
     assert_non_null(s.settings);
@@ -82,8 +83,10 @@ static void import_up_accepts_auto(void **state)
     static const struct {
         const char *json;
         char up;
-    } cases[] = {{"{}", 'Y'}, {"{\"import\":{\"up\":\"Y\"}}", 'Y'},
-                 {"{\"import\":{\"up\":\"Z\"}}", 'Z'}, {"{\"import\":{\"up\":\"auto\"}}", 'A'}};
+    } cases[] = {{"{}", 'Y'},
+                 {"{\"import\":{\"up\":\"Y\"}}", 'Y'},
+                 {"{\"import\":{\"up\":\"Z\"}}", 'Z'},
+                 {"{\"import\":{\"up\":\"auto\"}}", 'A'}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         sv_spec s;
         sv_error e = {0};

@@ -28,7 +28,7 @@ static void lambda_matches_hand_computed_values(void **state)
 {
     (void)state;
     CLOSE(sv_stochastic_b(10, 20), 0.25, 1e-15);
-    assert_true(sv_stochastic_b(10, 5) == 1.0);  /* nearer than d0: full detail */
+    assert_true(sv_stochastic_b(10, 5) == 1.0);          /* nearer than d0: full detail */
     CLOSE(sv_stochastic_lambda(0.25, 0.5), 0.25, 1e-12); /* h = 1/2: λ = b */
     CLOSE(sv_stochastic_lambda(0.25, 0.25), 0.5, 1e-12); /* b = h: half the leaves */
     CLOSE(sv_stochastic_lambda(0.09, 0.3), 0.25, 1e-12); /* 0.09 = 0.3²: λ = 0.5² */
@@ -63,7 +63,7 @@ static void motion_term_applies_only_with_camera_motion(void **state)
 static void area_scale_matches_hand_values(void **state)
 {
     (void)state;
-    CLOSE(sv_stochastic_area_scale(0.5, 0.5), 1.5, 1e-12);      /* (1 − 0.25)/0.5 */
+    CLOSE(sv_stochastic_area_scale(0.5, 0.5), 1.5, 1e-12); /* (1 − 0.25)/0.5 */
     CLOSE(sv_stochastic_area_scale(0.2, 0.25), (1 - pow(0.8, 4)) / 0.2, 1e-12);
     CLOSE(sv_stochastic_area_scale(1e-4, 0.1), (1 - pow(1 - 1e-4, 10)) / 1e-4, 1e-9);
 }
@@ -238,9 +238,12 @@ static void order_is_a_deterministic_permutation_for_a_seed(void **state)
     toy_make(&t, 200);
     uint32_t a[200], b[200], c[200], d[200];
     for (int mode = 0; mode < 2; mode++) {
-        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, a, NULL), SV_OK);
-        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, b, NULL), SV_OK);
-        assert_int_equal(sv_stochastic_order(&t.leaves, 8, (sv_stoch_order_mode)mode, c, NULL), SV_OK);
+        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, a, NULL),
+                         SV_OK);
+        assert_int_equal(sv_stochastic_order(&t.leaves, 7, (sv_stoch_order_mode)mode, b, NULL),
+                         SV_OK);
+        assert_int_equal(sv_stochastic_order(&t.leaves, 8, (sv_stoch_order_mode)mode, c, NULL),
+                         SV_OK);
         assert_memory_equal(a, b, sizeof a);
         assert_memory_not_equal(a, c, sizeof a);
         memset(d, 0, sizeof d);
@@ -290,8 +293,10 @@ static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(
         assert_int_equal(L->leaves, sv_stochastic_count(L->lambda, 100));
         assert_int_equal(g->triangle_count, 2 * L->leaves);
         assert_int_equal(g->vertex_count, 4 * L->leaves);
-        for (uint32_t i = 0; i < 3 * g->triangle_count; i++) assert_true(g->indices[i] < g->vertex_count);
-        for (uint32_t i = 0; i < g->triangle_count; i++) assert_true(g->tri_material[i] < g->material_count);
+        for (uint32_t i = 0; i < 3 * g->triangle_count; i++)
+            assert_true(g->indices[i] < g->vertex_count);
+        for (uint32_t i = 0; i < g->triangle_count; i++)
+            assert_true(g->tri_material[i] < g->material_count);
         CLOSE(L->area_scale, sv_stochastic_area_scale(0.01, L->lambda), 1e-12);
         double g2 = sqrt(L->area_scale);
         for (uint32_t v = 0; v < g->vertex_count; v++) {
@@ -308,7 +313,8 @@ static void every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres(
             CLOSE(L->leaf_order[v], ((v / 4) + 0.5) / 100.0, 1e-6);
         }
         /* the prefix follows the order */
-        for (uint32_t i = 0; i < L->leaves; i++) CLOSE(g->positions[12 * i] - t.leaves.leaves[res.order[i]].centre[0], -0.2 * g2, 1e-4);
+        for (uint32_t i = 0; i < L->leaves; i++)
+            CLOSE(g->positions[12 * i] - t.leaves.leaves[res.order[i]].centre[0], -0.2 * g2, 1e-4);
     }
     /* λ = 1 is the full reordered mesh: unchanged leaves, no contrast copies */
     assert_true(res.levels[0].area_scale == 1.0);
@@ -379,7 +385,8 @@ static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
     for (uint32_t k = 1; k < 3; k++) {
         const sv_stoch_level *L = &a.levels[k];
         assert_true(L->leaf_error > 0);
-        CLOSE(L->leaf_error, sv_stochastic_level_error(&s, &t.scene, t.in.radius, L->lambda), 1e-12);
+        CLOSE(L->leaf_error, sv_stochastic_level_error(&s, &t.scene, t.in.radius, L->lambda),
+              1e-12);
         /* a flat grid simplifies to its two corner triangles: every leaf fits */
         assert_true(L->leaf_triangles <= (uint64_t)(L->lambda * 3200 + 0.5));
         assert_int_equal(L->leaves, 100);
@@ -517,7 +524,10 @@ static void level_error_is_a_pixel_at_the_level_distance(void **state)
     assert_true(sv_stochastic_level_error(&s, NULL, 1.0, 0.25) == 0);
 }
 
-static double lum(const float *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+static double lum(const float *c)
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
 
 static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
 {
@@ -557,14 +567,19 @@ static void settings_are_strict_and_the_method_needs_r(void **state)
     (void)state;
     sv_stochastic_settings s;
     sv_error err = {0};
-    const char *bad[] = {"{\"levels\": [0.5, 0.7]}", "{\"levels\": [0]}", "{\"h\": 1}",
-                         "{\"order\": \"best\"}", "{\"bogus\": 1}", "{\"levels\": []}",
-                         "{\"levels\": [{\"triangles\": 0}]}", "{\"levels\": [1, {\"triangles\": 2.5}]}",
+    const char *bad[] = {"{\"levels\": [0.5, 0.7]}",
+                         "{\"levels\": [0]}",
+                         "{\"h\": 1}",
+                         "{\"order\": \"best\"}",
+                         "{\"bogus\": 1}",
+                         "{\"levels\": []}",
+                         "{\"levels\": [{\"triangles\": 0}]}",
+                         "{\"levels\": [1, {\"triangles\": 2.5}]}",
                          "{\"levels\": [{\"triangles\": 9, \"lambda\": 1}]}",
                          "{\"simplify_leaves\": 1}"};
-    const char *key[] = {"levels[1]", "levels[0]", "stochastic.h", "stochastic.order", "bogus",
-                         "stochastic.levels", "levels[0]", "levels[1]", "levels[0]",
-                         "simplify_leaves"};
+    const char *key[] = {"levels[1]", "levels[0]",         "stochastic.h", "stochastic.order",
+                         "bogus",     "stochastic.levels", "levels[0]",    "levels[1]",
+                         "levels[0]", "simplify_leaves"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         cJSON *j = cJSON_Parse(bad[i]);
         assert_int_equal(sv_stochastic_parse(j, &s, &err), SV_ERR_SPEC);
@@ -652,7 +667,8 @@ static sv_status count_pixels(void *user, const uint32_t *tris, uint32_t n, doub
         sv_image img = {0};
         sv_status st = sv_render(c->ren, c->g, tris, n, &cam, &ro, SIZE, SIZE, &img, NULL, err);
         if (st) return st;
-        for (size_t i = 0; i < (size_t)SIZE * SIZE; i++) *covered += ((uint8_t *)img.data)[4 * i + 3] >= 128;
+        for (size_t i = 0; i < (size_t)SIZE * SIZE; i++)
+            *covered += ((uint8_t *)img.data)[4 * i + 3] >= 128;
         sv_image_free(&img);
     }
     return SV_OK;
@@ -695,7 +711,8 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     uint32_t *order = calloc(lv.count, sizeof *order);
     assert_int_equal(sv_stochastic_order(&lv, 1, s.order, order, NULL), SV_OK);
     sv_stoch_ratio ratio;
-    assert_int_equal(sv_stochastic_measure_ratio(&lv, order, 0.1, count_pixels, &c, &ratio, &err), SV_OK);
+    assert_int_equal(sv_stochastic_measure_ratio(&lv, order, 0.1, count_pixels, &c, &ratio, &err),
+                     SV_OK);
     free(order);
     assert_true(ratio.r > 0 && ratio.r < 0.05);
     double rel[2][4];
@@ -717,10 +734,11 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
         }
         sv_stoch_result_free(&res);
     }
-    print_message("oak: r = %.3g; visible area / full at λ = 1, .5, .25, .1: preserved %.3f %.3f %.3f "
-                  "%.3f, not preserved %.3f %.3f %.3f %.3f\n",
-                  ratio.r, rel[1][0], rel[1][1], rel[1][2], rel[1][3], rel[0][0], rel[0][1],
-                  rel[0][2], rel[0][3]);
+    print_message(
+        "oak: r = %.3g; visible area / full at λ = 1, .5, .25, .1: preserved %.3f %.3f %.3f "
+        "%.3f, not preserved %.3f %.3f %.3f %.3f\n",
+        ratio.r, rel[1][0], rel[1][1], rel[1][2], rel[1][3], rel[0][0], rel[0][1], rel[0][2],
+        rel[0][3]);
     /* Stated tolerance: within 30% of the full tree's visible area at every
      * level down to λ = 0.1 (measured: +6%, +13%, +25% — √s-scaled leaves at
      * the crown's edge widen the silhouette, which Cook's fixed-region model

@@ -26,8 +26,10 @@ static sv_mesh *cylinder(int seg, int rings, uint8_t **parts)
     for (int r = 0; r < rings; r++)
         for (int s = 0; s < seg; s++) {
             double a0 = 2 * M_PI * s / seg, a1 = 2 * M_PI * (s + 1) / seg;
-            double p[4][3] = {{cos(a0), r, sin(a0)}, {cos(a1), r, sin(a1)},
-                              {cos(a1), r + 1, sin(a1)}, {cos(a0), r + 1, sin(a0)}};
+            double p[4][3] = {{cos(a0), r, sin(a0)},
+                              {cos(a1), r, sin(a1)},
+                              {cos(a1), r + 1, sin(a1)},
+                              {cos(a0), r + 1, sin(a0)}};
             double uv[4][2] = {{(double)s / seg, (double)r / rings},
                                {(double)(s + 1) / seg, (double)r / rings},
                                {(double)(s + 1) / seg, (double)(r + 1) / rings},

@@ -166,7 +166,8 @@ typedef struct tubes {
     uint32_t nv, nt;
 } tubes;
 
-static void add_tube(tubes *b, double x, double z, double y0, double h, double r, int seg, int rings)
+static void add_tube(tubes *b, double x, double z, double y0, double h, double r, int seg,
+                     int rings)
 {
     uint32_t base = b->nv;
     for (int k = 0; k <= rings; k++)
@@ -178,7 +179,8 @@ static void add_tube(tubes *b, double x, double z, double y0, double h, double r
         }
     for (int k = 0; k < rings; k++)
         for (int s = 0; s < seg; s++) {
-            uint32_t a = base + (uint32_t)(k * seg + s), bb = base + (uint32_t)(k * seg + (s + 1) % seg);
+            uint32_t a = base + (uint32_t)(k * seg + s),
+                     bb = base + (uint32_t)(k * seg + (s + 1) % seg);
             uint32_t c = a + (uint32_t)seg, d = bb + (uint32_t)seg;
             uint32_t q[6] = {a, d, bb, a, c, d};
             memcpy(&b->idx[3 * (size_t)b->nt], q, sizeof q);
@@ -231,7 +233,8 @@ static void parts_keep_the_stem_under_many_twigs(void **state)
     memset(&b, 0, sizeof b);
     add_tube(&b, 0, 0, 0, 4, 0.15, 8, 8);
     for (int k = 0; k < 2000; k++)
-        add_tube(&b, -6 + 0.2 * (k % 60), -3 + 0.2 * (k / 60), 4.5 + 0.7 * (k % 7), 1.0, 0.01, 4, 2);
+        add_tube(&b, -6 + 0.2 * (k % 60), -3 + 0.2 * (k / 60), 4.5 + 0.7 * (k % 7), 1.0, 0.01, 4,
+                 2);
     uint8_t *parts = NULL;
     sv_mesh *m = tubes_mesh(&b, &parts);
     sv_mesh *o = NULL;
@@ -279,8 +282,10 @@ static void the_maple_keeps_its_stem_at_200_triangles(void **state)
     (void)state;
     const char *data = sv_test_data("the maple's trunk");
     size_t n_obj = 0, n_mtl = 0;
-    uint8_t *b_obj = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.obj", &n_obj);
-    uint8_t *b_mtl = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.mtl", &n_mtl);
+    uint8_t *b_obj = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.obj",
+                                       &n_obj);
+    uint8_t *b_mtl = sv_test_read_data(data, "sapling_small_maple/sapling_small_maple_rect.mtl",
+                                       &n_mtl);
     if (!b_obj || !b_mtl) {
         free(b_obj), free(b_mtl);
         fail_msg("cannot read the sapling maple's .obj or .mtl under %s", data);
@@ -304,7 +309,8 @@ static void the_maple_keeps_its_stem_at_200_triangles(void **state)
     for (uint32_t t = 0; t < m->triangle_count; t++) {
         if (cls.tri_part[t] != SV_PART_TRUNK) continue;
         double y = INFINITY;
-        for (int v = 0; v < 3; v++) y = fmin(y, m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + 1]);
+        for (int v = 0; v < 3; v++)
+            y = fmin(y, m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + 1]);
         if (y < band) orig += sv_tri_area(m, t);
     }
     sv_mesh *o = NULL;
@@ -313,11 +319,12 @@ static void the_maple_keeps_its_stem_at_200_triangles(void **state)
     assert_true(o->triangle_count <= 200);
     for (uint32_t t = 0; t < o->triangle_count; t++) {
         double y = INFINITY;
-        for (int v = 0; v < 3; v++) y = fmin(y, o->positions[3 * (size_t)o->indices[3 * (size_t)t + v] + 1]);
+        for (int v = 0; v < 3; v++)
+            y = fmin(y, o->positions[3 * (size_t)o->indices[3 * (size_t)t + v] + 1]);
         if (y < band) kept += sv_tri_area(o, t);
     }
-    print_message("maple stem: %u triangles; below %.2f m %.3f m2 kept of %.3f\n", o->triangle_count,
-                  band, kept, orig);
+    print_message("maple stem: %u triangles; below %.2f m %.3f m2 kept of %.3f\n",
+                  o->triangle_count, band, kept, orig);
     assert_true(orig > 0);
     assert_true(kept >= orig / 3);
     sv_mesh_destroy(o);

@@ -46,7 +46,8 @@ static void valid_mesh_passes_unchanged(void **state)
     sv_validate_report r;
     assert_int_equal(sv_validate(m, NULL, &r, NULL), SV_OK);
     assert_int_equal(m->triangle_count, 4);
-    assert_int_equal(r.removed_degenerate + r.removed_duplicate + r.fixed_normals + r.unused_vertices, 0);
+    assert_int_equal(
+        r.removed_degenerate + r.removed_duplicate + r.fixed_normals + r.unused_vertices, 0);
     sv_mesh_destroy(m);
 }
 
@@ -153,8 +154,8 @@ static void duplicate_triangles_are_removed_in_any_rotation_but_reversed_kept(vo
     assert_int_equal(sv_validate(m, NULL, &r, NULL), SV_OK);
     assert_int_equal(r.removed_duplicate, 2);
     assert_int_equal(m->triangle_count, 3);
-    assert_int_equal(m->indices[3 * 1], 3);     /* triangle 1 kept in place */
-    assert_int_equal(m->indices[3 * 2], 9);     /* the reversed one kept */
+    assert_int_equal(m->indices[3 * 1], 3); /* triangle 1 kept in place */
+    assert_int_equal(m->indices[3 * 2], 9); /* the reversed one kept */
     sv_mesh_destroy(m);
 }
 

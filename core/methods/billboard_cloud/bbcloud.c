@@ -45,22 +45,18 @@
 #include "stand_in.h"
 #include "vec3.h"
 
-#define FAILSAFE_CAP 64    /* supporting planes tried by the fail-safe */
+#define FAILSAFE_CAP 64     /* supporting planes tried by the fail-safe */
 #define QSCALE 4294967296.0 /* fixed point: 2^32 per unit of relative weight */
-#define BLOCK 64           /* elements per cache block in the grid update */
-#define SUBCELLS 9         /* 3×3 directions per refinement level */
+#define BLOCK 64            /* elements per cache block in the grid update */
+#define SUBCELLS 9          /* 3×3 directions per refinement level */
 /* Below these sizes a region runs on one thread: creating and joining one
  * costs ~20 µs, about what a scan of this many elements or a refinement level
  * over this many candidates does. (Only speed: the bytes are the same.) */
-#define PAR_MIN_SCAN 1024  /* elements in a candidate or validity scan */
-#define PAR_MIN_CANDS 48   /* candidates of a refinement level */
+#define PAR_MIN_SCAN 1024 /* elements in a candidate or validity scan */
+#define PAR_MIN_CANDS 48  /* candidates of a refinement level */
 #define HALF_PI 1.57079632679489661923
 
 /* ---------------------------------------------------------------- helpers */
-
-
-
-
 
 /* acos on [0, 1] (Abramowitz & Stegun 4.4.45, |error| <= 6.7e-5 rad): the
  * angular contribution is evaluated ~10^7 times per plane set. Pure
@@ -97,33 +93,33 @@ static void dir_of(double th, double ph, double n[3])
 
 /* One simplification element: a group of triangles simplified together. */
 typedef struct elem {
-    double c[3];         /* box centre, relative to the sphere centre */
-    double cn;           /* |c| */
-    double ax[3][3];     /* ax[0]: normal m; ax[1], ax[2]: in-plane axes */
-    double ext[3];       /* half extents along ax */
+    double c[3];     /* box centre, relative to the sphere centre */
+    double cn;       /* |c| */
+    double ax[3][3]; /* ax[0]: normal m; ax[1], ax[2]: in-plane axes */
+    double ext[3];   /* half extents along ax */
     double sumext;
-    double g[3];         /* area centroid (relative) */
+    double g[3]; /* area centroid (relative) */
     double area;
-    double w;            /* area / pass area: the weight unit of the grid */
+    double w; /* area / pass area: the weight unit of the grid */
     const uint32_t *tris;
     const uint32_t *verts; /* canonical vertex ids, unique */
     uint32_t tcount, vcount;
-    uint32_t group;      /* input element index */
+    uint32_t group; /* input element index */
 } elem;
 
 typedef struct base {
     const sv_bbc_input *in;
     sv_bbc_options opt;
     double R;
-    double *rel;         /* 3 per vertex: position − centre */
-    uint32_t *canon;     /* vertex → canonical vertex with the same position */
-    elem *groups;        /* per input element, geometry from rel */
-    uint32_t *gverts;    /* vertex lists of groups */
+    double *rel;      /* 3 per vertex: position − centre */
+    uint32_t *canon;  /* vertex → canonical vertex with the same position */
+    elem *groups;     /* per input element, geometry from rel */
+    uint32_t *gverts; /* vertex lists of groups */
     bool have_part[2];
     /* dual grid geometry */
     uint32_t nt, np, nr, ncol;
-    double *dirs;        /* 3 per column: cell-centre normal; column = j * nt + i */
-    double *delta;       /* per φ row: angular radius of a cell */
+    double *dirs;  /* 3 per column: cell-centre normal; column = j * nt + i */
+    double *delta; /* per φ row: angular radius of a cell */
     double dth, dph;
 } base;
 
@@ -283,16 +279,16 @@ typedef struct pass {
     const base *b;
     uint8_t part;
     double eps, tol, max_angle, miss, bw, inv_bw;
-    const double *pos;   /* positions by canonical id (b->rel, or wpos when welding) */
+    const double *pos; /* positions by canonical id (b->rel, or wpos when welding) */
     double *wpos;
     uint8_t *welded;
     elem *el;
     uint32_t n;
-    uint32_t *sverts;    /* vertex lists of split singletons */
+    uint32_t *sverts; /* vertex lists of split singletons */
     uint8_t *alive;
     uint32_t alive_count;
-    double area0;        /* pass area at the start (weights are area / area0) */
-    int64_t *diff;       /* per column: nr + 1 difference entries */
+    double area0;  /* pass area at the start (weights are area / area0) */
+    int64_t *diff; /* per column: nr + 1 difference entries */
     double *colmax;
     uint32_t *colarg;
     /* welding adjacency: canonical vertex → elements */
@@ -300,8 +296,8 @@ typedef struct pass {
     /* scratch */
     uint32_t *cand, *set, *tmp, *stamp;
     elem *batch;
-    evt *ev, *ev2;       /* sort buffers, 2n events per refinement chunk */
-    uint32_t nscratch;   /* refinement chunks: sv_parallel_chunks(SUBCELLS, threads) */
+    evt *ev, *ev2;     /* sort buffers, 2n events per refinement chunk */
+    uint32_t nscratch; /* refinement chunks: sv_parallel_chunks(SUBCELLS, threads) */
     uint32_t round;
 } pass;
 
@@ -482,7 +478,8 @@ static void gjob_run(void *arg, uint32_t t, uint32_t q0, uint32_t q1)
             const double *n = &b->dirs[3 * (size_t)c1];
             double delta = b->delta[c1 / b->nt];
             int64_t *d1 = &p->diff[c1 * stride], *d2 = &p->diff[c2 * stride];
-            for (uint32_t e = e0; e < e1; e++) column_add_pair(p, n, delta, &j->batch[e], d1, d2, j->sign);
+            for (uint32_t e = e0; e < e1; e++)
+                column_add_pair(p, n, delta, &j->batch[e], d1, d2, j->sign);
         }
     }
     /* Column maxima, with the horizontal-plane penalty applied on read (§3.3.5). */
@@ -561,8 +558,8 @@ static evt *evt_sort(evt *a, evt *tmp, uint32_t n)
  * candidate is valid for any plane with this normal. Reads the pass, writes
  * only ev and ev2 (2·nc events each): the refinement's threads each pass
  * their own. */
-static double eval_dir(const pass *p, const double n[3], const uint32_t *cand, uint32_t nc,
-                       evt *ev, evt *ev2, double *rho)
+static double eval_dir(const pass *p, const double n[3], const uint32_t *cand, uint32_t nc, evt *ev,
+                       evt *ev2, double *rho)
 {
     uint32_t m = 0;
     for (uint32_t i = 0; i < nc; i++) {
@@ -608,7 +605,8 @@ static void rjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
     const rjob *j = arg;
     size_t off = (size_t)t * 2 * j->p->n;
     for (uint32_t k = lo; k < hi; k++)
-        j->s[k] = eval_dir(j->p, j->n[k], j->cand, j->nc, j->p->ev + off, j->p->ev2 + off, &j->rho[k]);
+        j->s[k] = eval_dir(j->p, j->n[k], j->cand, j->nc, j->p->ev + off, j->p->ev2 + off,
+                           &j->rho[k]);
 }
 
 /* Recursive refinement of the picked cell (column i, row j): 3×3 sub-cells
@@ -714,7 +712,8 @@ static uint32_t scan_alive(const pass *p, sjob *j)
     sv_parallel_for(p->n, thr, sjob_run, j);
     uint32_t m = 0;
     for (uint32_t t = 0; t < nch; t++) {
-        if (m != j->first[t]) memmove(&j->out[m], &j->out[j->first[t]], j->found[t] * sizeof *j->out);
+        if (m != j->first[t])
+            memmove(&j->out[m], &j->out[j->first[t]], j->found[t] * sizeof *j->out);
         m += j->found[t];
     }
     return m;
@@ -844,10 +843,10 @@ static bool tweak(pass *p, const uint32_t *set, uint32_t ns, double n[3], double
 /* ---------------------------------------------------------------- run output */
 
 typedef struct rplane {
-    double n[3], rho;     /* n·(x − centre) = rho */
+    double n[3], rho; /* n·(x − centre) = rho */
     uint8_t part, origin;
     bool tweaked;
-    int32_t of;           /* cardboard: index of its primary in runout.pl */
+    int32_t of; /* cardboard: index of its primary in runout.pl */
     size_t first;
     uint32_t count;
     double area, coverage;
@@ -963,7 +962,8 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
                 const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
                 bool ok = true;
                 for (int v = 0; v < 3 && ok; v++)
-                    ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], cn) - cr) <= p->eps + p->tol;
+                    ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], cn) - cr) <=
+                         p->eps + p->tol;
                 if (!ok) continue;
                 double tn[3];
                 double ta = tri_geom(b, p->pos, e->tris[t], tn);
@@ -998,7 +998,8 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
             const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
             bool ok = true;
             for (int v = 0; v < 3 && ok; v++)
-                ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], bn) - brho) <= p->eps + p->tol;
+                ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], bn) - brho) <=
+                     p->eps + p->tol;
             if (!ok) continue;
             double tn[3];
             cp->area += tri_geom(b, b->rel, e->tris[t], tn);
@@ -1069,8 +1070,8 @@ static sv_status pass_build(const base *b, uint8_t part, double eps, pass *p, ru
     p->nscratch = sv_parallel_chunks(SUBCELLS, b->opt.threads);
     p->ev = sv_calloc((size_t)n * p->nscratch, 2 * sizeof *p->ev);
     p->ev2 = sv_calloc((size_t)n * p->nscratch, 2 * sizeof *p->ev2);
-    if (!p->ev2 || !p->el || !p->sverts || !p->alive || !p->diff || !p->colmax || !p->colarg || !p->cand ||
-        !p->set || !p->tmp || !p->stamp || !p->batch || !p->ev)
+    if (!p->ev2 || !p->el || !p->sverts || !p->alive || !p->diff || !p->colmax || !p->colarg ||
+        !p->cand || !p->set || !p->tmp || !p->stamp || !p->batch || !p->ev)
         goto nomem;
     if (weld) {
         p->wpos = sv_calloc(in->vertex_count, 3 * sizeof(double));
@@ -1198,7 +1199,8 @@ static sv_status pass_run(pass *p, uint32_t budget, runout *r, sv_error *err)
         const double *cn = &b->dirs[3 * (size_t)bc];
         uint32_t nc = 0;
         if (bv > 0) {
-            sjob j = {.p = p, .cell = true, .n = cn, .delta = b->delta[cj], .k = (int)k, .out = p->cand};
+            sjob j = {
+                .p = p, .cell = true, .n = cn, .delta = b->delta[cj], .k = (int)k, .out = p->cand};
             nc = scan_alive(p, &j);
         }
         if (!nc)
@@ -1207,13 +1209,15 @@ static sv_status pass_run(pass *p, uint32_t budget, runout *r, sv_error *err)
         double n[3] = {0, 1, 0}, rho = 0;
         uint8_t origin = SV_BBC_REFINED;
         uint32_t ns = 0;
-        if (bv > 0 && refine(p, ci, cj, p->cand, nc, n, &rho)) ns = collect_valid(p, n, rho, p->set);
+        if (bv > 0 && refine(p, ci, cj, p->cand, nc, n, &rho))
+            ns = collect_valid(p, n, rho, p->set);
         if (!ns) {
             origin = failsafe(p, p->cand, nc, cn, n, &rho);
             ns = collect_valid(p, n, rho, p->set);
             r->failsafe++;
         }
-        if (!ns) return sv_fail(err, SV_ERR_INTERNAL, "billboard cloud: the fail-safe found no plane");
+        if (!ns)
+            return sv_fail(err, SV_ERR_INTERNAL, "billboard cloud: the fail-safe found no plane");
         bool tw = false;
         if (b->opt.tweak && tweak(p, p->set, ns, n, &rho)) {
             tw = true;
@@ -1276,7 +1280,8 @@ static sv_status run_eps(const base *b, double eps, uint32_t max_primary, runout
         double t0 = sv_now();
         sv_status st = pass_build(b, parts[i], eps, &p, r, err);
         r->t_setup += sv_now() - t0;
-        uint32_t budget = max_primary ? (max_primary > r->npl ? max_primary - r->npl : 0) : UINT32_MAX;
+        uint32_t budget = max_primary ? (max_primary > r->npl ? max_primary - r->npl : 0)
+                                      : UINT32_MAX;
         if (!st) st = pass_run(&p, budget, r, err);
         pass_free(&p);
         if (st) {
@@ -1355,7 +1360,8 @@ static void group_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
         uint32_t *vl = &b->gverts[3 * (size_t)(in->elem_first[g] - in->elem_first[0])];
         uint32_t nv = 0;
         for (uint32_t k = 0; k < e->tcount; k++)
-            for (int v = 0; v < 3; v++) vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[k] + v]];
+            for (int v = 0; v < 3; v++)
+                vl[nv++] = b->canon[in->indices[3 * (size_t)e->tris[k] + v]];
         qsort(vl, nv, sizeof *vl, u32_cmp);
         uint32_t u = 0;
         for (uint32_t k = 0; k < nv; k++)
@@ -1376,9 +1382,12 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     if (!b->opt.grid_phi) b->opt.grid_phi = 16;
     if (!b->opt.grid_rho) b->opt.grid_rho = 32;
     if (!b->opt.threads) b->opt.threads = 1;
-    if (b->opt.grid_theta < 4 || b->opt.grid_theta > 4096 || b->opt.grid_theta % 2 || b->opt.grid_phi < 2 ||
-        b->opt.grid_phi > 2048 || b->opt.grid_rho < 2 || b->opt.grid_rho > 65536)
-        return sv_fail(err, SV_ERR_INVALID, "billboard cloud: grid %ux%ux%u out of range (θ even in [4, 4096], φ in [2, 2048], ρ in [2, 65536])",
+    if (b->opt.grid_theta < 4 || b->opt.grid_theta > 4096 || b->opt.grid_theta % 2 ||
+        b->opt.grid_phi < 2 || b->opt.grid_phi > 2048 || b->opt.grid_rho < 2 ||
+        b->opt.grid_rho > 65536)
+        return sv_fail(err, SV_ERR_INVALID,
+                       "billboard cloud: grid %ux%ux%u out of range (θ even in [4, 4096], φ in [2, "
+                       "2048], ρ in [2, 65536])",
                        b->opt.grid_theta, b->opt.grid_phi, b->opt.grid_rho);
     if (!(in->radius > 0) || !isfinite(in->radius))
         return sv_fail(err, SV_ERR_INVALID, "billboard cloud: bounding radius %g is not positive",
@@ -1406,18 +1415,21 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     size_t total_tris = 0;
     for (uint32_t g = 0; g < in->elem_count && !st; g++) {
         if (in->elem_first[g + 1] < in->elem_first[g]) {
-            st = sv_fail(err, SV_ERR_INVALID, "billboard cloud: element %u has a negative range", g);
+            st = sv_fail(err, SV_ERR_INVALID, "billboard cloud: element %u has a negative range",
+                         g);
             break;
         }
         for (uint32_t k = in->elem_first[g]; k < in->elem_first[g + 1]; k++) {
             uint32_t t = in->elem_tris[k];
             if (t >= in->triangle_count) {
-                st = sv_fail(err, SV_ERR_INVALID, "billboard cloud: element %u names triangle %u of %u",
-                             g, t, in->triangle_count);
+                st = sv_fail(err, SV_ERR_INVALID,
+                             "billboard cloud: element %u names triangle %u of %u", g, t,
+                             in->triangle_count);
                 break;
             }
             if (seen[t]) {
-                st = sv_fail(err, SV_ERR_INVALID, "billboard cloud: triangle %u is in two elements", t);
+                st = sv_fail(err, SV_ERR_INVALID, "billboard cloud: triangle %u is in two elements",
+                             t);
                 break;
             }
             seen[t] = 1;
@@ -1426,7 +1438,8 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
                 uint32_t ix = in->indices[3 * (size_t)t + v];
                 if (ix >= vc) {
                     st = sv_fail(err, SV_ERR_INVALID,
-                                 "billboard cloud: triangle %u has vertex index %u of %u", t, ix, vc);
+                                 "billboard cloud: triangle %u has vertex index %u of %u", t, ix,
+                                 vc);
                     break;
                 }
                 used[ix] = 1;
@@ -1449,7 +1462,8 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     uint32_t nused = 0;
     for (uint32_t v = 0; v < vc; v++) {
         b->canon[v] = v;
-        for (int c = 0; c < 3; c++) b->rel[3 * (size_t)v + c] = in->positions[3 * (size_t)v + c] - in->centre[c];
+        for (int c = 0; c < 3; c++)
+            b->rel[3 * (size_t)v + c] = in->positions[3 * (size_t)v + c] - in->centre[c];
         if (!used[v]) continue;
         nused++;
         for (int c = 0; c < 3; c++)
@@ -1474,7 +1488,8 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
                                    b->rel[3 * (size_t)v + 2], v};
         qsort(keys, m, sizeof *keys, vkey_cmp);
         for (uint32_t k = 0, first = 0; k < m; k++) {
-            if (keys[k].x != keys[first].x || keys[k].y != keys[first].y || keys[k].z != keys[first].z)
+            if (keys[k].x != keys[first].x || keys[k].y != keys[first].y ||
+                keys[k].z != keys[first].z)
                 first = k;
             b->canon[keys[k].v] = keys[first].v;
         }
@@ -1485,9 +1500,10 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
     /* Group geometry (does not depend on ε). */
     b->groups = sv_calloc(in->elem_count ? in->elem_count : 1, sizeof *b->groups);
     b->gverts = sv_calloc(total_tris ? total_tris : 1, 3 * sizeof *b->gverts);
-    if (!b->groups || !b->gverts) return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory");
-    sv_parallel_for(in->elem_count, in->elem_count >= PAR_MIN_SCAN ? b->opt.threads : 1,
-                    group_run, b);
+    if (!b->groups || !b->gverts)
+        return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory");
+    sv_parallel_for(in->elem_count, in->elem_count >= PAR_MIN_SCAN ? b->opt.threads : 1, group_run,
+                    b);
 
     /* The dual grid: cell-centre normals and the angular radius of each row. */
     b->nt = b->opt.grid_theta;
@@ -1503,9 +1519,9 @@ static sv_status base_init(base *b, const sv_bbc_input *in, const sv_bbc_options
         double ph0 = -HALF_PI + j * b->dph, ph1 = ph0 + b->dph, phc = ph0 + 0.5 * b->dph;
         double c[3];
         dir_of(0.5 * b->dth, phc, c);
-        const double pts[8][2] = {{0, ph0},         {b->dth, ph0},       {0, ph1},
-                                  {b->dth, ph1},    {0.5 * b->dth, ph0}, {0.5 * b->dth, ph1},
-                                  {0, phc},         {b->dth, phc}};
+        const double pts[8][2] = {{0, ph0},      {b->dth, ph0},       {0, ph1},
+                                  {b->dth, ph1}, {0.5 * b->dth, ph0}, {0.5 * b->dth, ph1},
+                                  {0, phc},      {b->dth, phc}};
         double dmax = 0;
         for (int k = 0; k < 8; k++) {
             double q[3];
@@ -1657,8 +1673,8 @@ sv_status sv_bbc_select(const sv_bbc_input *in, const sv_bbc_options *opt, sv_bb
         double lo = eps, hi = eps > 0 ? eps : 1e-3 * b.R;
         for (int guard = 0;; guard++) {
             if (guard > 64) {
-                st = sv_fail(err, SV_ERR_INTERNAL, "billboard cloud: no epsilon meets max_planes %u",
-                             maxp);
+                st = sv_fail(err, SV_ERR_INTERNAL,
+                             "billboard cloud: no epsilon meets max_planes %u", maxp);
                 break;
             }
             hi = hi * 1.5;
@@ -1733,9 +1749,11 @@ sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res, doubl
             if (src >= in->vertex_count) {
                 free(pos);
                 free(idx);
-                return sv_fail(err, SV_ERR_INVALID, "billboard cloud: vertex index %u out of range", src);
+                return sv_fail(err, SV_ERR_INVALID, "billboard cloud: vertex index %u out of range",
+                               src);
             }
-            memcpy(&pos[3 * (3 * (size_t)t + v)], &in->positions[3 * (size_t)src], 3 * sizeof(double));
+            memcpy(&pos[3 * (3 * (size_t)t + v)], &in->positions[3 * (size_t)src],
+                   3 * sizeof(double));
             idx[3 * (size_t)t + v] = 3 * t + (uint32_t)v;
         }
     for (uint32_t k = 0; k < res->plane_count; k++) {

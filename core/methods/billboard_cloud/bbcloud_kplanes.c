@@ -28,12 +28,12 @@
 /* Elements × planes below which an assignment step runs on one thread
  * (creating a thread costs about as much; the bytes are the same). */
 #define PAR_MIN_WORK 16384
-#define PAR_MIN_TRIS 4096  /* triangles, for the moments and the areas */
+#define PAR_MIN_TRIS 4096 /* triangles, for the moments and the areas */
 
 typedef struct kp_mom {
-    double w;      /* total weight (area) */
-    double m[3];   /* Σ w x */
-    double s[3][3];/* Σ w x xᵀ */
+    double w;       /* total weight (area) */
+    double m[3];    /* Σ w x */
+    double s[3][3]; /* Σ w x xᵀ */
 } kp_mom;
 
 static void mom_add(kp_mom *a, const kp_mom *b)
@@ -150,7 +150,8 @@ static void mjob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
             double p[3][3];
             for (int v = 0; v < 3; v++)
                 for (int c = 0; c < 3; c++)
-                    p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t3 + v] + c] - c0[c];
+                    p[v][c] = in->positions[3 * (size_t)in->indices[3 * (size_t)t3 + v] + c] -
+                              c0[c];
             double a[3], b[3], x[3];
             for (int c = 0; c < 3; c++) a[c] = p[1][c] - p[0][c], b[c] = p[2][c] - p[0][c];
             x[0] = a[1] * b[2] - a[2] * b[1];
@@ -211,7 +212,8 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
         if (!P) return sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
         res->planes = P;
     }
-    uint32_t *elem_of = malloc((size_t)(in->triangle_count ? in->triangle_count : 1) * sizeof *elem_of);
+    uint32_t *elem_of = malloc((size_t)(in->triangle_count ? in->triangle_count : 1) *
+                               sizeof *elem_of);
     kp_mom *em = sv_calloc(ne ? ne : 1, sizeof *em);
     kp_mom *pm = sv_calloc(np + grow, sizeof *pm);
     uint32_t *asg = malloc((size_t)(ne ? ne : 1) * sizeof *asg);
@@ -231,10 +233,12 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     for (uint32_t e = 0; e < ne; e++) {
         asg[e] = UINT32_MAX;
         if (in->elem_part && in->elem_part[e] != SV_PART_FOLIAGE) continue;
-        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++) elem_of[in->elem_tris[i]] = e;
+        for (uint32_t i = in->elem_first[e]; i < in->elem_first[e + 1]; i++)
+            elem_of[in->elem_tris[i]] = e;
     }
     mjob mj = {in, em};
-    sv_parallel_for(ne, in->triangle_count >= PAR_MIN_TRIS ? SV_PARALLEL_DEFAULT : 1, mjob_run, &mj);
+    sv_parallel_for(ne, in->triangle_count >= PAR_MIN_TRIS ? SV_PARALLEL_DEFAULT : 1, mjob_run,
+                    &mj);
     uint32_t nf = 0;
     for (uint32_t k = 0; k < np; k++) {
         const sv_bbc_plane *P = &res->planes[k];

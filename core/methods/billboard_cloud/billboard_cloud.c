@@ -43,10 +43,21 @@
 #define BC_DEFAULT_EPS 0.14
 #define BC_DEFAULT_MAX 24
 
-static const char *const bc_keys[] = {"epsilon", "max_planes", "lods", "grid",
-                                      "horizontal_penalty", "cardboard", "tweak", "weld",
-                                      "threads", "miss_penalty", "max_angle_deg", "refine",
-                                      "trunk", "trunk_max_triangles", NULL};
+static const char *const bc_keys[] = {"epsilon",
+                                      "max_planes",
+                                      "lods",
+                                      "grid",
+                                      "horizontal_penalty",
+                                      "cardboard",
+                                      "tweak",
+                                      "weld",
+                                      "threads",
+                                      "miss_penalty",
+                                      "max_angle_deg",
+                                      "refine",
+                                      "trunk",
+                                      "trunk_max_triangles",
+                                      NULL};
 
 typedef struct bc_lod {
     double epsilon;  /* fraction of R; 0 = from the previous LOD / the default */
@@ -75,8 +86,7 @@ static sv_status parse_lods(const cJSON *arr, bc_settings *o, bool *given, sv_er
 {
     *given = false;
     if (!arr) return SV_OK;
-    if (!cJSON_IsArray(arr))
-        return sv_fail(err, SV_ERR_SPEC, BC_NAME ".lods: expected an array");
+    if (!cJSON_IsArray(arr)) return sv_fail(err, SV_ERR_SPEC, BC_NAME ".lods: expected an array");
     int n = cJSON_GetArraySize(arr);
     if (n < 1 || n > BC_MAX_LODS)
         return sv_fail(err, SV_ERR_SPEC, BC_NAME ".lods: expected 1 to %d levels, got %d",
@@ -138,12 +148,14 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
     if ((st = sv_setting_bool(s, BC_NAME, "tweak", &o->tweak, err))) return st;
     if ((st = sv_setting_bool(s, BC_NAME, "weld", &o->weld, err))) return st;
     if ((st = sv_setting_int(s, BC_NAME, "threads", 1, 16, &o->threads, err))) return st;
-    if ((st = sv_setting_number(s, BC_NAME, "miss_penalty", 0, 10, &o->miss_penalty, err))) return st;
+    if ((st = sv_setting_number(s, BC_NAME, "miss_penalty", 0, 10, &o->miss_penalty, err)))
+        return st;
     if ((st = sv_setting_number(s, BC_NAME, "max_angle_deg", 1, 90, &o->max_angle, err))) return st;
     if ((st = sv_setting_int(s, BC_NAME, "refine", 0, 1000, &o->refine, err))) return st;
     const cJSON *tr = s ? cJSON_GetObjectItemCaseSensitive(s, "trunk") : NULL;
     if (tr) {
-        if (!cJSON_IsString(tr) || (strcmp(tr->valuestring, "mesh") && strcmp(tr->valuestring, "planes")))
+        if (!cJSON_IsString(tr) ||
+            (strcmp(tr->valuestring, "mesh") && strcmp(tr->valuestring, "planes")))
             return sv_fail(err, SV_ERR_SPEC, BC_NAME ".trunk: expected \"mesh\" or \"planes\"");
         o->trunk_mesh = !strcmp(tr->valuestring, "mesh");
     }
@@ -161,12 +173,14 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
         for (const cJSON *it = g->child; it; it = it->next, i++) {
             double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
             if (!isfinite(v) || v != floor(v) || v < lo[i] || v > hi[i])
-                return sv_fail(err, SV_ERR_SPEC, BC_NAME ".grid[%d]: n%s must be an integer in [%ld, %ld]",
-                               i, names[i], lo[i], hi[i]);
+                return sv_fail(err, SV_ERR_SPEC,
+                               BC_NAME ".grid[%d]: n%s must be an integer in [%ld, %ld]", i,
+                               names[i], lo[i], hi[i]);
             o->grid[i] = (long)v;
         }
         if (o->grid[0] % 2)
-            return sv_fail(err, SV_ERR_SPEC, BC_NAME ".grid[0]: nθ must be even (antipodal columns)");
+            return sv_fail(err, SV_ERR_SPEC,
+                           BC_NAME ".grid[0]: nθ must be even (antipodal columns)");
     }
     const cJSON *hp = s ? cJSON_GetObjectItemCaseSensitive(s, "horizontal_penalty") : NULL;
     if (hp) {
@@ -272,7 +286,8 @@ static sv_status build_elements(const sv_method_input *in, const uint8_t *skip, 
         b->efirst[ne] = k;
         /* with the trunk kept as geometry, the branches it cannot hold are
          * drawn by the foliage planes like leaves */
-        b->epart[ne++] = part && part[t] == SV_PART_TRUNK && !skip ? SV_PART_TRUNK : SV_PART_FOLIAGE;
+        b->epart[ne++] = part && part[t] == SV_PART_TRUNK && !skip ? SV_PART_TRUNK
+                                                                   : SV_PART_FOLIAGE;
         b->etris[k++] = t;
     }
     b->efirst[ne] = k;
@@ -384,7 +399,8 @@ static sv_status link_parents(const sv_mesh *m, const sv_bbc_result *rf, const s
     for (uint32_t t = 0; t < m->triangle_count; t++) tri_plane[t] = UINT32_MAX;
     for (uint32_t k = 0; k < rc->plane_count; k++) {
         if (rc->planes[k].cardboard_of >= 0) continue;
-        for (uint32_t i = 0; i < rc->planes[k].count; i++) tri_plane[rc->tris[rc->planes[k].first + i]] = k;
+        for (uint32_t i = 0; i < rc->planes[k].count; i++)
+            tri_plane[rc->tris[rc->planes[k].first + i]] = k;
     }
     for (uint32_t k = 0; k < rf->plane_count && k < fine->quad_count; k++) {
         const sv_bbc_plane *p = &rf->planes[k];
@@ -396,7 +412,8 @@ static sv_status link_parents(const sv_mesh *m, const sv_bbc_result *rf, const s
         }
         int32_t best = -1;
         for (uint32_t c = 0; c < rc->plane_count; c++)
-            if (rc->planes[c].cardboard_of < 0 && (best < 0 || acc[c] > acc[best])) best = (int32_t)c;
+            if (rc->planes[c].cardboard_of < 0 && (best < 0 || acc[c] > acc[best]))
+                best = (int32_t)c;
         fine->quads[k].parent = best;
     }
     for (uint32_t k = 0; k < rf->plane_count && k < fine->quad_count; k++)
@@ -457,8 +474,8 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
     o.grid_rho = (uint32_t)s.grid[2];
     o.miss_penalty = s.miss_penalty;
     o.max_angle_deg = s.max_angle;
-    o.horizontal_penalty =
-        s.hp_enabled < 0 ? (in->scene && in->scene->viewer == SV_VIEWER_GROUND) : s.hp_enabled == 1;
+    o.horizontal_penalty = s.hp_enabled < 0 ? (in->scene && in->scene->viewer == SV_VIEWER_GROUND)
+                                            : s.hp_enabled == 1;
     o.horizontal_value = s.hp_penalty;
     o.horizontal_angle_deg = s.hp_angle;
     o.tweak = s.tweak;

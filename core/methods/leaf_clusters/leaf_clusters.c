@@ -65,9 +65,9 @@
 #define LC_MAX_LEVELS 8
 #define LC_MAX_CLUSTERS 1024
 
-static const char *const lc_keys[] = {"clusters", "alpha_rel", "area_weighted", "iterations",
-                                      "seed_tries", "trunk_ratio",
-                                      "trunk_max_triangles", "twigs", NULL};
+static const char *const lc_keys[] = {
+    "clusters",    "alpha_rel",           "area_weighted", "iterations", "seed_tries",
+    "trunk_ratio", "trunk_max_triangles", "twigs",         NULL};
 
 typedef struct lc_settings {
     uint32_t levels[LC_MAX_LEVELS];
@@ -128,7 +128,8 @@ static sv_status parse_trunk(const cJSON *s, lc_settings *o, sv_error *err)
     for (const cJSON *it = a->child; it; it = it->next, i++) {
         double v = cJSON_IsNumber(it) ? it->valuedouble : NAN;
         if (!(v > 0 && v <= 1))
-            return sv_fail(err, SV_ERR_SPEC, LC_NAME ".trunk_ratio[%d]: expected a number in (0, 1]", i);
+            return sv_fail(err, SV_ERR_SPEC,
+                           LC_NAME ".trunk_ratio[%d]: expected a number in (0, 1]", i);
         o->trunk_ratio[i] = v;
     }
     return SV_OK;
@@ -222,7 +223,8 @@ static sv_status check_leaves(const sv_mesh *m, const sv_leaves *lv, sv_error *e
     for (uint32_t i = 0; i < lv->count; i++) {
         const sv_leaf *l = &lv->leaves[i];
         if (l->first > lv->tri_count || l->count > lv->tri_count - l->first)
-            return sv_fail(err, SV_ERR_INTERNAL, LC_NAME ": leaf %u's triangles lie outside the list", i);
+            return sv_fail(err, SV_ERR_INTERNAL,
+                           LC_NAME ": leaf %u's triangles lie outside the list", i);
         for (uint32_t t = 0; t < l->count; t++)
             if (lv->tris[l->first + t] >= m->triangle_count)
                 return sv_fail(err, SV_ERR_INTERNAL, LC_NAME ": leaf %u names triangle %u of %u", i,
@@ -267,7 +269,8 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
         uint64_t c = 0;
         for (int i = 0; i < 3; i++) {
             double x = 0;
-            for (int v = 0; v < 3; v++) x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+            for (int v = 0; v < 3; v++)
+                x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
             double q = floor((x - lo[i]) / cell);
             c = c * 4096 + (uint64_t)(q < 0 ? 0 : q > 4095 ? 4095 : q);
         }
@@ -288,7 +291,8 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
             sv_tri_normal(m, t, nn);
             for (int i = 0; i < 3; i++) {
                 double x = 0;
-                for (int v = 0; v < 3; v++) x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+                for (int v = 0; v < 3; v++)
+                    x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
                 f->centre[i] += ar * x;
                 nsum[i] += ar * nn[i];
             }
@@ -301,12 +305,14 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
             for (int i = 0; i < 3; i++) {
                 f->centre[i] = 0;
                 for (int v = 0; v < 3; v++)
-                    f->centre[i] += m->positions[3 * (size_t)m->indices[3 * (size_t)k[a].t + v] + i] / 3.0;
+                    f->centre[i] +=
+                        m->positions[3 * (size_t)m->indices[3 * (size_t)k[a].t + v] + i] / 3.0;
             }
         }
         double len = sqrt(nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]);
         if (len < 0.3 * f->area || !(len > 0)) { /* a tube: away from the tree's centre */
-            nsum[0] = f->centre[0] - in->centre[0], nsum[1] = 0, nsum[2] = f->centre[2] - in->centre[2];
+            nsum[0] = f->centre[0] - in->centre[0], nsum[1] = 0,
+            nsum[2] = f->centre[2] - in->centre[2];
             len = sqrt(nsum[0] * nsum[0] + nsum[2] * nsum[2]);
             if (!(len > 0)) nsum[0] = 1, len = 1;
         }
@@ -396,7 +402,8 @@ static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_s
     snprintf(out->method, sizeof out->method, "%s", LC_NAME);
     uint32_t *tris = NULL, mark = 0;
     double *pts = NULL;
-    uint32_t *stamp = sv_calloc(m->vertex_count, sizeof *stamp); /* vertex → last quad that took it */
+    uint32_t *stamp = sv_calloc(m->vertex_count,
+                                sizeof *stamp); /* vertex → last quad that took it */
     if (!stamp) {
         sv_clusters_free(&cl);
         free(ext.leaves), free(ext.tris);
@@ -419,8 +426,9 @@ static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_s
         if (l == 0) {
             lod->geometry = tm0;
             tm0 = NULL;
-        } else if (part && (st = sv_trunk_mesh_parts(m, part, s.trunk_ratio[l], (uint32_t)s.trunk_max[l],
-                                                      &lod->geometry, err))) {
+        } else if (part &&
+                   (st = sv_trunk_mesh_parts(m, part, s.trunk_ratio[l], (uint32_t)s.trunk_max[l],
+                                             &lod->geometry, err))) {
             break;
         }
         /* triangles per cluster, and room for the largest cluster's vertices */

@@ -27,7 +27,10 @@
 
 /* ---- mapping ------------------------------------------------------------- */
 
-static double sgn1(double x) { return x < 0 ? -1.0 : 1.0; }
+static double sgn1(double x)
+{
+    return x < 0 ? -1.0 : 1.0;
+}
 
 void sv_octa_encode(bool hemi, double elev_scale, const double d_in[3], double uv[2])
 {
@@ -125,7 +128,7 @@ void sv_octa_select(const sv_octa_grid *g, const double view_dir[3], uint32_t fr
 /* ---- fitting ------------------------------------------------------------- */
 
 sv_status sv_octa_fit(const sv_mesh *m, uint32_t n, bool hemi, double elev_scale, sv_octa_grid *g,
-                     sv_error *err)
+                      sv_error *err)
 {
     double mn[3], mx[3];
     if (!m || !sv_mesh_bounds(m, mn, mx))
@@ -203,8 +206,8 @@ static void bilinear_at(uint32_t W, uint32_t F, uint32_t i, uint32_t j, double s
  * depth each interpolated on their own. Returns alpha in [0,1]; prem[3]
  * receives the interpolated colour × that alpha, *depth the interpolated
  * depth value (0.5 without a depth map). */
-static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j, double s, double t,
-                           double prem[3], const sv_image *depth_map, double *depth)
+static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j, double s,
+                           double t, double prem[3], const sv_image *depth_map, double *depth)
 {
     bilinear b;
     bilinear_at(a->width, F, i, j, s, t, &b);
@@ -306,7 +309,8 @@ static void render_rows(const render_job *J)
                 out[4 * oi + 3] = 255;
                 if (depth) {
                     double wp[3];
-                    for (int m = 0; m < 3; m++) wp[m] = psum[m] / hsum + g->centre[m] - cam->origin[m];
+                    for (int m = 0; m < 3; m++)
+                        wp[m] = psum[m] / hsum + g->centre[m] - cam->origin[m];
                     depth[oi] = (float)sv_dot3(wp, fwd);
                 }
             } else if (depth) {
@@ -322,8 +326,8 @@ static void *render_rows_thread(void *arg)
 }
 
 sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv_image *depth_map,
-                         const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba,
-                         float *depth, sv_error *err)
+                         const sv_camera *cam, uint32_t w, uint32_t h, sv_image *rgba, float *depth,
+                         sv_error *err)
 {
     memset(rgba, 0, sizeof *rgba);
     uint32_t F = g->frame_pixels;
@@ -337,7 +341,7 @@ sv_status sv_octa_render(const sv_octa_grid *g, const sv_image *albedo, const sv
     sv_status st = sv_image_alloc(rgba, w, h, 4, 8, err);
     if (st) return st;
     double fwd[3];
-    sv_cross3(cam->up, cam->right, fwd); /* sv_camera_forward, without linking GL */
+    sv_cross3(cam->up, cam->right, fwd);       /* sv_camera_forward, without linking GL */
     double D[3] = {-fwd[0], -fwd[1], -fwd[2]}; /* towards the viewer (orthographic) */
     uint32_t fr[3][2];
     double wt[3];
@@ -426,7 +430,8 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
         for (uint32_t x = 0; x < W; x++) {
             double a = 0, c[3] = {0, 0, 0}, cp[3] = {0, 0, 0};
             for (int k = 0; k < 4; k++) {
-                const uint8_t *p = s + (size_t)(2 * y + (k >> 1)) * ss + 4 * (size_t)(2 * x + (k & 1));
+                const uint8_t *p = s + (size_t)(2 * y + (k >> 1)) * ss +
+                                   4 * (size_t)(2 * x + (k & 1));
                 a += p[3];
                 for (int m = 0; m < 3; m++) {
                     c[m] += p[m] * (double)p[3];
@@ -465,15 +470,15 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
 
 /* ---- the method ---------------------------------------------------------- */
 
-static const char *const octa_keys[] = {"grid", "hemi", "frame_pixels", "proxy_quads",
-                                        "elevation_scale", NULL};
+static const char *const octa_keys[] = {
+    "grid", "hemi", "frame_pixels", "proxy_quads", "elevation_scale", NULL};
 
 typedef struct octa_settings {
-    long grid;          /* 0 = default by hemi */
+    long grid; /* 0 = default by hemi */
     bool hemi, hemi_set;
-    long frame_pixels;  /* 0 = from the LOD's largest drawn size */
-    long proxy_quads;   /* quads of the glTF proxy */
-    double elev_scale;  /* 0 = by the scene's viewer */
+    long frame_pixels; /* 0 = from the LOD's largest drawn size */
+    long proxy_quads;  /* quads of the glTF proxy */
+    double elev_scale; /* 0 = by the scene's viewer */
 } octa_settings;
 
 static sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err)
@@ -518,9 +523,9 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
     sv_octa_grid *g = calloc(1, sizeof *g);
     if (!g) return sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
     /* ground viewers look from 0–20°: the rings go nearer the horizon */
-    double es = s.elev_scale > 0 ? s.elev_scale
+    double es = s.elev_scale > 0                                     ? s.elev_scale
                 : in->scene && in->scene->viewer == SV_VIEWER_GROUND ? SV_OCTA_GROUND_SCALE
-                                                                    : 1.0;
+                                                                     : 1.0;
     if ((st = sv_octa_fit(in->mesh, n, hemi, es, g, err))) {
         free(g);
         return st;

@@ -257,8 +257,8 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
         for (int c = 0; c < 4; c++) {
             uint32_t v = 4 * q + (uint32_t)c;
             for (int k = 0; k < 3; k++) {
-                m->positions[3 * v + k] =
-                    (float)(g->centre[k] + off * d[k] + g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
+                m->positions[3 * v + k] = (float)(g->centre[k] + off * d[k] +
+                                                  g->half * (cu[c] * rr[k] + cv[c] * uu[k]));
                 m->normals[3 * v + k] = (float)d[k];
             }
             m->uvs[2 * v] = rect[0] + (float)(0.5 * (cu[c] + 1)) * (rect[2] - rect[0]);

@@ -58,7 +58,6 @@
 
 /* ---------- pure geometry ---------- */
 
-
 void sv_slicing_direction(uint32_t j, uint32_t count, double n[3])
 {
     double s, c;
@@ -121,8 +120,8 @@ uint32_t sv_slab_clip_triangle(const double tri[3][3], const double n[3], double
     double mid[5][3];
     uint32_t m = clip_half(tri, 3, n, lo, -1.0, mid);
     if (m < 3) return 0;
-    m = clip_half((const double (*)[3])mid, m, n, hi, 1.0, out);
-    if (m < 3 || !(sv_polygon_area((const double (*)[3])out, m) > 0)) return 0;
+    m = clip_half((const double(*)[3])mid, m, n, hi, 1.0, out);
+    if (m < 3 || !(sv_polygon_area((const double(*)[3])out, m) > 0)) return 0;
     return m;
 }
 
@@ -147,18 +146,29 @@ static double tent_cdf(double a, double b, double c, double area, double s)
 static void sort3(double v[3])
 {
     double t;
-    if (v[0] > v[1]) { t = v[0]; v[0] = v[1]; v[1] = t; }
-    if (v[1] > v[2]) { t = v[1]; v[1] = v[2]; v[2] = t; }
-    if (v[0] > v[1]) { t = v[0]; v[0] = v[1]; v[1] = t; }
+    if (v[0] > v[1]) {
+        t = v[0];
+        v[0] = v[1];
+        v[1] = t;
+    }
+    if (v[1] > v[2]) {
+        t = v[1];
+        v[1] = v[2];
+        v[2] = t;
+    }
+    if (v[0] > v[1]) {
+        t = v[0];
+        v[0] = v[1];
+        v[1] = t;
+    }
 }
 
-sv_status sv_slab_bounds_foliage(const double *proj, const double *area, size_t count,
-                                 double lo, double hi, uint32_t k, double *bounds,
-                                 sv_error *err)
+sv_status sv_slab_bounds_foliage(const double *proj, const double *area, size_t count, double lo,
+                                 double hi, uint32_t k, double *bounds, sv_error *err)
 {
     if (k == 0 || !(lo < hi) || !isfinite(lo) || !isfinite(hi))
-        return sv_fail(err, SV_ERR_INVALID, "slicing: bad slab range [%g, %g] or %u slabs", lo,
-                       hi, k);
+        return sv_fail(err, SV_ERR_INVALID, "slicing: bad slab range [%g, %g] or %u slabs", lo, hi,
+                       k);
     const uint32_t nb = SV_SLICING_FOLIAGE_BINS;
     double *hist = sv_calloc(nb, sizeof *hist);
     if (!hist) return sv_fail(err, SV_ERR_NOMEM, "slicing: no memory for the foliage histogram");
@@ -270,7 +280,7 @@ uint32_t sv_slicing_blend(uint32_t slicings, bool top, const double view_dir[3],
 /* What the view selector and sv_slicing_describe need; lives in select_data
  * (one malloc'ed block, freed by sv_stand_in_free). */
 typedef struct sl_layout {
-    uint32_t slicings;                     /* azimuthal */
+    uint32_t slicings; /* azimuthal */
     bool top;
     uint32_t slices;
     sv_slice_spacing spacing;
@@ -280,8 +290,8 @@ typedef struct sl_layout {
 } sl_layout;
 
 static uint32_t sl_select(const sv_lod_plan *lod, const double view_dir[3],
-                          uint32_t *const sets[SV_MAX_VIEW_SETS],
-                          uint32_t counts[SV_MAX_VIEW_SETS], double weights[SV_MAX_VIEW_SETS])
+                          uint32_t *const sets[SV_MAX_VIEW_SETS], uint32_t counts[SV_MAX_VIEW_SETS],
+                          double weights[SV_MAX_VIEW_SETS])
 {
     const sl_layout *L = lod->select_data;
     if (!L) return 0;
@@ -358,8 +368,7 @@ cJSON *sv_slicing_describe(const sv_lod_plan *lod)
     return o;
 }
 
-static const char *const sl_keys[] = {"slicings", "slices", "spacing", "top", "trunk_ratio",
-                                      NULL};
+static const char *const sl_keys[] = {"slicings", "slices", "spacing", "top", "trunk_ratio", NULL};
 
 typedef struct sl_settings {
     long slicings, slices;
@@ -389,7 +398,8 @@ static sv_status sl_parse(const cJSON *s, sl_settings *o, sv_error *err)
         else if (cJSON_IsString(sp) && strcmp(sp->valuestring, "foliage") == 0)
             o->spacing = SV_SPACING_FOLIAGE;
         else
-            return sv_fail(err, SV_ERR_SPEC, SL_NAME ".spacing: expected \"uniform\" or \"foliage\"");
+            return sv_fail(err, SV_ERR_SPEC,
+                           SL_NAME ".spacing: expected \"uniform\" or \"foliage\"");
     }
     const cJSON *tp = s ? cJSON_GetObjectItemCaseSensitive(s, "top") : NULL;
     if (tp && !cJSON_IsNull(tp)) {
@@ -398,8 +408,7 @@ static sv_status sl_parse(const cJSON *s, sl_settings *o, sv_error *err)
             return sv_fail(err, SV_ERR_SPEC, SL_NAME ".top: expected null, true or false");
         o->top = b ? 1 : 0;
     }
-    if ((st = sv_setting_number(s, SL_NAME, "trunk_ratio", 0, 1, &o->trunk_ratio, err)))
-        return st;
+    if ((st = sv_setting_number(s, SL_NAME, "trunk_ratio", 0, 1, &o->trunk_ratio, err))) return st;
     if (!(o->trunk_ratio > 0))
         return sv_fail(err, SV_ERR_SPEC, SL_NAME ".trunk_ratio: expected a number in (0, 1]");
     return SV_OK;
@@ -416,10 +425,10 @@ typedef struct sl_work {
     const sv_mesh *m;
     const double *centre;
     double radius;
-    uint32_t *tris;   /* foliage triangles of positive area */
+    uint32_t *tris; /* foliage triangles of positive area */
     uint32_t nt;
-    double *proj;     /* 3 per foliage triangle, relative to centre */
-    double *area;     /* per foliage triangle */
+    double *proj;          /* 3 per foliage triangle, relative to centre */
+    double *area;          /* per foliage triangle */
     uint16_t *kmin, *kmax; /* slabs with a piece of positive area (kmin > kmax: none) */
     uint8_t parts;
 } sl_work;
@@ -434,8 +443,8 @@ static void tri_rel(const sl_work *w, uint32_t t, double p[3][3])
 
 /* Builds slicing s (direction n, axes u, v) into lod; records it in L. */
 static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, const double n[3],
-                               const double u[3], const double v[3], sv_lod_plan *lod,
-                               sl_layout *L, sv_error *err)
+                               const double u[3], const double v[3], sv_lod_plan *lod, sl_layout *L,
+                               sv_error *err)
 {
     const uint32_t K = (uint32_t)cs->slices;
     double lo = INFINITY, hi = -INFINITY;
@@ -461,8 +470,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
     sv_status st = SV_OK;
     if (cs->spacing == SV_SPACING_FOLIAGE)
         st = sv_slab_bounds_foliage(w->proj, w->area, w->nt, lo, hi, K, b, err);
-    else
-        sv_slab_bounds_uniform(lo, hi, K, b);
+    else sv_slab_bounds_uniform(lo, hi, K, b);
     if (st) return st;
 
     /* Clip every foliage triangle into the slabs it spans. */
@@ -478,19 +486,19 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
     for (uint32_t i = 0; i < w->nt; i++) {
         double p[3][3];
         tri_rel(w, w->tris[i], p);
-        double pmin = fmin(w->proj[3 * (size_t)i], fmin(w->proj[3 * (size_t)i + 1],
-                                                        w->proj[3 * (size_t)i + 2]));
-        double pmax = fmax(w->proj[3 * (size_t)i], fmax(w->proj[3 * (size_t)i + 1],
-                                                        w->proj[3 * (size_t)i + 2]));
+        double pmin = fmin(w->proj[3 * (size_t)i],
+                           fmin(w->proj[3 * (size_t)i + 1], w->proj[3 * (size_t)i + 2]));
+        double pmax = fmax(w->proj[3 * (size_t)i],
+                           fmax(w->proj[3 * (size_t)i + 1], w->proj[3 * (size_t)i + 2]));
         uint32_t k = 0;
         while (k + 1 < K && b[k + 1] < pmin) k++;
         w->kmin[i] = UINT16_MAX;
         w->kmax[i] = 0;
         for (; k < K && b[k] <= pmax; k++) {
             double poly[5][3];
-            uint32_t c = sv_slab_clip_triangle((const double (*)[3])p, n, b[k], b[k + 1], poly);
+            uint32_t c = sv_slab_clip_triangle((const double(*)[3])p, n, b[k], b[k + 1], poly);
             if (c == 0) continue;
-            sarea[k] += sv_polygon_area((const double (*)[3])poly, c);
+            sarea[k] += sv_polygon_area((const double(*)[3])poly, c);
             nf[k]++;
             if (w->kmin[i] == UINT16_MAX) w->kmin[i] = (uint16_t)k;
             w->kmax[i] = (uint16_t)k;
@@ -518,8 +526,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
         memcpy(q.axis_u, u, sizeof q.axis_u);
         memcpy(q.axis_v, v, sizeof q.axis_v);
         q.d = -(mid + nc);
-        for (int j = 0; j < 3; j++)
-            q.centre[j] = w->centre[j] + mid * n[j] + cu * u[j] + cv * v[j];
+        for (int j = 0; j < 3; j++) q.centre[j] = w->centre[j] + mid * n[j] + cu * u[j] + cv * v[j];
         q.half_u = 0.5 * (u1[k] - u0[k]) + margin;
         q.half_v = 0.5 * (v1[k] - v0[k]) + margin;
         q.slab = 0.5 * (b[k + 1] - b[k]);
@@ -539,7 +546,7 @@ static sv_status build_slicing(sl_work *w, const sl_settings *cs, uint32_t s, co
         for (uint32_t i = 0; i < q.face_count; i++) {
             double p[3][3], poly[5][3];
             tri_rel(w, q.faces[i], p);
-            if (sv_slab_clip_triangle((const double (*)[3])p, n, b[k], b[k + 1], poly))
+            if (sv_slab_clip_triangle((const double(*)[3])p, n, b[k], b[k + 1], poly))
                 q.faces[keep++] = q.faces[i];
         }
         q.face_count = keep;
@@ -575,8 +582,7 @@ static sv_status sl_build(const sv_method_input *in, const cJSON *settings, sv_s
     w.kmax = sv_calloc(m->triangle_count, sizeof *w.kmax);
     L = sv_calloc(1, sizeof *L);
     if (!w.tris || !w.proj || !w.area || !w.kmin || !w.kmax || !L) {
-        st = sv_fail(err, SV_ERR_NOMEM, SL_NAME ": no memory for %u triangles",
-                     m->triangle_count);
+        st = sv_fail(err, SV_ERR_NOMEM, SL_NAME ": no memory for %u triangles", m->triangle_count);
         goto out;
     }
     for (uint32_t t = 0; t < m->triangle_count; t++) {
@@ -653,8 +659,8 @@ static void sl_planes_json(const sv_lod_plan *lod, const struct sv_baked_lod *ba
 /* method.h ladder: slicings x slices, 2x2 .. 12x8. */
 static bool sl_ladder(int step, cJSON *set)
 {
-    static const int steps[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4}, {6, 4}, {6, 5},
-                                   {8, 5}, {8, 6}, {12, 6}, {12, 8}};
+    static const int steps[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4},  {6, 4},
+                                   {6, 5}, {8, 5}, {8, 6}, {12, 6}, {12, 8}};
     if (step < 0 || step >= (int)(sizeof steps / sizeof steps[0])) return false;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "slicings");
     cJSON_DeleteItemFromObjectCaseSensitive(set, "slices");

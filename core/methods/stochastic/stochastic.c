@@ -27,8 +27,8 @@
 
 #define ST_NAME "stochastic"
 #define LAMBDA_MIN 1e-9
-#define CONTRAST_STEPS 16   /* bins per octave of the luminance factor */
-#define CONTRAST_BINS 64    /* |bin| <= 64: factors 1/16 .. 16 */
+#define CONTRAST_STEPS 16 /* bins per octave of the luminance factor */
+#define CONTRAST_BINS 64  /* |bin| <= 64: factors 1/16 .. 16 */
 
 /* ---- formulas ------------------------------------------------------------- */
 
@@ -170,10 +170,8 @@ double sv_stochastic_ratio_from_coverage(double q, uint32_t n_sub, uint32_t n)
     for (int it = 0; it < 200; it++) {
         double mid = 0.5 * (lo + hi), r = exp(mid);
         double qm = covered_fraction(r, n_sub) / covered_fraction(r, n);
-        if (qm < q)
-            lo = mid;
-        else
-            hi = mid;
+        if (qm < q) lo = mid;
+        else hi = mid;
     }
     return exp(0.5 * (lo + hi));
 }
@@ -210,9 +208,18 @@ sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *o
 
 /* ---- settings ----------------------------------------------------------- */
 
-static const char *const st_keys[] = {"levels", "h", "d0", "order", "fade", "area_preservation",
-                                      "contrast_preservation", "shutter", "ratio_fraction",
-                                      "visible_ratio", "simplify_leaves", NULL};
+static const char *const st_keys[] = {"levels",
+                                      "h",
+                                      "d0",
+                                      "order",
+                                      "fade",
+                                      "area_preservation",
+                                      "contrast_preservation",
+                                      "shutter",
+                                      "ratio_fraction",
+                                      "visible_ratio",
+                                      "simplify_leaves",
+                                      NULL};
 
 sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_error *err)
 {
@@ -245,7 +252,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
                     t->valuedouble > 4e9 || t->valuedouble != floor(t->valuedouble))
                     return sv_fail(err, SV_ERR_SPEC,
                                    ST_NAME ".levels[%d]: expected {\"triangles\": N} with N a "
-                                   "whole number >= 1 and no other key",
+                                           "whole number >= 1 and no other key",
                                    i);
                 s->level_triangles[i] = (uint32_t)t->valuedouble;
                 s->levels[i] = 0;
@@ -254,7 +261,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
             if (!cJSON_IsNumber(e) || !(e->valuedouble > 0) || e->valuedouble > 1)
                 return sv_fail(err, SV_ERR_SPEC,
                                ST_NAME ".levels[%d]: expected a number in (0, 1] or "
-                               "{\"triangles\": N}",
+                                       "{\"triangles\": N}",
                                i);
             if (i > 0 && !s->level_triangles[i - 1] && !(e->valuedouble < s->levels[i - 1]))
                 return sv_fail(err, SV_ERR_SPEC,
@@ -268,8 +275,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
     if ((st = sv_setting_number(o, ST_NAME, "fade", 0, 0.5, &s->fade, err))) return st;
     if ((st = sv_setting_bool(o, ST_NAME, "area_preservation", &s->area_preservation, err)))
         return st;
-    if ((st = sv_setting_bool(o, ST_NAME, "contrast_preservation", &s->contrast_preservation,
-                              err)))
+    if ((st = sv_setting_bool(o, ST_NAME, "contrast_preservation", &s->contrast_preservation, err)))
         return st;
     if ((st = sv_setting_bool(o, ST_NAME, "simplify_leaves", &s->simplify_leaves, err))) return st;
     if ((st = sv_setting_number(o, ST_NAME, "shutter", 0, 1, &s->shutter, err))) return st;
@@ -283,8 +289,7 @@ sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_erro
             s->order = SV_STOCH_ORDER_RANDOM;
         else if (cJSON_IsString(ord) && strcmp(ord->valuestring, "area") == 0)
             s->order = SV_STOCH_ORDER_AREA;
-        else
-            return sv_fail(err, SV_ERR_SPEC, ST_NAME ".order: expected one of random, area");
+        else return sv_fail(err, SV_ERR_SPEC, ST_NAME ".order: expected one of random, area");
     }
     return SV_OK;
 }
@@ -301,7 +306,7 @@ sv_status sv_stochastic_resolve(sv_stochastic_settings *s, uint32_t triangles, s
                 snprintf(what, sizeof what, " (on this tree of %u triangles)", triangles);
             return sv_fail(err, SV_ERR_SPEC,
                            ST_NAME ".levels[%u] is lambda %.4g, not below levels[%u] (%.4g)%s: "
-                           "levels must be strictly decreasing",
+                                   "levels must be strictly decreasing",
                            i, s->levels[i], i - 1, s->levels[i - 1], what);
         }
     return SV_OK;
@@ -327,10 +332,8 @@ double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const 
     if (sv_stochastic_lambda_at(s, scene, exp(lo)) <= lambda) return exp(lo);
     for (int it = 0; it < 100; it++) {
         double mid = 0.5 * (lo + hi);
-        if (sv_stochastic_lambda_at(s, scene, exp(mid)) <= lambda)
-            hi = mid;
-        else
-            lo = mid;
+        if (sv_stochastic_lambda_at(s, scene, exp(mid)) <= lambda) hi = mid;
+        else lo = mid;
     }
     return exp(hi);
 }
@@ -347,17 +350,14 @@ double sv_stochastic_level_error(const sv_stochastic_settings *s, const sv_scene
     /* a tree taller than SV_STOCH_FULL_PIXELS at d0 needs no more detail
      * there than one that size: one pixel of the tree drawn that tall at d0,
      * shrunk by d0/d */
-    if (radius > 0 && d0 > 0 && d > 0)
-        e = fmax(e, 2.0 * radius / (SV_STOCH_FULL_PIXELS * d0 / d));
+    if (radius > 0 && d0 > 0 && d > 0) e = fmax(e, 2.0 * radius / (SV_STOCH_FULL_PIXELS * d0 / d));
     return e;
 }
 
 void sv_stochastic_level_name(double lambda, char name[32])
 {
-    if (lambda >= 1)
-        snprintf(name, 32, "full");
-    else if (lambda >= 5e-5)
-        snprintf(name, 32, "stochastic%g", round(lambda * 1e4) / 100.0);
+    if (lambda >= 1) snprintf(name, 32, "full");
+    else if (lambda >= 5e-5) snprintf(name, 32, "stochastic%g", round(lambda * 1e4) / 100.0);
     else /* a level of a few triangles on a large tree: three significant digits */
         snprintf(name, 32, "stochastic%.3g", lambda * 100.0);
 }
@@ -435,20 +435,20 @@ static void leaf_colours(const sv_mesh *mesh, const sv_leaves *lv, double *col)
 /* The leaves' triangles for one level: every leaf's own (error 0) or its
  * outline simplified to the level's error. */
 typedef struct leaf_shapes {
-    uint32_t *idx;    /* 3 per triangle: source vertex ids */
-    uint32_t *mat;    /* per triangle: source material */
-    uint32_t *first;  /* per leaf: first triangle */
-    uint32_t *count;  /* per leaf: triangles */
-    float *gain;      /* per leaf: modelled area / simplified area, in [1, 4] (1 as modelled) */
+    uint32_t *idx;   /* 3 per triangle: source vertex ids */
+    uint32_t *mat;   /* per triangle: source material */
+    uint32_t *first; /* per leaf: first triangle */
+    uint32_t *count; /* per leaf: triangles */
+    float *gain;     /* per leaf: modelled area / simplified area, in [1, 4] (1 as modelled) */
     uint64_t total;
 } leaf_shapes;
 
 typedef struct shape_scratch {
-    uint32_t *stamp;  /* per source vertex: leaf + 1 last seen */
-    uint32_t *local;  /* per source vertex: index among the leaf's vertices */
-    uint32_t *verts;  /* the leaf's source vertices */
-    float *pu;        /* 5 per leaf vertex: position, uv */
-    float *pos;       /* 3 per welded vertex */
+    uint32_t *stamp; /* per source vertex: leaf + 1 last seen */
+    uint32_t *local; /* per source vertex: index among the leaf's vertices */
+    uint32_t *verts; /* the leaf's source vertices */
+    float *pu;       /* 5 per leaf vertex: position, uv */
+    float *pos;      /* 3 per welded vertex */
     uint32_t *remap, *rep, *src, *dst;
 } shape_scratch;
 
@@ -469,7 +469,8 @@ static double tri_area_v(const sv_mesh *m, const uint32_t *ix)
                 *c = &m->positions[3 * (size_t)ix[2]];
     double u[3], v[3];
     for (int k = 0; k < 3; k++) u[k] = (double)b[k] - a[k], v[k] = (double)c[k] - a[k];
-    double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2], z = u[0] * v[1] - u[1] * v[0];
+    double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
+           z = u[0] * v[1] - u[1] * v[0];
     return 0.5 * sqrt(x * x + y * y + z * z);
 }
 
@@ -592,8 +593,8 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double
     x.src = sv_calloc(2 * cap, sizeof(uint32_t)); /* the second half: the sloppy result */
     x.dst = sv_calloc(cap, sizeof(uint32_t));
     sv_status st = SV_OK;
-    if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !x.stamp || !x.local || !x.verts ||
-        !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
+    if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !x.stamp || !x.local ||
+        !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
         leaf_shapes_free(sh);
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
@@ -620,15 +621,14 @@ typedef struct build_ctx {
     const leaf_shapes *shapes; /* the level's leaf triangles */
     const double *colour;      /* 3 per leaf */
     double mean_y;
-    uint32_t *stamp;           /* per source vertex: leaf position + 1 last seen */
-    uint32_t *local;           /* per source vertex: index in the level's mesh */
-    int32_t *matmap;           /* material_count × (2·CONTRAST_BINS + 1) */
-    int32_t *leaf_bin;         /* per leaf position */
+    uint32_t *stamp;   /* per source vertex: leaf position + 1 last seen */
+    uint32_t *local;   /* per source vertex: index in the level's mesh */
+    int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
+    int32_t *leaf_bin; /* per leaf position */
 } build_ctx;
 
-static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r,
-                             double lambda, double leaf_budget, double gamma, sv_stoch_level *L,
-                             sv_error *err)
+static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r, double lambda,
+                             double leaf_budget, double gamma, sv_stoch_level *L, sv_error *err)
 {
     L->area_gamma = gamma;
     const sv_mesh *src = b->mesh;
@@ -656,7 +656,8 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     /* Contrast bins: each leaf's luminance factor, quantised. */
     const uint32_t nb = 2 * CONTRAST_BINS + 1, M = src->material_count;
     size_t mm;
-    if (!sv_mul_size(M, nb, &mm)) return sv_fail(err, SV_ERR_NOMEM, "stochastic: too many materials");
+    if (!sv_mul_size(M, nb, &mm))
+        return sv_fail(err, SV_ERR_NOMEM, "stochastic: too many materials");
     for (size_t i = 0; i < mm; i++) b->matmap[i] = -1;
     uint32_t copies = 0;
     for (uint32_t k = 0; k < n; k++) {
@@ -666,7 +667,9 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
             double y2 = sv_stochastic_contrast(y, b->mean_y, mu);
             if (y > 1e-6 && y2 > 1e-6) {
                 double q = round(CONTRAST_STEPS * log2(y2 / y));
-                bin = q > CONTRAST_BINS ? CONTRAST_BINS : q < -CONTRAST_BINS ? -CONTRAST_BINS : (int)q;
+                bin = q > CONTRAST_BINS    ? CONTRAST_BINS
+                      : q < -CONTRAST_BINS ? -CONTRAST_BINS
+                                           : (int)q;
             }
         }
         b->leaf_bin[k] = bin;
@@ -762,8 +765,8 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
                 g->indices[3 * (size_t)to + j] = b->local[v];
             }
             uint32_t m = sh->mat[st_];
-            g->tri_material[to] =
-                (uint32_t)b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
+            g->tri_material[to] = (uint32_t)
+                                      b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
             to++;
         }
     }
@@ -783,9 +786,8 @@ static void level_free(sv_stoch_level *L);
 /* Puts the trunk (built first) in front of level i's leaves. A
  * {"triangles": N} level over N gets *trunk rebuilt capped at what the leaves
  * leave (sv_stochastic_trunk_cap). *trunk stays the caller's. */
-static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_settings *s,
-                            uint32_t i, double e, sv_mesh **trunk, sv_stoch_level *L,
-                            sv_error *err)
+static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_settings *s, uint32_t i,
+                            double e, sv_mesh **trunk, sv_stoch_level *L, sv_error *err)
 {
     sv_status st = SV_OK;
     uint32_t cap = sv_stochastic_trunk_cap(s, i, L);
@@ -816,8 +818,8 @@ static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_setti
  * than *best by more than 1e-4 (the candidates come coarsest / paper first). */
 static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_stochastic_settings *s,
                            double r, uint32_t i, double e, double et, double all, double gamma,
-                           sv_mesh **trunk, const sv_stoch_scorer *scorer, bool first,
-                           double *best, bool *kept, sv_stoch_level *L, sv_error *err)
+                           sv_mesh **trunk, const sv_stoch_scorer *scorer, bool first, double *best,
+                           bool *kept, sv_stoch_level *L, sv_error *err)
 {
     sv_stoch_level cand = {0};
     cand.leaf_error = e;
@@ -854,9 +856,8 @@ void sv_stoch_result_free(sv_stoch_result *res)
     memset(res, 0, sizeof *res);
 }
 
-sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s,
-                              double r, const sv_stoch_scorer *scorer, sv_stoch_result *out,
-                              sv_error *err)
+sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s, double r,
+                              const sv_stoch_scorer *scorer, sv_stoch_result *out, sv_error *err)
 {
     memset(out, 0, sizeof *out);
     const sv_mesh *mesh = in->mesh;
@@ -936,8 +937,8 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
             if (trunk && trunk->triangle_count > share && share > 0) {
                 sv_mesh_destroy(trunk);
                 trunk = NULL;
-                if ((st = sv_trunk_mesh_budget(mesh, in->cls->tri_part, SV_STOCH_TRUNK_FLOOR,
-                                               share, et, &trunk, err)))
+                if ((st = sv_trunk_mesh_budget(mesh, in->cls->tri_part, SV_STOCH_TRUNK_FLOOR, share,
+                                               et, &trunk, err)))
                     break;
             }
             uint32_t tn = trunk ? trunk->triangle_count : 0;
@@ -1011,8 +1012,8 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
         lod->geometry = res.levels[i].geometry;
         res.levels[i].geometry = NULL;
         lod->trunk = res.levels[i].trunk_in_geometry ? SV_TRUNK_NONE
-                     : res.levels[i].lambda >= 1    ? SV_TRUNK_MESH
-                                                    : SV_TRUNK_SIMPLIFIED;
+                     : res.levels[i].lambda >= 1     ? SV_TRUNK_MESH
+                                                     : SV_TRUNK_SIMPLIFIED;
         lod->trunk_ratio = fmax(res.levels[i].lambda, SV_STOCH_TRUNK_FLOOR);
         lod->trunk_max_triangles = sv_stochastic_trunk_cap(&s, i, &res.levels[i]);
     }
@@ -1030,8 +1031,8 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g)
 }
 
 sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
-                             int level, uint32_t geom_vertices, const sv_mesh *m,
-                             sv_stoch_gltf *g, sv_gltf_lod *gl, sv_error *err)
+                             int level, uint32_t geom_vertices, const sv_mesh *m, sv_stoch_gltf *g,
+                             sv_gltf_lod *gl, sv_error *err)
 {
     const sv_stoch_level *L = &res->levels[level];
     uint32_t nv = m->vertex_count;
