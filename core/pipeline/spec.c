@@ -9,8 +9,8 @@
 
 #include "method.h"
 
-static const char *const top_keys[] = {"method", "scene", "import", "classify", "bake",
-                                       "evaluate", "lod", "target", "seed", NULL};
+static const char *const top_keys[] = {"method",   "scene", "import", "classify", "bake",
+                                       "evaluate", "lod",   "target", "seed",     NULL};
 
 static sv_status parse_enum(const cJSON *obj, const char *section, const char *key,
                             const char *const *names, int *out, sv_error *err)
@@ -31,8 +31,8 @@ static sv_status parse_enum(const cJSON *obj, const char *section, const char *k
     return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected one of %s", section, key, list);
 }
 
-static sv_status parse_vec3(const cJSON *obj, const char *section, const char *key,
-                            double out[3], bool normalise, sv_error *err)
+static sv_status parse_vec3(const cJSON *obj, const char *section, const char *key, double out[3],
+                            bool normalise, sv_error *err)
 {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v) return SV_OK;
@@ -66,8 +66,7 @@ static sv_status parse_names(const cJSON *obj, const char *section, const char *
         return sv_fail(err, SV_ERR_SPEC, "%s.%s: expected an array of material names", section,
                        key);
     int n = cJSON_GetArraySize(v);
-    if (n > 1024)
-        return sv_fail(err, SV_ERR_SPEC, "%s.%s: at most 1024 names", section, key);
+    if (n > 1024) return sv_fail(err, SV_ERR_SPEC, "%s.%s: at most 1024 names", section, key);
     const char **names = sv_calloc((size_t)n + 1, sizeof *names);
     if (!names) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
     int i = 0;
@@ -86,8 +85,8 @@ static sv_status parse_names(const cJSON *obj, const char *section, const char *
     return SV_OK;
 }
 
-static sv_status parse_u32(const cJSON *obj, const char *section, const char *key, long lo,
-                           long hi, uint32_t *out, sv_error *err)
+static sv_status parse_u32(const cJSON *obj, const char *section, const char *key, long lo, long hi,
+                           uint32_t *out, sv_error *err)
 {
     long v = (long)*out;
     sv_status st = sv_setting_int(obj, section, key, lo, hi, &v, err);
@@ -97,9 +96,9 @@ static sv_status parse_u32(const cJSON *obj, const char *section, const char *ke
 
 static sv_status parse_scene(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"lighting", "light_dir", "shadows", "ambient_occlusion",
-                                       "viewer", "distance", "screen_height", "fov_deg",
-                                       "camera_speed", NULL};
+    static const char *const keys[] = {
+        "lighting", "light_dir",     "shadows", "ambient_occlusion", "viewer",
+        "distance", "screen_height", "fov_deg", "camera_speed",      NULL};
     static const char *const lightings[] = {"static", "dynamic", "unlit", NULL};
     static const char *const viewers[] = {"orbit", "ground", "aerial", "side", NULL};
     sv_scene *sc = &s->scene;
@@ -183,23 +182,22 @@ static sv_status parse_import(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"max_atlas", "max_supersample", "texel_size",
-                                       "alpha_threshold", "texel_pixels", "padding", "dilate",
-                                       NULL};
+    static const char *const keys[] = {
+        "max_atlas",    "max_supersample", "texel_size", "alpha_threshold",
+        "texel_pixels", "padding",         "dilate",     NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "bake", keys, err))) return st;
     if ((st = parse_u32(o, "bake", "max_atlas", 64, 16384, &s->max_atlas, err))) return st;
     if (s->max_atlas & (s->max_atlas - 1))
         return sv_fail(err, SV_ERR_SPEC, "bake.max_atlas: must be a power of two");
-    if ((st = parse_u32(o, "bake", "max_supersample", 1, 16, &s->max_supersample, err)))
-        return st;
-    if ((st = sv_setting_number(o, "bake", "texel_size", 0, 1e6, &s->texel_size, err)))
-        return st;
+    if ((st = parse_u32(o, "bake", "max_supersample", 1, 16, &s->max_supersample, err))) return st;
+    if ((st = sv_setting_number(o, "bake", "texel_size", 0, 1e6, &s->texel_size, err))) return st;
     const cJSON *at = o ? cJSON_GetObjectItemCaseSensitive(o, "alpha_threshold") : NULL;
     if (cJSON_IsString(at)) {
         if (strcmp(at->valuestring, "calibrated"))
-            return sv_fail(err, SV_ERR_SPEC,
-                           "bake.alpha_threshold: expected \"calibrated\" or a number in [0.01, 0.99]");
+            return sv_fail(
+                err, SV_ERR_SPEC,
+                "bake.alpha_threshold: expected \"calibrated\" or a number in [0.01, 0.99]");
         s->alpha_threshold = 0;
     } else if ((st = sv_setting_number(o, "bake", "alpha_threshold", 0.01, 0.99,
                                        &s->alpha_threshold, err))) {
@@ -217,8 +215,7 @@ static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
     if ((st = sv_setting_only(o, "evaluate", keys, err))) return st;
     if ((st = sv_setting_bool(o, "evaluate", "enabled", &s->evaluate, err))) return st;
     if ((st = parse_u32(o, "evaluate", "views", 1, 256, &s->eval_views, err))) return st;
-    if ((st = parse_u32(o, "evaluate", "supersample", 1, 8, &s->eval_supersample, err)))
-        return st;
+    if ((st = parse_u32(o, "evaluate", "supersample", 1, 8, &s->eval_supersample, err))) return st;
     const cJSON *z = cJSON_GetObjectItemCaseSensitive(o, "sizes");
     if (z) {
         int n = cJSON_IsArray(z) ? cJSON_GetArraySize(z) : -1;
@@ -278,17 +275,15 @@ static void spec_defaults(sv_spec *s)
  * Needs the evaluate section already parsed (pixels must be an evaluate size). */
 static sv_status parse_target(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"iou", "pixels", "worst", "max_planes", "max_triangles",
-                                       NULL};
+    static const char *const keys[] = {"iou",        "pixels",        "worst",
+                                       "max_planes", "max_triangles", NULL};
     if (!cJSON_IsObject(o)) return sv_fail(err, SV_ERR_SPEC, "target: expected an object");
     sv_status st;
     if ((st = sv_setting_only(o, "target", keys, err))) return st;
     if ((st = sv_setting_number(o, "target", "iou", 0.01, 1, &s->target_iou, err))) return st;
     if ((st = sv_setting_bool(o, "target", "worst", &s->target_worst, err))) return st;
-    if ((st = parse_u32(o, "target", "max_planes", 1, 4096, &s->target_max_planes, err)))
-        return st;
-    if ((st = parse_u32(o, "target", "max_triangles", 1, 100000000, &s->target_max_triangles,
-                        err)))
+    if ((st = parse_u32(o, "target", "max_planes", 1, 4096, &s->target_max_planes, err))) return st;
+    if ((st = parse_u32(o, "target", "max_triangles", 1, 100000000, &s->target_max_triangles, err)))
         return st;
     if (s->target_iou == 0 && !s->target_max_planes && !s->target_max_triangles)
         return sv_fail(err, SV_ERR_SPEC,
@@ -314,6 +309,56 @@ static sv_status parse_target(const cJSON *o, sv_spec *s, sv_error *err)
     return SV_OK;
 }
 
+/* The error for a spec that is not JSON, guessing at a file name sent in
+ * its place: curl's -F spec=FILE sends the name itself; -F spec=@FILE sends
+ * the file (issue 23). end: where cJSON stopped. */
+static sv_status invalid_json(const char *json, size_t len, const char *end, sv_error *err)
+{
+    size_t off = end ? (size_t)(end - json) : 0;
+    size_t k = 0, e = len;
+    while (k < len && isspace((unsigned char)json[k])) k++;
+    while (e > k && isspace((unsigned char)json[e - 1])) e--;
+    bool named = e - k >= 5 && e - k < 256 && json[k] != '{' && json[k] != '[' &&
+                 memchr(json + k, '\n', e - k) == NULL && memcmp(json + e - 5, ".json", 5) == 0;
+    if (named)
+        return sv_fail(err, SV_ERR_SPEC,
+                       "spec: invalid JSON near byte %zu: the spec part holds '%.*s', a "
+                       "file name? (curl -F spec=@FILE sends the file, -F spec=FILE the "
+                       "name)",
+                       off, (int)(e - k < 80 ? e - k : 80), json + k);
+    return sv_fail(err, SV_ERR_SPEC, "spec: invalid JSON near byte %zu", off);
+}
+
+/* "classify": material names forced to foliage or trunk. */
+static sv_status parse_classify(const cJSON *cl, sv_spec *s, sv_error *err)
+{
+    static const char *const keys[] = {"foliage", "trunk", NULL};
+    sv_status st = sv_setting_only(cl, "classify", keys, err);
+    if (!st) st = parse_names(cl, "classify", "foliage", &s->foliage, &s->foliage_count, err);
+    if (!st) st = parse_names(cl, "classify", "trunk", &s->trunk, &s->trunk_count, err);
+    return st;
+}
+
+/* "lod": the chain's tolerance, whether there is a chain, its coarsest level. */
+static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
+{
+    static const char *const keys[] = {"tolerance", "tolerance_pixels", "chain", "coarsest", NULL};
+    sv_status st = sv_setting_only(lod, "lod", keys, err);
+    if (!st) st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err);
+    if (!st)
+        st = sv_setting_number(lod, "lod", "tolerance_pixels", 0, 16384, &s->lod_tolerance_pixels,
+                               err);
+    if (!st) st = sv_setting_bool(lod, "lod", "chain", &s->lod_chain, err);
+    const cJSON *co = cJSON_GetObjectItemCaseSensitive(lod, "coarsest");
+    if (st || !co) return st;
+    const sv_method *cm = cJSON_IsString(co) ? sv_method_find(co->valuestring) : NULL;
+    bool none = cJSON_IsString(co) && strcmp(co->valuestring, "none") == 0;
+    if ((!cm && !none) || (cm && strcmp(cm->name, "stochastic") == 0))
+        return sv_fail(err, SV_ERR_SPEC, "lod.coarsest: expected \"none\" or a quad method name");
+    snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", none ? "" : cm->name);
+    return SV_OK;
+}
+
 sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
 {
     spec_defaults(s);
@@ -322,23 +367,7 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     if (len > (1u << 20)) return sv_fail(err, SV_ERR_SPEC, "spec: larger than 1 MiB");
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(json, len, &end, false);
-    if (!root) {
-        size_t off = end ? (size_t)(end - json) : 0;
-        /* A file name where the document should be: curl's -F spec=FILE
-         * sends the name itself; -F spec=@FILE sends the file (issue 23). */
-        size_t k = 0, e = len;
-        while (k < len && isspace((unsigned char)json[k])) k++;
-        while (e > k && isspace((unsigned char)json[e - 1])) e--;
-        bool named = e - k >= 5 && e - k < 256 && json[k] != '{' && json[k] != '[' &&
-                     memchr(json + k, '\n', e - k) == NULL && memcmp(json + e - 5, ".json", 5) == 0;
-        if (named)
-            return sv_fail(err, SV_ERR_SPEC,
-                           "spec: invalid JSON near byte %zu: the spec part holds '%.*s', a "
-                           "file name? (curl -F spec=@FILE sends the file, -F spec=FILE the "
-                           "name)",
-                           off, (int)(e - k < 80 ? e - k : 80), json + k);
-        return sv_fail(err, SV_ERR_SPEC, "spec: invalid JSON near byte %zu", off);
-    }
+    if (!root) return invalid_json(json, len, end, err);
     s->root = root;
     if (!cJSON_IsObject(root)) {
         st = sv_fail(err, SV_ERR_SPEC, "spec: expected a JSON object");
@@ -385,14 +414,14 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     }
     s->settings = cJSON_GetObjectItemCaseSensitive(root, s->method);
     if (!s->settings && (st = method->check(NULL, err))) goto out;
-#define SECTION(name, fn)                                                                   \
-    do {                                                                                    \
-        const cJSON *o = cJSON_GetObjectItemCaseSensitive(root, name);                      \
-        if (o && !cJSON_IsObject(o)) {                                                      \
-            st = sv_fail(err, SV_ERR_SPEC, "%s: expected an object", name);                 \
-            goto out;                                                                       \
-        }                                                                                   \
-        if (o && (st = fn(o, s, err))) goto out;                                            \
+#define SECTION(name, fn)                                                   \
+    do {                                                                    \
+        const cJSON *o = cJSON_GetObjectItemCaseSensitive(root, name);      \
+        if (o && !cJSON_IsObject(o)) {                                      \
+            st = sv_fail(err, SV_ERR_SPEC, "%s: expected an object", name); \
+            goto out;                                                       \
+        }                                                                   \
+        if (o && (st = fn(o, s, err))) goto out;                            \
     } while (0)
     SECTION("scene", parse_scene);
     SECTION("import", parse_import);
@@ -400,42 +429,15 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     SECTION("evaluate", parse_evaluate);
 #undef SECTION
     const cJSON *cl = cJSON_GetObjectItemCaseSensitive(root, "classify");
-    if (cl) {
-        static const char *const keys[] = {"foliage", "trunk", NULL};
-        if ((st = sv_setting_only(cl, "classify", keys, err))) goto out;
-        if ((st = parse_names(cl, "classify", "foliage", &s->foliage, &s->foliage_count, err)))
-            goto out;
-        if ((st = parse_names(cl, "classify", "trunk", &s->trunk, &s->trunk_count, err)))
-            goto out;
-    }
+    if (cl && (st = parse_classify(cl, s, err))) goto out;
     const cJSON *lod = cJSON_GetObjectItemCaseSensitive(root, "lod");
-    if (lod) {
-        static const char *const keys[] = {"tolerance", "tolerance_pixels", "chain", "coarsest",
-                                           NULL};
-        if ((st = sv_setting_only(lod, "lod", keys, err))) goto out;
-        if ((st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err)))
-            goto out;
-        if ((st = sv_setting_number(lod, "lod", "tolerance_pixels", 0, 16384,
-                                    &s->lod_tolerance_pixels, err)))
-            goto out;
-        if ((st = sv_setting_bool(lod, "lod", "chain", &s->lod_chain, err))) goto out;
-        const cJSON *co = cJSON_GetObjectItemCaseSensitive(lod, "coarsest");
-        if (co) {
-            const sv_method *cm = cJSON_IsString(co) ? sv_method_find(co->valuestring) : NULL;
-            bool none = cJSON_IsString(co) && strcmp(co->valuestring, "none") == 0;
-            if ((!cm && !none) || (cm && strcmp(cm->name, "stochastic") == 0)) {
-                st = sv_fail(err, SV_ERR_SPEC,
-                             "lod.coarsest: expected \"none\" or a quad method name");
-                goto out;
-            }
-            snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", none ? "" : cm->name);
-        }
-    }
+    if (lod && (st = parse_lod(lod, s, err))) goto out;
     const cJSON *tg = cJSON_GetObjectItemCaseSensitive(root, "target");
     if (tg && (st = parse_target(tg, s, err))) goto out;
     const cJSON *seed = cJSON_GetObjectItemCaseSensitive(root, "seed");
     if (seed) {
-        if (!cJSON_IsNumber(seed) || seed->valuedouble < 0 || seed->valuedouble > 9007199254740991.0 ||
+        if (!cJSON_IsNumber(seed) || seed->valuedouble < 0 ||
+            seed->valuedouble > 9007199254740991.0 ||
             seed->valuedouble != floor(seed->valuedouble)) {
             st = sv_fail(err, SV_ERR_SPEC, "seed: expected an integer in [0, 2^53)");
             goto out;
