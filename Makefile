@@ -139,7 +139,8 @@ $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
 # The client links libsylva statically and nothing of core.
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm
-$(BUILD)/sylva-bake: $(CLI_C:%.c=$(BUILD)/%.o) $(LIBCORE)
+# the image plugin with it: a sylva-bake without libsvimage.so beside it cannot decode a texture
+$(BUILD)/sylva-bake: $(CLI_C:%.c=$(BUILD)/%.o) $(LIBCORE) | $(PLUGIN)
 	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)
