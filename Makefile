@@ -25,10 +25,21 @@ SAN_FLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-fr
 endif
 OPT      ?= -O2 -g
 WARN     := -Wall -Wextra -Werror
-CPPFLAGS_SV = -Icore/include -Iserver -Iclient -Icommon -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+# Each part sees only the headers it may use (docs/design.md, "Source
+# layout"): the client its own and common/ (never core), core its own and
+# common/, the server its own, core's and common/; tests and tools everything.
+INC_ALL    := -Icore/include -Iserver -Iclient -Icommon
+INC         = $(INC_ALL)
+CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+$(BUILD)/client/%.o $(BUILD)/pic/client/%.o: INC = -Iclient -Icommon
+$(BUILD)/core/%.o $(BUILD)/pic/core/%.o $(BUILD)/fuzz/obj/core/%.o: INC = -Icore/include -Icommon
+$(BUILD)/server/%.o $(BUILD)/fuzz/obj/server/%.o: INC = -Iserver -Icore/include -Icommon
 SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(SAN_FLAGS)
 SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
 LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
+# sylva-bake links what core uses, not the daemon's, the client's or the tests'
+LDLIBS_BAKE = $(eval LDLIBS_BAKE := $(shell pkg-config --libs assimp osmesa libcjson libseccomp libpng \
+              2>/dev/null) -lmeshoptimizer -lpthread -lm)$(LDLIBS_BAKE)
 
 
 # core/ in folders that follow a bake (docs/design.md, "Source layout"):
@@ -141,7 +152,7 @@ $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm
 # the image plugin with it: a sylva-bake without libsvimage.so beside it cannot decode a texture
 $(BUILD)/sylva-bake: $(CLI_C:%.c=$(BUILD)/%.o) $(LIBCORE) | $(PLUGIN)
-	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_SV)
+	$(CXX) $(SV_CXXFLAGS) $(LDFLAGS) -o $@ $^ $(LDLIBS_BAKE)
 
 $(BUILD)/tests/%: $(BUILD)/tests/unit/%.o $(LIBSERVER) $(LIBCLI) $(LIBSYLVA) $(LIBCORE)
 	@mkdir -p $(@D)
