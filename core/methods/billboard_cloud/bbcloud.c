@@ -918,6 +918,17 @@ static bool append_tris(const pass *p, const uint32_t *set, uint32_t ns, runout 
     return true;
 }
 
+/* Whether triangle tri is valid for the plane (n, rho): each vertex within
+ * the pass's ε (+ tolerance) of it (§3.3.6's "faces valid for" a plane). */
+static bool tri_within(const base *b, const pass *p, uint32_t tri, const double n[3], double rho)
+{
+    const uint32_t *ix = &b->in->indices[3 * (size_t)tri];
+    for (int v = 0; v < 3; v++)
+        if (!(fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], n) - rho) <= p->eps + p->tol))
+            return false;
+    return true;
+}
+
 /* Cardboard plane (§3.3.6): two planes perpendicular to the primary, through
  * the centroid of its faces projected onto it, parallel to the edges of its
  * bounding rectangle; coverage = projected area of the primary's faces valid
@@ -959,12 +970,7 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
         for (uint32_t k = 0; k < ns; k++) {
             const elem *e = &p->el[set[k]];
             for (uint32_t t = 0; t < e->tcount; t++) {
-                const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
-                bool ok = true;
-                for (int v = 0; v < 3 && ok; v++)
-                    ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], cn) - cr) <=
-                         p->eps + p->tol;
-                if (!ok) continue;
+                if (!tri_within(b, p, e->tris[t], cn, cr)) continue;
                 double tn[3];
                 double ta = tri_geom(b, p->pos, e->tris[t], tn);
                 cov += ta * fabs(sv_dot3(tn, cn));
@@ -995,12 +1001,7 @@ static sv_status cardboard(pass *p, const uint32_t *set, uint32_t ns, const doub
     for (uint32_t k = 0; k < ns; k++) {
         const elem *e = &p->el[set[k]];
         for (uint32_t t = 0; t < e->tcount; t++) {
-            const uint32_t *ix = &b->in->indices[3 * (size_t)e->tris[t]];
-            bool ok = true;
-            for (int v = 0; v < 3 && ok; v++)
-                ok = fabs(sv_dot3(&p->pos[3 * (size_t)b->canon[ix[v]]], bn) - brho) <=
-                     p->eps + p->tol;
-            if (!ok) continue;
+            if (!tri_within(b, p, e->tris[t], bn, brho)) continue;
             double tn[3];
             cp->area += tri_geom(b, b->rel, e->tris[t], tn);
             r->tris[r->ntris++] = e->tris[t];
