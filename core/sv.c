@@ -2,9 +2,12 @@
 #define _POSIX_C_SOURCE 200809L
 #include "sv.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 static const struct {
     const char *code;
@@ -81,4 +84,22 @@ double sv_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+sv_status sv_write_file(const char *path, const void *data, size_t size, sv_error *err)
+{
+    size_t plen = strlen(path);
+    char *tmp = malloc(plen + 5);
+    if (!tmp) return sv_fail(err, SV_ERR_NOMEM, "cannot write %s: out of memory", path);
+    memcpy(tmp, path, plen);
+    memcpy(tmp + plen, ".tmp", 5);
+    FILE *f = fopen(tmp, "wb");
+    int e = f ? 0 : errno;
+    if (f && fwrite(data, 1, size, f) != size) e = errno ? errno : EIO;
+    if (f && fclose(f) != 0 && !e) e = errno ? errno : EIO;
+    if (!e && rename(tmp, path) != 0) e = errno;
+    if (e && f) unlink(tmp);
+    free(tmp);
+    if (e) return sv_fail(err, SV_ERR_IO, "cannot write %s: %s", path, strerror(e));
+    return SV_OK;
 }

@@ -80,4 +80,8 @@ void *sv_calloc(size_t a, size_t b);
 /* Monotonic clock in seconds (for per-stage timings). */
 double sv_now(void);
 
+/* Writes size bytes to path through path.tmp and a rename, so no reader ever
+ * sees a partial file. SV_ERR_IO naming the path and the system's reason. */
+sv_status sv_write_file(const char *path, const void *data, size_t size, sv_error *err);
+
 #endif

@@ -13,7 +13,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define GLB_MAGIC 0x46546C67u      /* "glTF" */
 #define GLB_CHUNK_JSON 0x4E4F534Au /* "JSON" */
@@ -685,27 +684,6 @@ out:
     return st;
 }
 
-/* Writes bytes to path through path.tmp and a rename (no partial file). */
-static sv_status write_bytes(const char *path, const uint8_t *data, size_t size, sv_error *err)
-{
-    size_t plen = strlen(path);
-    char *tmp = malloc(plen + 5);
-    if (!tmp) return sv_fail(err, SV_ERR_NOMEM, "glTF writer: out of memory");
-    memcpy(tmp, path, plen);
-    memcpy(tmp + plen, ".tmp", 5);
-    FILE *f = fopen(tmp, "wb");
-    bool ok = f && fwrite(data, 1, size, f) == size;
-    if (f && fclose(f) != 0) ok = false;
-    if (ok && rename(tmp, path) != 0) ok = false;
-    sv_status st = SV_OK;
-    if (!ok) {
-        if (f) unlink(tmp);
-        st = sv_fail(err, SV_ERR_IO, "glTF writer: cannot write %s", path);
-    }
-    free(tmp);
-    return st;
-}
-
 sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
                             sv_error *err)
 {
@@ -713,7 +691,7 @@ sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t 
     size_t size;
     sv_status st = sv_gltf_encode_glb(lods, lod_count, &data, &size, err);
     if (st != SV_OK) return st;
-    st = write_bytes(path, data, size, err);
+    st = sv_write_file(path, data, size, err);
     free(data);
     return st;
 }
@@ -736,7 +714,7 @@ sv_status sv_gltf_write_level_glb(const char *path, const sv_gltf_lod *lod, sv_e
     size_t size;
     sv_status st = sv_gltf_encode_level_glb(lod, &data, &size, err);
     if (st != SV_OK) return st;
-    st = write_bytes(path, data, size, err);
+    st = sv_write_file(path, data, size, err);
     free(data);
     return st;
 }

@@ -14,10 +14,8 @@
  */
 #include "image.h"
 
-#include <errno.h>
 #include <png.h>
 #include <setjmp.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -140,15 +138,7 @@ sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *er
     size_t n = 0;
     sv_status st = sv_image_encode_png(img, &bytes, &n, err);
     if (st != SV_OK) return st;
-    FILE *f = fopen(path, "wb");
-    if (!f) {
-        free(bytes);
-        return sv_fail(err, SV_ERR_IO, "cannot open '%s' for writing: %s", path, strerror(errno));
-    }
-    size_t w = fwrite(bytes, 1, n, f);
-    int close_failed = fclose(f);
+    st = sv_write_file(path, bytes, n, err);
     free(bytes);
-    if (w != n || close_failed)
-        return sv_fail(err, SV_ERR_IO, "cannot write '%s' (%zu of %zu bytes written)", path, w, n);
-    return SV_OK;
+    return st;
 }

@@ -112,6 +112,10 @@ static void png_encoding_is_deterministic_and_write_matches_encode(void **state)
     close(fd);
     sv_error err = {0};
     assert_int_equal(sv_image_write_png(&img, path, &err), SV_OK);
+    /* written through path.tmp and a rename (sv_write_file): none left */
+    char tmp[sizeof path + 4];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    assert_int_not_equal(access(tmp, F_OK), 0);
     FILE *f = fopen(path, "rb");
     assert_non_null(f);
     uint8_t *c = malloc(n1 + 16);
