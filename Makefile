@@ -15,9 +15,10 @@ PKGS     := assimp OpenImageIO osmesa libcjson libmicrohttpd libcurl libcrypto c
 PKG_CFLAGS = $(eval PKG_CFLAGS := $(shell pkg-config --cflags $(PKGS) 2>/dev/null | sed 's/-I/-isystem /g'))$(PKG_CFLAGS)
 # Programs link every package but OpenImageIO, whose 261 libraries cost
 # ~0.7 s and ~130 MB at every start: the decoding plugin libsvimage.so links
-# it and is dlopen'ed on the first decode (core/io/image_plugin.c); PNGs are
-# written with libpng.
-PKGS_LINK  := $(filter-out OpenImageIO,$(PKGS)) libpng
+# it and is dlopen'ed on the first decode of a format other than PNG and JPEG
+# (core/io/image_plugin.c); PNGs are written and read with libpng, JPEGs read
+# with libjpeg (core/io/image_decode.c).
+PKGS_LINK  := $(filter-out OpenImageIO,$(PKGS)) libpng libjpeg
 PKG_LIBS   = $(eval PKG_LIBS := $(shell pkg-config --libs $(PKGS_LINK) 2>/dev/null) -lmeshoptimizer)$(PKG_LIBS)
 
 ifeq ($(SANITIZE),1)
@@ -38,7 +39,7 @@ SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOUR
 SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
 LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
 # sylva-bake links what core uses, not the daemon's, the client's or the tests'
-LDLIBS_BAKE = $(eval LDLIBS_BAKE := $(shell pkg-config --libs assimp osmesa libcjson libseccomp libpng \
+LDLIBS_BAKE = $(eval LDLIBS_BAKE := $(shell pkg-config --libs assimp osmesa libcjson libseccomp libpng libjpeg \
               2>/dev/null) -lmeshoptimizer -lpthread -lm)$(LDLIBS_BAKE)
 
 

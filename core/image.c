@@ -3,6 +3,7 @@
 #include "image.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,21 +24,46 @@ sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channel
         return sv_fail(err, SV_ERR_NOMEM, "image %ux%u with %u channels overflows size_t", w, h,
                        channels);
     void *data = calloc(n ? n : 1, 1);
-    if (!data)
+    atomic_uint *refs = malloc(sizeof *refs);
+    if (!data || !refs) {
+        free(data);
+        free(refs);
         return sv_fail(err, SV_ERR_NOMEM, "cannot allocate a %ux%u image (%zu bytes)", w, h, n);
+    }
+    atomic_init(refs, 1u);
     img->width = w;
     img->height = h;
     img->channels = channels;
     img->bits = bits;
     img->data = data;
+    img->refs = refs;
     return SV_OK;
 }
 
 void sv_image_free(sv_image *img)
 {
     if (!img) return;
-    free(img->data);
+    atomic_uint *refs = img->refs;
+    if (!refs || atomic_fetch_sub_explicit(refs, 1u, memory_order_acq_rel) == 1u) {
+        free(img->data);
+        free(refs);
+    }
     memset(img, 0, sizeof *img);
+}
+
+sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
+{
+    memset(dst, 0, sizeof *dst);
+    if (!src->data) return SV_OK;
+    if (!src->refs) { /* pixels made elsewhere: a copy of its own */
+        sv_status st = sv_image_alloc(dst, src->width, src->height, src->channels, src->bits, err);
+        if (st) return st;
+        memcpy(dst->data, src->data, sv_image_stride(src) * src->height);
+        return SV_OK;
+    }
+    atomic_fetch_add_explicit((atomic_uint *)src->refs, 1u, memory_order_relaxed);
+    *dst = *src;
+    return SV_OK;
 }
 
 size_t sv_image_stride(const sv_image *img)
@@ -96,4 +122,23 @@ sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err)
         if (st != SV_OK) return st;
     }
     return SV_OK;
+}
+
+sv_status sv_png_check_chunks(const uint8_t *d, size_t n, const char *name, sv_error *err)
+{
+    size_t off = 8;
+    while (true) {
+        if (n < off || n - off < 12)
+            return sv_fail(err, SV_ERR_PARSE, "image '%s' is a truncated PNG (%zu bytes, no IEND)",
+                           name, n);
+        uint32_t len = (uint32_t)d[off] << 24 | (uint32_t)d[off + 1] << 16 |
+                       (uint32_t)d[off + 2] << 8 | d[off + 3];
+        if (len > 0x7fffffffu || (size_t)len > n - off - 12)
+            return sv_fail(err, SV_ERR_PARSE,
+                           "image '%s' is a truncated PNG (chunk at byte %zu says %u bytes)", name,
+                           off, len);
+        bool iend = memcmp(d + off + 4, "IEND", 4) == 0;
+        off += 12 + (size_t)len;
+        if (iend) return SV_OK;
+    }
 }

@@ -175,16 +175,6 @@ void sv_mesh_compute_normals(sv_mesh *m)
     free(acc);
 }
 
-sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
-{
-    memset(dst, 0, sizeof *dst);
-    if (!src->data) return SV_OK;
-    sv_status st = sv_image_alloc(dst, src->width, src->height, src->channels, src->bits, err);
-    if (st) return st;
-    memcpy(dst->data, src->data, sv_image_stride(src) * src->height);
-    return SV_OK;
-}
-
 sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count, sv_mesh **out,
                          sv_error *err)
 {
@@ -276,4 +266,40 @@ sv_status sv_mesh_merge(const sv_mesh *a, const sv_mesh *b, sv_mesh **out, sv_er
     }
     *out = m;
     return SV_OK;
+}
+
+static bool same_bytes(const void *a, const void *b, size_t n)
+{
+    return n == 0 || a == b || (a && b && memcmp(a, b, n) == 0);
+}
+
+bool sv_mesh_draws_same(const sv_mesh *a, const sv_mesh *b)
+{
+    if (!a || !b) return a == b;
+    if (a->vertex_count != b->vertex_count || a->triangle_count != b->triangle_count ||
+        a->material_count != b->material_count || a->image_count != b->image_count)
+        return false;
+    size_t nv = a->vertex_count, nt = a->triangle_count;
+    if (!same_bytes(a->positions, b->positions, 3 * nv * sizeof(float)) ||
+        !same_bytes(a->normals, b->normals, 3 * nv * sizeof(float)) ||
+        !same_bytes(a->uvs, b->uvs, 2 * nv * sizeof(float)) ||
+        !same_bytes(a->indices, b->indices, 3 * nt * sizeof(uint32_t)) ||
+        !same_bytes(a->tri_material, b->tri_material, nt * sizeof(uint32_t)))
+        return false;
+    for (uint32_t i = 0; i < a->material_count; i++) {
+        const sv_material *x = &a->materials[i], *y = &b->materials[i];
+        if (memcmp(x->base_color, y->base_color, sizeof x->base_color) != 0 ||
+            x->base_texture != y->base_texture || x->normal_texture != y->normal_texture ||
+            x->occlusion_texture != y->occlusion_texture || x->alpha_mode != y->alpha_mode ||
+            x->alpha_cutoff != y->alpha_cutoff || x->double_sided != y->double_sided ||
+            x->unlit != y->unlit)
+            return false;
+    }
+    for (uint32_t i = 0; i < a->image_count; i++) {
+        const sv_image *x = &a->images[i], *y = &b->images[i];
+        if (x->width != y->width || x->height != y->height || x->channels != y->channels ||
+            x->bits != y->bits || !same_bytes(x->data, y->data, sv_image_stride(x) * x->height))
+            return false;
+    }
+    return true;
 }

@@ -544,10 +544,24 @@ static bool name_ends_ci(const char *name, const char *suffix)
     return n >= k && strcasecmp(name + n - k, suffix) == 0;
 }
 
-/* Whether a bake of these files (the mesh first) may decode an image: any
- * companion but .mtl, or a mesh format that can embed textures (anything but
- * OBJ, PLY, STL), judged by the names. */
-static bool may_hold_images(char **paths, int n)
+/* Whether the file starts as a PNG or a JPEG does: image_decode.c reads
+ * those without the plugin. */
+static bool png_or_jpeg(const char *path)
+{
+    uint8_t b[8] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f) return false;
+    size_t n = fread(b, 1, sizeof b, f);
+    fclose(f);
+    return (n == 8 && memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0) ||
+           (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF);
+}
+
+/* Whether a bake of these files (the mesh first) may need the image plugin:
+ * a companion that is neither .mtl nor a PNG or JPEG by its first bytes, or a
+ * mesh format that can embed textures of any format (anything but OBJ, PLY,
+ * STL), judged by its name. */
+static bool may_need_plugin(char **paths, int n)
 {
     static const char *const plain[] = {".obj", ".ply", ".stl"};
     bool plain_mesh = false;
@@ -555,7 +569,7 @@ static bool may_hold_images(char **paths, int n)
         plain_mesh |= name_ends_ci(paths[0], plain[k]);
     if (!plain_mesh) return true;
     for (int i = 1; i < n; i++)
-        if (!name_ends_ci(paths[i], ".mtl")) return true;
+        if (!name_ends_ci(paths[i], ".mtl") && !png_or_jpeg(paths[i])) return true;
     return false;
 }
 
@@ -639,11 +653,12 @@ static int cmd_bake(int argc, char **argv)
      * without it (outputs are the same; llvmpipe compiles its few shaders). */
     if (sandbox) setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
     /* The image plugin (OpenImageIO, dlopen'ed: image.h) before the sandbox
-     * when the upload may hold a texture, so that its libraries' initialisers
-     * run outside the filter (one of them reports "insecure memory" under
-     * it); an OBJ, PLY or STL with at most .mtl companions cannot. A plugin
-     * that cannot load is reported by the decode that needs it. */
-    if (sandbox && may_hold_images(paths, n)) {
+     * when the upload may hold a texture it decodes, so that its libraries'
+     * initialisers run outside the filter (one of them reports "insecure
+     * memory" under it); an OBJ, PLY or STL whose companions are .mtl, PNG
+     * or JPEG cannot (those two are decoded in process). A plugin that
+     * cannot load is reported by the decode that needs it. */
+    if (sandbox && may_need_plugin(paths, n)) {
         sv_error pe = {0};
         (void)sv_image_plugin_load(&pe);
     }

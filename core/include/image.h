@@ -1,7 +1,9 @@
-/* image.h — images in memory; decoding through the OpenImageIO plugin
- * (libsvimage.so, built from core/io/image_oiio.cpp, the only C++ file, which
- * catches every exception and copies the text into sv_error; loaded on first
- * use by core/io/image_plugin.c), PNG encoding with libpng (core/io/image_png.c).
+/* image.h — images in memory; decoding of PNG and JPEG with libpng and
+ * libjpeg (core/io/image_decode.c), of every other format through the
+ * OpenImageIO plugin (libsvimage.so, built from core/io/image_oiio.cpp, the
+ * only C++ file, which catches every exception and copies the text into
+ * sv_error; loaded on first use by core/io/image_plugin.c), PNG encoding with
+ * libpng (core/io/image_png.c).
  *
  * Pixels are stored row-major, top row first, interleaved channels, with either
  * 8 bits (uint8) or 16 bits (uint16, native endian) per channel.
@@ -15,15 +17,29 @@ typedef struct sv_image {
     uint32_t width, height;
     uint32_t channels; /* 1..4 */
     uint32_t bits;     /* 8 or 16 */
-    void *data;        /* width*height*channels*(bits/8) bytes, owned */
+    void *data;        /* width*height*channels*(bits/8) bytes, owned (with the
+                          image's copies: sv_image_copy) */
+    void *refs;        /* how many images own data (image.c); NULL: data was not
+                          made by sv_image_alloc and is this image's alone */
 } sv_image;
 
 /* Allocates a zeroed image. Returns SV_ERR_NOMEM on overflow/failure. */
 sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels, uint32_t bits,
                          sv_error *err);
 
-/* Frees img->data and zeroes the struct. NULL is fine. */
+/* Releases img's pixels (freed with their last owner) and zeroes the
+ * struct. NULL is fine. */
 void sv_image_free(sv_image *img);
+
+/* dst (overwritten) becomes a copy of src that shares its pixels: a tree's
+ * 1024² textures were copied into every level's mesh (issue 20: 170 MB of
+ * the ez-tree pine's peak). The count is atomic, so copies may be made and
+ * freed on any thread. Pixels of an image that has copies are read-only:
+ * whoever changes an image makes new pixels (as sv_image_reduce does); no
+ * code writes into an image after copying it (docs/design.md). src without
+ * data gives a zeroed dst. Pixels not made by sv_image_alloc (refs NULL) are
+ * copied instead, which can fail with SV_ERR_NOMEM. */
+sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err);
 
 /* Bytes per row. */
 size_t sv_image_stride(const sv_image *img);
@@ -44,9 +60,11 @@ sv_status sv_image_plugin_load(sv_error *err);
  * loaded or has no such symbol. */
 void *sv_image_plugin_symbol(const char *name);
 
-/* Decodes PNG/JPEG/TGA (anything OIIO reads from memory) into RGBA8.
- * `name` is only used for messages and as a format hint. Images larger than
- * max_size on a side are refused with SV_ERR_LIMIT. */
+/* Decodes PNG/JPEG/TGA (anything OIIO reads from memory) into RGBA8, straight
+ * alpha (255 where the image has none). `name` is only used for messages and
+ * as a format hint. Images larger than max_size on a side (0: 16384) are
+ * refused with SV_ERR_LIMIT. PNG and JPEG are decoded in process (the same
+ * pixels as the plugin gives), the rest by the plugin. */
 sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
                                 sv_image *out, sv_error *err);
 
@@ -54,6 +72,19 @@ sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name,
  * into a 1-channel 16-bit image (depth maps). SV_ERR_FORMAT for other formats. */
 sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
                                  sv_image *out, sv_error *err);
+
+/* The plugin's own decoders, as the two above for every format (PNG and
+ * JPEG through OIIO too): the fallback for the formats image_decode.c does
+ * not read, and the comparison in the tests. */
+sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char *name,
+                                       uint32_t max_size, sv_image *out, sv_error *err);
+sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,
+                                        uint32_t max_size, sv_image *out, sv_error *err);
+
+/* Walks a PNG's chunk list (length, type, data, CRC) up to IEND without
+ * decoding: SV_ERR_PARSE naming `name` when it is cut short (a clear message
+ * before libpng reports a short read). d starts with the PNG signature. */
+sv_status sv_png_check_chunks(const uint8_t *d, size_t n, const char *name, sv_error *err);
 
 /* Writes img as PNG (8 or 16 bits) to path. Deterministic: same pixels, same bytes. */
 sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *err);

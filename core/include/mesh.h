@@ -51,6 +51,14 @@ sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count, uint32_t
 /* Frees the mesh, its arrays and images. NULL is fine. */
 void sv_mesh_destroy(sv_mesh *mesh);
 
+/* Whether a and b draw the same: equal counts, vertex arrays, indices and
+ * per-triangle materials, materials equal in every field a renderer reads
+ * (colour, texture slots, alpha mode and cutoff, sides, unlit; not the
+ * names), images equal in size and pixels (the same shared pixels, or equal
+ * bytes). A level whose mesh draws as an earlier level's is measured once
+ * (issue 20). NULL equals only NULL. */
+bool sv_mesh_draws_same(const sv_mesh *a, const sv_mesh *b);
+
 /* Sets a material to glTF defaults: white, no textures, opaque, cutoff 0.5,
  * single-sided, empty name. */
 void sv_material_init(sv_material *m);
@@ -87,8 +95,5 @@ sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t coun
 /* New mesh with the triangles of a followed by those of b (either may be NULL);
  * b's material and image indices are offset past a's. */
 sv_status sv_mesh_merge(const sv_mesh *a, const sv_mesh *b, sv_mesh **out, sv_error *err);
-
-/* Deep copy of an image (NULL data copies as empty). */
-sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err);
 
 #endif

@@ -84,29 +84,6 @@ const char *image_format(const uint8_t *d, size_t n, const char *name)
     return nullptr;
 }
 
-/* Walks a PNG's chunk list (length, type, data, CRC) up to IEND without
- * decoding. A truncated PNG is refused here, with a clear message, before libpng
- * sees it: libpng reports a short read by longjmp-ing through OIIO's read
- * callback, which leaks the callback's error string. */
-sv_status check_png_chunks(const uint8_t *d, size_t n, const char *name, sv_error *err)
-{
-    size_t off = 8;
-    while (true) {
-        if (n - off < 12)
-            return sv_fail(err, SV_ERR_PARSE, "image '%s' is a truncated PNG (%zu bytes, no IEND)",
-                           name, n);
-        uint32_t len = (uint32_t)d[off] << 24 | (uint32_t)d[off + 1] << 16 |
-                       (uint32_t)d[off + 2] << 8 | d[off + 3];
-        if (len > 0x7fffffffu || (size_t)len > n - off - 12)
-            return sv_fail(err, SV_ERR_PARSE,
-                           "image '%s' is a truncated PNG (chunk at byte %zu says %u bytes)", name,
-                           off, len);
-        bool iend = std::memcmp(d + off + 4, "IEND", 4) == 0;
-        off += 12 + (size_t)len;
-        if (iend) return SV_OK;
-    }
-}
-
 /* Expands n pixels of `ch` interleaved 8-bit channels into RGBA8. */
 void expand_rgba8(const uint8_t *src, int ch, int alpha_channel, size_t n, uint8_t *dst)
 {
@@ -248,7 +225,7 @@ sv_status decode_any(const void *data, size_t size, const char *name, uint32_t m
         if (gray16 && std::strcmp(fmt, "png") != 0)
             return sv_fail(err, SV_ERR_FORMAT, "image '%s' is not a PNG", name);
         if (std::strcmp(fmt, "png") == 0) {
-            sv_status st = check_png_chunks(d, size, name, err);
+            sv_status st = sv_png_check_chunks(d, size, name, err);
             if (st != SV_OK) return st;
         }
         bool fallback = false;

@@ -1,5 +1,6 @@
 /* image_plugin.c — texture decoding through the OpenImageIO plugin, loaded on
- * first use (see image.h).
+ * first use (see image.h): the formats other than PNG and JPEG, which
+ * image_decode.c reads with libpng and libjpeg.
  *
  * Debian's OpenImageIO links 261 shared libraries (OpenVDB, GDAL, Poppler,
  * ...): linked into sylva-bake they cost ~0.7 s and ~130 MB of RSS at every
@@ -100,16 +101,16 @@ void *sv_image_plugin_symbol(const char *name)
     return handle ? dlsym(handle, name) : NULL;
 }
 
-sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
-                                sv_image *out, sv_error *err)
+sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char *name,
+                                       uint32_t max_size, sv_image *out, sv_error *err)
 {
     if (out) memset(out, 0, sizeof *out);
     sv_status st = sv_image_plugin_load(err);
     return st != SV_OK ? st : decode_rgba8(data, size, name, max_size, out, err);
 }
 
-sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
-                                 sv_image *out, sv_error *err)
+sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,
+                                        uint32_t max_size, sv_image *out, sv_error *err)
 {
     if (out) memset(out, 0, sizeof *out);
     sv_status st = sv_image_plugin_load(err);

@@ -36,6 +36,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "image.h"
 #include "render.h"
 
 #define SV_RENDER_THREADS "2"
@@ -50,6 +51,17 @@ struct sv_renderer {
     uint32_t fb_w, fb_h; /* allocated size of the renderbuffers */
     GLuint ibo;          /* per-call index buffer (subset draws) */
     bool pack_invert;    /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
+    /* Textures shared by the meshes whose images share pixels (sv_image_copy):
+     * a tree's textures were uploaded again for every level (issue 20: 73 MB
+     * of the ez-tree pine's peak). Each entry holds a copy of its image, so
+     * the pixels, whose address is the key, cannot be freed and reused while
+     * the texture lives. */
+    struct tex_entry {
+        sv_image img;
+        GLuint tex;
+        uint32_t users;
+    } * tex_cache;
+    uint32_t tex_count, tex_cap;
 };
 
 struct sv_gpu_mesh {
@@ -267,13 +279,16 @@ void sv_renderer_destroy(sv_renderer *r)
         if (r->rb_color) glDeleteRenderbuffers(1, &r->rb_color);
         if (r->rb_depth) glDeleteRenderbuffers(1, &r->rb_depth);
         if (r->ibo) glDeleteBuffers(1, &r->ibo);
+        for (uint32_t i = 0; i < r->tex_count; i++) glDeleteTextures(1, &r->tex_cache[i].tex);
     }
+    for (uint32_t i = 0; i < r->tex_count; i++) sv_image_free(&r->tex_cache[i].img);
+    free(r->tex_cache);
     OSMesaMakeCurrent(NULL, NULL, 0, 0, 0);
     OSMesaDestroyContext(r->ctx);
     free(r);
 }
 
-static GLuint upload_texture(const sv_image *img)
+static GLuint upload_texture_gl(const sv_image *img)
 {
     if (!img->data || img->width == 0 || img->height == 0 || img->channels < 1 ||
         img->channels > 4 || (img->bits != 8 && img->bits != 16))
@@ -294,6 +309,50 @@ static GLuint upload_texture(const sv_image *img)
                  (GLsizei)img->height, 0, fmt,
                  img->bits == 8 ? GL_UNSIGNED_BYTE : GL_UNSIGNED_SHORT, img->data);
     return t;
+}
+
+/* img's texture: the renderer's, when an image sharing its pixels was
+ * uploaded before (one more user), else a new one (cached when its pixels
+ * are shareable). 0 when the image is unusable. */
+static GLuint upload_texture(sv_renderer *r, const sv_image *img)
+{
+    for (uint32_t i = 0; img->refs && i < r->tex_count; i++) {
+        const sv_image *c = &r->tex_cache[i].img;
+        if (c->data == img->data && c->width == img->width && c->height == img->height &&
+            c->channels == img->channels && c->bits == img->bits) {
+            r->tex_cache[i].users++;
+            return r->tex_cache[i].tex;
+        }
+    }
+    GLuint t = upload_texture_gl(img);
+    if (!t || !img->refs) return t;
+    if (r->tex_count == r->tex_cap) {
+        uint32_t cap = r->tex_cap ? 2 * r->tex_cap : 8;
+        struct tex_entry *e = realloc(r->tex_cache, cap * sizeof *e);
+        if (!e) return t; /* not shared, still usable */
+        r->tex_cache = e;
+        r->tex_cap = cap;
+    }
+    struct tex_entry *e = &r->tex_cache[r->tex_count];
+    if (sv_image_copy(img, &e->img, NULL) != SV_OK) return t;
+    e->tex = t;
+    e->users = 1;
+    r->tex_count++;
+    return t;
+}
+
+/* Releases one user of texture t (deleted with its last). */
+static void release_texture(sv_renderer *r, GLuint t)
+{
+    for (uint32_t i = 0; i < r->tex_count; i++) {
+        if (r->tex_cache[i].tex != t) continue;
+        if (--r->tex_cache[i].users > 0) return;
+        glDeleteTextures(1, &t);
+        sv_image_free(&r->tex_cache[i].img);
+        r->tex_cache[i] = r->tex_cache[--r->tex_count];
+        return;
+    }
+    glDeleteTextures(1, &t);
 }
 
 sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out, sv_error *err)
@@ -353,7 +412,7 @@ sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **
                                "render: texture %u is %ux%u, over the renderer's %d", i, img->width,
                                img->height, max_tex);
             }
-            g->textures[i] = upload_texture(img);
+            g->textures[i] = upload_texture(r, img);
         }
     }
     sv_status st = gl_check(err, "mesh upload");
@@ -371,7 +430,7 @@ void sv_gpu_mesh_free(sv_gpu_mesh *g)
     if (make_current(g->r)) {
         if (g->vbo) glDeleteBuffers(1, &g->vbo);
         for (uint32_t i = 0; i < g->texture_count; i++)
-            if (g->textures[i]) glDeleteTextures(1, &g->textures[i]);
+            if (g->textures[i]) release_texture(g->r, g->textures[i]);
     }
     free(g->textures);
     free(g);

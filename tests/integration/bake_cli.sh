@@ -96,15 +96,26 @@ set +e
 "$bake" bake "$oak/oak_large.obj" 2> /dev/null; rc=$?
 set -e
 [ $rc = 2 ] || fail "missing --out: exit $rc, expected 2"
-# the image decoder is a plugin (docs/design.md): none at all is an
-# installation error naming it, never textures silently dropped; an
-# untextured bake does not need it
+# the image decoder of formats other than PNG and JPEG is a plugin
+# (docs/design.md): none at all is an installation error naming it when a
+# texture needs it (a TGA here), never textures silently dropped; PNG and JPEG
+# textures (the oak's) and an untextured bake do not need it
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nmtllib tga.mtl\nusemtl leaf\nf 1/1 2/2 3/3\n' > "$tmp/tga.obj"
+printf 'newmtl leaf\nKd 1 1 1\nmap_Kd tex.tga\n' > "$tmp/tga.mtl"
+# an uncompressed 2x2 true-colour TGA (18-byte header, 4 BGR pixels)
+printf '\000\000\002\000\000\000\000\000\000\000\000\000\002\000\002\000\030\000\377\000\000\000\377\000\000\000\377\377\377\377' > "$tmp/tex.tga"
+"$bake" bake "$tmp/tga.obj" "$tmp/tga.mtl" "$tmp/tex.tga" --spec "$tmp/quick.json" --out "$tmp/tga" \
+    --progress none || fail "a TGA-textured bake with the plugin"
 set +e
-SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake $files --spec "$tmp/quick.json" \
-    --out "$tmp/np" --progress none 2> "$tmp/np.err"; rc=$?
+SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake "$tmp/tga.obj" "$tmp/tga.mtl" "$tmp/tex.tga" \
+    --spec "$tmp/quick.json" --out "$tmp/np" --progress none 2> "$tmp/np.err"; rc=$?
 set -e
 [ $rc = 1 ] && grep -q "image decoder (OpenImageIO plugin) cannot be loaded: /nonexistent/libsvimage.so" "$tmp/np.err" &&
     grep -q '"code":"internal"' "$tmp/np/error.json" || fail "no image plugin: exit $rc, $(cat "$tmp/np.err")"
+# shellcheck disable=SC2086
+SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake $files --spec "$tmp/quick.json" \
+    --out "$tmp/np3" --progress none || fail "a PNG/JPEG-textured bake needed the image plugin"
+cmp -s "$tmp/np3/model.glb" "$tmp/c/model.glb" || fail "PNG/JPEG decoded without the plugin: another model.glb"
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > "$tmp/tri.obj"
 SYLVA_IMAGE_PLUGIN=/nonexistent/libsvimage.so "$bake" bake "$tmp/tri.obj" --spec "$tmp/quick.json" \
     --out "$tmp/np2" --progress none || fail "an untextured bake needed the image plugin"

@@ -1,5 +1,5 @@
-/* test_image.c — images in memory and the OpenImageIO shim (core/image.c,
- * core/io/image_oiio.cpp). */
+/* test_image.c — images in memory, the PNG/JPEG decoders (core/io/image_decode.c)
+ * and the OpenImageIO shim (core/image.c, core/io/image_oiio.cpp). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -11,6 +11,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
+#include <png.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -224,6 +226,229 @@ static void jpeg_from_the_data_set_decodes(void **state)
     free(b);
 }
 
+/* ---- the in-process PNG and JPEG decoders against the plugin ---- */
+
+typedef struct mem_out {
+    uint8_t *d;
+    size_t n, cap;
+} mem_out;
+
+static void mem_write(png_structp p, png_bytep d, size_t n)
+{
+    mem_out *m = png_get_io_ptr(p);
+    if (m->n + n > m->cap) {
+        m->cap = 2 * (m->n + n);
+        m->d = realloc(m->d, m->cap);
+        assert_non_null(m->d);
+    }
+    memcpy(m->d + m->n, d, n);
+    m->n += n;
+}
+
+static void mem_flush(png_structp p)
+{
+    (void)p;
+}
+
+/* A w×h PNG of colour type `ctype` and bit depth `depth` with pseudo-random
+ * samples (palette and tRNS when asked), written by libpng into *n bytes. */
+static uint8_t *synthetic_png(uint32_t w, uint32_t h, int ctype, int depth, bool trns,
+                              bool interlace, unsigned seed, size_t *n)
+{
+    png_structp p = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(p);
+    assert_non_null(info);
+    mem_out m = {0};
+    if (setjmp(png_jmpbuf(p))) fail_msg("libpng could not write the test PNG");
+    png_set_write_fn(p, &m, mem_write, mem_flush);
+    png_set_IHDR(p, info, w, h, depth, ctype, interlace ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    int ch = ctype == PNG_COLOR_TYPE_GRAY || ctype == PNG_COLOR_TYPE_PALETTE ? 1
+             : ctype == PNG_COLOR_TYPE_GRAY_ALPHA                            ? 2
+             : ctype == PNG_COLOR_TYPE_RGB                                   ? 3
+                                                                             : 4;
+    unsigned r = seed;
+#define RND() (r = r * 1103515245u + 12345u, (r >> 8))
+    if (ctype == PNG_COLOR_TYPE_PALETTE) {
+        png_color pal[256];
+        for (int i = 0; i < 256; i++)
+            pal[i] = (png_color){(png_byte)RND(), (png_byte)RND(), (png_byte)RND()};
+        png_set_PLTE(p, info, pal, 1 << depth);
+        if (trns) {
+            png_byte a[128];
+            for (int i = 0; i < 128; i++) a[i] = (png_byte)RND();
+            png_set_tRNS(p, info, a, (1 << depth) / 2 ? (1 << depth) / 2 : 1, NULL);
+        }
+    } else if (trns) {
+        png_color_16 key = {0, 1, 0, 1, 1};
+        png_set_tRNS(p, info, NULL, 0, &key);
+    }
+    png_write_info(p, info);
+    if (depth == 16) png_set_swap(p);
+    int passes = png_set_interlace_handling(p);
+    size_t rowbytes = ((size_t)w * ch * depth + 7) / 8;
+    uint8_t *img = calloc(h, rowbytes);
+    assert_non_null(img);
+    uint32_t maxv = depth == 16 ? 65535u : (1u << depth) - 1;
+    /* keyed images draw from {0, 1} so the tRNS colour occurs */
+    if (trns && ctype != PNG_COLOR_TYPE_PALETTE) maxv = 1;
+    for (uint32_t y = 0; y < h; y++) {
+        uint8_t *row = img + y * rowbytes;
+        for (uint32_t i = 0; i < w * (uint32_t)ch; i++) {
+            uint32_t v = RND() % (maxv + 1);
+            if (depth == 16) ((uint16_t *)row)[i] = (uint16_t)v;
+            else if (depth == 8) row[i] = (uint8_t)v;
+            else row[i * depth / 8] |= (uint8_t)(v << (8 - depth - (i * depth) % 8));
+        }
+    }
+#undef RND
+    for (int pass = 0; pass < passes; pass++)
+        for (uint32_t y = 0; y < h; y++) png_write_row(p, img + y * rowbytes);
+    png_write_end(p, info);
+    png_destroy_write_struct(&p, &info);
+    free(img);
+    *n = m.n;
+    return m.d;
+}
+
+/* The in-process decoders give the plugin's pixels, RGBA8 and gray16. */
+static void assert_same_as_plugin(const uint8_t *d, size_t n, const char *what)
+{
+    sv_image a, b;
+    sv_error e1 = {0}, e2 = {0};
+    sv_status s1 = sv_image_decode_rgba8(d, n, what, 0, &a, &e1);
+    sv_status s2 = sv_image_plugin_decode_rgba8(d, n, what, 0, &b, &e2);
+    if (s1 != SV_OK || s2 != SV_OK)
+        fail_msg("%s: decode %d (%s), plugin %d (%s)", what, s1, e1.message, s2, e2.message);
+    if (a.width != b.width || a.height != b.height ||
+        memcmp(a.data, b.data, (size_t)a.width * a.height * 4) != 0)
+        fail_msg("%s: the in-process decoder and the plugin give other pixels", what);
+    sv_image_free(&a);
+    sv_image_free(&b);
+    if (n < 8 || memcmp(d, "\x89PNG", 4) != 0) return;
+    assert_int_equal(sv_image_decode_gray16(d, n, what, 0, &a, &e1), SV_OK);
+    assert_int_equal(sv_image_plugin_decode_gray16(d, n, what, 0, &b, &e2), SV_OK);
+    if (memcmp(a.data, b.data, (size_t)a.width * a.height * 2) != 0)
+        fail_msg("%s: gray16 differs from the plugin's", what);
+    sv_image_free(&a);
+    sv_image_free(&b);
+}
+
+/* First in the group: PNG and JPEG decode without loading the plugin. */
+static void png_and_jpeg_decode_without_the_plugin(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *png = synthetic_png(9, 7, PNG_COLOR_TYPE_RGB_ALPHA, 8, false, false, 1, &n);
+    sv_image img;
+    sv_error err = {0};
+    assert_int_equal(sv_image_decode_rgba8(png, n, "a.png", 0, &img, &err), SV_OK);
+    sv_image_free(&img);
+    assert_int_equal(sv_image_decode_gray16(png, n, "a.png", 0, &img, &err), SV_OK);
+    sv_image_free(&img);
+    free(png);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scopia_bonsai-tree/bark.jpg",
+             sv_test_data("the JPEG decode of bark.jpg"));
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
+    uint8_t buf[1 << 16];
+    size_t got = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    assert_true(got > 0 && got < sizeof buf);
+    assert_int_equal(sv_image_decode_rgba8(buf, got, "bark.jpg", 0, &img, &err), SV_OK);
+    sv_image_free(&img);
+    assert_null(sv_image_plugin_symbol("sv_plugin_decode_rgba8"));
+}
+
+static void png_of_every_colour_type_and_depth_decodes_as_the_plugin_does(void **state)
+{
+    (void)state;
+    static const struct {
+        int ctype, depth;
+        bool trns, interlace;
+    } cases[] = {
+        {PNG_COLOR_TYPE_GRAY, 1, false, false},       {PNG_COLOR_TYPE_GRAY, 2, false, true},
+        {PNG_COLOR_TYPE_GRAY, 4, false, false},       {PNG_COLOR_TYPE_GRAY, 8, false, false},
+        {PNG_COLOR_TYPE_GRAY, 8, true, false},        {PNG_COLOR_TYPE_GRAY, 16, false, false},
+        {PNG_COLOR_TYPE_GRAY_ALPHA, 8, false, false}, {PNG_COLOR_TYPE_GRAY_ALPHA, 16, false, true},
+        {PNG_COLOR_TYPE_RGB, 8, false, false},        {PNG_COLOR_TYPE_RGB, 8, true, false},
+        {PNG_COLOR_TYPE_RGB, 16, false, false},       {PNG_COLOR_TYPE_RGB, 16, true, false},
+        {PNG_COLOR_TYPE_RGB_ALPHA, 8, false, true},   {PNG_COLOR_TYPE_RGB_ALPHA, 16, false, false},
+        {PNG_COLOR_TYPE_PALETTE, 1, false, false},    {PNG_COLOR_TYPE_PALETTE, 2, true, false},
+        {PNG_COLOR_TYPE_PALETTE, 4, true, true},      {PNG_COLOR_TYPE_PALETTE, 8, false, false},
+        {PNG_COLOR_TYPE_PALETTE, 8, true, false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        size_t n;
+        uint8_t *d = synthetic_png(37, 23, cases[i].ctype, cases[i].depth, cases[i].trns,
+                                   cases[i].interlace, (unsigned)i + 7, &n);
+        char what[64];
+        snprintf(what, sizeof what, "type %d, %d bits%s%s", cases[i].ctype, cases[i].depth,
+                 cases[i].trns ? ", tRNS" : "", cases[i].interlace ? ", interlaced" : "");
+        assert_same_as_plugin(d, n, what);
+        free(d);
+    }
+    /* every 16-bit value: OIIO's 16 → 8-bit rounding, exactly */
+    png_structp p = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(p);
+    mem_out m = {0};
+    if (setjmp(png_jmpbuf(p))) fail_msg("libpng could not write the ramp");
+    png_set_write_fn(p, &m, mem_write, mem_flush);
+    png_set_IHDR(p, info, 256, 256, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(p, info);
+    png_set_swap(p);
+    uint16_t row[256];
+    for (uint32_t y = 0; y < 256; y++) {
+        for (uint32_t x = 0; x < 256; x++) row[x] = (uint16_t)(y * 256 + x);
+        png_write_row(p, (png_bytep)row);
+    }
+    png_write_end(p, info);
+    png_destroy_write_struct(&p, &info);
+    assert_same_as_plugin(m.d, m.n, "the 16-bit ramp");
+    free(m.d);
+}
+
+static void every_texture_of_the_shared_trees_decodes_as_the_plugin_does(void **state)
+{
+    (void)state;
+    const char *data = sv_test_data("the shared trees' textures");
+    DIR *top = opendir(data);
+    if (!top) fail_msg("cannot open %s", data);
+    int count = 0;
+    struct dirent *t;
+    while ((t = readdir(top))) {
+        if (t->d_name[0] == '.') continue;
+        char dir[1024];
+        snprintf(dir, sizeof dir, "%s/%s", data, t->d_name);
+        DIR *in = opendir(dir);
+        if (!in) continue;
+        struct dirent *e;
+        while ((e = readdir(in))) {
+            const char *dot = strrchr(e->d_name, '.');
+            if (!dot || (strcmp(dot, ".png") && strcmp(dot, ".jpg") && strcmp(dot, ".jpeg")))
+                continue;
+            char path[2048];
+            snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+            FILE *f = fopen(path, "rb");
+            if (!f) fail_msg("cannot open %s", path);
+            fseek(f, 0, SEEK_END);
+            long n = ftell(f);
+            fseek(f, 0, SEEK_SET);
+            uint8_t *b = malloc((size_t)n);
+            assert_int_equal(fread(b, 1, (size_t)n, f), (size_t)n);
+            fclose(f);
+            assert_same_as_plugin(b, (size_t)n, path);
+            free(b);
+            count++;
+        }
+        closedir(in);
+    }
+    closedir(top);
+    assert_true(count >= 10); /* the data set has a dozen PNG and JPEG textures */
+}
+
 static void garbage_truncated_and_oversized_images_are_refused(void **state)
 {
     (void)state;
@@ -309,6 +534,7 @@ static void reduce_halves_with_an_alpha_weighted_box_filter(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(png_and_jpeg_decode_without_the_plugin), /* first: nothing loaded it */
         cmocka_unit_test(alloc_sizes_the_buffer_and_free_zeroes_the_struct),
         cmocka_unit_test(alloc_refuses_overflow_and_bad_formats),
         cmocka_unit_test(png_round_trip_keeps_rgba8_exactly_with_straight_alpha),
@@ -317,6 +543,8 @@ int main(void)
         cmocka_unit_test(gray_and_rgb_images_expand_to_opaque_rgba),
         cmocka_unit_test(tga_without_magic_decodes_by_its_name),
         cmocka_unit_test(jpeg_from_the_data_set_decodes),
+        cmocka_unit_test(png_of_every_colour_type_and_depth_decodes_as_the_plugin_does),
+        cmocka_unit_test(every_texture_of_the_shared_trees_decodes_as_the_plugin_does),
         cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
         cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
         cmocka_unit_test(reduce_halves_with_an_alpha_weighted_box_filter),

@@ -114,6 +114,51 @@ static void masked_quad_covers_only_the_opaque_half_of_its_texture(void **state)
     sv_mesh_destroy(m);
 }
 
+/* Meshes whose images share pixels (sv_image_copy) share one texture on the
+ * renderer, which lives until its last mesh is freed: the second mesh still
+ * draws the texture after the first mesh and its GPU copy are gone. */
+static void meshes_sharing_pixels_share_a_texture_until_the_last_is_freed(void **state)
+{
+    (void)state;
+    sv_mesh *a = quad_mesh(0, 0), *b = quad_mesh(0, 0);
+    sv_mesh *ms[2] = {a, b};
+    for (int k = 0; k < 2; k++) {
+        free(ms[k]->images);
+        ms[k]->image_count = 1;
+        ms[k]->images = calloc(1, sizeof *ms[k]->images);
+        ms[k]->materials[0].base_texture = 0;
+        ms[k]->materials[0].alpha_mode = SV_ALPHA_MASK;
+        ms[k]->materials[0].alpha_cutoff = 0.5f;
+    }
+    assert_int_equal(sv_image_alloc(&a->images[0], 8, 8, 4, 8, NULL), SV_OK);
+    uint8_t *t = a->images[0].data;
+    for (int i = 0; i < 64; i++) {
+        t[4 * i] = 200, t[4 * i + 1] = 40, t[4 * i + 2] = 10;
+        t[4 * i + 3] = (i % 8) < 4 ? 255 : 0;
+    }
+    assert_int_equal(sv_image_copy(&a->images[0], &b->images[0], NULL), SV_OK);
+    assert_ptr_equal(a->images[0].data, b->images[0].data);
+    sv_renderer *r = make_renderer();
+    sv_gpu_mesh *ga = NULL, *gb = NULL;
+    assert_int_equal(sv_gpu_mesh_upload(r, a, &ga, NULL), SV_OK);
+    assert_int_equal(sv_gpu_mesh_upload(r, b, &gb, NULL), SV_OK);
+    sv_gpu_mesh_free(ga);
+    sv_mesh_destroy(a);
+    sv_camera cam = front_camera();
+    sv_image img;
+    sv_error err = {0};
+    assert_int_equal(sv_render(r, gb, NULL, 0, &cam, NULL, 64, 64, &img, NULL, &err), SV_OK);
+    const uint8_t *p = (const uint8_t *)img.data + 4 * (32 * 64 + 10);
+    assert_int_equal(p[3], 255);
+    assert_int_equal(p[0], 200);
+    assert_int_equal(p[1], 40);
+    assert_in_range(covered(&img), 30 * 64, 34 * 64);
+    sv_image_free(&img);
+    sv_gpu_mesh_free(gb);
+    sv_renderer_destroy(r);
+    sv_mesh_destroy(b);
+}
+
 static void back_facing_triangle_still_renders(void **state)
 {
     (void)state;
@@ -356,6 +401,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(masked_quad_covers_only_the_opaque_half_of_its_texture),
+        cmocka_unit_test(meshes_sharing_pixels_share_a_texture_until_the_last_is_freed),
         cmocka_unit_test(back_facing_triangle_still_renders),
         cmocka_unit_test(depth_is_linear_distance_along_forward),
         cmocka_unit_test(near_and_far_planes_clip_geometry),
