@@ -341,16 +341,51 @@ static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
     return SV_OK;
 }
 
-/* Measures LOD i against the original as it is drawn: the full level is the
- * original (nothing to measure, issue 20), an impostor through the reference
- * runtime, a view-dependent level by its per-view subsets. */
+/* An earlier measured level that draws as level i does (sv_mesh_draws_same;
+ * neither an impostor nor view-dependent), or -1. A tree without foliage
+ * makes every quad level its trunk, one mesh measured three times (issue 20:
+ * most of the one-triangle bake). */
+static int drawn_as_earlier(const bake_state *b, uint32_t i)
+{
+    const sv_lod_plan *lp = &b->si.lods[i];
+    if (lp->octa || lp->select) return -1;
+    for (uint32_t j = 0; j < i; j++) {
+        const sv_lod_plan *lq = &b->si.lods[j];
+        if (b->lods[j].evaluated && !lq->octa && !lq->select &&
+            sv_mesh_draws_same(b->lods[j].baked.mesh, b->lods[i].baked.mesh))
+            return (int)j;
+    }
+    return -1;
+}
+
+/* dst = src's measures (dst's own seconds: 0, nothing was rendered). */
+static sv_status copy_eval(const sv_eval_result *src, sv_eval_result *dst, sv_error *err)
+{
+    *dst = *src;
+    dst->seconds = 0;
+    size_t n = (size_t)src->view_count * src->size_count;
+    dst->per_view = sv_calloc(n ? n : 1, sizeof *dst->per_view);
+    if (!dst->per_view) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    if (n) memcpy(dst->per_view, src->per_view, n * sizeof *dst->per_view);
+    return SV_OK;
+}
+
+/* Measures LOD i against the original as it is drawn: the full level, or any
+ * that draws as the original does, is the original (nothing to measure,
+ * issue 20), a level drawn as an earlier one has its measures, an impostor is drawn through the reference runtime, a
+ * view-dependent level by its per-view subsets. */
 static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
     lod_out *l = &b->lods[i];
     sv_status st = sv_gpu_mesh_upload(r->ren, l->baked.mesh, &l->gpu, err);
     if (st) return st;
-    if (b->ch.info[i].stochastic && b->ch.info[i].lambda >= 1 && !lp->quad_count) {
+    int same = drawn_as_earlier(b, i);
+    if (same < 0 && !lp->octa && !lp->select && sv_mesh_draws_same(r->p.mesh, l->baked.mesh)) {
+        st = sv_eval_identity(r->ev, &l->eval, err); /* it is the original */
+    } else if (same >= 0) {
+        st = copy_eval(&b->lods[same].eval, &l->eval, err);
+    } else if (b->ch.info[i].stochastic && b->ch.info[i].lambda >= 1 && !lp->quad_count) {
         st = sv_eval_identity(r->ev, &l->eval, err);
     } else if (lp->octa) {
         octa_draw_ctx oc = {lp->octa, &l->baked};

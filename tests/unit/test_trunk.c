@@ -246,6 +246,42 @@ static void mesh_merge_offsets_indices_materials_and_images(void **state)
     sv_mesh_destroy(b);
 }
 
+static void meshes_that_draw_the_same_are_told_apart_from_any_that_do_not(void **state)
+{
+    (void)state;
+    sv_mesh *a = sv_mesh_create(3, 1, 1, 1), *b = NULL;
+    assert_non_null(a);
+    for (int i = 0; i < 3; i++) {
+        a->indices[i] = (uint32_t)i;
+        a->positions[3 * i + i] = 1.0f;
+    }
+    sv_error e = {0};
+    assert_int_equal(sv_image_alloc(&a->images[0], 2, 2, 4, 8, &e), SV_OK);
+    a->materials[0].base_texture = 0;
+    assert_int_equal(sv_mesh_merge(NULL, a, &b, &e), SV_OK); /* a copy: images shared */
+    assert_true(sv_mesh_draws_same(a, b));
+    snprintf(b->materials[0].name, sizeof b->materials[0].name, "renamed");
+    assert_true(sv_mesh_draws_same(a, b)); /* names are not drawn */
+    b->materials[0].alpha_cutoff = 0.25f;
+    assert_false(sv_mesh_draws_same(a, b));
+    b->materials[0].alpha_cutoff = a->materials[0].alpha_cutoff;
+    b->positions[0] = 0.5f;
+    assert_false(sv_mesh_draws_same(a, b));
+    b->positions[0] = a->positions[0];
+    sv_image other;
+    assert_int_equal(sv_image_alloc(&other, 2, 2, 4, 8, &e), SV_OK);
+    assert_true(sv_mesh_draws_same(a, b));
+    sv_image_free(&b->images[0]);
+    b->images[0] = other; /* equal bytes, other pixels */
+    assert_true(sv_mesh_draws_same(a, b));
+    ((uint8_t *)other.data)[5] = 9;
+    assert_false(sv_mesh_draws_same(a, b));
+    assert_false(sv_mesh_draws_same(a, NULL));
+    assert_true(sv_mesh_draws_same(NULL, NULL));
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -254,6 +290,7 @@ int main(void)
         cmocka_unit_test(trunk_simplification_stays_within_max_error),
         cmocka_unit_test(trunk_is_null_without_trunk_triangles),
         cmocka_unit_test(mesh_merge_offsets_indices_materials_and_images),
+        cmocka_unit_test(meshes_that_draw_the_same_are_told_apart_from_any_that_do_not),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
