@@ -20,6 +20,8 @@ cd "$root"
 python3 "$here/bench.py"
 # issue 18: every quad method at a budget, sveval beside our figure
 python3 "$here/fidelity.py"
+# issue 18: the same points on ez-tree presets made here, not in the data set (node, npm)
+python3 "$here/unseen.py"
 # issue 21: octahedral impostors against billboard clouds (IoU vs texels and time)
 python3 "$here/octahedral.py"
 # issue 19: a target search against one bake of its choice; the default chain
