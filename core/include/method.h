@@ -49,6 +49,11 @@ typedef struct sv_method {
      * the original mesh's triangle count. NULL: nothing to add. */
     void (*planes_json)(const sv_lod_plan *lod, const struct sv_baked_lod *baked,
                         uint32_t source_triangles, cJSON *entry, cJSON *quads);
+    /* True: this method's levels are the LOD chain's stochastic levels
+     * (docs/lod.md), built by the chain itself (they need the renderer to
+     * measure r and score candidates); its settings are the chain's
+     * stochastic settings, and it cannot be the chain's coarsest method. */
+    bool chain_levels;
 } sv_method;
 
 /* The registered methods, one per method file (the registry in methods.c
@@ -65,6 +70,10 @@ const sv_method *sv_method_find(const char *name);
 
 /* All registered methods; *count receives their number. */
 const sv_method *const *sv_method_list(size_t *count);
+
+/* The method whose levels are the chain's stochastic levels (chain_levels),
+ * or NULL. */
+const sv_method *sv_method_chain_levels(void);
 
 /* Helpers for strict settings parsing shared by the methods: each returns
  * SV_ERR_SPEC naming `method.key` when the value has the wrong type or lies

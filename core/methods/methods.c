@@ -21,3 +21,10 @@ const sv_method *sv_method_find(const char *name)
         if (strcmp(registry[i]->name, name) == 0) return registry[i];
     return NULL;
 }
+
+const sv_method *sv_method_chain_levels(void)
+{
+    for (size_t i = 0; i < sizeof registry / sizeof registry[0]; i++)
+        if (registry[i]->chain_levels) return registry[i];
+    return NULL;
+}

@@ -208,7 +208,7 @@ static sv_status compose_stochastic(run *r, sv_renderer *ren, const sv_gpu_mesh 
         l->trunk_ratio = fmax(L->lambda, SV_STOCH_TRUNK_FLOOR);
         l->trunk_max_triangles = sv_stochastic_trunk_cap(&keep, k, L);
         uint32_t gv = l->geometry ? l->geometry->vertex_count - L->trunk_vertices : 0;
-        if ((st = append_lods(si, c, &one, "stochastic", err))) return st;
+        if ((st = append_lods(si, c, &one, sv_method_chain_levels()->name, err))) return st;
         chain_lod *x = &c->info[si->lod_count - 1];
         x->stochastic = true;
         x->level = (int)k;
@@ -268,8 +268,12 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
     sv_status st;
     c->skipped = cJSON_CreateArray();
     if (!c->skipped) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    bool is_stoch = strcmp(spec->method, "stochastic") == 0;
-    if ((st = sv_stochastic_parse(cJSON_GetObjectItemCaseSensitive(spec->root, "stochastic"),
+    /* the chain's stochastic levels are the levels of the method that says
+     * so (sv_method chain_levels); its settings are the chain's */
+    const sv_method *levels = sv_method_chain_levels(), *m = sv_method_find(spec->method);
+    if (!levels) return sv_fail(err, SV_ERR_INTERNAL, "no method makes the chain's levels");
+    bool is_stoch = m == levels;
+    if ((st = sv_stochastic_parse(cJSON_GetObjectItemCaseSensitive(spec->root, levels->name),
                                   &c->ss, err)) ||
         (st = sv_stochastic_resolve(&c->ss, p->mesh->triangle_count, err)))
         return st;

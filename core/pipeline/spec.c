@@ -353,7 +353,7 @@ static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
     if (st || !co) return st;
     const sv_method *cm = cJSON_IsString(co) ? sv_method_find(co->valuestring) : NULL;
     bool none = cJSON_IsString(co) && strcmp(co->valuestring, "none") == 0;
-    if ((!cm && !none) || (cm && strcmp(cm->name, "stochastic") == 0))
+    if ((!cm && !none) || (cm && cm->chain_levels))
         return sv_fail(err, SV_ERR_SPEC, "lod.coarsest: expected \"none\" or a quad method name");
     snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", none ? "" : cm->name);
     return SV_OK;

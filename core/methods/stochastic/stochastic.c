@@ -1108,4 +1108,5 @@ const sv_method sv_method_stochastic = {
     .check = st_check,
     .run = st_run,
     .ladder = st_ladder,
+    .chain_levels = true,
 };
