@@ -46,7 +46,7 @@ void sv_stand_in_free(sv_stand_in *s)
         free(l->quads);
         sv_mesh_destroy(l->geometry);
         free(l->select_data);
-        free(l->octa);
+        free(l->payload);
     }
     free(s->lods);
     memset(s, 0, sizeof *s);

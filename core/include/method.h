@@ -5,6 +5,8 @@
  * Methods are pure geometry: no GL, no files. Each method's settings are the
  * JSON object under the spec key named after it (NULL = all defaults); unknown
  * keys, wrong types and out-of-range values fail with SV_ERR_SPEC naming the key.
+ * A level that is not quads carries a payload the pipeline reaches through
+ * per-level hooks (level.h), registered apart: they render.
  */
 #ifndef SV_METHOD_H
 #define SV_METHOD_H

@@ -61,7 +61,11 @@
 #include "bake.h"
 #include "render.h"
 
+/* The method's name (spec "method", its settings key, sv_octa_level_ops). */
+#define SV_OCTA_METHOD "octahedral"
 #define SV_OCTA_MAX_GRID 32
+/* The smallest frame side a bake makes or the atlas shrinking leaves. */
+#define SV_OCTA_MIN_FRAME_PIXELS 16u
 #define SV_OCTA_PARALLAX_STEPS 3
 /* Default quads of the glTF proxy: 3 at 60° (sveval soft IoU at 64 px,
  * ficus / aspen: 1 quad 0.519 / 0.420, 2: 0.736 / 0.576, 3: 0.777 / 0.618,
@@ -79,6 +83,7 @@ typedef struct sv_octa_grid {
     double cutoff;         /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
     uint32_t proxy_quads;  /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
     double elev_scale;     /* S in (0, 1]: directions squashed towards the horizon (1 = Brucks) */
+    uint32_t mip_count;    /* albedo mips written after level 0 (sv_octa_level_ops' write_files) */
 } sv_octa_grid;
 
 /* uv in [-1,1]² of unit direction d (conventions above; elev_scale S in

@@ -70,8 +70,11 @@ typedef struct sv_lod_plan {
                                  geometry is always drawn */
     void *select_data;            /* for select's use (owned by the method; freed with
                                  free() by sv_stand_in_free) */
-    struct sv_octa_grid *octa;    /* non-NULL: an octahedral impostor (octahedral.h) instead of
-                                 quads; owned, freed with free() */
+    void *payload; /* non-NULL: what the level is instead of quads (an octahedral impostor's
+                      sv_octa_grid), the method's own type, reached through ops; owned,
+                      one block freed with free() */
+    const struct sv_level_ops *ops; /* the hooks for a level with a payload (level.h), filled by
+                                       the pipeline from sv_level_ops_find; NULL: quads */
 } sv_lod_plan;
 
 typedef struct sv_stand_in {

@@ -145,10 +145,11 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
  * at any size and keeps its atlas. The accuracy the report gives was
  * measured before. */
 #define SV_ATLAS_MIN_SIDE 16u
+/* The smallest screen size a shrunk level's cutoff is calibrated at. */
+#define SV_CALIB_MIN_PIXELS 16u
 
-sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                             const sv_stand_in *si, lod_out *lods, double tree_h, bool calibrate,
-                             sv_error *err)
+sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_stand_in *si,
+                             lod_out *lods, double tree_h, bool calibrate, sv_error *err)
 {
     sv_evaluator *ev = NULL;
     uint32_t ev_px = 0;
@@ -162,13 +163,11 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
         uint32_t side = b->albedo.width > b->albedo.height ? b->albedo.width : b->albedo.height;
         uint32_t other = b->albedo.width + b->albedo.height - side;
         int k = 0;
-        sv_octa_grid *og = si->lods[i].octa; /* frames stay whole: at least 16 texels */
-        while (b->texel_size * ldexp(1.0, k + 1) <= want &&
-               (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE &&
-               (!og || (og->frame_pixels >> (k + 1)) >= 16))
+        while (b->texel_size * ldexp(1.0, k + 1) <= want && (other >> (k + 1)) >= SV_ATLAS_MIN_SIDE)
             k++;
+        sv_lod_plan *lp = &si->lods[i];
+        if (k && lp->ops && lp->ops->shrink) k = lp->ops->shrink(lp, k); /* an impostor's frames */
         if (!k) continue;
-        if (og) og->frame_pixels >>= k;
         sv_image *maps[4] = {&b->albedo, &b->normal, &b->ao, &b->depth};
         for (int m = 0; m < 4 && !st; m++)
             if (maps[m]->data) st = sv_image_reduce(maps[m], side >> k, err);
@@ -185,7 +184,7 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
             /* at the size the level is drawn at most (a power of two in
              * [16, 64]): judged at 64 px, a 16 px level's cutoff was chosen
              * for blocks it never shows */
-            uint32_t px = 16;
+            uint32_t px = SV_CALIB_MIN_PIXELS;
             while (px < SV_CALIB_PIXELS && px < l->switch_pixels) px *= 2;
             sv_eval_options eo;
             calib_options(r, px, &eo);

@@ -83,6 +83,9 @@ static sv_status count_cover(void *user, const uint32_t *tris, uint32_t count, d
     return SV_OK;
 }
 
+/* Moves src's LODs to the end of dst (names made unique), each with its
+ * c->info made by method `source`; a LOD with a payload gets that method's
+ * level hooks (level.h). src is freed, also on failure. */
 static sv_status append_lods(sv_stand_in *dst, chain *c, sv_stand_in *src, const char *source,
                              sv_error *err)
 {
@@ -103,6 +106,7 @@ static sv_status append_lods(sv_stand_in *dst, chain *c, sv_stand_in *src, const
         }
         *l = src->lods[i];
         memcpy(l->name, name, sizeof l->name);
+        if (l->payload && !l->ops) l->ops = sv_level_ops_find(source); /* level.h */
         memset(&src->lods[i], 0, sizeof src->lods[i]);
         chain_lod *x = &ci[dst->lod_count - 1];
         memset(x, 0, sizeof *x);

@@ -1,6 +1,6 @@
 /* outputs.c — the files of a bake that are not JSON (docs/outputs.md): the
- * atlases (and an octahedral level's albedo mips, Castaño's alpha-scaled
- * mips), model.glb with every level as MSFT_lod alternates, one
+ * atlases (and what a level writes through its own hook, level.h: an
+ * octahedral level's albedo mips), model.glb with every level as MSFT_lod alternates, one
  * lod<i>_<name>.glb per level, and preview.png.
  */
 #include <ctype.h>
@@ -33,6 +33,9 @@ static void asset_name(const char *file, char *out, size_t cap)
     if (n == 0) snprintf(out, cap, "tree");
 }
 
+/* preview.png's tile side per level (preview.h: in [64, 1024]). */
+#define SVP_PREVIEW_TILE 256u
+
 const char *const svp_map_names[4] = {"albedo", "normal", "ao", "depth"};
 
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
@@ -51,7 +54,7 @@ const sv_image *svp_lod_map(const sv_baked_lod *b, int i)
 
 sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
 {
-    const sv_stand_in *si = &b->si;
+    sv_stand_in *si = &b->si;
     lod_out *lods = b->lods;
     char path[4096];
     sv_status st;
@@ -64,11 +67,12 @@ sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
             snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].maps[k]);
             if ((st = sv_image_write_png(img, path, err))) return st;
         }
-    for (uint32_t i = 0; i < si->lod_count; i++)
-        if (si->lods[i].octa &&
-            (st = sv_octa_write_mips(r->req->out_dir, si->lods[i].name, si->lods[i].octa,
-                                     &lods[i].baked.albedo, &lods[i].mip_count, err)))
+    for (uint32_t i = 0; i < si->lod_count; i++) {
+        sv_lod_plan *lp = &si->lods[i];
+        if (lp->ops && lp->ops->write_files &&
+            (st = lp->ops->write_files(lp, &lods[i].baked, r->req->out_dir, err)))
             return st;
+    }
     return SV_OK;
 }
 
@@ -116,16 +120,16 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
 /* preview.h's description of level i: how it is drawn, its switch size,
  * cost, and the mean IoU at the measured size nearest its switch size. */
 static sv_status preview_level(const bake_state *b, uint32_t i, sv_preview_level *pv, view_sets *vs,
-                               bool *vs_ok, octa_draw_ctx *oc, sv_error *err)
+                               bool *vs_ok, level_draw_ctx *dc, sv_error *err)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
     const lod_out *l = &b->lods[i];
     const sv_baked_lod *bk = &l->baked;
     pv->gpu = l->gpu;
-    if (lp->octa) {
-        *oc = (octa_draw_ctx){lp->octa, bk};
-        pv->draw = svp_octa_draw;
-        pv->user = oc;
+    if (svp_drawn_by_hook(lp)) {
+        *dc = (level_draw_ctx){lp, bk};
+        pv->draw = svp_level_draw;
+        pv->user = dc;
     } else if (lp->select) {
         sv_status st = svp_view_sets_init(vs, lp, bk, err);
         if (st) return st;
@@ -163,10 +167,10 @@ sv_status svp_write_preview(const run *r, const bake_state *b, sv_evaluator *ev,
     sv_preview_level *pv = sv_calloc(n, sizeof *pv);
     view_sets *vs = sv_calloc(n, sizeof *vs);
     bool *vs_ok = sv_calloc(n, sizeof *vs_ok);
-    octa_draw_ctx *oc = sv_calloc(n, sizeof *oc);
-    if (!pv || !vs || !vs_ok || !oc) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    level_draw_ctx *dc = sv_calloc(n, sizeof *dc);
+    if (!pv || !vs || !vs_ok || !dc) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
     for (uint32_t i = 0; i < n && st == SV_OK; i++)
-        st = preview_level(b, i, &pv[i], &vs[i], &vs_ok[i], &oc[i], err);
+        st = preview_level(b, i, &pv[i], &vs[i], &vs_ok[i], &dc[i], err);
     if (st == SV_OK) {
         double dir[3];
         sv_evaluator_view_dir(ev, 0, dir);
@@ -178,11 +182,11 @@ sv_status svp_write_preview(const run *r, const bake_state *b, sv_evaluator *ev,
             ro.shade = SV_SHADE_LIT;
             memcpy(ro.light_dir, b->bo.light_dir, sizeof ro.light_dir);
         }
-        st = sv_preview_chain(r->ren, r->gsrc, pv, n, &cam, dir, &ro, 256, path, err);
+        st = sv_preview_chain(r->ren, r->gsrc, pv, n, &cam, dir, &ro, SVP_PREVIEW_TILE, path, err);
     }
     for (uint32_t i = 0; vs_ok && i < n; i++)
         if (vs_ok[i]) svp_view_sets_free(&vs[i]);
-    free(oc);
+    free(dc);
     free(vs_ok);
     free(vs);
     free(pv);

@@ -22,6 +22,12 @@ const char *const svp_stage_names[ST_COUNT] = {"import", "validate", "classify",
 /* The renderer's largest target side (render.h max_size): the pipeline's
  * renders (bake tiles, evaluation views, impostor frames) stay below it. */
 #define SVP_RENDER_MAX 8192u
+/* The largest screen size a level is drawn at when none was evaluated. */
+#define SVP_DEFAULT_LARGEST_PIXELS 256u
+/* Texels a side of a quad level's kept trunk textures: the next power of
+ * two above the largest evaluated size, within these bounds. */
+#define SVP_KEPT_TEXTURE_MIN 64u
+#define SVP_KEPT_TEXTURE_MAX 16384u
 /* Overall progress at the start of each stage (rough shares of a typical bake). */
 static const double stage_start[ST_COUNT + 1] = {0.0, 0.08, 0.1, 0.15, 0.3, 0.65, 0.7, 0.95, 1.0};
 
@@ -104,15 +110,19 @@ sv_status sv_pipeline_info(const sv_file *files, size_t count, const char *spec_
     return st;
 }
 
-/* ---- octahedral impostors (core/methods/octahedral/octahedral.c; docs/methods/octahedral.md) ---- */
+/* ---- levels drawn by their own hook (level.h: an octahedral impostor) ---- */
 
-/* sv_eval_draw_fn: the C reference runtime (sv_octa_render). */
-sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
-                        float *depth, sv_error *err)
+bool svp_drawn_by_hook(const sv_lod_plan *lod)
 {
-    const octa_draw_ctx *c = user;
-    return sv_octa_render(c->g, &c->b->albedo, c->b->depth.data ? &c->b->depth : NULL, cam, w, h,
-                          color, depth, err);
+    return lod->ops && lod->ops->draw;
+}
+
+/* sv_eval_draw_fn on a level_draw_ctx: the level's draw hook. */
+sv_status svp_level_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
+                         float *depth, sv_error *err)
+{
+    const level_draw_ctx *c = user;
+    return c->lod->ops->draw(c->lod, c->baked, cam, w, h, color, depth, err);
 }
 
 /* ---- view-dependent levels, for the evaluator and the preview ---- */
@@ -237,22 +247,25 @@ static void bake_options(const run *r, sv_bake_options *bo)
     bo->tri_part = r->p.cls.tri_part;
 }
 
-/* Bakes LOD i of b into b->lods[i].baked: an octahedral level's frames, or
- * the quads with the geometry the level keeps (trunk, stochastic leaves). */
+/* Bakes LOD i of b into b->lods[i].baked: through the level's own bake
+ * hook (level.h; an impostor's frames), or the quads with the geometry the
+ * level keeps (trunk, stochastic leaves). */
 static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
 {
     const sv_spec *spec = &r->spec;
     const prepared *p = &r->p;
-    const sv_lod_plan *lp = &b->si.lods[i];
+    sv_lod_plan *lp = &b->si.lods[i];
     sv_status st;
-    if (lp->octa) {
-        /* frames sized for the largest evaluated size (svp_shrink_atlases
-         * lowers them for a level drawn only smaller) */
-        if (!lp->octa->frame_pixels)
-            lp->octa->frame_pixels = sv_octa_frame_pixels(
-                lp->octa->n, spec->eval_size_count ? spec->eval_sizes[0] : 256,
-                SV_ATLAS_TEXELS_PER_PIXEL, spec->max_atlas);
-        return sv_octa_bake(r->ren, r->gsrc, p->mesh, lp->octa, &b->bo, 0, &b->lods[i].baked, err);
+    if (lp->ops && lp->ops->bake) {
+        sv_level_bake_in in = {r->ren,
+                               r->gsrc,
+                               p->mesh,
+                               &b->bo,
+                               spec->eval_size_count ? spec->eval_sizes[0]
+                                                     : SVP_DEFAULT_LARGEST_PIXELS,
+                               SV_ATLAS_TEXELS_PER_PIXEL,
+                               spec->max_atlas};
+        return lp->ops->bake(lp, &in, &b->lods[i].baked, err);
     }
     sv_mesh *keep = NULL;
     if (lp->trunk != SV_TRUNK_NONE) {
@@ -275,8 +288,8 @@ static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
      * above it: the bark of the original (2048² and more) was copied
      * into every level's file. */
     if (keep && !b->ch.info[i].stochastic) {
-        uint32_t cap = 64;
-        while (cap < spec->eval_sizes[0] && cap < 16384) cap *= 2;
+        uint32_t cap = SVP_KEPT_TEXTURE_MIN;
+        while (cap < spec->eval_sizes[0] && cap < SVP_KEPT_TEXTURE_MAX) cap *= 2;
         for (uint32_t k = 0; k < keep->image_count && !st; k++)
             st = sv_image_reduce(&keep->images[k], cap, err);
         if (st) {
@@ -342,16 +355,16 @@ static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
 }
 
 /* An earlier measured level that draws as level i does (sv_mesh_draws_same;
- * neither an impostor nor view-dependent), or -1. A tree without foliage
+ * neither drawn by its own hook nor view-dependent), or -1. A tree without foliage
  * makes every quad level its trunk, one mesh measured three times (issue 20:
  * most of the one-triangle bake). */
 static int drawn_as_earlier(const bake_state *b, uint32_t i)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
-    if (lp->octa || lp->select) return -1;
+    if (svp_drawn_by_hook(lp) || lp->select) return -1;
     for (uint32_t j = 0; j < i; j++) {
         const sv_lod_plan *lq = &b->si.lods[j];
-        if (b->lods[j].evaluated && !lq->octa && !lq->select &&
+        if (b->lods[j].evaluated && !svp_drawn_by_hook(lq) && !lq->select &&
             sv_mesh_draws_same(b->lods[j].baked.mesh, b->lods[i].baked.mesh))
             return (int)j;
     }
@@ -372,7 +385,8 @@ static sv_status copy_eval(const sv_eval_result *src, sv_eval_result *dst, sv_er
 
 /* Measures LOD i against the original as it is drawn: the full level, or any
  * that draws as the original does, is the original (nothing to measure,
- * issue 20), a level drawn as an earlier one has its measures, an impostor is drawn through the reference runtime, a
+ * issue 20), a level drawn as an earlier one has its measures, a level
+ * with a draw hook (an impostor: the reference runtime) is drawn by it, a
  * view-dependent level by its per-view subsets. */
 static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err)
 {
@@ -381,15 +395,16 @@ static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err
     sv_status st = sv_gpu_mesh_upload(r->ren, l->baked.mesh, &l->gpu, err);
     if (st) return st;
     int same = drawn_as_earlier(b, i);
-    if (same < 0 && !lp->octa && !lp->select && sv_mesh_draws_same(r->p.mesh, l->baked.mesh)) {
+    if (same < 0 && !svp_drawn_by_hook(lp) && !lp->select &&
+        sv_mesh_draws_same(r->p.mesh, l->baked.mesh)) {
         st = sv_eval_identity(r->ev, &l->eval, err); /* it is the original */
     } else if (same >= 0) {
         st = copy_eval(&b->lods[same].eval, &l->eval, err);
     } else if (b->ch.info[i].stochastic && b->ch.info[i].lambda >= 1 && !lp->quad_count) {
         st = sv_eval_identity(r->ev, &l->eval, err);
-    } else if (lp->octa) {
-        octa_draw_ctx oc = {lp->octa, &l->baked};
-        st = sv_evaluate_drawn(r->ev, svp_octa_draw, &oc, &l->eval, err);
+    } else if (svp_drawn_by_hook(lp)) {
+        level_draw_ctx dc = {lp, &l->baked};
+        st = sv_evaluate_drawn(r->ev, svp_level_draw, &dc, &l->eval, err);
     } else if (lp->select) {
         view_sets vs;
         if ((st = svp_view_sets_init(&vs, lp, &l->baked, err))) return st;

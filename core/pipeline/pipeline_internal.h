@@ -17,7 +17,7 @@
 #include "classify.h"
 #include "evaluate.h"
 #include "import.h"
-#include "octahedral.h"
+#include "level.h"
 #include "pipeline.h"
 #include "plausibility.h"
 #include "render.h"
@@ -124,7 +124,6 @@ typedef struct lod_out {
     char node[96];       /* its node name (also in model.glb): <asset>_LOD<i> */
     double alpha_cutoff; /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;    /* mean IoU at SV_CALIB_PIXELS with that cutoff */
-    uint32_t mip_count;  /* octahedral: albedo mips written after level 0 */
 } lod_out;
 
 /* One bake of the chain (svp_bake_all): filled stage by stage. */
@@ -137,7 +136,8 @@ typedef struct bake_state {
     double tree_h;      /* its diameter: screen sizes are measured on it (plan) */
 } bake_state;
 
-/* Texels per screen pixel a level's atlas keeps (octahedral frames, svp_shrink_atlases). */
+/* Texels per screen pixel a level's atlas keeps (a level's own bake hook,
+ * svp_shrink_atlases). */
 #define SV_ATLAS_TEXELS_PER_PIXEL 4.0
 
 /* ---- pipeline.c ---- */
@@ -165,14 +165,16 @@ void svp_view_sets_free(view_sets *v);
 sv_status svp_select_subsets(void *user, const double view_dir[3],
                              sv_eval_subset subsets[SV_EVAL_MAX_SUBSETS], uint32_t *count,
                              sv_error *err);
-/* An octahedral level drawn by the C reference runtime (sv_eval_draw_fn on an
- * octa_draw_ctx). */
-typedef struct octa_draw_ctx {
-    const sv_octa_grid *g;
-    const sv_baked_lod *b;
-} octa_draw_ctx;
-sv_status svp_octa_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
-                        float *depth, sv_error *err);
+/* A level drawn by its own hook (sv_level_ops draw), adapted to the
+ * evaluator's and the preview's sv_eval_draw_fn on a level_draw_ctx. */
+typedef struct level_draw_ctx {
+    const sv_lod_plan *lod;
+    const sv_baked_lod *baked;
+} level_draw_ctx;
+sv_status svp_level_draw(void *user, const sv_camera *cam, uint32_t w, uint32_t h, sv_image *color,
+                         float *depth, sv_error *err);
+/* True when lod is drawn by its own hook, not as a triangle mesh. */
+bool svp_drawn_by_hook(const sv_lod_plan *lod);
 
 /* ---- chain.c: which LODs, and where each is drawn ---- */
 
@@ -211,9 +213,8 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
                                 const sv_stand_in *si, lod_out *lods, sv_error *err);
 /* Shrinks the atlases of levels after the first to their switch size (and
  * calibrates their cutoff again there when `calibrate`). */
-sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                             const sv_stand_in *si, lod_out *lods, double tree_h, bool calibrate,
-                             sv_error *err);
+sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_stand_in *si,
+                             lod_out *lods, double tree_h, bool calibrate, sv_error *err);
 
 /* ---- target.c ---- */
 
@@ -229,7 +230,8 @@ sv_status svp_target_search(run *r, sv_error *err);
 extern const char *const svp_map_names[4]; /* albedo, normal, ao, depth */
 /* The atlas map i (svp_map_names order) of a bake. */
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i);
-/* atlas_<lod>_<map>.png (names into lods[i].maps) and the octahedral mips. */
+/* atlas_<lod>_<map>.png (names into lods[i].maps), then each level's own
+ * files (sv_level_ops write_files: an impostor's mips). */
 sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err);
 /* model.glb and lod<i>_<name>.glb (names into lods[i].node and .file). */
 sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err);
@@ -244,7 +246,8 @@ cJSON *svp_describe(const prepared *p);
 cJSON *svp_accuracy_json(const sv_eval_result *e);
 /* Writes j (pretty, then a newline) to dir/name. */
 sv_status svp_write_json(const char *dir, const char *name, cJSON *j, sv_error *err);
-/* planes.json and, with octahedral levels, impostor.json. */
+/* planes.json and the documents levels add beside it (sv_level_ops
+ * doc_file: impostor.json). */
 sv_status svp_write_planes(const run *r, const bake_state *b, sv_error *err);
 /* report.json; closes the write stage's time first (times are its last key). */
 sv_status svp_write_report(run *r, const bake_state *b, sv_error *err);

@@ -1,6 +1,7 @@
 /* report.c — the JSON documents of a bake (docs/outputs.md): report.json
  * (what was imported and decided, effects, the chain, accuracy, times),
- * planes.json (every level's quads), impostor.json (octahedral levels), and
+ * planes.json (every level's quads), the documents levels add through
+ * their hooks (level.h: impostor.json), and
  * the mesh description `sylva-bake info` prints. Methods add their own keys
  * through their sv_method planes_json hook.
  */
@@ -269,6 +270,46 @@ static cJSON *planes_lod_json(const run *r, const bake_state *b, uint32_t i)
     return o;
 }
 
+/* True when LOD i adds an entry to a document (sv_level_ops doc_file) that
+ * no earlier LOD adds to: the first of that document's levels. */
+static bool first_of_doc(const sv_stand_in *si, uint32_t i)
+{
+    const sv_level_ops *ops = si->lods[i].ops;
+    if (!ops || !ops->doc_entry) return false;
+    for (uint32_t j = 0; j < i; j++) {
+        const sv_level_ops *o = si->lods[j].ops;
+        if (o && o->doc_entry && strcmp(o->doc_file, ops->doc_file) == 0) return false;
+    }
+    return true;
+}
+
+/* The documents levels add beside planes.json (level.h doc_file, e.g.
+ * impostor.json): {"schema", "lods": [each such level's doc_entry, in chain
+ * order]}, one file per name. */
+static sv_status write_level_docs(const run *r, const bake_state *b, sv_error *err)
+{
+    const sv_stand_in *si = &b->si;
+    sv_status st = SV_OK;
+    for (uint32_t i = 0; i < si->lod_count && !st; i++) {
+        if (!first_of_doc(si, i)) continue;
+        const sv_level_ops *ops = si->lods[i].ops;
+        cJSON *doc = cJSON_CreateObject();
+        cJSON_AddStringToObject(doc, "schema", ops->doc_schema);
+        cJSON *entries = cJSON_AddArrayToObject(doc, "lods");
+        for (uint32_t k = i; k < si->lod_count; k++) {
+            const sv_lod_plan *lp = &si->lods[k];
+            if (!lp->ops || !lp->ops->doc_entry || strcmp(lp->ops->doc_file, ops->doc_file) != 0)
+                continue;
+            const lod_out *l = &b->lods[k];
+            sv_level_names names = {lp->name, l->node, l->maps};
+            cJSON_AddItemToArray(entries, lp->ops->doc_entry(lp, &names));
+        }
+        st = svp_write_json(r->req->out_dir, ops->doc_file, doc, err);
+        cJSON_Delete(doc);
+    }
+    return st;
+}
+
 sv_status svp_write_planes(const run *r, const bake_state *b, sv_error *err)
 {
     const sv_stand_in *si = &b->si;
@@ -281,24 +322,7 @@ sv_status svp_write_planes(const run *r, const bake_state *b, sv_error *err)
     for (uint32_t i = 0; i < si->lod_count; i++) cJSON_AddItemToArray(pl, planes_lod_json(r, b, i));
     sv_status st = svp_write_json(r->req->out_dir, "planes.json", planes, err);
     cJSON_Delete(planes);
-    if (st) return st;
-    cJSON *imp = NULL, *il = NULL;
-    for (uint32_t i = 0; i < si->lod_count; i++) {
-        if (!si->lods[i].octa) continue;
-        if (!imp) {
-            imp = cJSON_CreateObject();
-            cJSON_AddStringToObject(imp, "schema", "sylva.impostor/1");
-            il = cJSON_AddArrayToObject(imp, "lods");
-        }
-        const lod_out *l = &b->lods[i];
-        cJSON_AddItemToArray(il, sv_octa_impostor_json(si->lods[i].octa, si->lods[i].name, l->node,
-                                                       l->maps, l->mip_count));
-    }
-    if (imp) {
-        st = svp_write_json(r->req->out_dir, "impostor.json", imp, err);
-        cJSON_Delete(imp);
-    }
-    return st;
+    return st ? st : write_level_docs(r, b, err);
 }
 
 /* report.json "lods" entry of LOD i. */

@@ -10,7 +10,7 @@
 #include "evaluate.h"
 #include "image.h"
 #include "import.h"
-#include "octahedral.h"
+#include "level.h"
 #include "render.h"
 #include "vec3.h"
 
@@ -63,79 +63,21 @@ static bool vec3_of(const cJSON *a, double v[3])
     return true;
 }
 
-static sv_status decode(const char *dir, const char *name, bool gray16, sv_image *img,
-                        sv_error *err)
+/* Level lod drawn by the first registered level hooks that know it
+ * (level.h view: an impostor.json level); *drawn false when none does. */
+static sv_status view_by_hook(const char *dir, const char *lod, const sv_camera *cam, uint32_t size,
+                              sv_image *out, bool *drawn, sv_error *err)
 {
     size_t n = 0;
-    uint8_t *b = read_file(dir, name, &n, err);
-    if (!b) return err ? err->status : SV_ERR_IO;
-    sv_status st = gray16 ? sv_image_decode_gray16(b, n, name, 0, img, err)
-                          : sv_image_decode_rgba8(b, n, name, 0, img, err);
-    free(b);
-    return st;
-}
-
-/* The impostor.json entry of level lod into g and its atlases. *found false
- * when the level is not an impostor. */
-static sv_status load_impostor(const char *dir, const char *lod, sv_octa_grid *g, sv_image *albedo,
-                               sv_image *depth, bool *found, sv_error *err)
-{
-    *found = false;
-    char path[4096];
-    snprintf(path, sizeof path, "%s/impostor.json", dir);
-    FILE *f = fopen(path, "rb");
-    if (!f) return SV_OK;
-    fclose(f);
-    cJSON *j = read_json(dir, "impostor.json", err);
-    if (!j) return err ? err->status : SV_ERR_PARSE;
-    sv_status st = SV_OK;
-    const cJSON *e;
-    cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(j, "lods"))
-    {
-        const cJSON *name = cJSON_GetObjectItemCaseSensitive(e, "lod");
-        if (!cJSON_IsString(name) || strcmp(name->valuestring, lod) != 0) continue;
-        *found = true;
-        const cJSON *n = cJSON_GetObjectItemCaseSensitive(e, "grid");
-        const cJSON *fp = cJSON_GetObjectItemCaseSensitive(e, "frame_pixels");
-        const cJSON *half = cJSON_GetObjectItemCaseSensitive(e, "half");
-        const cJSON *cut = cJSON_GetObjectItemCaseSensitive(e, "alpha_cutoff");
-        const cJSON *maps = cJSON_GetObjectItemCaseSensitive(e, "maps");
-        const cJSON *alb = cJSON_GetObjectItemCaseSensitive(maps, "albedo");
-        const cJSON *dep = cJSON_GetObjectItemCaseSensitive(maps, "depth");
-        memset(g, 0, sizeof *g);
-        if (!cJSON_IsNumber(n) || !cJSON_IsNumber(fp) || !cJSON_IsNumber(half) ||
-            !cJSON_IsString(alb) ||
-            !vec3_of(cJSON_GetObjectItemCaseSensitive(e, "centre"), g->centre)) {
-            st = sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s lacks a field", lod);
-            break;
-        }
-        g->n = (uint32_t)n->valuedouble;
-        g->frame_pixels = (uint32_t)fp->valuedouble;
-        g->half = half->valuedouble;
-        g->hemi = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(e, "hemi"));
-        g->cutoff = cJSON_IsNumber(cut) ? cut->valuedouble : 0.5;
-        /* absent: Brucks' layout (files written before the scale existed) */
-        const cJSON *es = cJSON_GetObjectItemCaseSensitive(e, "elevation_scale");
-        g->elev_scale = cJSON_IsNumber(es) ? es->valuedouble : 1.0;
-        if (!(g->elev_scale > 0 && g->elev_scale <= 1)) {
-            st = sv_fail(err, SV_ERR_PARSE,
-                         "view: impostor.json: level %s: elevation_scale %g "
-                         "outside (0, 1]",
-                         lod, g->elev_scale);
-            break;
-        }
-        if ((st = decode(dir, alb->valuestring, false, albedo, err))) break;
-        if (cJSON_IsString(dep)) st = decode(dir, dep->valuestring, true, depth, err);
-        break;
+    const sv_level_ops *const *ops = sv_level_ops_list(&n);
+    *drawn = false;
+    for (size_t i = 0; i < n && !*drawn; i++) {
+        if (!ops[i]->view) continue;
+        sv_status st = ops[i]->view(dir, lod, read_file, cam, size, out, drawn, err);
+        if (st) return st;
     }
-    cJSON_Delete(j);
-    return st;
+    return SV_OK;
 }
-
-typedef struct imp_ctx {
-    const sv_octa_grid *g;
-    const sv_image *albedo, *depth;
-} imp_ctx;
 
 sv_status sv_view_render(const char *out_dir, const char *lod, const double dir_in[3],
                          uint32_t size, const char *png_path, sv_error *err)
@@ -173,18 +115,14 @@ sv_status sv_view_render(const char *out_dir, const char *lod, const double dir_
     }
     sv_camera cam;
     sv_eval_camera(centre, radius, dir, &cam);
-    sv_image out = {0}, albedo = {0}, depth = {0};
-    sv_octa_grid g;
-    bool imp = false;
+    sv_image out = {0};
+    bool drawn = false;
     sv_renderer *r = NULL;
     sv_gpu_mesh *gm = NULL;
     sv_mesh *m = NULL;
     uint8_t *bytes = NULL;
-    if ((st = load_impostor(out_dir, lod, &g, &albedo, &depth, &imp, err))) goto done;
-    if (imp) {
-        st = sv_octa_render(&g, &albedo, depth.data ? &depth : NULL, &cam, size, size, &out, NULL,
-                            err);
-    } else {
+    if ((st = view_by_hook(out_dir, lod, &cam, size, &out, &drawn, err))) goto done;
+    if (!drawn) {
         size_t n = 0;
         if (!(bytes = read_file(out_dir, file, &n, err))) {
             st = err ? err->status : SV_ERR_IO;
@@ -208,8 +146,6 @@ done:
     sv_mesh_destroy(m);
     free(bytes);
     sv_image_free(&out);
-    sv_image_free(&albedo);
-    sv_image_free(&depth);
     cJSON_Delete(rep);
     return st;
 }

@@ -23,7 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define OCTA_NAME "octahedral"
+#define OCTA_NAME SV_OCTA_METHOD
 
 /* ---- mapping ------------------------------------------------------------- */
 
@@ -539,7 +539,7 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
         free(g);
         return sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
     }
-    l->octa = g;
+    l->payload = g; /* its hooks: sv_octa_level_ops (octahedral_level.c) */
     l->trunk = SV_TRUNK_NONE;
     return SV_OK;
 }
@@ -547,11 +547,11 @@ static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_s
 uint32_t sv_octa_frame_pixels(uint32_t n, uint32_t largest_pixels, double texels_per_pixel,
                               uint32_t max_atlas)
 {
-    uint32_t f = 16;
+    uint32_t f = SV_OCTA_MIN_FRAME_PIXELS;
     uint32_t want = (uint32_t)(texels_per_pixel * largest_pixels);
     while (f < want && f < 1024) f *= 2;
     uint32_t cap = max_atlas ? max_atlas : 2048;
-    while (f > 16 && (uint64_t)f * n > cap) f /= 2;
+    while (f > SV_OCTA_MIN_FRAME_PIXELS && (uint64_t)f * n > cap) f /= 2;
     return f;
 }
 
@@ -595,7 +595,7 @@ cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char 
 static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
                              uint32_t source_triangles, cJSON *entry, cJSON *quads)
 {
-    if (!lod->octa || !b->uv_rects || b->mesh->vertex_count < 4 * b->quad_count) return;
+    if (!lod->payload || !b->uv_rects || b->mesh->vertex_count < 4 * b->quad_count) return;
     const float *P = b->mesh->positions, *N = b->mesh->normals;
     for (uint32_t q = 0; q < b->quad_count; q++) {
         double n[3] = {N[12 * q], N[12 * q + 1], N[12 * q + 2]}, c[4][3];

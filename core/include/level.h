@@ -1,0 +1,98 @@
+/* level.h — the per-level hooks: how a level that is not quads plugs into
+ * the pipeline (issue 17; docs/design.md "How a method plugs in").
+ *
+ * A method's run may make a LOD that is something else than quads and kept
+ * geometry (an octahedral impostor: a grid of frames) by leaving what it is
+ * in sv_lod_plan.payload. The pipeline fills sv_lod_plan.ops from this
+ * registry (sv_level_ops_find, by the name of the method that made the
+ * level) and from then on reaches the level only through these hooks: it
+ * bakes, sizes, draws, writes and describes it without knowing what it is.
+ * Every hook may be NULL: the pipeline then does for that step what it does
+ * for a quad level. A level without ops (every quad method's) is baked,
+ * drawn and written as quads, as before. The payload is one block that
+ * sv_stand_in_free frees with free() (stand_in.c, at the top of core, knows
+ * no hooks).
+ *
+ * The hooks render and write files, so they are kept apart from sv_method
+ * (method.h), whose registry sylvad links to check settings and which must
+ * stay free of GL: core/methods/levels.c is the bake's half of the registry.
+ */
+#ifndef SV_LEVEL_H
+#define SV_LEVEL_H
+
+#include <cjson/cJSON.h>
+
+#include "bake.h"
+#include "render.h"
+#include "stand_in.h"
+
+/* What the bake hook is given besides the plan. */
+typedef struct sv_level_bake_in {
+    sv_renderer *ren;
+    const sv_gpu_mesh *gsrc; /* the original on ren */
+    const sv_mesh *src;      /* the original */
+    const sv_bake_options *opt;
+    uint32_t largest_pixels; /* the largest evaluated screen size (256 when nothing is
+                                evaluated): the level is never drawn taller */
+    double texels_per_pixel; /* texels per screen pixel an atlas keeps */
+    uint32_t max_atlas;      /* bake.max_atlas (0 = the default) */
+} sv_level_bake_in;
+
+/* A level's names in the outputs (docs/outputs.md), for the hooks that
+ * describe it. */
+typedef struct sv_level_names {
+    const char *lod;        /* the plan's name ("octa12") */
+    const char *node;       /* its glTF node in model.glb */
+    const char (*maps)[64]; /* its atlas files: albedo, normal, ao, depth ("" = not baked) */
+} sv_level_names;
+
+/* Reads the whole file `name` of a finished bake's folder `dir` (malloc'd;
+ * NULL with err set). Refuses names that leave the folder. */
+typedef uint8_t *(*sv_level_read_fn)(const char *dir, const char *name, size_t *size,
+                                     sv_error *err);
+
+typedef struct sv_level_ops {
+    const char *method; /* the method whose levels these hooks serve */
+    /* Bake stage (pipeline.c): bakes the level into out instead of
+     * sv_bake_lod; may settle what the plan left to the bake (a frame size). */
+    sv_status (*bake)(sv_lod_plan *lod, const sv_level_bake_in *in, sv_baked_lod *out,
+                      sv_error *err);
+    /* Evaluation and preview (pipeline.c, outputs.c; sv_eval_draw_fn's
+     * contract): draws the baked level with cam into a w × h RGBA8 color
+     * (allocated) and depth[w·h] (may be NULL). Non-NULL: the level is not
+     * drawn as a triangle mesh, and never taken for the original or for an
+     * earlier level. */
+    sv_status (*draw)(const sv_lod_plan *lod, const sv_baked_lod *baked, const sv_camera *cam,
+                      uint32_t w, uint32_t h, sv_image *color, float *depth, sv_error *err);
+    /* Atlas shrinking (calibrate.c): the pipeline would halve the level's
+     * atlas `halvings` times; returns how many it allows (at most that) and
+     * records the new size in the payload. */
+    int (*shrink)(sv_lod_plan *lod, int halvings);
+    /* Writing (outputs.c), after the atlases: the level's own extra files in
+     * dir (mips); may note what it wrote in the payload for doc_entry. */
+    sv_status (*write_files)(sv_lod_plan *lod, const sv_baked_lod *baked, const char *dir,
+                             sv_error *err);
+    /* A JSON document beside planes.json (report.c): doc_file
+     * {"schema": doc_schema, "lods": [one doc_entry per such level, in
+     * chain order]}. NULL doc_entry: no document. */
+    const char *doc_file;
+    const char *doc_schema;
+    cJSON *(*doc_entry)(const sv_lod_plan *lod, const sv_level_names *names);
+    /* `sylva-bake view` (view.c): when level `lod` of the finished bake in
+     * dir is one of these, draws it with cam into a size × size RGBA8 out
+     * and sets *found; leaves *found false (and returns SV_OK) otherwise. */
+    sv_status (*view)(const char *dir, const char *lod, sv_level_read_fn read, const sv_camera *cam,
+                      uint32_t size, sv_image *out, bool *found, sv_error *err);
+} sv_level_ops;
+
+/* The hooks of each method that has them, one per method folder (the
+ * registry in levels.c lists them). */
+extern const sv_level_ops sv_octa_level_ops;
+
+/* The hooks for the levels of method `method`, or NULL (its levels are quads). */
+const sv_level_ops *sv_level_ops_find(const char *method);
+
+/* Every registered table of hooks; *count receives their number. */
+const sv_level_ops *const *sv_level_ops_list(size_t *count);
+
+#endif
