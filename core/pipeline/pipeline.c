@@ -257,14 +257,11 @@ static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
     sv_lod_plan *lp = &b->si.lods[i];
     sv_status st;
     if (lp->ops && lp->ops->bake) {
-        sv_level_bake_in in = {r->ren,
-                               r->gsrc,
-                               p->mesh,
-                               &b->bo,
-                               spec->eval_size_count ? spec->eval_sizes[0]
-                                                     : SVP_DEFAULT_LARGEST_PIXELS,
-                               SV_ATLAS_TEXELS_PER_PIXEL,
-                               spec->max_atlas};
+        sv_level_bake_in in = {.ren = r->ren, .gsrc = r->gsrc, .src = p->mesh, .opt = &b->bo};
+        in.largest_pixels = spec->eval_size_count ? spec->eval_sizes[0]
+                                                  : SVP_DEFAULT_LARGEST_PIXELS;
+        in.texels_per_pixel = SV_ATLAS_TEXELS_PER_PIXEL;
+        in.max_atlas = spec->max_atlas;
         return lp->ops->bake(lp, &in, &b->lods[i].baked, err);
     }
     sv_mesh *keep = NULL;
