@@ -95,4 +95,19 @@ const sv_level_ops *sv_level_ops_find(const char *method);
 /* Every registered table of hooks; *count receives their number. */
 const sv_level_ops *const *sv_level_ops_list(size_t *count);
 
+/* A document's 3-vector: true and v filled when a is an array of exactly
+ * three numbers (an impostor.json "centre"), else false, v untouched. */
+static inline bool sv_level_json_vec3(const cJSON *a, double v[3])
+{
+    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) return false;
+    double t[3];
+    for (int k = 0; k < 3; k++) {
+        const cJSON *e = cJSON_GetArrayItem(a, k);
+        if (!cJSON_IsNumber(e)) return false;
+        t[k] = e->valuedouble;
+    }
+    for (int k = 0; k < 3; k++) v[k] = t[k];
+    return true;
+}
+
 #endif

@@ -52,17 +52,6 @@ static cJSON *read_json(const char *dir, const char *name, sv_error *err)
     return j;
 }
 
-static bool vec3_of(const cJSON *a, double v[3])
-{
-    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) return false;
-    for (int k = 0; k < 3; k++) {
-        const cJSON *e = cJSON_GetArrayItem(a, k);
-        if (!cJSON_IsNumber(e)) return false;
-        v[k] = e->valuedouble;
-    }
-    return true;
-}
-
 /* Level lod drawn by the first registered level hooks that know it
  * (level.h view: an impostor.json level); *drawn false when none does. */
 static sv_status view_by_hook(const char *dir, const char *lod, const sv_camera *cam, uint32_t size,
@@ -94,8 +83,8 @@ sv_status sv_view_render(const char *out_dir, const char *lod, const double dir_
     const cJSON *fr = cJSON_GetObjectItemCaseSensitive(
         cJSON_GetObjectItemCaseSensitive(rep, "evaluation"), "frame");
     const cJSON *rad = cJSON_GetObjectItemCaseSensitive(fr, "radius");
-    if (!vec3_of(cJSON_GetObjectItemCaseSensitive(fr, "centre"), centre) || !cJSON_IsNumber(rad) ||
-        !((radius = rad->valuedouble) > 0)) {
+    if (!sv_level_json_vec3(cJSON_GetObjectItemCaseSensitive(fr, "centre"), centre) ||
+        !cJSON_IsNumber(rad) || !((radius = rad->valuedouble) > 0)) {
         cJSON_Delete(rep);
         return sv_fail(err, SV_ERR_PARSE, "view: %s/report.json has no evaluation.frame", out_dir);
     }

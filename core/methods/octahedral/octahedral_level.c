@@ -63,17 +63,6 @@ static cJSON *octa_level_doc(const sv_lod_plan *lod, const sv_level_names *names
     return sv_octa_impostor_json(g, names->lod, names->node, names->maps, g->mip_count);
 }
 
-static bool vec3_of(const cJSON *a, double v[3])
-{
-    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) return false;
-    for (int k = 0; k < 3; k++) {
-        const cJSON *e = cJSON_GetArrayItem(a, k);
-        if (!cJSON_IsNumber(e)) return false;
-        v[k] = e->valuedouble;
-    }
-    return true;
-}
-
 /* The PNG `name` of dir through read, decoded (16-bit grey or RGBA8). */
 static sv_status decode(const char *dir, const char *name, sv_level_read_fn read, bool gray16,
                         sv_image *img, sv_error *err)
@@ -96,7 +85,7 @@ static sv_status grid_of(const cJSON *e, const char *lod, sv_octa_grid *g, sv_er
     const cJSON *cut = cJSON_GetObjectItemCaseSensitive(e, "alpha_cutoff");
     memset(g, 0, sizeof *g);
     if (!cJSON_IsNumber(n) || !cJSON_IsNumber(fp) || !cJSON_IsNumber(half) ||
-        !vec3_of(cJSON_GetObjectItemCaseSensitive(e, "centre"), g->centre))
+        !sv_level_json_vec3(cJSON_GetObjectItemCaseSensitive(e, "centre"), g->centre))
         return sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s lacks a field", lod);
     g->n = (uint32_t)n->valuedouble;
     g->frame_pixels = (uint32_t)fp->valuedouble;
