@@ -38,7 +38,7 @@
  * Settings (spec key "leaf_clusters"), all optional:
  *   "clusters":      array of 1..8 integers in [1, 1024], strictly decreasing,
  *                    finest first (default [32, 16, 8]); one integer N = [N];
- *   "alpha_rel":     number in [0, 100] (default 0.003): α = alpha_rel·R², R
+ *   "alpha_rel":     number in [0, 100] (default 0.0007): α = alpha_rel·R², R
  *                    the bounding-sphere radius (docs/methods/leaf_clusters.md
  *                    has the measurement behind the default);
  *   "area_weighted": bool (default true): weight each leaf's error by its area;
@@ -140,7 +140,7 @@ static sv_status lc_parse(const cJSON *s, lc_settings *o, sv_error *err)
     memset(o, 0, sizeof *o);
     o->levels[0] = 32, o->levels[1] = 16, o->levels[2] = 8;
     o->level_count = 3;
-    o->alpha_rel = 0.003;
+    o->alpha_rel = 0.0007; /* docs/methods/leaf_clusters.md, "Measured again" */
     o->area_weighted = true;
     o->iterations = 50;
     o->seed_tries = 4;
