@@ -45,19 +45,6 @@ static void mom_add(kp_mom *a, const kp_mom *b)
     }
 }
 
-/* Mean squared distance of the element's weighted points from n·x + d = 0. */
-static double mom_cost(const kp_mom *e, const double n[3], double d)
-{
-    if (!(e->w > 0)) return 0;
-    double q = 0, nm = 0;
-    for (int i = 0; i < 3; i++) {
-        nm += n[i] * e->m[i];
-        for (int j = 0; j < 3; j++) q += n[i] * e->s[i][j] * n[j];
-    }
-    double c = (q + 2 * d * nm + d * d * e->w) / e->w;
-    return c > 0 ? c : 0;
-}
-
 /* Total least-squares plane of the points (relative coordinates). */
 static bool mom_fit(const kp_mom *a, double n[3], double *d)
 {
@@ -79,11 +66,29 @@ static bool mom_fit(const kp_mom *a, double n[3], double *d)
     return true;
 }
 
+/* A plane's cost as a linear form in an element's moments: the mean squared
+ * distance of the element's weighted points from n·x + d = 0 is
+ * (q·(s00, s11, s22, s01, s02, s12) + l·m + d²·w) / w with q the products
+ * of n's components (off-diagonal ones doubled) and l = 2·d·n, so the
+ * assignment's inner loop is ten multiply-adds a pair. */
+typedef struct kp_form {
+    double q[6], l[3], dd;
+} kp_form;
+
+static kp_form form_of(const double n[3], double d)
+{
+    kp_form f = {
+        {n[0] * n[0], n[1] * n[1], n[2] * n[2], 2 * n[0] * n[1], 2 * n[0] * n[2], 2 * n[1] * n[2]},
+        {2 * d * n[0], 2 * d * n[1], 2 * d * n[2]},
+        d * d};
+    return f;
+}
+
 /* One assignment step over elements [lo, hi) (an sv_parallel_for chunk):
  * writes asg[e] and cost[e] of its own elements and its count of changes. */
 typedef struct ajob {
     const kp_mom *em;
-    const double *pn;
+    const kp_form *pf;
     const uint8_t *fol;
     uint32_t np;
     uint32_t *asg;
@@ -95,17 +100,24 @@ static void ajob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
 {
     ajob *j = arg;
     const kp_mom *em = j->em;
-    const double *pn = j->pn;
+    const kp_form *pf = j->pf;
     uint32_t changed = 0;
     for (uint32_t e = lo; e < hi; e++) {
-        if (!(em[e].w > 0)) continue;
+        const kp_mom *m = &em[e];
+        if (!(m->w > 0)) continue;
+        const double S[6] = {m->s[0][0], m->s[1][1], m->s[2][2],
+                             m->s[0][1], m->s[0][2], m->s[1][2]};
         uint32_t best = UINT32_MAX;
         double bc = INFINITY;
         for (uint32_t k = 0; k < j->np; k++) {
             if (!j->fol[k]) continue;
-            double c = mom_cost(&em[e], &pn[4 * k], pn[4 * k + 3]);
+            const kp_form *f = &pf[k];
+            double c = f->q[0] * S[0] + f->q[1] * S[1] + f->q[2] * S[2] + f->q[3] * S[3] +
+                       f->q[4] * S[4] + f->q[5] * S[5] + f->l[0] * m->m[0] + f->l[1] * m->m[1] +
+                       f->l[2] * m->m[2] + f->dd * m->w;
             if (c < bc) bc = c, best = k;
         }
+        bc = bc > 0 ? bc / m->w : 0; /* the mean squared distance */
         changed += best != j->asg[e];
         j->asg[e] = best;
         j->cost[e] = bc;
@@ -116,11 +128,13 @@ static void ajob_run(void *arg, uint32_t t, uint32_t lo, uint32_t hi)
 /* Assigns every weighted element to its nearest foliage plane (ties: the
  * lower index); cost[e] = its mean squared distance. Returns how many
  * assignments changed. Each element's choice is its own, so the elements are
- * split between threads (parallel.h) and only the integer counts are added. */
+ * split between threads (parallel.h) and only the integer counts are added.
+ * pf: room for np forms (scratch). */
 static uint32_t assign_all(const kp_mom *em, uint32_t ne, const double *pn, const uint8_t *fol,
-                           uint32_t np, uint32_t *asg, double *cost)
+                           uint32_t np, uint32_t *asg, double *cost, kp_form *pf)
 {
-    ajob j = {.em = em, .pn = pn, .fol = fol, .np = np, .asg = asg, .cost = cost};
+    for (uint32_t k = 0; k < np; k++) pf[k] = form_of(&pn[4 * k], pn[4 * k + 3]);
+    ajob j = {.em = em, .pf = pf, .fol = fol, .np = np, .asg = asg, .cost = cost};
     uint32_t thr = (uint64_t)ne * np >= PAR_MIN_WORK ? SV_PARALLEL_DEFAULT : 1;
     uint32_t nch = sv_parallel_chunks(ne, thr);
     sv_parallel_for(ne, thr, ajob_run, &j);
@@ -220,10 +234,11 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     double *pn = sv_calloc(np + grow, 4 * sizeof(double)); /* n[3], d per plane, relative coords */
     uint8_t *fol = sv_calloc(np + grow, 1);
     double *cost = sv_calloc(ne ? ne : 1, sizeof *cost);
+    kp_form *pf = sv_calloc(np + grow, sizeof *pf);
     uint32_t *tris = NULL, *first = NULL;
     double *tarea = NULL;
     sv_status st = SV_OK;
-    if (!elem_of || !em || !pm || !asg || !pn || !fol || !cost) {
+    if (!elem_of || !em || !pm || !asg || !pn || !fol || !cost || !pf) {
         st = sv_fail(err, SV_ERR_NOMEM, "billboard cloud: out of memory (k-planes)");
         goto out;
     }
@@ -253,7 +268,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
      * plane parallel to that leaf's plane through the leaf (farthest-point
      * seeding, deterministic), one at a time with a reassignment between. */
     for (uint32_t added = 0; added <= grow; added++) {
-        assign_all(em, ne, pn, fol, np, asg, cost);
+        assign_all(em, ne, pn, fol, np, asg, cost, pf);
         if (added == grow) break;
         uint32_t far = UINT32_MAX;
         for (uint32_t e = 0; e < ne; e++)
@@ -277,7 +292,7 @@ sv_status sv_bbc_kplanes(const sv_bbc_input *in, uint32_t iterations, uint32_t t
     }
     for (uint32_t e = 0; e < ne; e++) asg[e] = UINT32_MAX; /* the loop below counts moves */
     for (uint32_t it = 0; it <= iterations; it++) {
-        uint32_t changed = assign_all(em, ne, pn, fol, np, asg, cost);
+        uint32_t changed = assign_all(em, ne, pn, fol, np, asg, cost, pf);
         if (it == iterations || (it > 0 && !changed)) break;
         /* refit */
         memset(pm, 0, (size_t)np * sizeof *pm);
@@ -366,5 +381,6 @@ out:
     free(pn);
     free(fol);
     free(cost);
+    free(pf);
     return st;
 }
