@@ -19,7 +19,7 @@
  *   "cardboard":   {"enabled": false, "coverage": 0.8}
  *   "tweak": true, "weld": true, "threads": 2 (1..16, same result for any),
  *   "miss_penalty": 0.5, "max_angle_deg": 75
- *   "refine":      k-planes iterations after the greedy selection (16; 0 = the
+ *   "refine":      k-planes iterations after the greedy selection (48; 0 = the
  *                  papers' planes as selected). Refined planes bake exactly the
  *                  leaves assigned to them (each leaf drawn once; see
  *                  bbcloud_kplanes.c and docs/methods/billboard_cloud.md)
@@ -138,7 +138,7 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
     o->threads = 2;
     o->miss_penalty = 0.5;
     o->max_angle = 75;
-    o->refine = 16;
+    o->refine = 48; /* docs/methods/billboard_cloud.md, k-planes iterations */
     o->trunk_mesh = true;
     for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = 200;
     sv_status st;
