@@ -839,3 +839,54 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
     free(g.tris);
     return SV_OK;
 }
+
+/* ---- twigs: the trunk triangles the kept trunk leaves out, by cell ---- */
+
+typedef struct twig_key {
+    uint64_t cell;
+    uint32_t t;
+} twig_key;
+
+static int twig_key_cmp(const void *a, const void *b)
+{
+    const twig_key *x = a, *y = b;
+    if (x->cell != y->cell) return x->cell < y->cell ? -1 : 1;
+    return x->t < y->t ? -1 : x->t > y->t;
+}
+
+sv_status sv_twig_groups(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
+                         const double centre[3], double radius, double cell_frac, uint32_t *tris,
+                         uint32_t *first, uint32_t *tri_count, uint32_t *groups, sv_error *err)
+{
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) n += part[t] == SV_PART_TRUNK && !skip[t];
+    twig_key *k = malloc((size_t)(n ? n : 1) * sizeof *k);
+    if (!k) return sv_fail(err, SV_ERR_NOMEM, "twigs: out of memory (%u triangles)", n);
+    double cell = cell_frac * radius, lo[3];
+    for (int i = 0; i < 3; i++) lo[i] = centre[i] - radius;
+    n = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (part[t] != SV_PART_TRUNK || skip[t]) continue;
+        uint64_t c = 0;
+        for (int i = 0; i < 3; i++) {
+            double x = 0;
+            for (int v = 0; v < 3; v++)
+                x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
+            double q = floor((x - lo[i]) / cell);
+            c = c * 4096 + (uint64_t)(q < 0 ? 0 : q > 4095 ? 4095 : q);
+        }
+        k[n].cell = c;
+        k[n++].t = t;
+    }
+    qsort(k, n, sizeof *k, twig_key_cmp);
+    uint32_t g = 0;
+    for (uint32_t a = 0; a < n; a++) {
+        if (a == 0 || k[a].cell != k[a - 1].cell) first[g++] = a;
+        tris[a] = k[a].t;
+    }
+    first[g] = n;
+    *tri_count = n;
+    *groups = g;
+    free(k);
+    return SV_OK;
+}

@@ -2,7 +2,8 @@
  * sv_trunk_mesh_budget): the cap wins over the error bound, the shape stays
  * where the trunk was, foliage never enters, and no budget means no change;
  * a quad level's trunk (sv_trunk_mesh_parts) keeps the stem of a trunk made
- * of many separate branches and shares the budget between parts. */
+ * of many separate branches and shares the budget between parts; the twigs a
+ * kept trunk leaves out are grouped by cell (sv_twig_groups). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -332,6 +333,72 @@ static void the_maple_keeps_its_stem_at_200_triangles(void **state)
     sv_mesh_destroy(m);
 }
 
+/* sv_twig_groups: only trunk triangles not skipped, one group per cell their
+ * centroid falls in (a group's centroids span less than a cell on every
+ * axis), index order within a group, each triangle once, several groups and
+ * fewer than triangles on the tube (radius 1, height 4) in cells of 1.5, and
+ * the same call gives the same order. */
+static void twigs_are_grouped_by_cell_once_each(void **state)
+{
+    (void)state;
+    uint8_t *parts = NULL;
+    sv_mesh *m = tube(8, 4, &parts);
+    uint32_t nt = m->triangle_count;
+    uint8_t *skip = calloc(nt, 1);
+    assert_non_null(skip);
+    skip[0] = skip[5] = 1; /* drawn by the kept trunk */
+    uint32_t *tris = calloc(nt, sizeof *tris), *first = calloc(nt + 1, sizeof *first);
+    assert_non_null(tris);
+    assert_non_null(first);
+    const double centre[3] = {0, 2, 0};
+    uint32_t n = 0, g = 0;
+    assert_int_equal(sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, tris, first, &n, &g, NULL),
+                     SV_OK);
+    assert_int_equal(n, nt - 1 - 2); /* not the foliage triangle, not the two skipped */
+    assert_true(g > 1 && g < n);
+    assert_int_equal(first[0], 0);
+    assert_int_equal(first[g], n);
+    uint8_t *seen = calloc(nt, 1);
+    assert_non_null(seen);
+    for (uint32_t k = 0; k < g; k++) {
+        assert_true(first[k] < first[k + 1]);
+        double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
+        for (uint32_t j = first[k]; j < first[k + 1]; j++) {
+            uint32_t t = tris[j];
+            assert_true(t < nt);
+            assert_int_equal(parts[t], SV_PART_TRUNK);
+            assert_false(skip[t]);
+            assert_false(seen[t]);
+            seen[t] = 1;
+            if (j > first[k]) assert_true(tris[j - 1] < t);
+            for (int i = 0; i < 3; i++) {
+                double c = 0;
+                for (int v = 0; v < 3; v++) c += m->positions[3 * m->indices[3 * t + v] + i] / 3.0;
+                lo[i] = fmin(lo[i], c), hi[i] = fmax(hi[i], c);
+            }
+        }
+        /* one cell: the centroids span less than a cell (1.5) on every axis */
+        for (int i = 0; i < 3; i++) assert_true(hi[i] - lo[i] < 1.5);
+    }
+    uint32_t *again = calloc(nt, sizeof *again), *first2 = calloc(nt + 1, sizeof *first2), n2, g2;
+    assert_non_null(again);
+    assert_non_null(first2);
+    assert_int_equal(
+        sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, again, first2, &n2, &g2, NULL), SV_OK);
+    assert_int_equal(n2, n);
+    assert_int_equal(g2, g);
+    assert_memory_equal(again, tris, n * sizeof *tris);
+    assert_memory_equal(first2, first, (g + 1) * sizeof *first);
+    free(again);
+    free(first2);
+    free(seen);
+    free(tris);
+    free(first);
+    free(skip);
+    free(parts);
+    sv_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -341,6 +408,7 @@ int main(void)
         cmocka_unit_test(parts_keep_the_stem_under_many_twigs),
         cmocka_unit_test(parts_share_the_budget_between_a_pot_and_the_stem),
         cmocka_unit_test(the_maple_keeps_its_stem_at_200_triangles),
+        cmocka_unit_test(twigs_are_grouped_by_cell_once_each),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }

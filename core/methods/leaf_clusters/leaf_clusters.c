@@ -235,58 +235,31 @@ static sv_status check_leaves(const sv_mesh *m, const sv_leaves *lv, sv_error *e
 
 /* The trunk triangles the kept trunk leaves out (skip[t] == 0), as leaf
  * elements for the clustering, grouped by a grid of cells SV_TWIG_CELL of the
- * bounding radius (the sapling maple leaves ~100k twig triangles: one
- * element each made the clustering the slowest stage and a target search
- * 4x one bake). An element's normal is its triangles' area-weighted normal,
- * or, where they cancel (a twig's tube), the horizontal direction away from
- * the tree's centre. Appended to ext (room for one element per triangle). */
-#define SV_TWIG_CELL (1.0 / 64.0)
-
-typedef struct twig_key {
-    uint64_t cell;
-    uint32_t t;
-} twig_key;
-
-static int twig_key_cmp(const void *a, const void *b)
-{
-    const twig_key *x = a, *y = b;
-    if (x->cell != y->cell) return x->cell < y->cell ? -1 : 1;
-    return x->t < y->t ? -1 : x->t > y->t;
-}
+ * bounding radius (sv_twig_groups; the sapling maple leaves ~100k twig
+ * triangles: one element each made the clustering the slowest stage and a
+ * target search 4x one bake). An element's normal is its triangles'
+ * area-weighted normal, or, where they cancel (a twig's tube), the
+ * horizontal direction away from the tree's centre. Appended to ext (room
+ * for one element per triangle). */
 
 static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
                                const sv_method_input *in, sv_leaves *ext, sv_error *err)
 {
-    uint32_t n = 0;
-    for (uint32_t t = 0; t < m->triangle_count; t++) n += part[t] == SV_PART_TRUNK && !skip[t];
-    twig_key *k = malloc((size_t)(n ? n : 1) * sizeof *k);
-    if (!k) return sv_fail(err, SV_ERR_NOMEM, LC_NAME ": out of memory");
-    double cell = SV_TWIG_CELL * in->radius, lo[3];
-    for (int i = 0; i < 3; i++) lo[i] = in->centre[i] - in->radius;
-    n = 0;
-    for (uint32_t t = 0; t < m->triangle_count; t++) {
-        if (part[t] != SV_PART_TRUNK || skip[t]) continue;
-        uint64_t c = 0;
-        for (int i = 0; i < 3; i++) {
-            double x = 0;
-            for (int v = 0; v < 3; v++)
-                x += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + i] / 3.0;
-            double q = floor((x - lo[i]) / cell);
-            c = c * 4096 + (uint64_t)(q < 0 ? 0 : q > 4095 ? 4095 : q);
-        }
-        k[n].cell = c;
-        k[n++].t = t;
-    }
-    qsort(k, n, sizeof *k, twig_key_cmp);
-    for (uint32_t a = 0; a < n;) {
-        uint32_t b = a;
-        while (b < n && k[b].cell == k[a].cell) b++;
+    uint32_t nt = m->triangle_count, n = 0, groups = 0;
+    uint32_t *tw = malloc((size_t)(nt ? nt : 1) * sizeof *tw);
+    uint32_t *first = malloc(((size_t)nt + 1) * sizeof *first);
+    sv_status st = tw && first ? SV_OK : sv_fail(err, SV_ERR_NOMEM, LC_NAME ": out of memory");
+    if (!st)
+        st = sv_twig_groups(m, part, skip, in->centre, in->radius, SV_TWIG_CELL, tw, first, &n,
+                            &groups, err);
+    for (uint32_t g = 0; g < groups && !st; g++) {
+        uint32_t a = first[g], b = first[g + 1];
         sv_leaf *f = &ext->leaves[ext->count++];
         memset(f, 0, sizeof *f);
         double nsum[3] = {0, 0, 0};
         f->first = ext->tri_count;
         for (uint32_t j = a; j < b; j++) {
-            uint32_t t = k[j].t;
+            uint32_t t = tw[j];
             double ar = sv_tri_area(m, t), nn[3];
             sv_tri_normal(m, t, nn);
             for (int i = 0; i < 3; i++) {
@@ -306,7 +279,7 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
                 f->centre[i] = 0;
                 for (int v = 0; v < 3; v++)
                     f->centre[i] +=
-                        m->positions[3 * (size_t)m->indices[3 * (size_t)k[a].t + v] + i] / 3.0;
+                        m->positions[3 * (size_t)m->indices[3 * (size_t)tw[a] + v] + i] / 3.0;
             }
         }
         double len = sqrt(nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2]);
@@ -319,16 +292,16 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
         for (int i = 0; i < 3; i++) f->normal[i] = nsum[i] / len;
         for (uint32_t j = a; j < b; j++)
             for (int v = 0; v < 3; v++) {
-                const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)k[j].t + v]];
+                const float *p = &m->positions[3 * (size_t)m->indices[3 * (size_t)tw[j] + v]];
                 double d = sqrt((p[0] - f->centre[0]) * (p[0] - f->centre[0]) +
                                 (p[1] - f->centre[1]) * (p[1] - f->centre[1]) +
                                 (p[2] - f->centre[2]) * (p[2] - f->centre[2]));
                 if (d > f->radius) f->radius = d;
             }
-        a = b;
     }
-    free(k);
-    return SV_OK;
+    free(tw);
+    free(first);
+    return st;
 }
 
 static sv_status lc_build(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
