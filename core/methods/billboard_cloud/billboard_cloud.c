@@ -257,8 +257,8 @@ static void bc_input_free(bc_input *b)
  * grouped by cells when there are more than BC_TWIG_GROUP_MIN. */
 /* The twig triangles as foliage elements of one cell each (sv_twig_groups),
  * appended at *k / *ne; marks them used. */
-static sv_status group_twigs(const sv_method_input *in, const uint8_t *skip, uint8_t *used,
-                             bc_input *b, uint32_t *k, uint32_t *ne, sv_error *err)
+static sv_status group_twigs(const sv_method_input *in, const uint8_t *part, const uint8_t *skip,
+                             uint8_t *used, bc_input *b, uint32_t *k, uint32_t *ne, sv_error *err)
 {
     const sv_mesh *m = in->mesh;
     uint32_t nt = m->triangle_count, n = 0, groups = 0;
@@ -266,8 +266,8 @@ static sv_status group_twigs(const sv_method_input *in, const uint8_t *skip, uin
     uint32_t *first = malloc(((size_t)nt + 1) * sizeof *first);
     sv_status st = tw && first ? SV_OK : sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory");
     if (!st)
-        st = sv_twig_groups(m, in->cls->tri_part, skip, in->centre, in->radius, SV_TWIG_CELL, tw,
-                            first, &n, &groups, err);
+        st = sv_twig_groups(m, part, skip, in->centre, in->radius, SV_TWIG_CELL, tw, first, &n,
+                            &groups, err);
     for (uint32_t g = 0; g < groups && !st; g++) {
         b->efirst[*ne] = *k;
         b->epart[(*ne)++] = SV_PART_FOLIAGE;
@@ -321,7 +321,7 @@ static sv_status build_elements(const sv_method_input *in, const uint8_t *skip, 
         uint32_t twigs = 0;
         for (uint32_t t = 0; t < nt; t++) twigs += !used[t] && !skip[t] && part[t] == SV_PART_TRUNK;
         if (twigs > BC_TWIG_GROUP_MIN) {
-            sv_status st = group_twigs(in, skip, used, b, &k, &ne, err);
+            sv_status st = group_twigs(in, part, skip, used, b, &k, &ne, err);
             if (st) {
                 free(used);
                 return st;
