@@ -45,6 +45,7 @@
 #include "out_names.h"
 #include "pipeline.h"
 #include "view.h"
+#include "warm_shaders.h"
 #include "sandbox.h"
 #include "spec.h"
 #include "zygote.h"
@@ -58,9 +59,10 @@ static const char usage[] =
     "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json] [--cpu-limit S]\n"
     "       sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N]\n"
     "                       [--progress auto|bar|plain|none] [--quiet] [--sandbox]\n"
-    "                       [--cpu-limit S]\n"
+    "                       [--cpu-limit S] [--shader-cache DB --shader-cache-dir DIR]\n"
     "       sylva-bake check-spec SPEC.json\n"
     "       sylva-bake view DIR --lod NAME --dir X,Y,Z [--size S] --out FILE.png\n"
+    "       sylva-bake warm-shaders DIR   (sylvad's: fills a shader cache, prints its DB)\n"
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
     "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
@@ -83,6 +85,11 @@ static const char usage[] =
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
     "           and network, exec and ptrace calls kill the process with SIGSYS\n"
     "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n"
+    "\n"
+    "--shader-cache DB --shader-cache-dir DIR  Mesa's shader cache for this bake:\n"
+    "           DB (printed by `sylva-bake warm-shaders DIR`) read-only, what the\n"
+    "           bake compiles written into DIR, an empty directory of its own.\n"
+    "           Without them a --sandbox bake runs with the cache off.\n"
     "\n"
     "--cpu-limit S  stop after S seconds of CPU time (RLIMIT_CPU): one line on stderr,\n"
     "           with bake DIR/error.json (code \"limit\"), exit 1. Default: the\n"
@@ -584,8 +591,11 @@ static int cmd_bake(int argc, char **argv)
     long parent = 0;
     bool sandbox = false;
     long cpu_limit = -1;
+    const char *shader_db = NULL, *shader_dir = NULL;
     for (int i = 0; i < argc; i++) {
         if (strcmp(argv[i], "--sandbox") == 0) sandbox = true;
+        else if (strcmp(argv[i], "--shader-cache") == 0 && i + 1 < argc) shader_db = argv[++i];
+        else if (strcmp(argv[i], "--shader-cache-dir") == 0 && i + 1 < argc) shader_dir = argv[++i];
         else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
             if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
         } else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
@@ -650,8 +660,11 @@ static int cmd_bake(int argc, char **argv)
      * for Mesa's on-disk shader cache: it finds its directory with
      * getpwuid_r, whose NSS lookup opens a socket (nscd), and it would let a
      * subverted bake plant JIT code for later bakes. Sandboxed bakes go
-     * without it (outputs are the same; llvmpipe compiles its few shaders). */
-    if (sandbox) setenv("MESA_SHADER_CACHE_DISABLE", "true", 1);
+     * without it (outputs are the same; llvmpipe compiles its few shaders),
+     * or, given --shader-cache and --shader-cache-dir (sylvad's jobs), read
+     * a DB that `warm-shaders` filled and write only into a directory of
+     * their own (warm_shaders.h). */
+    if (sandbox || shader_db || shader_dir) (void)sv_shader_cache_env(shader_db, shader_dir);
     /* The image plugin (OpenImageIO, dlopen'ed: image.h) before the sandbox
      * when the upload may hold a texture it decodes, so that its libraries'
      * initialisers run outside the filter (one of them reports "insecure
@@ -853,6 +866,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "check-spec") == 0) return cmd_check_spec(argc - 2, argv + 2);
     if (strcmp(argv[1], "view") == 0) return cmd_view(argc - 2, argv + 2);
     if (strcmp(argv[1], "sandbox-selftest") == 0) return cmd_sandbox_selftest(argc - 2, argv + 2);
+    if (strcmp(argv[1], "warm-shaders") == 0) return sv_warm_shaders_main(argc - 2, argv + 2);
     if (strcmp(argv[1], "zygote") == 0) return cmd_zygote(argc - 2, argv + 2, argv, argc);
     fprintf(stderr, "sylva-bake: unknown command '%s'\n%s", argv[1], usage);
     return 2;
