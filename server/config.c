@@ -43,6 +43,7 @@ void svd_config_defaults(svd_config *c)
     c->worker_sandbox = true;
     c->worker_nice = 10;
     c->worker_pool = true;
+    c->worker_shader_cache = true;
 }
 
 bool svd_parse_bool(const char *s, bool *out)
@@ -125,6 +126,7 @@ static const struct setting {
     S("worker_sandbox", K_BOOL, worker_sandbox),
     S("worker_nice", K_U32, worker_nice),
     S("worker_pool", K_BOOL, worker_pool),
+    S("worker_shader_cache", K_BOOL, worker_shader_cache),
 #undef S
 };
 

@@ -59,6 +59,8 @@ typedef struct svd_config {
     bool worker_pool;              /* fork workers from a resident `sylva-bake zygote` per
                                      worker thread instead of exec'ing each, default on
                                      (workers.h) */
+    bool worker_shader_cache;      /* warm a read-only shader cache at start and give
+                                     it to sandboxed jobs, default on (workers.h) */
 } svd_config;
 
 /* Fills cfg with the defaults above. */

@@ -2,6 +2,7 @@
  *
  *   ROOT/journal                 accepted jobs (journal.h)
  *   ROOT/tmp/                    uploads and worker outputs in progress; emptied at start
+ *   ROOT/shaders/                the daemon's warmed shader cache, read-only (workers.h)
  *   ROOT/quarantine/             objects whose bytes no longer match their SHA-256
  *   ROOT/jobs/KEY/spec.json      the spec as uploaded ("{}" if empty)
  *   ROOT/jobs/KEY/inputs.json    {"mesh":NAME,"files":[...],"objects":{NAME:{"size":N,"sha256":H}}}

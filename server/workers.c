@@ -35,6 +35,14 @@ struct svd_workers {
      * the first zygote failed (a worker that does not speak the protocol,
      * or threads at fork): one exec per job from then on */
     atomic_int pool_state;
+    /* the shader cache (worker_shader_cache; workers.h): shader_db is
+     * written by the warm-up thread before it sets shader_state to 1; -1
+     * failed or off, 0 warming */
+    char shader_db[SVD_PATH_MAX];
+    atomic_int shader_state;
+    atomic_int warm_pid; /* the warm-up process while it runs, else 0 */
+    pthread_t warm_thread;
+    bool warm_started;
 };
 
 /* One worker thread's zygote (`sylva-bake zygote`, common/zygote_proto.h),
@@ -785,6 +793,14 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
     argv[ac++] = "--parent-pid";
     argv[ac++] = ppid;
     if (c->worker_sandbox) argv[ac++] = "--sandbox"; /* seccomp filter (core/cli/sandbox.h) */
+    char shader_dir[SVD_STORE_PATH] = "";
+    if (c->worker_sandbox && atomic_load(&w->shader_state) == 1 &&
+        svd_store_mktemp(store, "sc", shader_dir, &err) == SV_OK) {
+        argv[ac++] = "--shader-cache";
+        argv[ac++] = w->shader_db;
+        argv[ac++] = "--shader-cache-dir";
+        argv[ac++] = shader_dir;
+    }
     argv[ac] = NULL;
 #undef OWN
     run_result rr;
@@ -796,6 +812,7 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
     } else {
         run_process(w, z, t, argv, base, ppid, sizeof ppid, logpath, &rr);
     }
+    if (shader_dir[0]) svd_rm_rf(shader_dir);
     for (size_t i = 0; i < no; i++) free(owned[i]);
     for (int i = 0; i <= nfiles; i++) free(inpaths[i]);
     free(inpaths);
@@ -872,6 +889,102 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
+/* ---- the shader cache (worker_shader_cache; workers.h) ---- */
+
+#define WARM_TIMEOUT 120.0 /* s: the built-in scene bakes in about 2 s */
+
+/* The warm-up thread: runs `WORKER warm-shaders DIR` (stdout, the DB's
+ * path, and stderr into DIR.log), waits for it (killed after WARM_TIMEOUT
+ * or by svd_workers_join), checks the path it printed and makes the DB
+ * read-only. Sets shader_state to 1 or -1. */
+static void *warm_main(void *arg)
+{
+    svd_workers *w = arg;
+    svd_jobs *jobs = w->jobs;
+    svd_store *store = svd_jobs_store(jobs);
+    char dir[SVD_STORE_PATH] = "", logpath[SVD_STORE_PATH + 8] = "", why[SVD_PATH_MAX + 600] = "";
+    int state = -1;
+    pid_t pid = 0;
+    /* ROOT/shaders (store.h): what an earlier daemon left there goes first */
+    snprintf(dir, sizeof dir, "%s/shaders", svd_store_root(store));
+    snprintf(logpath, sizeof logpath, "%s.log", dir);
+    svd_rm_rf(dir);
+    char *argv[] = {w->path, "warm-shaders", dir, NULL};
+    int devnull = open("/dev/null", O_RDONLY | O_CLOEXEC);
+    int rc = devnull < 0
+                 ? errno
+                 : spawn_child(w->path, argv, logpath, O_WRONLY | O_CREAT | O_TRUNC, devnull, &pid);
+    if (devnull >= 0) close(devnull);
+    if (rc != 0) {
+        snprintf(why, sizeof why, "cannot start %s warm-shaders: %s", w->path, strerror(rc));
+        goto done;
+    }
+    atomic_store(&w->warm_pid, pid);
+    int status = 0;
+    double t0 = sv_now();
+    pid_t got;
+    while ((got = waitpid(pid, &status, WNOHANG)) == 0 && sv_now() - t0 < WARM_TIMEOUT) {
+        struct timespec ts = {0, 20 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+    }
+    if (got == 0) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &status, 0);
+        snprintf(why, sizeof why, "warm-shaders took more than %.0f s", WARM_TIMEOUT);
+    }
+    atomic_store(&w->warm_pid, 0);
+    if (got == 0) goto done;
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        char tail[200];
+        tail_of_log(logpath, tail, sizeof tail);
+        snprintf(why, sizeof why, "warm-shaders failed: %s", tail);
+        goto done;
+    }
+    /* the log's first line is the DB (the worker's stdout) */
+    FILE *f = fopen(logpath, "r");
+    char line[SVD_PATH_MAX] = "";
+    if (f) {
+        if (!fgets(line, sizeof line, f)) line[0] = 0;
+        fclose(f);
+    }
+    line[strcspn(line, "\n")] = 0;
+    char foz[SVD_PATH_MAX + 16], idx[SVD_PATH_MAX + 16];
+    snprintf(foz, sizeof foz, "%s.foz", line);
+    snprintf(idx, sizeof idx, "%s_idx.foz", line);
+    char adir[PATH_MAX] = ""; /* the worker prints an absolute path */
+    if (!realpath(dir, adir)) adir[0] = 0;
+    size_t dl = strlen(adir);
+    if (!dl || strncmp(line, adir, dl) != 0 || line[dl] != '/' || strstr(line, "/../") ||
+        chmod(foz, 0444) != 0 || chmod(idx, 0444) != 0) {
+        snprintf(why, sizeof why, "warm-shaders printed no DB under %s", dir);
+        goto done;
+    }
+    /* and its folders, up to dir: a job runs as the daemon's user, and its
+     * sandbox allows open, unlink and rename but not chmod, so it can
+     * neither rewrite the DB nor put another in its place (root ignores
+     * modes: run sylvad as its own user, deploy/sylvad.service) */
+    for (char *slash = strrchr(line, '/'); slash && (size_t)(slash - line) >= strlen(adir);
+         slash = strrchr(line, '/')) {
+        *slash = 0;
+        chmod(line, 0555);
+        if (strlen(line) == strlen(adir)) break;
+    }
+    snprintf(w->shader_db, sizeof w->shader_db, "%.*s", (int)(sizeof w->shader_db - 1), foz);
+    w->shader_db[strlen(w->shader_db) - 4] = 0; /* the DB's name: foz without ".foz" */
+    state = 1;
+done:
+    unlink(logpath);
+    if (state != 1) svd_rm_rf(dir);
+    if (state != 1)
+        svd_log_kv(svd_jobs_log(jobs), SVD_LOG_WARN, "shader_cache_unavailable", "reason", why,
+                   NULL);
+    else
+        svd_log_kv(svd_jobs_log(jobs), SVD_LOG_INFO, "shader_cache_ready", "db", w->shader_db,
+                   NULL);
+    atomic_store(&w->shader_state, state);
+    return NULL;
+}
+
 svd_workers *svd_workers_start(svd_jobs *jobs, const char *worker_path, unsigned count,
                                sv_error *err)
 {
@@ -883,6 +996,13 @@ svd_workers *svd_workers_start(svd_jobs *jobs, const char *worker_path, unsigned
     }
     w->jobs = jobs;
     snprintf(w->path, sizeof w->path, "%s", worker_path);
+    const svd_config *c = svd_jobs_config(jobs);
+    atomic_store(&w->shader_state, -1);
+    if (c->worker_sandbox && c->worker_shader_cache) {
+        atomic_store(&w->shader_state, 0);
+        w->warm_started = pthread_create(&w->warm_thread, NULL, warm_main, w) == 0;
+        if (!w->warm_started) atomic_store(&w->shader_state, -1);
+    }
     for (unsigned i = 0; i < count; i++) {
         if (pthread_create(&w->threads[i], NULL, worker_main, w) != 0) {
             sv_fail(err, SV_ERR_INTERNAL, "cannot start worker thread %u", i);
@@ -901,6 +1021,16 @@ void svd_workers_join(svd_workers *w)
 {
     if (!w) return;
     for (unsigned i = 0; i < w->count; i++) pthread_join(w->threads[i], NULL);
+    if (w->warm_started) {
+        pid_t p = atomic_load(&w->warm_pid);
+        if (p > 0) kill(p, SIGKILL); /* reaped by its thread */
+        pthread_join(w->warm_thread, NULL);
+    }
+    if (atomic_load(&w->shader_state) == 1) { /* ROOT/shaders, read-only */
+        char dir[SVD_STORE_PATH];
+        snprintf(dir, sizeof dir, "%s/shaders", svd_store_root(svd_jobs_store(w->jobs)));
+        svd_rm_rf(dir);
+    }
     free(w->threads);
     free(w);
 }

@@ -26,6 +26,16 @@
  * job a crash (retried). When the first zygote fails its hello (a worker
  * that is not sylva-bake) the daemon logs worker_pool_unavailable and
  * spawns one worker per job.
+ *
+ * The shader cache (worker_shader_cache, default on, with worker_sandbox):
+ * at start a thread runs `sylva-bake warm-shaders STORE/shaders` on
+ * the worker's own built-in scene (no upload), which fills a Mesa shader
+ * cache and prints its DB; the DB's files are made read-only (0444) and
+ * every later sandboxed job gets `--shader-cache DB --shader-cache-dir D`,
+ * D a fresh directory under tmp/ removed after the job, so llvmpipe loads
+ * its JIT code instead of compiling it and nothing a job writes reaches
+ * another. Jobs that start before the warm-up is done, or after it failed
+ * (logged as shader_cache_unavailable), bake with the cache off as before.
  */
 #ifndef SVD_WORKERS_H
 #define SVD_WORKERS_H
