@@ -18,8 +18,13 @@ The spec is cheap (crossed quads alone, a 256-texel atlas, 4 views at 64 px):
 what is measured is what a job costs around the bake. Writes
 bench/results/pool.tsv and the "Worker pool" section of docs/benchmarks.md.
 
+With SYLVA_POOL_BASELINE=DIR (a build folder of an older sylva, e.g. the
+daemon before the pool, commit f6aa7ca^, built in a worktree), its sylvad
+runs the same one-triangle jobs in the same run, with its own defaults: the
+ratio issue 20 asks for ("3x today's jobs per minute") measured, not quoted.
+
 Run by `make bench` (tests/bench/run.sh). Env: BUILD, SYLVA_DATA,
-SYLVA_POOL_JOBS (N, default 20).
+SYLVA_POOL_JOBS (N, default 20), SYLVA_POOL_BASELINE.
 """
 import json, os, shutil, statistics, subprocess, sys, tempfile, time, urllib.request
 
@@ -36,13 +41,15 @@ SPEC = {"method": "crossed_quads", "lod": {"chain": False}, "bake": {"max_atlas"
 TRI = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
 
 
-def start(tmp, pool):
+def start(tmp, pool, bdir=None):
+    """A fresh sylvad; pool None: bdir's daemon with its own defaults."""
     run = tempfile.mkdtemp(prefix="daemon-%s-" % pool, dir=tmp)  # a fresh store and port file
     store = os.path.join(run, "store")
     portf = os.path.join(run, "port")
     log = open(os.path.join(run, "daemon.log"), "w")
-    p = subprocess.Popen([os.path.join(build, "sylvad"), "--listen", "127.0.0.1:0", "--store", store,
-                          "--port-file", portf, "--worker-pool", pool, "--queue-per-client", "1000",
+    mode = ["--worker-pool", pool] if pool else []
+    p = subprocess.Popen([os.path.join(bdir or build, "sylvad"), "--listen", "127.0.0.1:0", "--store",
+                          store, "--port-file", portf] + mode + ["--queue-per-client", "1000",
                           "--log-level", "info"], stderr=log)
     for _ in range(200):
         if os.path.exists(portf) and open(portf).read().strip():
@@ -86,8 +93,8 @@ def variants(tmp, name, text, files, count, first):
     return out
 
 
-def measure(tmp, pool, inputs):
-    p, url = start(tmp, pool)
+def measure(tmp, pool, inputs, bdir=None):
+    p, url = start(tmp, pool, bdir)
     try:
         lat = []
         for m, fs in inputs[:N]:
@@ -134,6 +141,17 @@ def main():
                       "median after %.2f s" % (label, pool, r["jpm"], N, r["burst"], r["first"],
                                                r["median"]), flush=True)
             rows.append((label, res))
+        base = os.environ.get("SYLVA_POOL_BASELINE")
+        if base:
+            ins = variants(tmp, cases[0][1], cases[0][2], cases[0][3], 2 * N, 9000)
+            r = measure(tmp, None, ins, os.path.abspath(base))
+            after = r["lat"][1:] or r["lat"]
+            r["first"], r["median"], r["mean"] = r["lat"][0], statistics.median(after), statistics.mean(after)
+            baseline = (base, r)
+            print("baseline %s %6.1f jobs/min (%d at once: %.1f s); median after %.2f s" % (
+                base, r["jpm"], N, r["burst"], r["median"]), flush=True)
+        else:
+            baseline = None
     with open(os.path.join(res_dir, "pool.tsv"), "w") as f:
         f.write("input\tpool\tjobs_per_min\tburst_s\tfirst_s\tmedian_after_s\tmean_after_s\n")
         for label, res in rows:
@@ -164,6 +182,18 @@ def main():
                 label, pool, r["jpm"], r["first"], r["median"],
                 "%.2f×" % (on["jpm"] / off["jpm"]) if pool == "on" else "",
                 "%.2f×" % (off["median"] / on["median"]) if pool == "on" else ""))
+    if baseline:
+        base, b = baseline
+        on = rows[0][1]["on"]
+        rev = subprocess.run(["git", "-C", base, "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True).stdout.strip() or "?"
+        md += ["", "Against an older daemon in the same run (`SYLVA_POOL_BASELINE`: a build of commit %s, "
+               "with its own defaults), one-triangle jobs:" % rev,
+               "", "| daemon | %d at once: jobs/min | median after the first | jobs/min ratio now/then "
+               "| latency ratio then/now |" % N, "| --- | --- | --- | --- | --- |",
+               "| then (%s) | %.1f | %.2f s | | |" % (rev, b["jpm"], b["median"]),
+               "| now (pool on) | %.1f | %.2f s | %.2f× | %.2f× |" % (
+                   on["jpm"], on["median"], on["jpm"] / b["jpm"], b["median"] / on["median"])]
     md.append("<!-- pool:end -->")
     write_section(os.path.join(root, "docs", "benchmarks.md"), "pool", md)
     print("pool: wrote bench/results/pool.tsv and docs/benchmarks.md")
