@@ -92,4 +92,27 @@ sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *er
 /* Encodes img as PNG into a malloc'ed buffer (*out, *out_size; caller frees). */
 sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size, sv_error *err);
 
+/* A memo of encoded PNGs (issue 20: a bake encoded each atlas three times,
+ * for its file, model.glb and its level's glb). While a memo is in use on
+ * the calling thread (sv_png_memo_use), sv_image_encode_png and
+ * sv_image_write_png give the bytes of an earlier encoding when the image
+ * holds the same pixels (the same sv_image_alloc buffer, which the memo keeps
+ * a shared copy of, and which nobody writes into once it has copies: see
+ * sv_image_copy), instead of encoding them again: the same bytes, once.
+ * Images whose pixels were not made by sv_image_alloc are encoded each time. */
+typedef struct sv_png_memo sv_png_memo;
+
+/* An empty memo; NULL when out of memory (callers then encode each time). */
+sv_png_memo *sv_png_memo_create(void);
+
+/* Releases the memo's bytes and its copies of the images. NULL is fine. The
+ * memo must not be in use on any thread. */
+void sv_png_memo_free(sv_png_memo *m);
+
+/* Makes m (or NULL: none) the calling thread's memo; returns the previous. */
+sv_png_memo *sv_png_memo_use(sv_png_memo *m);
+
+/* How many encodings m has saved (calls answered from it). */
+size_t sv_png_memo_reused(const sv_png_memo *m);
+
 #endif

@@ -10,7 +10,8 @@
  * physical-size chunks), zlib level 1 (encoding speed over size: a 2048²
  * atlas is 0.1-0.3 s at level 1 and several times that at the default 6; the
  * files are about 10 % larger), libpng's default adaptive filters. 16-bit
- * samples are written big-endian as PNG requires.
+ * samples are written big-endian as PNG requires. A memo (sv_png_memo) lets
+ * the write stage encode each atlas once for its three files.
  */
 #include "image.h"
 
@@ -104,8 +105,97 @@ static sv_status encode(const sv_image *img, png_sink *sink, png_bytep *rows, sv
     return SV_OK;
 }
 
+/* ---- the memo (image.h) ---- */
+
+typedef struct memo_entry {
+    sv_image img; /* a shared copy: keeps the pixels, and so their address, alive */
+    uint8_t *png;
+    size_t size;
+} memo_entry;
+
+struct sv_png_memo {
+    memo_entry *e;
+    size_t count, cap;
+    size_t reused;
+};
+
+static _Thread_local sv_png_memo *active_memo;
+
+sv_png_memo *sv_png_memo_create(void)
+{
+    return calloc(1, sizeof(sv_png_memo));
+}
+
+void sv_png_memo_free(sv_png_memo *m)
+{
+    if (!m) return;
+    for (size_t i = 0; i < m->count; i++) {
+        sv_image_free(&m->e[i].img);
+        free(m->e[i].png);
+    }
+    free(m->e);
+    free(m);
+}
+
+sv_png_memo *sv_png_memo_use(sv_png_memo *m)
+{
+    sv_png_memo *prev = active_memo;
+    active_memo = m;
+    return prev;
+}
+
+size_t sv_png_memo_reused(const sv_png_memo *m)
+{
+    return m ? m->reused : 0;
+}
+
+static const memo_entry *memo_find(const sv_png_memo *m, const sv_image *img)
+{
+    for (size_t i = 0; m && img->refs && i < m->count; i++) {
+        const sv_image *o = &m->e[i].img;
+        if (o->data == img->data && o->width == img->width && o->height == img->height &&
+            o->channels == img->channels && o->bits == img->bits)
+            return &m->e[i];
+    }
+    return NULL;
+}
+
+/* Keeps a copy of png (size bytes) for img's pixels; nothing when img's
+ * pixels cannot be shared or memory runs out (the next call encodes). */
+static void memo_add(sv_png_memo *m, const sv_image *img, const uint8_t *png, size_t size)
+{
+    if (!m || !img->refs) return;
+    if (m->count == m->cap) {
+        size_t cap = m->cap ? 2 * m->cap : 8;
+        memo_entry *e = realloc(m->e, cap * sizeof *e);
+        if (!e) return;
+        m->e = e;
+        m->cap = cap;
+    }
+    memo_entry *e = &m->e[m->count];
+    memset(e, 0, sizeof *e);
+    if (!(e->png = malloc(size ? size : 1))) return;
+    if (sv_image_copy(img, &e->img, NULL) != SV_OK) {
+        free(e->png);
+        return;
+    }
+    memcpy(e->png, png, size);
+    e->size = size;
+    m->count++;
+}
+
 sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size, sv_error *err)
 {
+    const memo_entry *hit = img ? memo_find(active_memo, img) : NULL;
+    if (hit && out && out_size) {
+        if (!(*out = malloc(hit->size ? hit->size : 1)))
+            return sv_fail(err, SV_ERR_NOMEM, "PNG encoding: out of memory");
+        memcpy(*out, hit->png, hit->size);
+        *out_size = hit->size;
+        active_memo->reused++;
+        return SV_OK;
+    }
+
     if (!out || !out_size) return sv_fail(err, SV_ERR_INTERNAL, "sv_image_encode_png: no output");
     *out = NULL;
     *out_size = 0;
@@ -128,6 +218,7 @@ sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_si
     }
     *out = sink.data;
     *out_size = sink.size;
+    memo_add(active_memo, img, sink.data, sink.size);
     return SV_OK;
 }
 

@@ -499,8 +499,14 @@ sv_status svp_bake_all(run *r, sv_error *err)
     }
     if (!st) st = stage_plan(r, &b, err);
     if (!st) st = stage(r, ST_WRITE, 0, err);
+    /* each atlas goes into its file, model.glb and its level's glb: encoded
+     * once (image.h) */
+    sv_png_memo *memo = st ? NULL : sv_png_memo_create();
+    sv_png_memo *prev_memo = sv_png_memo_use(memo);
     if (!st) st = svp_write_atlases(r, &b, err);
     if (!st) st = svp_write_gltf(r, &b, err);
+    sv_png_memo_use(prev_memo);
+    sv_png_memo_free(memo);
     if (!st) st = svp_write_preview(r, &b, r->spec.evaluate ? r->ev : NULL, err);
     if (!st) st = svp_write_planes(r, &b, err);
     if (!st) st = svp_write_report(r, &b, err);

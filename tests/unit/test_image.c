@@ -73,6 +73,61 @@ static uint8_t *encode(const sv_image *img, size_t *n)
     return out;
 }
 
+/* The PNG memo (issue 20): an image and its shared copies are encoded once
+ * while a memo is in use; equal pixels in another buffer, pixels not made by
+ * sv_image_alloc, and calls without a memo are encoded; every answer is the
+ * same bytes. */
+static void png_memo_encodes_shared_pixels_once_and_gives_the_same_bytes(void **state)
+{
+    (void)state;
+    sv_image a, b, c;
+    assert_int_equal(sv_image_alloc(&a, 33, 17, 4, 8, NULL), SV_OK);
+    uint8_t *p = a.data;
+    for (size_t i = 0; i < 33 * 17 * 4; i++) p[i] = (uint8_t)(i * 37 + i / 7);
+    assert_int_equal(sv_image_copy(&a, &b, NULL), SV_OK);
+    assert_ptr_equal(a.data, b.data);
+    assert_int_equal(sv_image_alloc(&c, 33, 17, 4, 8, NULL), SV_OK);
+    memcpy(c.data, a.data, 33 * 17 * 4);
+    uint8_t raw[16 * 4];
+    memcpy(raw, a.data, sizeof raw);
+    sv_image loose = {4, 4, 4, 8, raw, NULL};
+
+    size_t n0, n1, n2, n3, n4, n5, nl1, nl2;
+    uint8_t *plain = encode(&a, &n0);
+    sv_png_memo *m = sv_png_memo_create();
+    assert_non_null(m);
+    assert_null(sv_png_memo_use(m));
+    uint8_t *e1 = encode(&a, &n1), *e2 = encode(&b, &n2);
+    assert_int_equal(sv_png_memo_reused(m), 1);
+    uint8_t *e3 = encode(&c, &n3);
+    assert_int_equal(sv_png_memo_reused(m), 1); /* another buffer: encoded */
+    uint8_t *l1 = encode(&loose, &nl1), *l2 = encode(&loose, &nl2);
+    assert_int_equal(sv_png_memo_reused(m), 1); /* not sv_image_alloc's: encoded */
+    /* the memo keeps the pixels: freeing the images does not free them */
+    sv_image_free(&a);
+    uint8_t *e4 = encode(&b, &n4);
+    assert_int_equal(sv_png_memo_reused(m), 2);
+    assert_ptr_equal(sv_png_memo_use(NULL), m);
+    uint8_t *e5 = encode(&b, &n5);
+    assert_int_equal(sv_png_memo_reused(m), 2); /* no memo in use */
+    assert_int_equal(n1, n0);
+    assert_int_equal(n2, n0);
+    assert_int_equal(n3, n0);
+    assert_int_equal(n5, n0);
+    assert_memory_equal(e1, plain, n0);
+    assert_memory_equal(e2, plain, n0);
+    assert_memory_equal(e3, plain, n0);
+    assert_memory_equal(e4, plain, n0);
+    assert_memory_equal(e5, plain, n0);
+    assert_int_equal(nl1, nl2);
+    assert_memory_equal(l1, l2, nl1);
+    assert_int_equal(n4, n0);
+    sv_png_memo_free(m);
+    sv_image_free(&b);
+    sv_image_free(&c);
+    free(plain), free(e1), free(e2), free(e3), free(e4), free(e5), free(l1), free(l2);
+}
+
 static void png_round_trip_keeps_rgba8_exactly_with_straight_alpha(void **state)
 {
     (void)state;
@@ -547,6 +602,7 @@ int main(void)
         cmocka_unit_test(every_texture_of_the_shared_trees_decodes_as_the_plugin_does),
         cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
         cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
+        cmocka_unit_test(png_memo_encodes_shared_pixels_once_and_gives_the_same_bytes),
         cmocka_unit_test(reduce_halves_with_an_alpha_weighted_box_filter),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
