@@ -5,6 +5,7 @@
 #include "octahedral.h"
 
 #include "classify.h"
+#include "parallel.h"
 
 #include "vec3.h"
 
@@ -102,6 +103,120 @@ static sv_status halftone_frames(sv_image *img, uint32_t n, uint32_t F, sv_error
     return SV_OK;
 }
 
+/* One octahedral bake's frame drawing (sv_octa_bake), shared by its chunks. */
+#define SV_OCTA_BAKE_THREADS 2 /* GL contexts drawing frames at once: the cores */
+typedef struct frames_job {
+    sv_renderer *r;
+    const sv_gpu_mesh *gsrc;
+    const sv_mesh *src;
+    const sv_octa_grid *g;
+    const sv_bake_options *opt;
+    const sv_render_options *ro, *rn;
+    uint32_t ss, F, B, W;
+    double reach;
+    sv_baked_lod *out;
+    sv_status st[SV_PARALLEL_MAX];
+    sv_error err[SV_PARALLEL_MAX];
+} frames_job;
+
+/* Draws frames [lo, hi) (k = j·n + i) with ren and gm into J->out: the
+ * colour and depth box-filtered ss × ss into the frame's texels. */
+static sv_status draw_frames(const frames_job *J, sv_renderer *ren, const sv_gpu_mesh *gm,
+                             uint32_t lo, uint32_t hi, sv_error *err)
+{
+    const sv_octa_grid *g = J->g;
+    const sv_bake_options *opt = J->opt;
+    const sv_render_options *ro = J->ro, *rn = J->rn;
+    uint32_t ss = J->ss, F = J->F, B = J->B, W = J->W, n = g->n;
+    double reach = J->reach;
+    sv_baked_lod *out = J->out;
+    float *dbuf = sv_calloc((size_t)B * B, sizeof *dbuf);
+    if (!dbuf) return sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
+    sv_status st = SV_OK;
+    for (uint32_t k = lo; k < hi && !st; k++) {
+        uint32_t i = k % n, j = k / n;
+        double d[3];
+        sv_camera cam;
+        sv_octa_frame_dir(g, i, j, d);
+        sv_octa_frame_basis(d, cam.right, cam.up);
+        memcpy(cam.origin, g->centre, sizeof cam.origin);
+        cam.half_width = cam.half_height = g->half;
+        cam.near_dist = -reach;
+        cam.far_dist = reach;
+        sv_image img = {0}, nimg = {0};
+        if ((st = sv_render(ren, gm, NULL, 0, &cam, ro, B, B, &img, dbuf, err))) break;
+        if (opt->normal_map &&
+            (st = sv_render(ren, gm, NULL, 0, &cam, rn, B, B, &nimg, NULL, err))) {
+            sv_image_free(&img);
+            break;
+        }
+        /* box filter ss × ss: alpha = covered fraction, colour = mean of
+         * the covered samples, depth = mean over covered samples */
+        const uint8_t *ip = img.data, *np = nimg.data;
+        for (uint32_t y = 0; y < F; y++)
+            for (uint32_t x = 0; x < F; x++) {
+                double c[3] = {0, 0, 0}, nn[3] = {0, 0, 0}, dep = 0;
+                uint32_t cov = 0;
+                for (uint32_t sy = 0; sy < ss; sy++)
+                    for (uint32_t sx = 0; sx < ss; sx++) {
+                        size_t k = (size_t)(y * ss + sy) * B + (x * ss + sx);
+                        if (ip[4 * k + 3] < 128) continue;
+                        cov++;
+                        for (int m = 0; m < 3; m++) c[m] += ip[4 * k + m];
+                        if (np)
+                            for (int m = 0; m < 3; m++) nn[m] += np[4 * k + m];
+                        dep += dbuf[k];
+                    }
+                size_t o = (size_t)(j * F + y) * W + (i * F + x);
+                uint8_t *a = (uint8_t *)out->albedo.data + 4 * o;
+                if (cov) {
+                    for (int m = 0; m < 3; m++) a[m] = (uint8_t)lrint(c[m] / cov);
+                    a[3] = (uint8_t)lrint(255.0 * cov / (ss * ss));
+                } else {
+                    a[0] = a[1] = a[2] = a[3] = 0;
+                }
+                if (np) {
+                    uint8_t *q = (uint8_t *)out->normal.data + 3 * o;
+                    for (int m = 0; m < 3; m++) q[m] = cov ? (uint8_t)lrint(nn[m] / cov) : 128;
+                    if (!cov) q[2] = 255;
+                }
+                if (out->depth.data) {
+                    /* sv_render's depth runs along forward = −d: s = −depth */
+                    double s = cov ? -dep / cov : 0;
+                    double v = 0.5 + 0.5 * s / g->half;
+                    v = fmin(1.0, fmax(0.0, v));
+                    ((uint16_t *)out->depth.data)[o] = (uint16_t)lrint(v * 65535.0);
+                }
+            }
+        sv_image_free(&img);
+        sv_image_free(&nimg);
+    }
+    free(dbuf);
+    return st;
+}
+
+/* parallel.h chunk t: chunk 0 on the bake's renderer; another on a context
+ * of its own (SV_ERR_RENDER in J->st[t] when none could be made: the caller
+ * draws the chunk itself). */
+static void frames_chunk(void *ctx, uint32_t t, uint32_t lo, uint32_t hi)
+{
+    frames_job *J = ctx;
+    if (t == 0) {
+        J->st[0] = draw_frames(J, J->r, J->gsrc, lo, hi, &J->err[0]);
+        return;
+    }
+    sv_renderer *ren = NULL;
+    sv_gpu_mesh *gm = NULL;
+    if (sv_renderer_create(J->B, &ren, &J->err[t]) != SV_OK || sv_renderer_max_size(ren) < J->B ||
+        sv_gpu_mesh_upload(ren, J->src, &gm, &J->err[t]) != SV_OK) {
+        J->st[t] = SV_ERR_RENDER;
+    } else {
+        J->st[t] = draw_frames(J, ren, gm, lo, hi, &J->err[t]);
+    }
+    sv_gpu_mesh_free(gm);
+    sv_renderer_destroy(ren);
+}
+
 sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *src,
                        const sv_octa_grid *g, const sv_bake_options *opt, uint32_t supersample,
                        sv_baked_lod *out, sv_error *err)
@@ -120,8 +235,6 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
     if (!st && opt->normal_map) st = sv_image_alloc(&out->normal, W, W, 3, 8, err);
     /* the depth map always: the runtime's parallax search reads it */
     if (!st) st = sv_image_alloc(&out->depth, W, W, 1, 16, err);
-    float *dbuf = st ? NULL : sv_calloc((size_t)B * B, sizeof *dbuf);
-    if (!st && !dbuf) st = sv_fail(err, SV_ERR_NOMEM, "octahedral: out of memory");
     double mn[3], mx[3], reach = 0;
     sv_mesh_bounds(src, mn, mx);
     for (int k = 0; k < 3; k++) reach += 0.25 * (mx[k] - mn[k]) * (mx[k] - mn[k]);
@@ -133,65 +246,27 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
         sv_normalize3(ro.light_dir);
     }
     sv_render_options rn = {.shade = SV_SHADE_NORMAL};
-    for (uint32_t j = 0; j < n && !st; j++)
-        for (uint32_t i = 0; i < n && !st; i++) {
-            double d[3];
-            sv_camera cam;
-            sv_octa_frame_dir(g, i, j, d);
-            sv_octa_frame_basis(d, cam.right, cam.up);
-            memcpy(cam.origin, g->centre, sizeof cam.origin);
-            cam.half_width = cam.half_height = g->half;
-            cam.near_dist = -reach;
-            cam.far_dist = reach;
-            sv_image img = {0}, nimg = {0};
-            if ((st = sv_render(r, gsrc, NULL, 0, &cam, &ro, B, B, &img, dbuf, err))) break;
-            if (opt->normal_map &&
-                (st = sv_render(r, gsrc, NULL, 0, &cam, &rn, B, B, &nimg, NULL, err))) {
-                sv_image_free(&img);
-                break;
+    frames_job J = {r, gsrc, src, g, opt, &ro, &rn, ss, F, B, W, reach, out, {0}, {{0}}};
+    if (!st) {
+        /* frames k = j·n + i in two contiguous halves, the second on a thread
+         * with its own GL context (parallel.h): each frame's texels are its
+         * own, and a frame's pixels do not depend on the context that drew
+         * it, so the atlas is the same bytes as one context's; a half whose
+         * context could not be made is drawn here afterwards */
+        uint32_t chunks = sv_parallel_chunks(n * n, SV_OCTA_BAKE_THREADS);
+        sv_parallel_for(n * n, SV_OCTA_BAKE_THREADS, frames_chunk, &J);
+        for (uint32_t t = 0; t < chunks && !st; t++) {
+            if (J.st[t] == SV_ERR_RENDER && t > 0) { /* no second context: here */
+                uint32_t lo = (uint32_t)((uint64_t)n * n * t / chunks);
+                uint32_t hi = (uint32_t)((uint64_t)n * n * (t + 1) / chunks);
+                J.st[t] = draw_frames(&J, r, gsrc, lo, hi, &J.err[t]);
             }
-            /* box filter ss × ss: alpha = covered fraction, colour = mean of
-             * the covered samples, depth = mean over covered samples */
-            const uint8_t *ip = img.data, *np = nimg.data;
-            for (uint32_t y = 0; y < F; y++)
-                for (uint32_t x = 0; x < F; x++) {
-                    double c[3] = {0, 0, 0}, nn[3] = {0, 0, 0}, dep = 0;
-                    uint32_t cov = 0;
-                    for (uint32_t sy = 0; sy < ss; sy++)
-                        for (uint32_t sx = 0; sx < ss; sx++) {
-                            size_t k = (size_t)(y * ss + sy) * B + (x * ss + sx);
-                            if (ip[4 * k + 3] < 128) continue;
-                            cov++;
-                            for (int m = 0; m < 3; m++) c[m] += ip[4 * k + m];
-                            if (np)
-                                for (int m = 0; m < 3; m++) nn[m] += np[4 * k + m];
-                            dep += dbuf[k];
-                        }
-                    size_t o = (size_t)(j * F + y) * W + (i * F + x);
-                    uint8_t *a = (uint8_t *)out->albedo.data + 4 * o;
-                    if (cov) {
-                        for (int m = 0; m < 3; m++) a[m] = (uint8_t)lrint(c[m] / cov);
-                        a[3] = (uint8_t)lrint(255.0 * cov / (ss * ss));
-                    } else {
-                        a[0] = a[1] = a[2] = a[3] = 0;
-                    }
-                    if (np) {
-                        uint8_t *q = (uint8_t *)out->normal.data + 3 * o;
-                        for (int m = 0; m < 3; m++) q[m] = cov ? (uint8_t)lrint(nn[m] / cov) : 128;
-                        if (!cov) q[2] = 255;
-                    }
-                    if (out->depth.data) {
-                        /* sv_render's depth runs along forward = −d: s = −depth */
-                        double s = cov ? -dep / cov : 0;
-                        double v = 0.5 + 0.5 * s / g->half;
-                        v = fmin(1.0, fmax(0.0, v));
-                        ((uint16_t *)out->depth.data)[o] = (uint16_t)lrint(v * 65535.0);
-                    }
-                }
-            sv_image_free(&img);
-            sv_image_free(&nimg);
+            if (J.st[t]) {
+                *err = J.err[t];
+                st = J.st[t];
+            }
         }
-    free(dbuf);
+    }
     if (!st) st = halftone_frames(&out->albedo, n, F, err);
     if (!st) st = dilate_frames(&out->albedo, &out->depth, F, err);
     out->seconds_render = sv_now() - t0;
