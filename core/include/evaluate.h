@@ -100,9 +100,6 @@ typedef struct sv_evaluator sv_evaluator;
  * uploaded to r) once per view at the base resolution and keeps the filtered
  * images of every size (about 1.7 MB per view for the default sizes).
  * opt may be NULL (all defaults). r, original and g must outlive the evaluator.
- * Views of a mesh of many triangles (this one, or a result's) are drawn on two
- * threads, the second with a GL context of its own made for the call: the
- * same numbers as one context (evaluate.c, "two GL contexts").
  * Fails with SV_ERR_INVALID for an empty original or bad options (a size of 0,
  * too many sizes), SV_ERR_RENDER when rendering fails. */
 sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_gpu_mesh *g,

@@ -58,10 +58,6 @@ uint32_t sv_renderer_max_size(const sv_renderer *r);
 sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **out, sv_error *err);
 void sv_gpu_mesh_free(sv_gpu_mesh *g);
 
-/* The mesh g was uploaded from (to upload it into another renderer: a mesh
- * draws the same pixels from any renderer). */
-const sv_mesh *sv_gpu_mesh_source(const sv_gpu_mesh *g);
-
 /* Draws triangles `tris[0..tri_count)` of the uploaded mesh (all triangles when
  * tris is NULL) into a width × height target cleared to transparent black.
  * color (may be NULL) receives RGBA8 (allocated by the call; caller frees with

@@ -10,7 +10,6 @@
  * elevation band, uniform in sin(elevation) (equal area per view).
  */
 #include "evaluate.h"
-#include "parallel.h"
 #include "vec3.h"
 
 #include <math.h>
@@ -45,8 +44,6 @@ struct sv_evaluator {
      * tile 0: sizes that do not divide, every pixel is processed. */
     uint32_t tile, tiles; /* tile side in base pixels; tiles per side */
     uint32_t *orig_span;  /* view_count × 2·tiles: the original's spans (lo, hi) */
-    bool lane;            /* a copy drawing with a second context (below, "two GL
-                             contexts"); g is then its upload of the mesh it draws */
     uint32_t *span;       /* scratch 4 × 2·tiles: where the result's images (acc)
                                           and one subset's (tmp) may be non-zero, the union of
                                           a result's and the original's, a new render's */
@@ -718,128 +715,6 @@ static int cmp_desc(const void *a, const void *b)
     return (x < y) - (x > y);
 }
 
-/* ---- two GL contexts --------------------------------------------------------
- * llvmpipe rasterises on every core but transforms and sets up one draw
- * call's triangles on the calling thread, most of a tree's render; so the
- * views of a mesh of many triangles are drawn by two contexts at once
- * (docs/design.md, "Threads in a bake"): the first half of the views by the
- * evaluator's renderer, the second by a lane, a copy of the evaluator with a
- * renderer, an upload of the mesh and scratch of its own. Each view writes
- * only its own images and spans, and draws the same pixels in any context,
- * so the results are the same bytes; sums over views are taken afterwards in
- * view order. A lane whose context cannot be made leaves its views to the
- * evaluator's renderer (SV_ERR_RENDER from its chunk). */
-#define SV_EVAL_LANES 2
-#define SV_EVAL_LANE_MIN_TRIS 20000u /* fewer: a second context costs more than it saves */
-
-/* Opens a lane of e drawing mesh: *w a copy of e, *gm mesh's upload. */
-static sv_status lane_open(const sv_evaluator *e, const sv_mesh *mesh, sv_evaluator *w,
-                           sv_gpu_mesh **gm, sv_error *err)
-{
-    *w = *e;
-    w->lane = true;
-    w->r = NULL;
-    w->g = NULL;
-    w->full = (sv_eval_image){0};
-    memset(w->tmp, 0, sizeof w->tmp);
-    w->depth = NULL;
-    w->ftmp = NULL;
-    w->span = NULL;
-    *gm = NULL;
-    if (sv_renderer_create(e->base, &w->r, err) != SV_OK || sv_renderer_max_size(w->r) < e->base ||
-        sv_gpu_mesh_upload(w->r, mesh, gm, err) != SV_OK)
-        return SV_ERR_RENDER;
-    w->g = *gm;
-    size_t nt = 0;
-    bool ok = (w->depth = sv_calloc((size_t)e->base * e->base, sizeof *w->depth)) != NULL;
-    if (ok && e->ftmp && sv_mul_size((size_t)e->sizes[0] * 5, e->base, &nt))
-        ok = (w->ftmp = sv_calloc(nt, sizeof *w->ftmp)) != NULL;
-    if (ok && e->tile) ok = (w->span = sv_calloc(8 * (size_t)e->tiles, sizeof *w->span)) != NULL;
-    if (ok && e->need_full) ok = sv_eval_image_alloc(&w->full, e->base, e->base, NULL) == SV_OK;
-    for (uint32_t s = 0; ok && s < e->size_count; s++)
-        ok = sv_eval_image_alloc(&w->tmp[s], e->sizes[s], e->sizes[s], NULL) == SV_OK;
-    return ok ? SV_OK : sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory for a lane");
-}
-
-static void lane_close(sv_evaluator *w, sv_gpu_mesh *gm)
-{
-    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&w->tmp[s]);
-    sv_eval_image_free(&w->full);
-    free(w->ftmp);
-    free(w->depth);
-    free(w->span);
-    sv_gpu_mesh_free(gm);
-    sv_renderer_destroy(w->r);
-}
-
-/* Views [lo, hi) of a job, drawn with evaluator `e` (the evaluator or a lane). */
-typedef sv_status (*views_fn)(sv_evaluator *e, void *job, uint32_t lo, uint32_t hi, sv_error *err);
-
-typedef struct lanes_job {
-    sv_evaluator *e;
-    const sv_mesh *mesh; /* what a lane uploads */
-    views_fn fn;
-    void *job;
-    sv_status st[SV_PARALLEL_MAX];
-    sv_error err[SV_PARALLEL_MAX];
-} lanes_job;
-
-static void lanes_chunk(void *ctx, uint32_t t, uint32_t lo, uint32_t hi)
-{
-    lanes_job *L = ctx;
-    if (t == 0) {
-        L->st[0] = L->fn(L->e, L->job, lo, hi, &L->err[0]);
-        return;
-    }
-    sv_evaluator w;
-    sv_gpu_mesh *gm = NULL;
-    sv_status st = lane_open(L->e, L->mesh, &w, &gm, &L->err[t]);
-    L->st[t] = st ? st : L->fn(&w, L->job, lo, hi, &L->err[t]);
-    lane_close(&w, gm);
-}
-
-/* Runs fn over views [0, view_count): on two contexts when mesh has at least
- * SV_EVAL_LANE_MIN_TRIS triangles, else (or for a lane without a context)
- * on e's. */
-static sv_status run_views(sv_evaluator *e, const sv_mesh *mesh, views_fn fn, void *job,
-                           sv_error *err)
-{
-    uint32_t n = e->view_count;
-    if (!mesh || mesh->triangle_count < SV_EVAL_LANE_MIN_TRIS || n < 2)
-        return fn(e, job, 0, n, err);
-    lanes_job L;
-    memset(&L, 0, sizeof L);
-    L.e = e, L.mesh = mesh, L.fn = fn, L.job = job;
-    uint32_t chunks = sv_parallel_chunks(n, SV_EVAL_LANES);
-    sv_parallel_for(n, SV_EVAL_LANES, lanes_chunk, &L);
-    for (uint32_t t = 0; t < chunks; t++) {
-        if (L.st[t] == SV_ERR_RENDER && t > 0) {
-            uint32_t lo = (uint32_t)((uint64_t)n * t / chunks);
-            uint32_t hi = (uint32_t)((uint64_t)n * (t + 1) / chunks);
-            L.st[t] = fn(e, job, lo, hi, &L.err[t]);
-        }
-        if (L.st[t] != SV_OK) {
-            *err = L.err[t];
-            return L.st[t];
-        }
-    }
-    return SV_OK;
-}
-
-/* The original from views [lo, hi) into e->orig (sv_evaluator_create). */
-static sv_status reference_views(sv_evaluator *e, void *job, uint32_t lo, uint32_t hi,
-                                 sv_error *err)
-{
-    (void)job;
-    for (uint32_t v = lo; v < hi; v++) {
-        sv_eval_image *row = &e->orig[(size_t)v * e->size_count];
-        uint32_t *span = e->tile ? &e->orig_span[(size_t)v * 2 * e->tiles] : NULL;
-        sv_status st = render_view(e, e->g, NULL, 0, v, row, span, err);
-        if (st != SV_OK) return st;
-    }
-    return SV_OK;
-}
-
 sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_gpu_mesh *g,
                               const sv_eval_options *opt, sv_evaluator **out, sv_error *err)
 {
@@ -921,8 +796,9 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
         for (uint32_t s = 0; s < e->size_count; s++)
             if ((st = sv_eval_image_alloc(&row[s], e->sizes[s], e->sizes[s], err)) != SV_OK)
                 goto out;
+        uint32_t *span = e->tile ? &e->orig_span[(size_t)v * 2 * e->tiles] : NULL;
+        if ((st = render_view(e, g, NULL, 0, v, row, span, err)) != SV_OK) goto out;
     }
-    st = run_views(e, original, reference_views, NULL, err);
 out:
     if (st != SV_OK) sv_evaluator_destroy(e);
     else *out = e;
@@ -1008,29 +884,31 @@ sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user, s
     return evaluate_any(e, NULL, NULL, draw, user, out, err);
 }
 
-/* One result's views: what evaluate_any compares, view by view. */
-typedef struct result_job {
-    const sv_gpu_mesh *result; /* drawn by the evaluator's renderer; a lane draws its own */
-    sv_eval_subset_fn fn;
-    sv_eval_draw_fn draw;
-    void *user;
-    sv_eval_metrics *per_view; /* view_count × size_count */
-} result_job;
-
-/* Draws views [lo, hi) of the result with e (the evaluator or a lane) and
- * compares each with the original into per_view. */
-static sv_status result_views(sv_evaluator *e, void *job, uint32_t lo, uint32_t hi, sv_error *err)
+static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
+                              sv_eval_draw_fn draw, void *user, sv_eval_result *out, sv_error *err)
 {
-    result_job *J = job;
-    const sv_gpu_mesh *result = e->lane ? e->g : J->result; /* a lane: its own upload */
+    memset(out, 0, sizeof *out);
+    double t0 = sv_now();
     sv_eval_image acc[SV_EVAL_MAX_SIZES];
     memset(acc, 0, sizeof acc);
-    sv_status st = alloc_sizes(e, acc, err);
+    sv_status st = SV_OK;
+    out->per_view = sv_calloc((size_t)e->view_count * e->size_count, sizeof *out->per_view);
+    if (!out->per_view) {
+        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
+        goto out;
+    }
+    if ((st = alloc_sizes(e, acc, err)) != SV_OK) goto out;
+    out->view_count = e->view_count;
+    out->size_count = e->size_count;
+    for (uint32_t s = 0; s < e->size_count; s++) {
+        out->sizes[s].pixels = e->sizes[s];
+        out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
+    }
     uint32_t *span = e->span, *both = e->tile ? e->span + 4 * (size_t)e->tiles : NULL;
-    for (uint32_t v = lo; st == SV_OK && v < hi; v++) {
-        st = J->draw ? render_view_by(e, NULL, NULL, 0, J->draw, J->user, v, acc, span, err)
-                     : render_result(e, result, J->fn, J->user, v, acc, span, err);
-        if (st != SV_OK) break;
+    for (uint32_t v = 0; v < e->view_count; v++) {
+        st = draw ? render_view_by(e, NULL, NULL, 0, draw, user, v, acc, span, err)
+                  : render_result(e, result, fn, user, v, acc, span, err);
+        if (st != SV_OK) goto out;
         /* Where neither image is covered both are +0.0, which adds exactly
          * nothing to any sum of sv_eval_compare: only the union's spans are
          * visited, in the same row-major order. */
@@ -1043,37 +921,8 @@ static sv_status result_views(sv_evaluator *e, void *job, uint32_t lo, uint32_t 
                 if (both[t] < both[e->tiles + t])
                     compare_rect(o, &acc[s], &cs, t * ts, (t + 1) * ts, both[t] * ts,
                                  both[e->tiles + t] * ts);
-            J->per_view[(size_t)v * e->size_count + s] = compare_metrics(&cs, e->radius);
-        }
-    }
-    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
-    return st;
-}
-
-static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_subset_fn fn,
-                              sv_eval_draw_fn draw, void *user, sv_eval_result *out, sv_error *err)
-{
-    memset(out, 0, sizeof *out);
-    double t0 = sv_now();
-    sv_status st = SV_OK;
-    out->per_view = sv_calloc((size_t)e->view_count * e->size_count, sizeof *out->per_view);
-    if (!out->per_view) {
-        st = sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
-        goto out;
-    }
-    out->view_count = e->view_count;
-    out->size_count = e->size_count;
-    for (uint32_t s = 0; s < e->size_count; s++) {
-        out->sizes[s].pixels = e->sizes[s];
-        out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
-    }
-    result_job J = {result, fn, draw, user, out->per_view};
-    /* lanes only for a plain mesh: subset and draw callbacks run on one thread */
-    const sv_mesh *lane_mesh = !fn && !draw ? sv_gpu_mesh_source(result) : NULL;
-    if ((st = run_views(e, lane_mesh, result_views, &J, err)) != SV_OK) goto out;
-    for (uint32_t v = 0; v < e->view_count; v++)
-        for (uint32_t s = 0; s < e->size_count; s++) {
-            sv_eval_metrics m = out->per_view[(size_t)v * e->size_count + s];
+            sv_eval_metrics m = compare_metrics(&cs, e->radius);
+            out->per_view[(size_t)v * e->size_count + s] = m;
             sv_eval_size *z = &out->sizes[s];
             z->mean.iou += m.iou / e->view_count;
             z->mean.color_error += m.color_error / e->view_count;
@@ -1082,8 +931,10 @@ static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
             z->worst.color_error = fmax(z->worst.color_error, m.color_error);
             z->worst.depth_error = fmax(z->worst.depth_error, m.depth_error);
         }
+    }
     out->seconds = sv_now() - t0;
 out:
+    for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
     if (st != SV_OK) sv_eval_result_free(out);
     return st;
 }

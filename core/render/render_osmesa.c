@@ -455,11 +455,6 @@ sv_status sv_gpu_mesh_upload(sv_renderer *r, const sv_mesh *mesh, sv_gpu_mesh **
     return SV_OK;
 }
 
-const sv_mesh *sv_gpu_mesh_source(const sv_gpu_mesh *g)
-{
-    return g ? g->mesh : NULL;
-}
-
 void sv_gpu_mesh_free(sv_gpu_mesh *g)
 {
     if (!g) return;
