@@ -767,6 +767,15 @@ static int cmd_sandbox_selftest(int argc, char **argv)
         return 1;
     }
     printf("eperm: personality failed with EPERM\n");
+    /* no mode changes: what keeps a job from making sylvad's warmed shader
+     * cache writable again (workers.h) */
+    errno = 0;
+    r = chmod("/", 0755);
+    if (r != -1 || errno != EPERM) {
+        printf("eperm: FAILED, chmod returned %d (%s)\n", r, strerror(errno));
+        return 1;
+    }
+    printf("eperm: chmod failed with EPERM\n");
     printf("kill: trying %s\n", what);
     fflush(stdout);
     if (strcmp(what, "socket") == 0) {

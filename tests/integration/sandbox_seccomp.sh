@@ -23,6 +23,8 @@ for what in socket exec; do
     grep -q '^allowed: write works$' "$tmp/self-$what.txt" || fail "selftest $what: the allowed write did not show"
     grep -q '^eperm: personality failed with EPERM$' "$tmp/self-$what.txt" ||
         fail "selftest $what: a call off the allowlist did not fail with EPERM"
+    grep -q '^eperm: chmod failed with EPERM$' "$tmp/self-$what.txt" ||
+        fail "selftest $what: chmod did not fail with EPERM (the warmed shader cache's modes rest on it)"
     grep -q "^kill: trying $what\$" "$tmp/self-$what.txt" || fail "selftest $what: never reached the $what call"
     if grep -q FAILED "$tmp/self-$what.txt"; then fail "selftest $what: $(grep FAILED "$tmp/self-$what.txt")"; fi
     echo "ok selftest $what: killed by SIGSYS"
