@@ -855,13 +855,20 @@ static int twig_key_cmp(const void *a, const void *b)
 }
 
 sv_status sv_twig_groups(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
-                         const double centre[3], double radius, double cell_frac, uint32_t *tris,
-                         uint32_t *first, uint32_t *tri_count, uint32_t *groups, sv_error *err)
+                         const double centre[3], double radius, double cell_frac, sv_twigs *out,
+                         sv_error *err)
 {
+    memset(out, 0, sizeof *out);
     uint32_t n = 0;
     for (uint32_t t = 0; t < m->triangle_count; t++) n += part[t] == SV_PART_TRUNK && !skip[t];
     twig_key *k = malloc((size_t)(n ? n : 1) * sizeof *k);
-    if (!k) return sv_fail(err, SV_ERR_NOMEM, "twigs: out of memory (%u triangles)", n);
+    out->tris = malloc((size_t)(n ? n : 1) * sizeof *out->tris);
+    out->first = malloc(((size_t)n + 1) * sizeof *out->first);
+    if (!k || !out->tris || !out->first) {
+        free(k);
+        sv_twigs_free(out);
+        return sv_fail(err, SV_ERR_NOMEM, "twigs: out of memory (%u triangles)", n);
+    }
     double cell = cell_frac * radius, lo[3];
     for (int i = 0; i < 3; i++) lo[i] = centre[i] - radius;
     n = 0;
@@ -881,12 +888,20 @@ sv_status sv_twig_groups(const sv_mesh *m, const uint8_t *part, const uint8_t *s
     qsort(k, n, sizeof *k, twig_key_cmp);
     uint32_t g = 0;
     for (uint32_t a = 0; a < n; a++) {
-        if (a == 0 || k[a].cell != k[a - 1].cell) first[g++] = a;
-        tris[a] = k[a].t;
+        if (a == 0 || k[a].cell != k[a - 1].cell) out->first[g++] = a;
+        out->tris[a] = k[a].t;
     }
-    first[g] = n;
-    *tri_count = n;
-    *groups = g;
+    out->first[g] = n;
+    out->count = n;
+    out->groups = g;
     free(k);
     return SV_OK;
+}
+
+void sv_twigs_free(sv_twigs *tw)
+{
+    if (!tw) return;
+    free(tw->tris);
+    free(tw->first);
+    memset(tw, 0, sizeof *tw);
 }

@@ -57,13 +57,22 @@ sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, do
 /* The trunk triangles a kept trunk leaves out (part[t] == SV_PART_TRUNK and
  * !skip[t]: twigs, thin branches), grouped by the cube of side cell_frac ×
  * radius their centroid falls in (a grid from centre − radius; cells
- * clamped to 4096 a side). tris (room for triangle_count) receives them
- * cell by cell, in index order within a cell, cells in a fixed order;
- * group g is tris[first[g]] .. tris[first[g + 1] − 1] (first: room for
- * triangle_count + 1). *tri_count and *groups receive the counts.
- * Deterministic; SV_ERR_NOMEM only. */
+ * clamped to 4096 a side): tris[0..count) cell by cell, in index order within
+ * a cell, cells in a fixed order; group g is tris[first[g]] ..
+ * tris[first[g + 1] − 1], first[groups] = count. Both arrays are allocated
+ * by the call (sv_twigs_free). */
+typedef struct sv_twigs {
+    uint32_t *tris, *first;
+    uint32_t count, groups;
+} sv_twigs;
+
+/* Fills *out as stated above (zeroed on failure). Deterministic;
+ * SV_ERR_NOMEM only. */
 sv_status sv_twig_groups(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
-                         const double centre[3], double radius, double cell_frac, uint32_t *tris,
-                         uint32_t *first, uint32_t *tri_count, uint32_t *groups, sv_error *err);
+                         const double centre[3], double radius, double cell_frac, sv_twigs *out,
+                         sv_error *err);
+
+/* Frees the arrays of tw and zeroes it. NULL is fine. */
+void sv_twigs_free(sv_twigs *tw);
 
 #endif

@@ -347,13 +347,10 @@ static void twigs_are_grouped_by_cell_once_each(void **state)
     uint8_t *skip = calloc(nt, 1);
     assert_non_null(skip);
     skip[0] = skip[5] = 1; /* drawn by the kept trunk */
-    uint32_t *tris = calloc(nt, sizeof *tris), *first = calloc(nt + 1, sizeof *first);
-    assert_non_null(tris);
-    assert_non_null(first);
     const double centre[3] = {0, 2, 0};
-    uint32_t n = 0, g = 0;
-    assert_int_equal(sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, tris, first, &n, &g, NULL),
-                     SV_OK);
+    sv_twigs tw;
+    assert_int_equal(sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, &tw, NULL), SV_OK);
+    const uint32_t *tris = tw.tris, *first = tw.first, n = tw.count, g = tw.groups;
     assert_int_equal(n, nt - 1 - 2); /* not the foliage triangle, not the two skipped */
     assert_true(g > 1 && g < n);
     assert_int_equal(first[0], 0);
@@ -380,20 +377,15 @@ static void twigs_are_grouped_by_cell_once_each(void **state)
         /* one cell: the centroids span less than a cell (1.5) on every axis */
         for (int i = 0; i < 3; i++) assert_true(hi[i] - lo[i] < 1.5);
     }
-    uint32_t *again = calloc(nt, sizeof *again), *first2 = calloc(nt + 1, sizeof *first2), n2, g2;
-    assert_non_null(again);
-    assert_non_null(first2);
-    assert_int_equal(
-        sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, again, first2, &n2, &g2, NULL), SV_OK);
-    assert_int_equal(n2, n);
-    assert_int_equal(g2, g);
-    assert_memory_equal(again, tris, n * sizeof *tris);
-    assert_memory_equal(first2, first, (g + 1) * sizeof *first);
-    free(again);
-    free(first2);
+    sv_twigs tw2;
+    assert_int_equal(sv_twig_groups(m, parts, skip, centre, 3.0, 0.5, &tw2, NULL), SV_OK);
+    assert_int_equal(tw2.count, n);
+    assert_int_equal(tw2.groups, g);
+    assert_memory_equal(tw2.tris, tris, n * sizeof *tris);
+    assert_memory_equal(tw2.first, first, (g + 1) * sizeof *first);
+    sv_twigs_free(&tw2);
     free(seen);
-    free(tris);
-    free(first);
+    sv_twigs_free(&tw);
     free(skip);
     free(parts);
     sv_mesh_destroy(m);

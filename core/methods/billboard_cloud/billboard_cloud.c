@@ -260,24 +260,18 @@ static void bc_input_free(bc_input *b)
 static sv_status group_twigs(const sv_method_input *in, const uint8_t *part, const uint8_t *skip,
                              uint8_t *used, bc_input *b, uint32_t *k, uint32_t *ne, sv_error *err)
 {
-    const sv_mesh *m = in->mesh;
-    uint32_t nt = m->triangle_count, n = 0, groups = 0;
-    uint32_t *tw = malloc((size_t)(nt ? nt : 1) * sizeof *tw);
-    uint32_t *first = malloc(((size_t)nt + 1) * sizeof *first);
-    sv_status st = tw && first ? SV_OK : sv_fail(err, SV_ERR_NOMEM, BC_NAME ": out of memory");
-    if (!st)
-        st = sv_twig_groups(m, part, skip, in->centre, in->radius, SV_TWIG_CELL, tw, first, &n,
-                            &groups, err);
-    for (uint32_t g = 0; g < groups && !st; g++) {
+    sv_twigs tw;
+    sv_status st = sv_twig_groups(in->mesh, part, skip, in->centre, in->radius, SV_TWIG_CELL, &tw,
+                                  err);
+    for (uint32_t g = 0; g < tw.groups && !st; g++) {
         b->efirst[*ne] = *k;
         b->epart[(*ne)++] = SV_PART_FOLIAGE;
-        for (uint32_t j = first[g]; j < first[g + 1]; j++) {
-            used[tw[j]] = 1;
-            b->etris[(*k)++] = tw[j];
+        for (uint32_t j = tw.first[g]; j < tw.first[g + 1]; j++) {
+            used[tw.tris[j]] = 1;
+            b->etris[(*k)++] = tw.tris[j];
         }
     }
-    free(tw);
-    free(first);
+    sv_twigs_free(&tw);
     return st;
 }
 

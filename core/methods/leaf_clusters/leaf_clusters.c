@@ -245,15 +245,11 @@ static sv_status check_leaves(const sv_mesh *m, const sv_leaves *lv, sv_error *e
 static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint8_t *skip,
                                const sv_method_input *in, sv_leaves *ext, sv_error *err)
 {
-    uint32_t nt = m->triangle_count, n = 0, groups = 0;
-    uint32_t *tw = malloc((size_t)(nt ? nt : 1) * sizeof *tw);
-    uint32_t *first = malloc(((size_t)nt + 1) * sizeof *first);
-    sv_status st = tw && first ? SV_OK : sv_fail(err, SV_ERR_NOMEM, LC_NAME ": out of memory");
-    if (!st)
-        st = sv_twig_groups(m, part, skip, in->centre, in->radius, SV_TWIG_CELL, tw, first, &n,
-                            &groups, err);
-    for (uint32_t g = 0; g < groups && !st; g++) {
-        uint32_t a = first[g], b = first[g + 1];
+    sv_twigs twigs;
+    sv_status st = sv_twig_groups(m, part, skip, in->centre, in->radius, SV_TWIG_CELL, &twigs, err);
+    const uint32_t *tw = twigs.tris;
+    for (uint32_t g = 0; g < twigs.groups && !st; g++) {
+        uint32_t a = twigs.first[g], b = twigs.first[g + 1];
         sv_leaf *f = &ext->leaves[ext->count++];
         memset(f, 0, sizeof *f);
         double nsum[3] = {0, 0, 0};
@@ -299,8 +295,7 @@ static sv_status twig_elements(const sv_mesh *m, const uint8_t *part, const uint
                 if (d > f->radius) f->radius = d;
             }
     }
-    free(tw);
-    free(first);
+    sv_twigs_free(&twigs);
     return st;
 }
 
