@@ -664,7 +664,11 @@ static int cmd_bake(int argc, char **argv)
      * or, given --shader-cache and --shader-cache-dir (sylvad's jobs), read
      * a DB that `warm-shaders` filled and write only into a directory of
      * their own (warm_shaders.h). */
-    if (sandbox || shader_db || shader_dir) (void)sv_shader_cache_env(shader_db, shader_dir);
+    if ((sandbox || shader_db || shader_dir) && !sv_shader_cache_env(shader_db, shader_dir) &&
+        (shader_db || shader_dir) && !quiet)
+        fprintf(stderr,
+                "sylva-bake: warning: the shader cache is off: --shader-cache needs an absolute "
+                "DB path without commas and --shader-cache-dir an existing directory\n");
     /* The image plugin (OpenImageIO, dlopen'ed: image.h) before the sandbox
      * when the upload may hold a texture it decodes, so that its libraries'
      * initialisers run outside the filter (one of them reports "insecure

@@ -63,6 +63,12 @@ n2=$(foz_bytes "$T/job2")
 [ "$n2" -gt 1000 ] && ok "  it compiled its shaders into its own DB ($n2 bytes)" ||
     bad "  its own DB holds $n2 bytes: the check above cannot tell a hit from a miss"
 
+# a DB the bake cannot use (a relative path): a warning, the cache off, the bake done
+"$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/spec.json" --out "$T/rel" --progress none \
+    --sandbox --shader-cache relative/db --shader-cache-dir "$T/job2" 2> "$T/rel.err"
+check "a bake given a relative DB exits 0" 0 $?
+contains "  and warns that the cache is off" "the shader cache is off" "$(cat "$T/rel.err")"
+
 # --- 3. same outputs with the cache, without it, and with the cache off
 "$BAKE" bake "$T/tree.obj" "$T/tree.mtl" --spec "$T/spec.json" --out "$T/off" --quiet --sandbox
 check "the sandboxed bake with the cache off exits 0" 0 $?
