@@ -118,6 +118,15 @@ sv_status sv_evaluate(sv_evaluator *e, const sv_gpu_mesh *result, sv_eval_result
 sv_status sv_evaluate_drawn(sv_evaluator *e, sv_eval_draw_fn draw, void *user, sv_eval_result *out,
                             sv_error *err);
 
+/* Mean IoU (over views, at the evaluator's largest size) of `result` drawn
+ * with its swept materials' cutoff at (k + 0.5) / 255, for every k in
+ * [0, 255) at once: iou[k]. The swept materials are its MASK materials whose
+ * alpha_cutoff is 0 (render.h, SV_SHADE_ALPHA_MAX); one render per view
+ * instead of one per cutoff, each cutoff's value equal to sv_evaluate's for
+ * that cutoff (to rounding). SV_ERR_RENDER / SV_ERR_NOMEM. */
+sv_status sv_evaluate_cutoffs(sv_evaluator *e, const sv_gpu_mesh *result, double iou[255],
+                              sv_error *err);
+
 /* The result of evaluating the original against itself (IoU 1, errors 0 at
  * every view and size) without rendering: for a level that is the original
  * mesh (the chain's full level). SV_ERR_NOMEM only. */

@@ -32,7 +32,14 @@ typedef enum sv_shade {
     SV_SHADE_ALBEDO = 0, /* RGBA = base colour × texture, unlit */
     SV_SHADE_NORMAL,     /* RGB = 0.5 + 0.5 n in camera frame (x=right, y=up, z=toward camera),
                              n facing the camera for two-sided faces; A = coverage */
-    SV_SHADE_LIT         /* albedo × (ambient + diffuse) from `light_dir` (static lighting) */
+    SV_SHADE_LIT,        /* albedo × (ambient + diffuse) from `light_dir` (static lighting) */
+    SV_SHADE_ALPHA_MAX   /* A = the largest alpha any fragment drew at the pixel, no depth
+                            test: MASK materials with alpha_cutoff 0 ("swept") draw their
+                            alpha (base × texture) untested, every other fragment that passes
+                            its own test draws 1. A pixel's A is at least k + 1 (k in 0..254)
+                            exactly when the mesh drawn with the swept cutoffs at
+                            (k + 0.5) / 255 covers it: one render for every cutoff
+                            (calibrate.c). RGB unspecified. */
 } sv_shade;
 
 typedef struct sv_render_options {

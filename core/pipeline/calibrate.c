@@ -16,31 +16,43 @@
  * flattened). The atlas keeps each texel's covered fraction as alpha; the
  * cutoff of the atlas material is chosen per level as the one whose alpha-
  * tested render best matches the original's coverage (mean soft IoU) at
- * SV_CALIB_PIXELS over SV_CALIB_VIEWS views placed by scene.viewer: first on a
- * grid of SV_CALIB_STEP, then refined three times (± half the step, ± a
- * quarter, ± an eighth) around the best: 15 tries of 8 small renders. */
+ * SV_CALIB_PIXELS over SV_CALIB_VIEWS views placed by scene.viewer. Every
+ * cutoff (k + 0.5) / 255 is judged, all from one render a view: a sample is
+ * covered at a cutoff exactly when the largest alpha drawn there reaches it
+ * (render.h SV_SHADE_ALPHA_MAX, evaluate.h sv_evaluate_cutoffs). Until
+ * issue 18's last re-measurement: a grid of 0.1 refined three times, 15
+ * renders a view at 128²; the one render allows 256², sveval's resolution,
+ * at the same cost (docs/accuracy.md "Alpha calibration"). */
 #define SV_CALIB_PIXELS 64u
 #define SV_CALIB_VIEWS 8u
-#define SV_CALIB_STEP 0.1
 
 /* The calibration's views at one size px: SV_CALIB_VIEWS views placed by
- * scene.viewer, rendered at 128² (at 64 px: a quarter of the pixels of a
- * supersample of 4, the same cutoffs to 0.0125). */
-static void calib_options(const run *r, uint32_t px, sv_eval_options *eo)
+ * scene.viewer, rendered at render² and box-filtered down to px. */
+static void calib_options(const run *r, uint32_t px, uint32_t render, sv_eval_options *eo)
 {
     memset(eo, 0, sizeof *eo);
     eo->viewer = r->spec.scene.viewer;
     eo->view_count = SV_CALIB_VIEWS;
     eo->sizes[0] = px;
     eo->size_count = 1;
-    eo->supersample = 128 / px;
+    eo->supersample = render / px;
 }
 
-sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_evaluator **out,
-                              sv_error *err)
+/* The stochastic candidates' scorer renders at 128² (at 64 px: a quarter of
+ * the pixels of a supersample of 4). A cutoff is chosen at 256², the
+ * resolution sveval judges coverage at (4 × 4 samples per pixel at 64 px):
+ * at 128² the blocks of 2 × 2 samples favour fatter texels (thin twigs and
+ * leaf edges cover a sample more easily), and the cutoffs it picked were
+ * lower than the best one at 256² (sapling maple, 20 planes: 0.1375 against
+ * about 0.2; docs/accuracy.md "Alpha calibration"). */
+#define SV_SCORE_RENDER 128u
+#define SV_CALIB_RENDER 256u
+
+sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, uint32_t render,
+                              sv_evaluator **out, sv_error *err)
 {
     sv_eval_options eo;
-    calib_options(r, SV_CALIB_PIXELS, &eo);
+    calib_options(r, SV_CALIB_PIXELS, render, &eo);
     if (r->calib_ev && memcmp(&r->calib_opt, &eo, sizeof eo) != 0) {
         sv_evaluator_destroy(r->calib_ev);
         r->calib_ev = NULL;
@@ -59,7 +71,7 @@ sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_er
 {
     stoch_score_ctx *c = user;
     sv_evaluator *ev = NULL;
-    sv_status st = svp_small_evaluator(c->r, c->ren, c->gsrc, &ev, err);
+    sv_status st = svp_small_evaluator(c->r, c->ren, c->gsrc, SV_SCORE_RENDER, &ev, err);
     if (st) return st;
     sv_gpu_mesh *g = NULL;
     if ((st = sv_gpu_mesh_upload(c->ren, level, &g, err))) return st;
@@ -72,21 +84,10 @@ sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_er
     return SV_OK;
 }
 
-static sv_status calib_try(sv_evaluator *ev, const sv_gpu_mesh *g, sv_material *mat, double t,
-                           double *iou, sv_error *err)
-{
-    mat->alpha_cutoff = (float)t;
-    sv_eval_result er;
-    sv_status st = sv_evaluate(ev, g, &er, err);
-    if (st) return st;
-    *iou = er.sizes[0].mean.iou;
-    sv_eval_result_free(&er);
-    return SV_OK;
-}
-
 /* Calibrates the atlas material's cutoff of one quad level (its mesh's
- * first material, when alpha-tested): a grid of SV_CALIB_STEP, then three
- * refinements around the best. */
+ * first material, when alpha-tested): every cutoff (k + 0.5) / 255 judged
+ * from one render a view (sv_evaluate_cutoffs), the best one kept (the
+ * lowest of equals). */
 static sv_status calibrate_level(sv_evaluator *ev, sv_renderer *ren, lod_out *l, sv_error *err)
 {
     sv_mesh *m = l->baked.mesh;
@@ -96,25 +97,16 @@ static sv_status calibrate_level(sv_evaluator *ev, sv_renderer *ren, lod_out *l,
     sv_gpu_mesh *g = NULL;
     sv_status st = sv_gpu_mesh_upload(ren, m, &g, err);
     if (st) return st;
-    double best_t = 0.5, best = -1, iou;
-    for (int k = 1; k * SV_CALIB_STEP < 1 - 1e-9 && !st; k++) {
-        double t = k * SV_CALIB_STEP;
-        if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
-        if (iou > best + 1e-12) best = iou, best_t = t;
-    }
-    for (double h = SV_CALIB_STEP / 2; h > SV_CALIB_STEP / 10 && !st; h /= 2) {
-        double c = best_t;
-        for (int sgn = -1; sgn <= 1 && !st; sgn += 2) {
-            double t = c + sgn * h;
-            if (t <= 0 || t >= 1) continue;
-            if ((st = calib_try(ev, g, mat, t, &iou, err))) break;
-            if (iou > best + 1e-12) best = iou, best_t = t;
-        }
-    }
-    mat->alpha_cutoff = (float)best_t;
-    l->alpha_cutoff = best_t;
-    l->calib_iou = best;
+    double iou[255];
+    mat->alpha_cutoff = 0; /* swept */
+    st = sv_evaluate_cutoffs(ev, g, iou, err);
     sv_gpu_mesh_free(g);
+    uint32_t best = 0;
+    for (uint32_t k = 1; k < 255 && !st; k++)
+        if (iou[k] > iou[best]) best = k;
+    l->alpha_cutoff = (best + 0.5) / 255.0;
+    mat->alpha_cutoff = (float)l->alpha_cutoff;
+    l->calib_iou = iou[best];
     return st;
 }
 
@@ -128,7 +120,7 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
         any |= si->lods[i].quad_count > 0 && !si->lods[i].select;
     if (!any) return SV_OK;
     sv_evaluator *ev = NULL;
-    sv_status st = svp_small_evaluator(r, ren, gsrc, &ev, err);
+    sv_status st = svp_small_evaluator(r, ren, gsrc, SV_CALIB_RENDER, &ev, err);
     for (uint32_t i = 0; i < si->lod_count && !st; i++)
         if (si->lods[i].quad_count && !si->lods[i].select)
             st = calibrate_level(ev, ren, &lods[i], err);
@@ -187,7 +179,7 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, 
             uint32_t px = SV_CALIB_MIN_PIXELS;
             while (px < SV_CALIB_PIXELS && px < l->switch_pixels) px *= 2;
             sv_eval_options eo;
-            calib_options(r, px, &eo);
+            calib_options(r, px, getenv("SV_X") ? 128 : SV_CALIB_RENDER, &eo);
             if (!ev || ev_px != px) {
                 sv_evaluator_destroy(ev);
                 ev = NULL;

@@ -196,10 +196,11 @@ void svp_compact_lods(sv_stand_in *si, lod_out *lods, chain *c, const bool *drop
 
 /* ---- calibrate.c: alpha cutoffs and atlas sizes ---- */
 
-/* The alpha calibration's evaluator (64 px, 8 views), made once per run and
- * kept in r; *out is r's, not the caller's. */
-sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_evaluator **out,
-                              sv_error *err);
+/* The small evaluator of the alpha calibration and the stochastic scorer
+ * (64 px, 8 views, rendered at render²), kept in r and made again only when
+ * render changes; *out is r's, not the caller's. */
+sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, uint32_t render,
+                              sv_evaluator **out, sv_error *err);
 /* sv_stoch_scorer on a stoch_score_ctx: mean IoU of a candidate at 64 px. */
 typedef struct stoch_score_ctx {
     run *r;

@@ -19,6 +19,8 @@
 #define DEFAULT_VIEWS 24
 #define DEFAULT_SUPERSAMPLE 4
 static const uint32_t default_sizes[] = {256, 128, 64, 32};
+/* sv_evaluate_cutoffs: samples a filtered pixel at most (16 × 16) */
+#define SV_CUTOFF_MAX_BLOCK 256
 
 struct sv_evaluator {
     sv_renderer *r;
@@ -937,6 +939,78 @@ out:
     for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
     if (st != SV_OK) sv_eval_result_free(out);
     return st;
+}
+
+/* One view's sums for every cutoff, in samples (the original's filtered
+ * coverage o of a pixel of the largest size is a whole number of its f × f
+ * samples, and so is the result's): a pixel with j samples above k covers
+ * j at that k, so with its sample bytes sorted in descending order
+ * s_1 >= ... >= s_n it adds min(o·n, j) and max(o·n, j) for k in
+ * [s_{j+1}, s_j) — ranges kept as differences in dmin and dmax [256]. */
+static void cutoff_sums(const sv_evaluator *e, const sv_image *amax, uint32_t v, int64_t *dmin,
+                        int64_t *dmax)
+{
+    uint32_t px = e->sizes[0], f = e->base / px, n = f * f;
+    const float *orig = e->orig[(size_t)v * e->size_count].coverage;
+    uint8_t buf[SV_CUTOFF_MAX_BLOCK];
+    const uint8_t *a = amax->data;
+    for (uint32_t y = 0; y < px; y++)
+        for (uint32_t x = 0; x < px; x++) {
+            int64_t o = lround((double)orig[(size_t)y * px + x] * n);
+            uint32_t m = 0;
+            for (uint32_t i = 0; i < f; i++) {
+                const uint8_t *row = a + 4 * ((size_t)(y * f + i) * e->base + (size_t)x * f);
+                for (uint32_t j = 0; j < f; j++)
+                    if (row[4 * j + 3]) buf[m++] = row[4 * j + 3];
+            }
+            if (!m && !o) continue;
+            for (uint32_t i = 1; i < m; i++) { /* insertion sort, descending: blocks are small */
+                uint8_t t = buf[i];
+                uint32_t j = i;
+                for (; j > 0 && buf[j - 1] < t; j--) buf[j] = buf[j - 1];
+                buf[j] = t;
+            }
+            uint32_t hi = 255; /* k in [lo, hi): j samples above k */
+            for (uint32_t j = 0; j <= m; j++) {
+                uint32_t lo = j < m ? buf[j] : 0;
+                if (lo >= hi) continue;
+                int64_t mn = o < j ? o : j, mx = o < j ? j : o;
+                dmin[lo] += mn, dmin[hi] -= mn;
+                dmax[lo] += mx, dmax[hi] -= mx;
+                hi = lo;
+            }
+        }
+}
+
+sv_status sv_evaluate_cutoffs(sv_evaluator *e, const sv_gpu_mesh *result, double iou[255],
+                              sv_error *err)
+{
+    for (uint32_t k = 0; k < 255; k++) iou[k] = 0;
+    uint32_t f = e->base / e->sizes[0];
+    if (f * e->sizes[0] != e->base || (size_t)f * f > SV_CUTOFF_MAX_BLOCK)
+        return sv_fail(err, SV_ERR_INTERNAL,
+                       "evaluate: cutoffs need a base of at most %d samples a pixel, in whole "
+                       "pixels (%u for %u px)",
+                       SV_CUTOFF_MAX_BLOCK, e->base, e->sizes[0]);
+    sv_render_options ro = e->ropt;
+    ro.shade = SV_SHADE_ALPHA_MAX;
+    for (uint32_t v = 0; v < e->view_count; v++) {
+        sv_camera cam;
+        sv_eval_camera(e->centre, e->radius, &e->dirs[3 * (size_t)v], &cam);
+        sv_image amax = {0};
+        sv_status st = sv_render(e->r, result, NULL, 0, &cam, &ro, e->base, e->base, &amax, NULL,
+                                 err);
+        if (st != SV_OK) return st;
+        int64_t dmin[256] = {0}, dmax[256] = {0};
+        cutoff_sums(e, &amax, v, dmin, dmax);
+        sv_image_free(&amax);
+        int64_t smin = 0, smax = 0;
+        for (uint32_t k = 0; k < 255; k++) {
+            smin += dmin[k], smax += dmax[k];
+            iou[k] += (smax > 0 ? (double)smin / (double)smax : 1.0) / e->view_count;
+        }
+    }
+    return SV_OK;
 }
 
 sv_status sv_eval_identity(const sv_evaluator *e, sv_eval_result *out, sv_error *err)

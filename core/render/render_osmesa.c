@@ -82,7 +82,8 @@ struct sv_gpu_mesh {
  * program, no normal varying: issue 20, a 119k-triangle draw at 512² about
  * 20 % faster; the same pixels, since albedo never read the normal). Each
  * source follows the "#version 130" line and the defines (shader_head).
- * u_cutoff < 0: opaque (no alpha test). */
+ * u_cutoff < 0: opaque (no alpha test); below -1.5: no alpha test and the
+ * fragment's alpha written instead of 1 (SV_SHADE_ALPHA_MAX's swept materials). */
 static const char *VS_SRC = "in vec3 a_pos; in vec2 a_uv;\n"
                             "uniform mat4 u_mvp;\n"
                             "out vec2 v_uv;\n"
@@ -121,7 +122,7 @@ static const char *FS_SRC =
     "    c.rgb *= k;\n"
     "  }\n"
     "#endif\n"
-    "  o_color = vec4(clamp(c.rgb, 0.0, 1.0), 1.0);\n"
+    "  o_color = vec4(clamp(c.rgb, 0.0, 1.0), u_cutoff < -1.5 ? c.a : 1.0);\n"
     "}\n";
 
 /* The lines before a source: its version and, for the full program, the define. */
@@ -603,7 +604,13 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
             return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for %u triangles", tri_count);
         }
         group_by_material(m, tris, tri_count, idx, start);
-        const struct gl_prog *P = opt->shade == SV_SHADE_ALBEDO ? &r->albedo : &r->full;
+        bool amax = opt->shade == SV_SHADE_ALPHA_MAX;
+        const struct gl_prog *P = opt->shade == SV_SHADE_ALBEDO || amax ? &r->albedo : &r->full;
+        if (amax) { /* the largest alpha of any fragment, whatever its depth */
+            glDisable(GL_DEPTH_TEST);
+            glEnable(GL_BLEND);
+            glBlendEquation(GL_MAX);
+        }
         glUseProgram(P->id);
         glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
         glEnableVertexAttribArray(0);
@@ -638,6 +645,8 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
             float cutoff = -1.0f;
             if (mat->alpha_mode == SV_ALPHA_MASK) cutoff = mat->alpha_cutoff;
             else if (mat->alpha_mode == SV_ALPHA_BLEND) cutoff = 0.5f;
+            if (amax && mat->alpha_mode == SV_ALPHA_MASK && mat->alpha_cutoff == 0.0f)
+                cutoff = -2.0f; /* swept: its alpha, untested */
             glUniform1f(P->u_cutoff, cutoff);
             /* baked-lit materials are not lit twice */
             if (opt->shade == SV_SHADE_LIT) glUniform1i(P->u_shade, mat->unlit ? 0 : 2);
@@ -652,6 +661,11 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
         glBindTexture(GL_TEXTURE_2D, 0);
         glUseProgram(0);
+        if (amax) {
+            glBlendEquation(GL_FUNC_ADD);
+            glDisable(GL_BLEND);
+            glEnable(GL_DEPTH_TEST);
+        }
     }
     glFinish();
     st = gl_check(err, "drawing");

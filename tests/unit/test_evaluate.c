@@ -547,6 +547,84 @@ static void result_moved_away_scores_a_clearly_worse_iou(void **state)
     sv_mesh_destroy(moved);
 }
 
+/* sv_evaluate_cutoffs judges every cutoff (k + 0.5) / 255 of the swept
+ * material from one render a view: each k's figure equals sv_evaluate's with
+ * the material's cutoff set to it (calibrate.c rests on this), with an opaque
+ * material and another alpha-tested one (cutoff 0.5, not swept) drawn too. */
+static void cutoff_sweep_equals_evaluating_each_cutoff(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *orig = tree_mesh(2000, zero);
+    /* three big quads through the crown (materials 0, 0, 2) and a trunk quad (1) */
+    sv_mesh *m = sv_mesh_create(16, 8, 3, 0);
+    assert_non_null(m);
+    static const double c[4][3] = {{0, 2, 0}, {0.2, 2.3, 0.1}, {-0.1, 1.8, -0.2}, {0, 0.6, 0}};
+    static const double q[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int p = 0; p < 4; p++) {
+        double a = p * 1.1, s = p == 3 ? 0.1 : 1.0, h = p == 3 ? 0.6 : 1.0;
+        double u[3] = {cos(a) * s, 0, sin(a) * s}, v[3] = {0, h, 0};
+        for (int i = 0; i < 4; i++) {
+            for (int k = 0; k < 3; k++)
+                m->positions[3 * (4 * p + i) + k] = (float)(c[p][k] + q[i][0] * u[k] +
+                                                            q[i][1] * v[k]);
+            m->uvs[2 * (4 * p + i)] = (float)(q[i][0] > 0);
+            m->uvs[2 * (4 * p + i) + 1] = (float)(q[i][1] > 0);
+        }
+        uint32_t o = 4 * p, *t = &m->indices[6 * p];
+        t[0] = o, t[1] = o + 1, t[2] = o + 2, t[3] = o, t[4] = o + 2, t[5] = o + 3;
+        m->tri_material[2 * p] = m->tri_material[2 * p + 1] = p == 3 ? 1 : p == 2 ? 2 : 0;
+    }
+    free(m->images);
+    m->image_count = 1;
+    m->images = calloc(1, sizeof *m->images);
+    assert_int_equal(sv_image_alloc(&m->images[0], 32, 32, 4, 8, NULL), SV_OK);
+    uint64_t s = 3;
+    uint8_t *t = m->images[0].data;
+    for (int i = 0; i < 32 * 32; i++) {
+        t[4 * i] = 60, t[4 * i + 1] = 150, t[4 * i + 2] = 40;
+        t[4 * i + 3] = (uint8_t)(rnd(&s) * 256); /* every alpha value */
+    }
+    for (int k = 0; k < 3; k++) {
+        m->materials[k].base_color[0] = m->materials[k].base_color[1] = 1;
+        m->materials[k].base_color[2] = m->materials[k].base_color[3] = 1;
+        m->materials[k].double_sided = true;
+        m->materials[k].base_texture = k == 1 ? -1 : 0;
+        m->materials[k].alpha_mode = k == 1 ? SV_ALPHA_OPAQUE : SV_ALPHA_MASK;
+    }
+    m->materials[2].alpha_cutoff = 0.5f;
+    sv_mesh_compute_normals(m);
+    sv_gpu_mesh *g = upload(r, orig), *gm = upload(r, m);
+    sv_eval_options o = {.viewer = SV_VIEWER_GROUND,
+                         .view_count = 5,
+                         .size_count = 1,
+                         .sizes = {64},
+                         .supersample = 4};
+    sv_evaluator *e = NULL;
+    sv_error err = {0};
+    if (sv_evaluator_create(r, orig, g, &o, &e, &err) != SV_OK) fail_msg("create: %s", err.message);
+    double iou[255];
+    m->materials[0].alpha_cutoff = 0;
+    if (sv_evaluate_cutoffs(e, gm, iou, &err) != SV_OK) fail_msg("cutoffs: %s", err.message);
+    static const uint32_t ks[] = {0, 1, 37, 63, 64, 127, 128, 191, 253, 254};
+    double lo = 1, hi = 0;
+    for (size_t i = 0; i < sizeof ks / sizeof *ks; i++) {
+        m->materials[0].alpha_cutoff = (float)((ks[i] + 0.5) / 255.0);
+        sv_eval_result res = run(e, gm);
+        print_message("cutoff byte %3u: sweep %.9f evaluate %.9f\n", ks[i], iou[ks[i]],
+                      res.sizes[0].mean.iou);
+        assert_float_equal(iou[ks[i]], res.sizes[0].mean.iou, 1e-9);
+        lo = fmin(lo, iou[ks[i]]), hi = fmax(hi, iou[ks[i]]);
+        sv_eval_result_free(&res);
+    }
+    assert_true(hi - lo > 0.05); /* the cutoff matters: the check can fail */
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gm);
+    sv_mesh_destroy(orig);
+    sv_mesh_destroy(m);
+}
+
 /* A size that divides no larger one (64 under 96) is filtered from the render
  * itself: it was once filtered from a float image never filled, all zeros on
  * both sides, IoU 1 whatever the candidate. */
@@ -1028,6 +1106,7 @@ int main(void)
         cmocka_unit_test(original_against_itself_scores_iou_1_and_zero_error_at_every_size),
         cmocka_unit_test(result_moved_away_scores_a_clearly_worse_iou),
         cmocka_unit_test(a_size_dividing_no_larger_one_is_measured_too),
+        cmocka_unit_test(cutoff_sweep_equals_evaluating_each_cutoff),
         cmocka_unit_test(subpixel_shifted_result_scores_near_1_at_32_px_and_lower_at_256),
         cmocka_unit_test(evaluator_places_ground_views_near_the_horizon),
         cmocka_unit_test(subset_callback_blends_two_renders_by_weight),
