@@ -179,7 +179,7 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, 
             uint32_t px = SV_CALIB_MIN_PIXELS;
             while (px < SV_CALIB_PIXELS && px < l->switch_pixels) px *= 2;
             sv_eval_options eo;
-            calib_options(r, px, getenv("SV_X") ? 128 : SV_CALIB_RENDER, &eo);
+            calib_options(r, px, SV_CALIB_RENDER, &eo);
             if (!ev || ev_px != px) {
                 sv_evaluator_destroy(ev);
                 ev = NULL;
