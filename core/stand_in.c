@@ -344,3 +344,60 @@ void sv_quad_corners(const sv_quad *q, double corners[4][3])
             corners[i][k] = q->centre[k] + su[i] * q->half_u * q->axis_u[k] +
                             sv[i] * q->half_v * q->axis_v[k];
 }
+
+/* ---------- the flattening bound ---------- */
+
+static const uint32_t *quad_faces(const sv_quad *q, uint32_t *count)
+{
+    *count = q->bake_faces ? q->bake_face_count : q->face_count;
+    return q->bake_faces ? q->bake_faces : q->faces;
+}
+
+sv_status sv_lod_flatten(const sv_mesh *src, const sv_lod_plan *lod, sv_mesh **out, sv_error *err)
+{
+    *out = NULL;
+    uint64_t nt = 0;
+    for (uint32_t q = 0; q < lod->quad_count; q++) {
+        uint32_t n;
+        quad_faces(&lod->quads[q], &n);
+        nt += n;
+    }
+    if (nt > UINT32_MAX / 3)
+        return sv_fail(err, SV_ERR_LIMIT, "flattening bound: %llu faces are too many",
+                       (unsigned long long)nt);
+    sv_mesh *m = sv_mesh_create((uint32_t)(3 * nt), (uint32_t)nt, src->material_count,
+                                src->image_count);
+    if (!m) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    memcpy(m->materials, src->materials, src->material_count * sizeof *m->materials);
+    for (uint32_t k = 0; k < src->image_count; k++) {
+        sv_status st = sv_image_copy(&src->images[k], &m->images[k], err);
+        if (st) {
+            sv_mesh_destroy(m);
+            return st;
+        }
+    }
+    uint32_t t = 0;
+    for (uint32_t q = 0; q < lod->quad_count; q++) {
+        const sv_quad *Q = &lod->quads[q];
+        uint32_t n;
+        const uint32_t *fs = quad_faces(Q, &n);
+        for (uint32_t f = 0; f < n; f++, t++) {
+            for (int c = 0; c < 3; c++) {
+                uint32_t v = src->indices[3 * fs[f] + c], o = 3 * t + (uint32_t)c;
+                double p[3] = {src->positions[3 * v], src->positions[3 * v + 1],
+                               src->positions[3 * v + 2]};
+                double dist = sv_dot3(Q->normal, p) + Q->d;
+                for (int a = 0; a < 3; a++) {
+                    m->positions[3 * o + a] = (float)(p[a] - dist * Q->normal[a]);
+                    m->normals[3 * o + a] = src->normals[3 * v + a];
+                }
+                m->uvs[2 * o] = src->uvs[2 * v];
+                m->uvs[2 * o + 1] = src->uvs[2 * v + 1];
+                m->indices[3 * t + c] = o;
+            }
+            m->tri_material[t] = src->tri_material[fs[f]];
+        }
+    }
+    *out = m;
+    return SV_OK;
+}

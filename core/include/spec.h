@@ -52,6 +52,8 @@ typedef struct sv_spec {
     uint32_t eval_supersample;              /* default 4 */
     uint32_t eval_sizes[SV_MAX_EVAL_SIZES]; /* default 256,128,64,32 */
     uint32_t eval_size_count;
+    bool eval_flattening_bound; /* default false: also measure each quad level's leaves
+                                   flattened onto its planes as geometry (docs/accuracy.md) */
     /* lod */
     double lod_tolerance; /* max (1 - coverage IoU) for a LOD at lod_tolerance_pixels, default 0.1 */
     double

@@ -103,4 +103,13 @@ void sv_quad_fit_points(sv_quad *q, const double *points, size_t n);
 /* The four corners in order (-u,-v), (+u,-v), (+u,+v), (-u,+v). */
 void sv_quad_corners(const sv_quad *q, double corners[4][3]);
 
+/* The flattening bound's geometry (docs/accuracy.md "The flattening bound"):
+ * every face a quad of lod textures (its bake_faces, or else its assigned
+ * faces) as a triangle of src with its vertices projected orthogonally onto
+ * that quad's plane, uvs, normals and material kept; a face of several
+ * quads appears once per quad. The vertices are not shared (3 per triangle);
+ * materials and images are src's (images as sv_image_copy shares them).
+ * *out is a new mesh (no triangles when no quad names a face). */
+sv_status sv_lod_flatten(const sv_mesh *src, const sv_lod_plan *lod, sv_mesh **out, sv_error *err);
+
 #endif

@@ -535,6 +535,7 @@ void svp_compact_lods(sv_stand_in *si, lod_out *lods, chain *c, const bool *drop
             if (g) *g = si->lods[i]; /* (out of memory: the plan leaks, nothing worse) */
             sv_gpu_mesh_free(lods[i].gpu);
             sv_eval_result_free(&lods[i].eval);
+            sv_eval_result_free(&lods[i].bound);
             sv_baked_lod_free(&lods[i].baked);
             continue;
         }

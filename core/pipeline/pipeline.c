@@ -415,6 +415,37 @@ static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err
     return SV_OK;
 }
 
+/* The flattening bound of quad level i (docs/accuracy.md): its quads' faces
+ * projected onto their planes, as geometry, with the geometry the level
+ * keeps (the baked mesh's triangles after its quads), measured like the
+ * level. Levels drawn by a hook or per view, and levels without quads, have
+ * none. */
+static sv_status measure_bound(run *r, bake_state *b, uint32_t i, sv_error *err)
+{
+    const sv_lod_plan *lp = &b->si.lods[i];
+    lod_out *l = &b->lods[i];
+    if (!lp->quad_count || svp_drawn_by_hook(lp) || lp->select) return SV_OK;
+    const sv_mesh *bm = l->baked.mesh;
+    uint32_t first = 2 * l->baked.quad_count, kept = bm->triangle_count - first;
+    sv_mesh *flat = NULL, *keep = NULL, *both = NULL;
+    sv_gpu_mesh *g = NULL;
+    uint32_t *tris = sv_calloc(kept ? kept : 1, sizeof *tris);
+    if (!tris) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t t = 0; t < kept; t++) tris[t] = first + t;
+    sv_status st = sv_lod_flatten(r->p.mesh, lp, &flat, err);
+    if (!st && kept) st = sv_mesh_subset(bm, tris, kept, &keep, err);
+    if (!st) st = sv_mesh_merge(keep, flat, &both, err);
+    if (!st) st = sv_gpu_mesh_upload(r->ren, both, &g, err);
+    if (!st) st = sv_evaluate(r->ev, g, &l->bound, err);
+    if (!st) l->bound_measured = true;
+    sv_gpu_mesh_free(g);
+    sv_mesh_destroy(both);
+    sv_mesh_destroy(keep);
+    sv_mesh_destroy(flat);
+    free(tris);
+    return st;
+}
+
 /* Evaluate stage (when the spec asks). In: b->lods baked. Out: their eval. */
 static sv_status stage_evaluate(run *r, bake_state *b, sv_error *err)
 {
@@ -425,6 +456,8 @@ static sv_status stage_evaluate(run *r, bake_state *b, sv_error *err)
     for (uint32_t i = 0; i < b->si.lod_count; i++) {
         if ((st = stage(r, ST_EVALUATE, (double)i / b->si.lod_count, err))) return st;
         if ((st = evaluate_level(r, b, i, err))) return st;
+        if (r->spec.eval_flattening_bound && !r->trial && (st = measure_bound(r, b, i, err)))
+            return st;
     }
     return SV_OK;
 }
@@ -476,6 +509,7 @@ static void bake_state_free(bake_state *b)
         for (uint32_t i = 0; i < b->si.lod_count; i++) {
             sv_gpu_mesh_free(b->lods[i].gpu);
             sv_eval_result_free(&b->lods[i].eval);
+            sv_eval_result_free(&b->lods[i].bound);
             sv_baked_lod_free(&b->lods[i].baked);
         }
     free(b->lods);

@@ -115,6 +115,8 @@ typedef struct lod_out {
     sv_gpu_mesh *gpu;
     sv_eval_result eval;
     bool evaluated;
+    sv_eval_result bound; /* the flattening bound's measure (evaluate.flattening_bound) */
+    bool bound_measured;
     double switch_pixels; /* largest screen height at which this LOD meets the tolerance */
     double own_pixels;    /* the same before the chain made it non-increasing */
     double coverage;      /* MSFT_screencoverage threshold below which the next LOD is used */

@@ -358,6 +358,8 @@ static cJSON *report_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON_AddNumberToObject(o, "screen_coverage", l->coverage);
     cJSON_AddBoolToObject(o, "meets_tolerance", l->meets_tolerance);
     if (l->evaluated) cJSON_AddItemToObject(o, "accuracy", svp_accuracy_json(&l->eval));
+    if (l->bound_measured)
+        cJSON_AddItemToObject(o, "flattening_bound", svp_accuracy_json(&l->bound));
     return o;
 }
 

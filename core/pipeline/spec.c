@@ -210,10 +210,13 @@ static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"enabled", "views", "supersample", "sizes", NULL};
+    static const char *const keys[] = {"enabled",          "views", "supersample", "sizes",
+                                       "flattening_bound", NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "evaluate", keys, err))) return st;
     if ((st = sv_setting_bool(o, "evaluate", "enabled", &s->evaluate, err))) return st;
+    if ((st = sv_setting_bool(o, "evaluate", "flattening_bound", &s->eval_flattening_bound, err)))
+        return st;
     if ((st = parse_u32(o, "evaluate", "views", 1, 256, &s->eval_views, err))) return st;
     if ((st = parse_u32(o, "evaluate", "supersample", 1, 8, &s->eval_supersample, err))) return st;
     const cJSON *z = cJSON_GetObjectItemCaseSensitive(o, "sizes");

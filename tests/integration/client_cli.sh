@@ -142,6 +142,22 @@ fi
 "$SYLVA" bake $MESH $FAST --out "$T/out3" --quiet >"$T/quiet.out" 2>&1
 check "--quiet prints no progress lines" sh -c "! grep -q submitted '$T/quiet.out'"
 
+# evaluate.flattening_bound through the server (docs/accuracy.md "The flattening
+# bound"): a quad level carries it beside its accuracy, at the same sizes;
+# exact flattening moves leaves, so it is below 1
+BOUND="--method billboard_cloud --set billboard_cloud.lods=[8] --set lod.chain=false --set bake.max_atlas=512 --set evaluate.views=4 --set evaluate.sizes=[64] --set evaluate.flattening_bound=true"
+"$SYLVA" bake $MESH $BOUND --out "$T/bound" --quiet >"$T/bound.out" 2>&1
+check "bake with evaluate.flattening_bound exits 0" test $? -eq 0
+check "  report.json gives the level its flattening bound at 64 px, in (0.2, 0.99)" \
+    test "$(json_get "$T/bound/report.json" '[0.2 < b["iou_mean"] < 0.99 for b in d["lods"][0]["flattening_bound"] if b["pixels"] == 64] == [True]')" = True
+check "  at the sizes of its accuracy" \
+    test "$(json_get "$T/bound/report.json" '[a["pixels"] for a in d["lods"][0]["accuracy"]] == [b["pixels"] for b in d["lods"][0]["flattening_bound"]]')" = True
+check "  a bake without it (the first above) has none" \
+    test "$(json_get "$T/out/report.json" 'any("flattening_bound" in l for l in d["lods"])')" = False
+"$SYLVA" bake $MESH $FAST --set evaluate.flattening_bound=1 --out "$T/badb" >/dev/null 2>"$T/badb.err"
+check "a flattening_bound that is not true or false exits 1" test $? -eq 1
+check "  naming evaluate.flattening_bound" grep -q "evaluate.flattening_bound" "$T/badb.err"
+
 # status / fetch
 "$SYLVA" status "$KEY" --json >"$T/status.json"
 check "status --json exits 0" test $? -eq 0

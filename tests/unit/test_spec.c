@@ -27,6 +27,7 @@ static void empty_spec_gives_every_default(void **state)
     assert_true(s.alpha_threshold == 0); /* calibrated */
     assert_int_equal(s.texel_pixels, 256);
     assert_int_equal(s.eval_views, 24);
+    assert_false(s.eval_flattening_bound); /* measured only when asked */
     assert_int_equal(s.eval_size_count, 4);
     assert_int_equal(s.eval_sizes[0], 256);
     assert_int_equal(s.scene.viewer, SV_VIEWER_SIDE);
@@ -52,7 +53,8 @@ static void full_spec_sets_every_section(void **state)
         "\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
         "\"classify\":{\"foliage\":[\"Leaf*\"],\"trunk\":[\"Bark\",\"Pot\"]},"
         "\"bake\":{\"max_atlas\":1024,\"alpha_threshold\":0.5},"
-        "\"evaluate\":{\"views\":8,\"sizes\":[32,128]},\"lod\":{\"tolerance\":0.2,\"tolerance_"
+        "\"evaluate\":{\"views\":8,\"sizes\":[32,128],\"flattening_bound\":true},\"lod\":{"
+        "\"tolerance\":0.2,\"tolerance_"
         "pixels\":0},\"seed\":7}";
     assert_int_equal(parse(j, &s, &e), SV_OK);
     assert_string_equal(s.method, "crossed_quads");
@@ -71,6 +73,7 @@ static void full_spec_sets_every_section(void **state)
     assert_int_equal(s.max_atlas, 1024);
     assert_int_equal(s.eval_size_count, 2);
     assert_int_equal(s.eval_sizes[0], 128); /* sorted largest first */
+    assert_true(s.eval_flattening_bound);
     assert_int_equal(s.seed, 7);
     assert_true(s.lod_tolerance == 0.2 && s.lod_tolerance_pixels == 0);
     sv_spec_free(&s);
@@ -157,6 +160,7 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"bake\":{\"alpha_threshold\":\"high\"}}", "bake.alpha_threshold");
     expect_error("{\"evaluate\":{\"sizes\":[]}}", "evaluate.sizes");
     expect_error("{\"evaluate\":{\"sizes\":[12.5]}}", "evaluate.sizes[0]");
+    expect_error("{\"evaluate\":{\"flattening_bound\":1}}", "evaluate.flattening_bound");
     expect_error("{\"classify\":{\"foliage\":\"leaf\"}}", "classify.foliage");
     expect_error("{\"classify\":{\"foliage\":[\"\"]}}", "classify.foliage[0]");
     expect_error("{\"lod\":{\"tolerance_pixels\":-1}}", "lod.tolerance_pixels");

@@ -292,6 +292,83 @@ static void add_lod_truncates_long_names(void **state)
     sv_stand_in_free(&s);
 }
 
+/* sv_lod_flatten: each quad's faces (bake_faces, else assigned faces) land on
+ * its plane with their in-plane position, uvs, normals and material kept; a
+ * face of two quads appears twice, a face of none not at all. */
+static void flatten_projects_each_quads_faces_onto_its_plane(void **state)
+{
+    (void)state;
+    sv_mesh *m = sv_mesh_create(12, 4, 2, 0);
+    assert_non_null(m);
+    uint64_t rs = 7;
+    for (uint32_t v = 0; v < 12; v++) {
+        for (int a = 0; a < 3; a++) m->positions[3 * v + a] = (float)(2.0 * rng_unit(&rs));
+        m->normals[3 * v + 1] = 1;
+        m->uvs[2 * v] = (float)v / 12.0f;
+        m->uvs[2 * v + 1] = 1.0f - (float)v / 12.0f;
+    }
+    for (uint32_t i = 0; i < 12; i++) m->indices[i] = i;
+    for (uint32_t t = 0; t < 4; t++) m->tri_material[t] = t % 2;
+    m->materials[1].alpha_mode = SV_ALPHA_MASK;
+    m->materials[1].alpha_cutoff = 0.3f;
+
+    sv_stand_in si;
+    memset(&si, 0, sizeof si);
+    sv_lod_plan *lod = sv_stand_in_add_lod(&si, "lod0");
+    assert_non_null(lod);
+    sv_quad a = plane_quad(0, 1, 0, -0.5); /* y = 0.5, bakes faces 0 and 1 */
+    a.bake_faces = malloc(2 * sizeof *a.bake_faces);
+    a.faces = malloc(sizeof *a.faces); /* assigned faces are ignored with bake_faces */
+    assert_true(a.bake_faces && a.faces);
+    a.bake_faces[0] = 0, a.bake_faces[1] = 1, a.bake_face_count = 2;
+    a.faces[0] = 3, a.face_count = 1;
+    assert_int_equal(sv_lod_add_quad(lod, &a, NULL), SV_OK);
+    sv_quad b = plane_quad(1, 1, 0, 0.25); /* oblique, no bake_faces: faces 1 and 2 */
+    b.faces = malloc(2 * sizeof *b.faces);
+    assert_non_null(b.faces);
+    b.faces[0] = 1, b.faces[1] = 2, b.face_count = 2;
+    assert_int_equal(sv_lod_add_quad(lod, &b, NULL), SV_OK);
+
+    sv_mesh *f = NULL;
+    sv_error err;
+    assert_int_equal(sv_lod_flatten(m, lod, &f, &err), SV_OK);
+    assert_non_null(f);
+    const uint32_t src_face[4] = {0, 1, 1, 2};
+    const int quad_of[4] = {0, 0, 1, 1};
+    assert_int_equal(f->triangle_count, 4);
+    assert_int_equal(f->vertex_count, 12);
+    assert_int_equal(f->material_count, 2);
+    assert_true(f->materials[1].alpha_mode == SV_ALPHA_MASK);
+    for (uint32_t t = 0; t < 4; t++) {
+        const sv_quad *q = &lod->quads[quad_of[t]];
+        assert_int_equal(f->tri_material[t], m->tri_material[src_face[t]]);
+        for (int c = 0; c < 3; c++) {
+            uint32_t o = f->indices[3 * t + c], v = m->indices[3 * src_face[t] + c];
+            double p[3], s[3], dp[3];
+            for (int k = 0; k < 3; k++) {
+                p[k] = f->positions[3 * o + k];
+                s[k] = m->positions[3 * v + k];
+                dp[k] = s[k] - p[k];
+            }
+            assert_true(fabs(dot(q->normal, p) + q->d) < 1e-6); /* on the plane */
+            /* moved along the normal only: the in-plane position is kept */
+            double along = dot(dp, q->normal);
+            for (int k = 0; k < 3; k++) assert_true(fabs(dp[k] - along * q->normal[k]) < 1e-6);
+            assert_true(f->uvs[2 * o] == m->uvs[2 * v] && f->uvs[2 * o + 1] == m->uvs[2 * v + 1]);
+            assert_true(f->normals[3 * o + 1] == 1.0f);
+        }
+    }
+    sv_mesh_destroy(f);
+
+    sv_lod_plan *empty = sv_stand_in_add_lod(&si, "none");
+    assert_non_null(empty);
+    assert_int_equal(sv_lod_flatten(m, empty, &f, &err), SV_OK);
+    assert_int_equal(f->triangle_count, 0);
+    sv_mesh_destroy(f);
+    sv_stand_in_free(&si);
+    sv_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -306,6 +383,7 @@ int main(void)
         cmocka_unit_test(corners_run_counter_clockwise_from_minus_u_minus_v),
         cmocka_unit_test(stand_in_grows_and_frees_lods_and_quads),
         cmocka_unit_test(add_lod_truncates_long_names),
+        cmocka_unit_test(flatten_projects_each_quads_faces_onto_its_plane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
