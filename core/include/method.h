@@ -42,8 +42,10 @@ typedef struct sv_method {
      * settings object of this method, owned by the caller — to step `step`
      * (0 = cheapest), replacing the knob's keys and keeping the user's
      * others. Returns false, settings untouched, past the last step. NULL:
-     * the method has nothing to search (a target then fails). Pure JSON. */
-    bool (*ladder)(int step, cJSON *settings);
+     * the method has nothing to search (a target then fails). Pure JSON.
+     * max_triangles: the target's triangle budget (0 = none), for methods
+     * whose kept trunk shares it with the quads (sv_ladder_trunk_share). */
+    bool (*ladder)(int step, uint32_t max_triangles, cJSON *settings);
     /* planes.json (docs/outputs.md): adds what a runtime needs beyond the
      * plain quad list to `entry`, the object of one LOD this method made —
      * keys after "quads", and quads appended to `quads` (that entry's
@@ -90,6 +92,13 @@ sv_status sv_setting_bool(const cJSON *obj, const char *method, const char *key,
  * (level i; the last repeats). out has n entries; missing key: unchanged. */
 sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const char *key, long lo,
                                    long hi, long *out, int n, sv_error *err);
+/* The target search's split of a triangle budget (docs/spec.md "target"):
+ * with max_triangles > 0 and no "trunk_max_triangles" of the user's in
+ * settings, sets it to what the budget leaves after `quads` quads (2
+ * triangles each), never above `trunk_default` and never below a quarter of
+ * the budget (at least 1); a step whose quads leave less than that is over
+ * the budget. Nothing otherwise. */
+void sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default);
 /* Fails naming the first key of obj not in the NULL-terminated list `known`
  * (also fails when obj is not an object). NULL obj is fine. */
 sv_status sv_setting_only(const cJSON *obj, const char *method, const char *const *known,

@@ -101,3 +101,15 @@ sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const c
     for (; i < n; i++) out[i] = out[i - 1];
     return SV_OK;
 }
+
+void sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default)
+{
+    if (!max_triangles || !settings ||
+        cJSON_GetObjectItemCaseSensitive(settings, "trunk_max_triangles"))
+        return;
+    long floor = (long)max_triangles / 4, left = (long)max_triangles - 2L * quads;
+    long trunk = left < trunk_default ? left : trunk_default;
+    if (trunk < floor) trunk = floor;
+    if (trunk < 1) trunk = 1;
+    cJSON_AddNumberToObject(settings, "trunk_max_triangles", (double)trunk);
+}

@@ -16,10 +16,10 @@
  * Step i of the method's ladder (its sv_method ladder hook) rewrites the
  * method's settings object. Returns false past the last step, and for a
  * method without a ladder. */
-static bool ladder_step(const char *method, int i, cJSON *set)
+static bool ladder_step(const char *method, int i, uint32_t max_triangles, cJSON *set)
 {
     const sv_method *m = sv_method_find(method);
-    return m && m->ladder && m->ladder(i, set);
+    return m && m->ladder && m->ladder(i, max_triangles, set);
 }
 
 /* The user's spec document with the method's settings replaced by `set` (a
@@ -126,7 +126,8 @@ static sv_status try_step(run *r, const sv_spec *goal, const char *method, const
     o->tried = true;
     o->iou = -1;
     o->set = us ? cJSON_Duplicate(us, true) : cJSON_CreateObject();
-    if (!o->set || !ladder_step(method, i, o->set)) return SV_ERR_INTERNAL;
+    if (!o->set || !ladder_step(method, i, goal->target_max_triangles, o->set))
+        return SV_ERR_INTERNAL;
     char *json = spec_with(user_root, method, o->set, true);
     if (!json) {
         *fatal = true;
@@ -286,7 +287,7 @@ static cJSON *target_json(search *s, bool met, int chosen)
 static void count_steps(search *s)
 {
     cJSON *scratch = cJSON_CreateObject();
-    while (scratch && s->steps < 64 && ladder_step(s->method, s->steps, scratch)) s->steps++;
+    while (scratch && s->steps < 64 && ladder_step(s->method, s->steps, 0, scratch)) s->steps++;
     cJSON_Delete(scratch);
     int halvings = 0;
     while ((1 << halvings) <= s->steps) halvings++;

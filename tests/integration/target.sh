@@ -98,6 +98,9 @@ s = tr[c]["step"]
 print(t["met"] and tr[c]["triangles"] <= 20 and "iou" not in tr[c]
       and all(x["within_budget"] == (x["step"] <= s) for x in tr)
       and (s == 10 or any(x["step"] == s + 1 for x in tr)))')"
+check "... each try's kept trunk gets what its quads leave of the budget (a quarter at least)" True "$(stmts tris '
+print(all(x["settings"]["trunk_max_triangles"] ==
+          max(min(200, 20 - 2 * x["settings"]["lods"][0]["max_planes"]), 5) for x in tr))')"
 
 # 4. refusals, determinism, the daemon
 for bad_target in '{}' '{"iou":0.9,"pixels":100}' '{"iou":2}' '{"max_planes":0}' '{"iou":0.9,"colour":1}'; do

@@ -490,9 +490,42 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
     free(b_mtl);
 }
 
+/* The trunk cap a ladder step sets (-1: none), for method m at step i under
+ * a triangle budget, from the user's settings `user` (JSON). */
+static long ladder_trunk(const sv_method *m, int i, uint32_t budget, const char *user)
+{
+    cJSON *set = cJSON_Parse(user);
+    assert_non_null(set);
+    assert_true(m->ladder(i, budget, set));
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(set, "trunk_max_triangles");
+    long v = t ? (long)t->valuedouble : -1;
+    cJSON_Delete(set);
+    return v;
+}
+
+/* Under a target's triangle budget the kept trunk yields to the quads
+ * (sv_ladder_trunk_share): never above the default 200, never below a
+ * quarter of the budget; a cap of the user's own is kept; no budget, no cap. */
+static void ladder_shares_a_triangle_budget_with_the_trunk(void **state)
+{
+    (void)state;
+    const sv_method *lc = &sv_method_leaf_clusters, *bc = &sv_method_billboard_cloud;
+    /* steps 4..10: K = 16, 24, 32, 48, 64, 96, 128 */
+    const long want[] = {200, 200, 200, 168, 136, 72, 66};
+    for (int i = 4; i <= 10; i++) {
+        assert_int_equal(ladder_trunk(lc, i, 264, "{}"), want[i - 4]);
+        assert_int_equal(ladder_trunk(bc, i, 264, "{}"), want[i - 4]);
+    }
+    assert_int_equal(ladder_trunk(lc, 10, 264, "{\"trunk_max_triangles\": 500}"), 500);
+    assert_int_equal(ladder_trunk(lc, 6, 0, "{}"), -1);
+    assert_int_equal(ladder_trunk(bc, 6, 0, "{}"), -1);
+    assert_int_equal(ladder_trunk(lc, 0, 2, "{}"), 1); /* at least one triangle */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(ladder_shares_a_triangle_budget_with_the_trunk),
         cmocka_unit_test(default_settings_are_accepted),
         cmocka_unit_test(bad_settings_fail_naming_the_key),
         cmocka_unit_test(toy_tree_gives_one_lod_per_level_with_sound_quads),

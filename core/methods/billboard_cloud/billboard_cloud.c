@@ -43,6 +43,9 @@
 #define BC_DEFAULT_EPS 0.14
 #define BC_DEFAULT_MAX 24
 
+/* trunk_max_triangles when not given (issue 18: the coarser LODs' budget) */
+#define BC_TRUNK_MAX_DEFAULT 200
+
 static const char *const bc_keys[] = {"epsilon",
                                       "max_planes",
                                       "lods",
@@ -140,7 +143,7 @@ static sv_status bc_parse(const cJSON *s, bc_settings *o, sv_error *err)
     o->max_angle = 75;
     o->refine = 48; /* docs/methods/billboard_cloud.md, k-planes iterations */
     o->trunk_mesh = true;
-    for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = 200;
+    for (int i = 0; i < BC_MAX_LODS; i++) o->trunk_max[i] = BC_TRUNK_MAX_DEFAULT;
     sv_status st;
     if ((st = sv_setting_only(s, BC_NAME, bc_keys, err))) return st;
     if ((st = sv_setting_number(s, BC_NAME, "epsilon", 1e-6, 2.0, &o->epsilon, err))) return st;
@@ -617,8 +620,10 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
 }
 
 /* method.h ladder: lods [{epsilon 0.01, max_planes P}] (a small epsilon
- * raised until at most P planes remain: the best P planes), P = 4 .. 128. */
-static bool bc_ladder(int step, cJSON *set)
+ * raised until at most P planes remain: the best P planes), P = 4 .. 128;
+ * under a triangle budget the kept trunk yields to the quads
+ * (sv_ladder_trunk_share). */
+static bool bc_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
     if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
@@ -629,6 +634,7 @@ static bool bc_ladder(int step, cJSON *set)
     cJSON_AddItemToArray(a, l);
     cJSON_DeleteItemFromObjectCaseSensitive(set, "lods");
     cJSON_AddItemToObject(set, "lods", a);
+    sv_ladder_trunk_share(set, max_triangles, counts[step], BC_TRUNK_MAX_DEFAULT);
     return true;
 }
 

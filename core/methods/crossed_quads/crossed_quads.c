@@ -205,8 +205,9 @@ static sv_status cq_run(const sv_method_input *in, const cJSON *settings, sv_sta
 }
 
 /* method.h ladder: planes 2, 2 + horizontal, 3, 3 + horizontal. */
-static bool cq_ladder(int step, cJSON *set)
+static bool cq_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
+    (void)max_triangles; /* its trunk is not a per-level budget of its own */
     if (step < 0 || step >= 4) return false;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "planes");
     cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");

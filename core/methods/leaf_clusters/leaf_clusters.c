@@ -65,6 +65,9 @@
 #define LC_MAX_LEVELS 8
 #define LC_MAX_CLUSTERS 1024
 
+/* trunk_max_triangles when not given (issue 18: the coarser LODs' budget) */
+#define LC_TRUNK_MAX_DEFAULT 200
+
 static const char *const lc_keys[] = {
     "clusters",    "alpha_rel",           "area_weighted", "iterations", "seed_tries",
     "trunk_ratio", "trunk_max_triangles", "twigs",         NULL};
@@ -144,7 +147,7 @@ static sv_status lc_parse(const cJSON *s, lc_settings *o, sv_error *err)
     o->area_weighted = true;
     o->iterations = 50;
     o->seed_tries = 4;
-    for (int i = 0; i < LC_MAX_LEVELS; i++) o->trunk_max[i] = 200;
+    for (int i = 0; i < LC_MAX_LEVELS; i++) o->trunk_max[i] = LC_TRUNK_MAX_DEFAULT;
     o->twigs = true;
     sv_status st;
     if ((st = sv_setting_only(s, LC_NAME, lc_keys, err))) return st;
@@ -446,8 +449,9 @@ static sv_status lc_run(const sv_method_input *in, const cJSON *settings, sv_sta
 }
 
 /* method.h ladder: clusters [K], K = 4 .. 128 (a given trunk_ratio is
- * dropped: it is one per level). */
-static bool lc_ladder(int step, cJSON *set)
+ * dropped: it is one per level); under a triangle budget the kept trunk
+ * yields to the quads (sv_ladder_trunk_share). */
+static bool lc_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
     if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
@@ -456,6 +460,7 @@ static bool lc_ladder(int step, cJSON *set)
     cJSON *a = cJSON_CreateArray();
     cJSON_AddItemToArray(a, cJSON_CreateNumber(counts[step]));
     cJSON_AddItemToObject(set, "clusters", a);
+    sv_ladder_trunk_share(set, max_triangles, counts[step], LC_TRUNK_MAX_DEFAULT);
     return true;
 }
 

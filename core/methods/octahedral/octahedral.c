@@ -619,8 +619,9 @@ static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
 
 /* method.h ladder: grid N = 4 .. 16 (issue 21; frames keep their size, so
  * texels grow as N^2; every step has the same proxy of proxy_quads quads). */
-static bool octa_ladder(int step, cJSON *set)
+static bool octa_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
+    (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const int grids[] = {4, 6, 8, 12, 16};
     if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return false;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");

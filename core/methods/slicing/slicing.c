@@ -657,8 +657,9 @@ static void sl_planes_json(const sv_lod_plan *lod, const struct sv_baked_lod *ba
 }
 
 /* method.h ladder: slicings x slices, 2x2 .. 12x8. */
-static bool sl_ladder(int step, cJSON *set)
+static bool sl_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
+    (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const int steps[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4},  {6, 4},
                                    {6, 5}, {8, 5}, {8, 6}, {12, 6}, {12, 8}};
     if (step < 0 || step >= (int)(sizeof steps / sizeof steps[0])) return false;

@@ -1090,8 +1090,9 @@ void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_se
 }
 
 /* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
-static bool st_ladder(int step, cJSON *set)
+static bool st_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
+    (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
     if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
