@@ -15,7 +15,7 @@ import json, os, shutil, subprocess, sys, tempfile, time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from docsection import write_section  # noqa: E402
-from fidelity import POINTS, EVALUATE, bound64, bound_table, run_sveval, bake, sv_dir, root, build, res_dir, data  # noqa: E402
+from fidelity import POINTS, bound64, bound_table, cell, run_bake, spec_for, run_sveval, bake, sv_dir, root, build, res_dir, data  # noqa: E402
 
 PRESETS = ["Pine Medium", "Bush 2", "Oak Medium", "Aspen Large"]
 UNITS = 0.2  # ez-tree units, as the shared ez-trees (../shared/data/README.md)
@@ -59,23 +59,21 @@ def main():
             obj = os.path.join(trees, base + ".obj")
             mtl = os.path.join(trees, base + ".mtl")
             tex = sorted({l.split()[1] for l in open(mtl) if l.startswith(("map_Kd", "map_d"))})
-            for label, method, settings in POINTS:
-                spec = {"method": method, method: settings, "import": {"units": UNITS},
-                        "lod": {"chain": False}, "evaluate": EVALUATE}
+            for label, method, settings, other in POINTS:
+                spec = spec_for(method, settings, other, UNITS)
                 sp = os.path.join(tmp, "spec.json")
                 with open(sp, "w") as f:
                     json.dump(spec, f)
                 out = os.path.join(tmp, "%s-%d" % (base, len(rows)))
                 t0 = time.time()
-                subprocess.run([bake, "bake", obj, mtl] + [os.path.join(trees, t) for t in tex] +
-                               ["--spec", sp, "--out", out], check=True, capture_output=True)
+                run_bake([obj, mtl] + [os.path.join(trees, t) for t in tex] + ["--spec", sp, "--out", out])
                 secs = time.time() - t0
                 l0 = json.load(open(os.path.join(out, "report.json")))["lods"][0]
                 ours = [a["iou_mean"] for a in l0["accuracy"] if a["pixels"] == 64][0]
                 theirs = run_sveval(obj, os.path.join(out, "model.glb"), UNITS)
                 rows.append({"tree": preset, "point": label, "triangles": l0["triangles"],
                              "ours": ours, "sveval": theirs, "seconds": secs,
-                             "bound": bound64(l0)})
+                             "bound": bound64(l0), "name": l0["name"], "target": "target" in other})
                 print("%-12s %-20s tris %5d  sveval %.3f  ours %.3f  %.1fs" %
                       (preset, label, l0["triangles"], theirs, ours, secs), flush=True)
     os.makedirs(res_dir, exist_ok=True)
@@ -98,8 +96,7 @@ def main():
           "| tree | " + " | ".join(p[0] for p in POINTS) + " | bc20 − cq |",
           "| --- |" + " --- |" * (len(POINTS) + 1)]
     for t, pts in by.items():
-        cells = ["%.3f / %.3f (%d)" % (pts[p[0]]["sveval"], pts[p[0]]["ours"],
-                                       pts[p[0]]["triangles"]) for p in POINTS]
+        cells = [cell(pts[p[0]]) for p in POINTS]
         gain = pts["billboard cloud 20"]["sveval"] - pts["crossed quads"]["sveval"]
         md.append("| %s | %s | %+.3f |" % (t, " | ".join(cells), gain))
     md += ["", "Against the flattening bound (as in the table above): sveval / bound "
