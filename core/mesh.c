@@ -206,15 +206,22 @@ sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t coun
         m->tri_material[i] = src->tri_material[tris[i]];
     }
     free(remap);
-    memcpy(m->materials, src->materials, src->material_count * sizeof *m->materials);
-    for (uint32_t i = 0; i < src->image_count; i++) {
-        sv_status st = sv_image_copy(&src->images[i], &m->images[i], err);
-        if (st) {
-            sv_mesh_destroy(m);
-            return st;
-        }
+    sv_status st = sv_mesh_copy_looks(src, m, err);
+    if (st) {
+        sv_mesh_destroy(m);
+        return st;
     }
     *out = m;
+    return SV_OK;
+}
+
+sv_status sv_mesh_copy_looks(const sv_mesh *src, sv_mesh *dst, sv_error *err)
+{
+    memcpy(dst->materials, src->materials, src->material_count * sizeof *dst->materials);
+    for (uint32_t i = 0; i < src->image_count; i++) {
+        sv_status st = sv_image_copy(&src->images[i], &dst->images[i], err);
+        if (st) return st;
+    }
     return SV_OK;
 }
 

@@ -368,13 +368,10 @@ sv_status sv_lod_flatten(const sv_mesh *src, const sv_lod_plan *lod, sv_mesh **o
     sv_mesh *m = sv_mesh_create((uint32_t)(3 * nt), (uint32_t)nt, src->material_count,
                                 src->image_count);
     if (!m) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    memcpy(m->materials, src->materials, src->material_count * sizeof *m->materials);
-    for (uint32_t k = 0; k < src->image_count; k++) {
-        sv_status st = sv_image_copy(&src->images[k], &m->images[k], err);
-        if (st) {
-            sv_mesh_destroy(m);
-            return st;
-        }
+    sv_status st = sv_mesh_copy_looks(src, m, err);
+    if (st) {
+        sv_mesh_destroy(m);
+        return st;
     }
     uint32_t t = 0;
     for (uint32_t q = 0; q < lod->quad_count; q++) {

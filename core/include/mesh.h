@@ -92,6 +92,11 @@ void sv_mesh_frame_sphere(const sv_mesh *m, double c[3], double *r);
 sv_status sv_mesh_subset(const sv_mesh *src, const uint32_t *tris, uint32_t count, sv_mesh **out,
                          sv_error *err);
 
+/* Copies src's materials and images (sharing the pixels, sv_image_copy)
+ * into dst, made with the same material and image counts. On failure dst
+ * keeps what was copied; the caller destroys it. */
+sv_status sv_mesh_copy_looks(const sv_mesh *src, sv_mesh *dst, sv_error *err);
+
 /* New mesh with the triangles of a followed by those of b (either may be NULL);
  * b's material and image indices are offset past a's. */
 sv_status sv_mesh_merge(const sv_mesh *a, const sv_mesh *b, sv_mesh **out, sv_error *err);

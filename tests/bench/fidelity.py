@@ -33,6 +33,10 @@ POINTS = [  # (label, method, settings, other spec keys)
 ]
 
 
+# every point also measures its flattening bound (docs/accuracy.md)
+EVALUATE = {"sizes": [64], "supersample": 4, "flattening_bound": True}
+
+
 def spec_for(method, settings, other, units):
     """The spec of one point: the method alone (chain off), 64 px evaluation."""
     spec = {"method": method, method: settings, "import": {"units": units},
@@ -53,8 +57,6 @@ def cell(r):
     extra = ", " + r["name"] if r.get("target") else ""
     return "%.3f / %.3f (%d%s)" % (r["sveval"], r["ours"], r["triangles"], extra)
 
-# every point also measures its flattening bound (docs/accuracy.md)
-EVALUATE = {"sizes": [64], "supersample": 4, "flattening_bound": True}
 
 
 def bound64(lod):
