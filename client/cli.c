@@ -4,6 +4,7 @@
 
 #include <ctype.h>
 #include <stdarg.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -766,7 +767,7 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
                             *ce = get(a, "color_error_mean");
                 put(&o, "  accuracy");
                 if (cJSON_IsNumber(px)) put(&o, " @%.0fpx", px->valuedouble);
-                if (cJSON_IsNumber(iou)) put(&o, " IoU %.3f", iou->valuedouble);
+                if (cJSON_IsNumber(iou)) put(&o, " IoU %.3f", floor(iou->valuedouble * 1000.0) / 1000.0);
                 if (cJSON_IsNumber(ce)) put(&o, " colour error %.3f", ce->valuedouble);
             }
             put(&o, "\n");

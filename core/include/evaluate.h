@@ -170,6 +170,11 @@ double sv_eval_max_pixels(const sv_eval_result *r, double min_iou);
  * 1 − max_error) (one tolerance at every size). */
 double sv_eval_max_pixels_scaled(const sv_eval_result *r, double max_error, double ref_pixels);
 
+/* The mean coverage error 1 - IoU of r at screen size px: interpolated
+ * linearly in log2 size between measured sizes, held at the nearest measured
+ * one outside them. 1 when r has no sizes. */
+double sv_eval_error_at(const sv_eval_result *r, double px);
+
 /* ---- pure parts (no GL), exposed for tests ------------------------------- */
 
 /* Unit view directions (from the centre towards the viewer, +Y up) for n views:

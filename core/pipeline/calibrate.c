@@ -84,10 +84,19 @@ sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_er
     return SV_OK;
 }
 
+/* The cutoffs a written material may have: [0.1, 0.9]. A cutoff near 0
+ * passes any texel a leaf touched, so once an engine averages alpha into
+ * its mipmaps (as the glTF sampler asks) every quad fills; near 1 the
+ * leaves vanish the same way. Where coverage needs a cutoff outside, the
+ * atlas's alpha is scaled instead (preserve_coverage). Bytes k of the
+ * cutoffs (k + 0.5) / 255. */
+#define SV_CUTOFF_MIN_BYTE 25u  /* 0.1 */
+#define SV_CUTOFF_MAX_BYTE 229u /* 0.9 */
+
 /* Calibrates the atlas material's cutoff of one quad level (its mesh's
- * first material, when alpha-tested): every cutoff (k + 0.5) / 255 judged
- * from one render a view (sv_evaluate_cutoffs), the best one kept (the
- * lowest of equals). */
+ * first material, when alpha-tested): every cutoff (k + 0.5) / 255 in
+ * [0.1, 0.9] judged from one render a view (sv_evaluate_cutoffs), the best
+ * one kept (the lowest of equals). */
 static sv_status calibrate_level(sv_evaluator *ev, sv_renderer *ren, lod_out *l, sv_error *err)
 {
     sv_mesh *m = l->baked.mesh;
@@ -101,13 +110,53 @@ static sv_status calibrate_level(sv_evaluator *ev, sv_renderer *ren, lod_out *l,
     mat->alpha_cutoff = 0; /* swept */
     st = sv_evaluate_cutoffs(ev, g, iou, err);
     sv_gpu_mesh_free(g);
-    uint32_t best = 0;
-    for (uint32_t k = 1; k < 255 && !st; k++)
+    uint32_t best = SV_CUTOFF_MIN_BYTE;
+    for (uint32_t k = SV_CUTOFF_MIN_BYTE + 1; k <= SV_CUTOFF_MAX_BYTE && !st; k++)
         if (iou[k] > iou[best]) best = k;
     l->alpha_cutoff = (best + 0.5) / 255.0;
     mat->alpha_cutoff = (float)l->alpha_cutoff;
     l->calib_iou = iou[best];
     return st;
+}
+
+/* Alpha of texel i of an RGBA image, 0..1. */
+static double texel_alpha(const sv_image *im, size_t i)
+{
+    return im->bits == 16 ? ((const uint16_t *)im->data)[4 * i + 3] / 65535.0
+                          : ((const uint8_t *)im->data)[4 * i + 3] / 255.0;
+}
+
+/* Fraction of im's texels whose alpha × scale exceeds cutoff. */
+static double covered_fraction(const sv_image *im, double scale, double cutoff)
+{
+    size_t n = (size_t)im->width * im->height, c = 0;
+    for (size_t i = 0; i < n; i++) c += texel_alpha(im, i) * scale > cutoff;
+    return n ? (double)c / (double)n : 0;
+}
+
+/* Coverage-preserving alpha (Castaño 2010, "Computing Alpha Mipmaps"): a
+ * box-filtered atlas's alpha is the mean coverage of the texels it merges,
+ * so at one cutoff sparse leaves fade and dense ones fill. The reduced
+ * atlas's alpha is scaled (clamped to 1) so that the fraction of its texels
+ * above 0.5 is `target`, the fraction the full atlas had above its own
+ * cutoff; the cutoff is then calibrated again around it. The scale is found
+ * by bisection in log2 over [1/64, 64]. */
+static void preserve_coverage(sv_image *im, double target)
+{
+    if (!im->data || im->channels != 4 || !(target > 0)) return;
+    double lo = -6, hi = 6; /* log2 scale: covered fraction grows with it */
+    for (int k = 0; k < 40; k++) {
+        double m = 0.5 * (lo + hi);
+        if (covered_fraction(im, exp2(m), 0.5) < target) lo = m;
+        else hi = m;
+    }
+    double scale = exp2(hi);
+    size_t n = (size_t)im->width * im->height;
+    for (size_t i = 0; i < n; i++) {
+        double a = fmin(1.0, texel_alpha(im, i) * scale);
+        if (im->bits == 16) ((uint16_t *)im->data)[4 * i + 3] = (uint16_t)floor(a * 65535.0 + 0.5);
+        else ((uint8_t *)im->data)[4 * i + 3] = (uint8_t)floor(a * 255.0 + 0.5);
+    }
 }
 
 /* Sets the atlas material's cutoff of every quad level baked with coverage
@@ -133,9 +182,11 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
  * bake.texel_pixels, 256 texels per tree height by default) are box-filtered
  * down by powers of two to that (colour weighted by alpha; the UV rectangles
  * are fractions of the atlas and stay) and, with coverage alpha, its cutoff
- * is calibrated again at the size it is drawn at. The first level is drawn
- * at any size and keeps its atlas. The accuracy the report gives was
- * measured before. */
+ * is calibrated again at the size it is drawn at, after its alpha is scaled
+ * to keep the coverage the full atlas had (preserve_coverage). The first
+ * level is drawn at any size and keeps its atlas. A reduced level is marked
+ * (lod_out.reduced) for the pipeline to measure it again: the report gives
+ * the accuracy of what is written. */
 #define SV_ATLAS_MIN_SIDE 16u
 /* The smallest screen size a shrunk level's cutoff is calibrated at. */
 #define SV_CALIB_MIN_PIXELS 16u
@@ -161,8 +212,13 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, 
         if (k && lp->ops && lp->ops->shrink) k = lp->ops->shrink(lp, k); /* an impostor's frames */
         if (!k) continue;
         sv_image *maps[4] = {&b->albedo, &b->normal, &b->ao, &b->depth};
+        bool rescale = calibrate && lp->quad_count && !lp->select && l->alpha_cutoff > 0 &&
+                       b->albedo.channels == 4;
+        double target = rescale ? covered_fraction(&b->albedo, 1.0, l->alpha_cutoff) : 0;
         for (int m = 0; m < 4 && !st; m++)
             if (maps[m]->data) st = sv_image_reduce(maps[m], side >> k, err);
+        if (!st && rescale) preserve_coverage(&b->albedo, target);
+        l->reduced = true;
         sv_mesh *mesh = b->mesh;
         sv_material *mat = &mesh->materials[mesh->tri_material[0]];
         int32_t idx[3] = {mat->base_texture, mat->normal_texture, mat->occlusion_texture};

@@ -14,7 +14,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "lod_plan.h"
 #include "method.h"
+#include "trunk.h"
 #include "pipeline_internal.h"
 
 void svp_chain_free(chain *c)
@@ -137,9 +139,7 @@ static void stochastic_levels(const run *r, chain *c, bool is_stoch, sv_stochast
     for (int i = 0; i < (int)c->ss.level_count; i++) {
         char name[32];
         sv_stochastic_level_name(c->ss.levels[i], name);
-        if (r->p.leaves.count == 0 && !is_stoch)
-            skip_note(c, name, "plan", "the tree has no leaves");
-        else if (i < fine && !is_stoch)
+        if (i < fine && !is_stoch && c->ss.levels[i] < 1)
             skip_note(c, name, "plan",
                       "finer than needed: at the nearest scene distance (%g m) lambda is "
                       "%.3g, so level %g suffices",
@@ -178,6 +178,51 @@ static sv_status stochastic_ratio(run *r, sv_renderer *ren, const sv_gpu_mesh *g
     return SV_OK;
 }
 
+/* A tree without leaves (a winter tree, a trunk alone) has no stochastic
+ * levels: its own mesh, then its trunk simplified with meshopt_simplify
+ * (topology kept) within a quarter of the error the schedule allows at each
+ * level's λ (one pixel where λ(d) reaches it; sv_stochastic_level_error),
+ * named trunk<λ%>, placed by the same schedule (docs/lod.md). The quarter:
+ * meshoptimizer's error is a distance, and a branch thinner than it
+ * collapses and leaves the silhouette; at the whole pixel the aspen's
+ * branches lost 0.30 of the coverage at 256 px, at a quarter 0.02. The
+ * quad levels come after these. */
+#define TRUNK_LEVEL_ERROR 0.25
+static sv_status compose_trunk_levels(run *r, const sv_stochastic_settings *keep, sv_stand_in *si,
+                                      chain *c, sv_error *err)
+{
+    const sv_scene *sc = &r->spec.scene;
+    for (uint32_t k = 0; k < keep->level_count; k++) {
+        double lambda = keep->levels[k];
+        char name[32];
+        if (lambda >= 1) snprintf(name, sizeof name, "full");
+        else snprintf(name, sizeof name, "trunk%d", (int)lround(lambda * 100));
+        sv_stand_in one = {0};
+        sv_lod_plan *l = sv_stand_in_add_lod(&one, name);
+        if (!l) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        double e = lambda >= 1 ? 0 : sv_stochastic_level_error(keep, sc, r->p.radius, lambda);
+        sv_status st = SV_OK;
+        if (lambda >= 1) {
+            l->trunk = SV_TRUNK_MESH;
+        } else {
+            l->trunk = SV_TRUNK_NONE; /* the simplified trunk is the level's geometry */
+            st = sv_trunk_mesh(r->p.mesh, r->p.cls.tri_part, SV_STOCH_TRUNK_FLOOR,
+                               e * TRUNK_LEVEL_ERROR, &l->geometry, err);
+        }
+        if (st) {
+            sv_stand_in_free(&one);
+            return st;
+        }
+        if ((st = append_lods(si, c, &one, "trunk", err))) return st;
+        chain_lod *x = &c->info[si->lod_count - 1];
+        x->scheduled = true;
+        x->lambda = lambda;
+        x->distance = sv_stochastic_distance_for_lambda(keep, sc, lambda);
+        x->trunk_error = e;
+    }
+    return SV_OK;
+}
+
 /* Builds the kept stochastic levels (Fichtner §4.3) and appends them to si,
  * finest first, with their λ, schedule distance and trunk error. */
 static sv_status compose_stochastic(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
@@ -188,6 +233,7 @@ static sv_status compose_stochastic(run *r, sv_renderer *ren, const sv_gpu_mesh 
     sv_stochastic_settings keep;
     stochastic_levels(r, c, is_stoch, &keep);
     if (!keep.level_count) return SV_OK;
+    if (r->p.leaves.count == 0 && !is_stoch) return compose_trunk_levels(r, &keep, si, c, err);
     double ratio;
     sv_status st = stochastic_ratio(r, ren, gsrc, c, &keep, &ratio, err);
     if (st) return st;
@@ -215,6 +261,7 @@ static sv_status compose_stochastic(run *r, sv_renderer *ren, const sv_gpu_mesh 
         if ((st = append_lods(si, c, &one, sv_method_chain_levels()->name, err))) return st;
         chain_lod *x = &c->info[si->lod_count - 1];
         x->stochastic = true;
+        x->scheduled = true;
         x->level = (int)k;
         x->lambda = L->lambda;
         x->geom_vertices = gv;
@@ -238,7 +285,7 @@ static sv_status compose_methods(const run *r, const sv_method_input *in, bool i
         names[1] = spec->lod_coarsest;
     double d_after = sc->distance_min; /* quads come after the last stochastic level */
     for (uint32_t i = 0; i < si->lod_count; i++)
-        if (c->info[i].stochastic && isfinite(c->info[i].distance) && c->info[i].distance > d_after)
+        if (c->info[i].scheduled && isfinite(c->info[i].distance) && c->info[i].distance > d_after)
             d_after = c->info[i].distance;
     d_after = fmin(d_after, sc->distance_max);
     c->required = -1;
@@ -311,13 +358,13 @@ void svp_plan_switches(const run *r, const chain *c, lod_out *lods, uint32_t n, 
         const chain_lod *x = &c->info[i];
         double best = 0;
         l->meets_tolerance = false;
-        if (x->stochastic && !l->evaluated)
+        if (x->scheduled && !l->evaluated)
             best = x->distance > 0 ? sv_scene_pixels(&s->scene, tree_h, x->distance) : INFINITY;
         if (l->evaluated) {
             double top = l->eval.sizes[0].pixels;
             best = sv_eval_max_pixels_scaled(&l->eval, s->lod_tolerance, s->lod_tolerance_pixels);
             l->meets_tolerance = best > 0;
-            if (x->stochastic && best >= top) {
+            if (x->scheduled && best >= top) {
                 double sched = x->distance > 0 ? sv_scene_pixels(&s->scene, tree_h, x->distance)
                                                : INFINITY;
                 best = sched > top ? sched : top;
@@ -325,7 +372,7 @@ void svp_plan_switches(const run *r, const chain *c, lod_out *lods, uint32_t n, 
                 best = top; /* nothing was measured above */
             }
         }
-        if (x->stochastic && x->lambda >= 1) {
+        if (x->scheduled && x->lambda >= 1) {
             best = INFINITY;
             l->meets_tolerance = true;
         }
@@ -350,123 +397,88 @@ static void note_lod(cJSON *note, const lod_out *l)
     if (l->evaluated) cJSON_AddItemToObject(note, "accuracy", svp_accuracy_json(&l->eval));
 }
 
-/* Chooses the LODs drawn (after evaluation). At a screen size S the renderer
- * should draw the cheapest LOD — the latest in the chain — whose own limit is
- * >= S, so LOD i is drawn for S in (max over later LODs of their limits, its
- * own limit] and never when that interval is empty (a later, cheaper LOD is
- * good wherever it would be). Then LODs whose interval misses the scene's
- * [pixels at distance_max, pixels at distance_min] are dropped as well. The
- * last LOD left is drawn down to 0 px. */
-#define SV_LOD_MIN_BAND 1.25
-
-/* Dominated LODs: drop[i] when a later, cheaper LOD is good up to at least
- * its own limit. When that leaves nothing, the finest stays (the best there is). */
-static void drop_dominated(const run *r, chain *c, lod_out *lods, const sv_stand_in *si, bool *drop)
+/* Chooses the LODs drawn (after evaluation) by cost: at every screen size
+ * the cheapest level good enough there (lod_plan.h, docs/lod.md "Which level
+ * is drawn"). The original is always LOD0. Levels never drawn in the scene's
+ * [pixels at distance_max, pixels at distance_min] are dropped with a note;
+ * the last kept level is drawn down to 0 px. */
+static void plan_by_cost(const run *r, chain *c, lod_out *lods, const sv_stand_in *si,
+                         double tree_h, bool *drop)
 {
+    const sv_spec *s = &r->spec;
+    const sv_scene *sc = &s->scene;
     uint32_t n = si->lod_count;
-    double later = 0;
-    for (uint32_t i = n; i-- > 0;) {
-        drop[i] = !(lods[i].own_pixels > later);
-        if (drop[i]) {
-            cJSON *note = lods[i].meets_tolerance
-                              ? skip_note(
-                                    c, si->lods[i].name, "switch",
-                                    "never drawn: a cheaper LOD later in the chain meets the "
-                                    "tolerance (%g at %g px) up to %.4g px, this one only up to "
-                                    "%.4g px",
-                                    r->spec.lod_tolerance, r->spec.lod_tolerance_pixels, later,
-                                    lods[i].own_pixels)
-                              : skip_note(c, si->lods[i].name, "switch",
-                                          "fails the tolerance (%g at %g px) at every size",
-                                          r->spec.lod_tolerance, r->spec.lod_tolerance_pixels);
-            note_lod(note, &lods[i]);
-        } else {
-            later = lods[i].own_pixels;
-        }
+    sv_plan_level *lv = sv_calloc(n ? n : 1, sizeof *lv);
+    sv_plan_out *out = sv_calloc(n ? n : 1, sizeof *out);
+    if (!lv || !out) { /* out of memory: keep everything as planned */
+        free(lv);
+        free(out);
+        return;
     }
-    bool any = false;
-    for (uint32_t i = 0; i < n; i++) any = any || !drop[i];
-    if (!any && n > 0) { /* nothing meets the tolerance: the finest is the best there is */
-        drop[0] = false;
-        cJSON_DeleteItemFromArray(c->skipped, cJSON_GetArraySize(c->skipped) - 1);
-    }
-}
-
-/* Thin bands: a LOD drawn over less than a factor SV_LOD_MIN_BAND of
- * screen sizes (its own limit over the next kept LOD's) costs a switch and
- * a set of buffers for almost nothing; the finer LOD before it takes its
- * band. Walked from the far end so the coarse LODs, which the far scene
- * needs, stay; the last LOD and the last kept LOD of the spec's method are
- * never dropped here. */
-static void drop_thin_bands(chain *c, lod_out *lods, const sv_stand_in *si, bool *drop)
-{
-    uint32_t n = si->lod_count;
-    double next_lim = -1;
-    for (uint32_t i = n; i-- > 0;) {
-        if (drop[i]) continue;
-        if (next_lim < 0 || i == 0) {
-            next_lim = lods[i].own_pixels;
-            continue;
-        }
-        bool last_of_method = false;
-        if (c->required >= 0 && (int)i >= c->required_first && (int)i <= c->required) {
-            last_of_method = true;
-            for (int j = c->required_first; j <= c->required; j++)
-                if (j != (int)i && !drop[j]) last_of_method = false;
-        }
-        if (!last_of_method && lods[i].own_pixels < SV_LOD_MIN_BAND * next_lim) {
-            drop[i] = true;
-            note_lod(skip_note(c, si->lods[i].name, "switch",
-                               "band too thin: drawn only from %.4g to %.4g px (less than a "
-                               "factor %g); the finer LOD before it takes the band",
-                               next_lim, lods[i].own_pixels, SV_LOD_MIN_BAND),
-                     &lods[i]);
-            continue;
-        }
-        next_lim = lods[i].own_pixels;
-    }
-}
-
-/* The scene's range, on the LODs left: a LOD drawn only above the tree's
- * size at the nearest distance, or only below its size at the farthest
- * (but the first kept), is dropped. Then the kept LODs switch at their own
- * limits. */
-static void drop_out_of_scene(const run *r, chain *c, lod_out *lods, const sv_stand_in *si,
-                              double tree_h, bool *drop)
-{
-    const sv_scene *sc = &r->spec.scene;
-    double pmin = sv_scene_pixels(sc, tree_h, sc->distance_max);
-    double pmax = sv_scene_pixels(sc, tree_h, sc->distance_min);
-    uint32_t n = si->lod_count;
-    uint32_t kept = 0;
     for (uint32_t i = 0; i < n; i++) {
-        if (drop[i]) continue;
-        double hi = lods[i].own_pixels, lo = 0;
-        for (uint32_t j = i + 1; j < n; j++)
-            if (!drop[j]) {
-                lo = lods[j].own_pixels;
-                break;
-            }
-        cJSON *note = NULL;
-        if (lo >= pmax)
-            note = skip_note(c, si->lods[i].name, "switch",
-                             "never drawn in the scene: used above %.4g px, but at the nearest "
-                             "distance (%g m) the tree is %.4g px",
-                             lo, sc->distance_min, pmax);
-        else if (hi <= pmin && kept > 0)
-            note = skip_note(c, si->lods[i].name, "switch",
-                             "never drawn in the scene: used below %.4g px, but at the farthest "
-                             "distance (%g m) the tree is %.4g px",
-                             hi, sc->distance_max, pmin);
-        if (note) {
-            note_lod(note, &lods[i]);
-            drop[i] = true;
-        } else {
-            kept++;
-        }
+        const lod_out *l = &lods[i];
+        const chain_lod *x = &c->info[i];
+        bool exact = i == 0 || (x->scheduled && x->lambda >= 1);
+        lv[i].triangles = l->baked.mesh ? l->baked.mesh->triangle_count : 0;
+        lv[i].texels = (double)l->baked.albedo.width * l->baked.albedo.height;
+        lv[i].own_pixels = l->own_pixels;
+        lv[i].eval = l->evaluated && !exact ? &l->eval : NULL;
+        lv[i].top_pixels = lv[i].eval ? l->eval.sizes[0].pixels : INFINITY;
     }
-    for (uint32_t i = 0; i < n; i++)
-        if (!drop[i]) lods[i].switch_pixels = lods[i].own_pixels;
+    sv_plan_rules ru = {s->lod_tolerance,
+                        s->lod_tolerance_pixels,
+                        s->lod_slack,
+                        s->lod_cost_ratio,
+                        s->lod_triangles_per_pixel,
+                        sv_scene_pixels(sc, tree_h, sc->distance_max),
+                        sv_scene_pixels(sc, tree_h, sc->distance_min)};
+    sv_lod_plan_choose(lv, n, &ru, out);
+    for (uint32_t i = 0; i < n; i++) {
+        drop[i] = !out[i].kept;
+        if (out[i].kept) {
+            lods[i].switch_pixels = out[i].switch_pixels;
+            continue;
+        }
+        const char *nm = si->lods[i].name;
+        cJSON *why = NULL;
+        switch (out[i].why) {
+        case SV_PLAN_FAILS:
+            why = skip_note(c, nm, "switch", "fails the tolerance (%g at %g px) at every size",
+                            s->lod_tolerance, s->lod_tolerance_pixels);
+            break;
+        case SV_PLAN_CHEAPER:
+            why = skip_note(c, nm, "switch",
+                            "never drawn: wherever it meets the tolerance (%g at %g px; here up "
+                            "to %.4g px) a cheaper level does too",
+                            s->lod_tolerance, s->lod_tolerance_pixels, lods[i].own_pixels);
+            break;
+        case SV_PLAN_WORTH:
+            why = skip_note(c, nm, "switch",
+                            "never drawn: a level %g times cheaper is within %g of the tolerance "
+                            "where this one would be drawn",
+                            s->lod_cost_ratio, s->lod_slack);
+            break;
+        case SV_PLAN_DENSE:
+            why = skip_note(c, nm, "switch",
+                            "never drawn: where it meets the tolerance (up to %.4g px) it has more "
+                            "than %g triangles per pixel of the tree's square",
+                            lods[i].own_pixels, s->lod_triangles_per_pixel);
+            break;
+        case SV_PLAN_OUT_OF_SCENE:
+            why = skip_note(c, nm, "switch",
+                            "never drawn in the scene: chosen only above %.4g px, but at the "
+                            "nearest distance (%g m) the tree is %.4g px",
+                            ru.pixels_max, sc->distance_min, ru.pixels_max);
+            break;
+        default:
+            why = skip_note(c, nm, "switch",
+                            "never drawn: a later level of the chain is already drawn at larger "
+                            "sizes than where this one is good");
+        }
+        note_lod(why, &lods[i]);
+    }
+    free(lv);
+    free(out);
 }
 
 /* The method the spec names always yields a LOD, at the far end of the
@@ -518,9 +530,7 @@ static void keep_required(chain *c, lod_out *lods, const sv_stand_in *si, bool *
 void svp_plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stand_in *si,
                          double tree_h, bool *drop)
 {
-    drop_dominated(r, c, lods, si, drop);
-    drop_thin_bands(c, lods, si, drop);
-    drop_out_of_scene(r, c, lods, si, tree_h, drop);
+    plan_by_cost(r, c, lods, si, tree_h, drop);
     keep_required(c, lods, si, drop);
 }
 

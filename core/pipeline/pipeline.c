@@ -284,7 +284,7 @@ static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
      * it keeps need no more texels a side than the next power of two
      * above it: the bark of the original (2048² and more) was copied
      * into every level's file. */
-    if (keep && !b->ch.info[i].stochastic) {
+    if (keep && !b->ch.info[i].scheduled) {
         uint32_t cap = SVP_KEPT_TEXTURE_MIN;
         while (cap < spec->eval_sizes[0] && cap < SVP_KEPT_TEXTURE_MAX) cap *= 2;
         for (uint32_t k = 0; k < keep->image_count && !st; k++)
@@ -321,12 +321,33 @@ static sv_status stage_bake(run *r, bake_state *b, sv_error *err)
     return SV_OK;
 }
 
-/* The accuracy evaluator for the spec's evaluate settings, kept in r and
- * made again only when they change. */
+/* One evaluator kept in r (*ev, *opt), made again only when eo changes;
+ * destroyed when eo has no sizes. */
+static sv_status keep_evaluator(run *r, const sv_eval_options *eo, sv_evaluator **ev,
+                                sv_eval_options *opt, sv_error *err)
+{
+    if (*ev && memcmp(opt, eo, sizeof *eo) != 0) {
+        sv_evaluator_destroy(*ev);
+        *ev = NULL;
+    }
+    if (!*ev && eo->size_count) {
+        sv_status st = sv_evaluator_create(r->ren, r->p.mesh, r->gsrc, eo, ev, err);
+        if (st) return st;
+        *opt = *eo;
+    }
+    return SV_OK;
+}
+
+/* The accuracy evaluators for the spec's evaluate settings, kept in r. The
+ * sizes at or below evaluate.small_render / 4 (64 px by default) are judged
+ * from a render small_render tall of their own (r->ev_small: 4x4 samples a
+ * pixel at 64 px, 8x8 at 32, as sveval judges), the larger ones from the
+ * largest size × evaluate.supersample (r->ev). With small_render 0, or no
+ * size on one side, one evaluator judges every size (r->ev). */
 static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
 {
     const sv_spec *spec = &r->spec;
-    sv_eval_options eo;
+    sv_eval_options eo, es;
     memset(&eo, 0, sizeof eo);
     eo.view_count = spec->eval_views;
     eo.viewer = spec->scene.viewer;
@@ -337,18 +358,86 @@ static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
         memcpy(eo.render.light_dir, bo->light_dir, sizeof eo.render.light_dir);
     }
     eo.supersample = spec->eval_supersample;
-    eo.size_count = spec->eval_size_count;
-    memcpy(eo.sizes, spec->eval_sizes, sizeof(uint32_t) * spec->eval_size_count);
-    if (r->ev && memcmp(&r->ev_opt, &eo, sizeof eo) != 0) {
-        sv_evaluator_destroy(r->ev);
-        r->ev = NULL;
+    es = eo;
+    uint32_t lim = spec->eval_small_render / 4;
+    for (uint32_t i = 0; i < spec->eval_size_count; i++) {
+        uint32_t px = spec->eval_sizes[i]; /* largest first */
+        if (px <= lim) es.sizes[es.size_count++] = px;
+        else eo.sizes[eo.size_count++] = px;
     }
-    if (!r->ev) {
-        sv_status st = sv_evaluator_create(r->ren, r->p.mesh, r->gsrc, &eo, &r->ev, err);
-        if (st) return st;
-        r->ev_opt = eo;
+    if (es.size_count) es.supersample = spec->eval_small_render / es.sizes[0];
+    if (!eo.size_count) { /* every size is small: one evaluator */
+        eo = es;
+        es.size_count = 0;
     }
+    sv_status st = keep_evaluator(r, &eo, &r->ev, &r->ev_opt, err);
+    if (!st) st = keep_evaluator(r, &es, &r->ev_small, &r->ev_small_opt, err);
+    return st;
+}
+
+/* out = a's sizes then b's (both largest first, a's larger), with their
+ * per-view measures; a and b are consumed. */
+static sv_status merge_eval(sv_eval_result *a, sv_eval_result *b, sv_eval_result *out,
+                            sv_error *err)
+{
+    sv_eval_result m = *a;
+    m.size_count = a->size_count + b->size_count;
+    m.seconds = a->seconds + b->seconds;
+    if (m.size_count > SV_EVAL_MAX_SIZES || a->view_count != b->view_count) {
+        sv_eval_result_free(a);
+        sv_eval_result_free(b);
+        return sv_fail(err, SV_ERR_INTERNAL, "evaluate: cannot merge the two evaluations");
+    }
+    for (uint32_t k = 0; k < b->size_count; k++) m.sizes[a->size_count + k] = b->sizes[k];
+    m.per_view = sv_calloc((size_t)m.view_count * m.size_count + 1, sizeof *m.per_view);
+    if (!m.per_view) {
+        sv_eval_result_free(a);
+        sv_eval_result_free(b);
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    }
+    for (uint32_t v = 0; v < m.view_count; v++) {
+        for (uint32_t k = 0; k < a->size_count; k++)
+            m.per_view[v * m.size_count + k] = a->per_view[v * a->size_count + k];
+        for (uint32_t k = 0; k < b->size_count; k++)
+            m.per_view[v * m.size_count + a->size_count + k] = b->per_view[v * b->size_count + k];
+    }
+    sv_eval_result_free(a);
+    sv_eval_result_free(b);
+    *out = m;
     return SV_OK;
+}
+
+/* How one level is measured, by either evaluator. */
+typedef struct eval_call {
+    enum { EC_IDENTITY, EC_MESH, EC_DRAWN, EC_SUBSETS } kind;
+    const sv_gpu_mesh *g;
+    level_draw_ctx *dc;
+    view_sets *vs;
+} eval_call;
+
+static sv_status eval_one(sv_evaluator *ev, const eval_call *c, sv_eval_result *out, sv_error *err)
+{
+    switch (c->kind) {
+    case EC_IDENTITY: return sv_eval_identity(ev, out, err);
+    case EC_DRAWN: return sv_evaluate_drawn(ev, svp_level_draw, c->dc, out, err);
+    case EC_SUBSETS: return sv_evaluate_subsets(ev, c->g, svp_select_subsets, c->vs, out, err);
+    default: return sv_evaluate(ev, c->g, out, err);
+    }
+}
+
+/* c measured at every size of the spec: by r->ev, and r->ev_small when
+ * there is one, merged. */
+static sv_status eval_sizes(run *r, const eval_call *c, sv_eval_result *out, sv_error *err)
+{
+    sv_status st = eval_one(r->ev, c, out, err);
+    if (st || !r->ev_small) return st;
+    sv_eval_result small;
+    if ((st = eval_one(r->ev_small, c, &small, err))) {
+        sv_eval_result_free(out);
+        return st;
+    }
+    sv_eval_result big = *out;
+    return merge_eval(&big, &small, out, err);
 }
 
 /* An earlier measured level that draws as level i does (sv_mesh_draws_same;
@@ -392,23 +481,30 @@ static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err
     sv_status st = sv_gpu_mesh_upload(r->ren, l->baked.mesh, &l->gpu, err);
     if (st) return st;
     int same = drawn_as_earlier(b, i);
+    eval_call c = {EC_MESH, l->gpu, NULL, NULL};
+    level_draw_ctx dc = {lp, &l->baked};
+    view_sets vs;
     if (same < 0 && !svp_drawn_by_hook(lp) && !lp->select &&
         sv_mesh_draws_same(r->p.mesh, l->baked.mesh)) {
-        st = sv_eval_identity(r->ev, &l->eval, err); /* it is the original */
+        c.kind = EC_IDENTITY; /* it is the original */
+        st = eval_sizes(r, &c, &l->eval, err);
     } else if (same >= 0) {
         st = copy_eval(&b->lods[same].eval, &l->eval, err);
-    } else if (b->ch.info[i].stochastic && b->ch.info[i].lambda >= 1 && !lp->quad_count) {
-        st = sv_eval_identity(r->ev, &l->eval, err);
+    } else if (b->ch.info[i].scheduled && b->ch.info[i].lambda >= 1 && !lp->quad_count) {
+        c.kind = EC_IDENTITY;
+        st = eval_sizes(r, &c, &l->eval, err);
     } else if (svp_drawn_by_hook(lp)) {
-        level_draw_ctx dc = {lp, &l->baked};
-        st = sv_evaluate_drawn(r->ev, svp_level_draw, &dc, &l->eval, err);
+        c.kind = EC_DRAWN;
+        c.dc = &dc;
+        st = eval_sizes(r, &c, &l->eval, err);
     } else if (lp->select) {
-        view_sets vs;
         if ((st = svp_view_sets_init(&vs, lp, &l->baked, err))) return st;
-        st = sv_evaluate_subsets(r->ev, l->gpu, svp_select_subsets, &vs, &l->eval, err);
+        c.kind = EC_SUBSETS;
+        c.vs = &vs;
+        st = eval_sizes(r, &c, &l->eval, err);
         svp_view_sets_free(&vs);
     } else {
-        st = sv_evaluate(r->ev, l->gpu, &l->eval, err);
+        st = eval_sizes(r, &c, &l->eval, err);
     }
     if (st) return st;
     l->evaluated = true;
@@ -436,7 +532,8 @@ static sv_status measure_bound(run *r, bake_state *b, uint32_t i, sv_error *err)
     if (!st && kept) st = sv_mesh_subset(bm, tris, kept, &keep, err);
     if (!st) st = sv_mesh_merge(keep, flat, &both, err);
     if (!st) st = sv_gpu_mesh_upload(r->ren, both, &g, err);
-    if (!st) st = sv_evaluate(r->ev, g, &l->bound, err);
+    eval_call c = {EC_MESH, g, NULL, NULL};
+    if (!st) st = eval_sizes(r, &c, &l->bound, err);
     if (!st) l->bound_measured = true;
     sv_gpu_mesh_free(g);
     sv_mesh_destroy(both);
@@ -499,8 +596,19 @@ static sv_status stage_plan(run *r, bake_state *b, sv_error *err)
         double cov = next / (double)spec->scene.screen_height;
         b->lods[i].coverage = cov > 1 ? 1 : cov;
     }
-    return svp_shrink_atlases(r, r->ren, r->gsrc, &b->si, b->lods, b->tree_h, b->bo.coverage_alpha,
-                              err);
+    sv_status st = svp_shrink_atlases(r, r->ren, r->gsrc, &b->si, b->lods, b->tree_h,
+                                      b->bo.coverage_alpha, err);
+    /* a reduced atlas draws otherwise: the report gives what is written */
+    for (uint32_t i = 0; i < b->si.lod_count && !st; i++) {
+        lod_out *l = &b->lods[i];
+        if (!l->reduced || !l->evaluated) continue;
+        sv_gpu_mesh_free(l->gpu);
+        l->gpu = NULL;
+        sv_eval_result_free(&l->eval);
+        l->evaluated = false;
+        st = evaluate_level(r, b, i, err);
+    }
+    return st;
 }
 
 static void bake_state_free(bake_state *b)
@@ -569,6 +677,7 @@ out:
     cJSON_Delete(r.target_json);
     cJSON_Delete(r.target_times);
     sv_evaluator_destroy(r.ev);
+    sv_evaluator_destroy(r.ev_small);
     sv_evaluator_destroy(r.calib_ev);
     sv_gpu_mesh_free(r.gsrc);
     sv_renderer_destroy(r.ren);

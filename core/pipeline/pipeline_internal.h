@@ -75,8 +75,10 @@ typedef struct run {
      * with its reference renders, reused while its options stay the same. */
     sv_renderer *ren;
     sv_gpu_mesh *gsrc;
-    sv_evaluator *ev;
+    sv_evaluator *ev; /* sizes above evaluate.small_render / 4 (or all sizes) */
     sv_eval_options ev_opt;
+    sv_evaluator *ev_small; /* sizes at or below it, from their own render (NULL: none) */
+    sv_eval_options ev_small_opt;
     sv_evaluator *calib_ev; /* the alpha calibration's (calibrate.c) */
     sv_eval_options calib_opt;
 } run;
@@ -84,7 +86,8 @@ typedef struct run {
 /* ---- the LOD chain (chain.c; issue 6, docs/lod.md) ---- */
 
 typedef struct chain_lod {
-    bool stochastic;
+    bool stochastic; /* a level of the stochastic method (its outputs and report fields) */
+    bool scheduled;  /* placed by Cook's schedule: stochastic, or a leafless tree's trunk level */
     int level; /* index into the stochastic result */
     double lambda;
     double distance;        /* stochastic: nearest distance where λ(d) <= λ (Cook's schedule) */
@@ -126,6 +129,7 @@ typedef struct lod_out {
     char node[96];       /* its node name (also in model.glb): <asset>_LOD<i> */
     double alpha_cutoff; /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;    /* mean IoU at SV_CALIB_PIXELS with that cutoff */
+    bool reduced;        /* its atlas was reduced after it was measured (measure again) */
 } lod_out;
 
 /* One bake of the chain (svp_bake_all): filled stage by stage. */

@@ -114,6 +114,9 @@ static cJSON *chain_json(const run *r, const chain *c)
     cJSON_AddStringToObject(j, "coarsest", s->lod_coarsest[0] ? s->lod_coarsest : "none");
     cJSON_AddNumberToObject(j, "tolerance", s->lod_tolerance);
     cJSON_AddNumberToObject(j, "tolerance_pixels", s->lod_tolerance_pixels);
+    cJSON_AddNumberToObject(j, "slack", s->lod_slack);
+    cJSON_AddNumberToObject(j, "cost_ratio", s->lod_cost_ratio);
+    cJSON_AddNumberToObject(j, "triangles_per_pixel", s->lod_triangles_per_pixel);
     if (c->has_stochastic) {
         cJSON *st = cJSON_AddObjectToObject(j, "stochastic");
         cJSON_AddNumberToObject(st, "leaves", c->sres.leaf_count);
@@ -388,6 +391,7 @@ static cJSON *evaluation_json(const run *r, const bake_state *b)
     cJSON_AddBoolToObject(ev_o, "enabled", spec->evaluate);
     cJSON_AddNumberToObject(ev_o, "views", spec->eval_views);
     cJSON_AddNumberToObject(ev_o, "supersample", spec->eval_supersample);
+    cJSON_AddNumberToObject(ev_o, "small_render", spec->eval_small_render);
     cJSON_AddNumberToObject(ev_o, "lod_tolerance", spec->lod_tolerance);
     cJSON_AddNumberToObject(ev_o, "lod_tolerance_pixels", spec->lod_tolerance_pixels);
     cJSON *fo = cJSON_AddObjectToObject(ev_o, "frame");

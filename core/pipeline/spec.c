@@ -210,8 +210,8 @@ static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"enabled",          "views", "supersample", "sizes",
-                                       "flattening_bound", NULL};
+    static const char *const keys[] = {"enabled", "views",        "supersample",     "sizes",
+                                       "small_render", "flattening_bound", NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "evaluate", keys, err))) return st;
     if ((st = sv_setting_bool(o, "evaluate", "enabled", &s->evaluate, err))) return st;
@@ -219,6 +219,8 @@ static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
         return st;
     if ((st = parse_u32(o, "evaluate", "views", 1, 256, &s->eval_views, err))) return st;
     if ((st = parse_u32(o, "evaluate", "supersample", 1, 8, &s->eval_supersample, err))) return st;
+    if ((st = parse_u32(o, "evaluate", "small_render", 0, 4096, &s->eval_small_render, err)))
+        return st;
     const cJSON *z = cJSON_GetObjectItemCaseSensitive(o, "sizes");
     if (z) {
         int n = cJSON_IsArray(z) ? cJSON_GetArraySize(z) : -1;
@@ -263,6 +265,7 @@ static void spec_defaults(sv_spec *s)
     s->evaluate = true;
     s->eval_views = 24;
     s->eval_supersample = 2; /* 512² for 256 px: issue 20, 4x cheaper than 4 for <0.001 IoU */
+    s->eval_small_render = 256;
     s->eval_sizes[0] = 256;
     s->eval_sizes[1] = 128;
     s->eval_sizes[2] = 64;
@@ -270,6 +273,9 @@ static void spec_defaults(sv_spec *s)
     s->eval_size_count = 4;
     s->lod_tolerance = 0.1;
     s->lod_tolerance_pixels = 64;
+    s->lod_slack = 0.02;
+    s->lod_cost_ratio = 10;
+    s->lod_triangles_per_pixel = 2;
     s->lod_chain = true;
     snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", "crossed_quads");
 }
@@ -345,12 +351,18 @@ static sv_status parse_classify(const cJSON *cl, sv_spec *s, sv_error *err)
 /* "lod": the chain's tolerance, whether there is a chain, its coarsest level. */
 static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"tolerance", "tolerance_pixels", "chain", "coarsest", NULL};
+    static const char *const keys[] = {"tolerance", "tolerance_pixels", "slack", "cost_ratio",
+                                       "triangles_per_pixel", "chain", "coarsest", NULL};
     sv_status st = sv_setting_only(lod, "lod", keys, err);
     if (!st) st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err);
     if (!st)
         st = sv_setting_number(lod, "lod", "tolerance_pixels", 0, 16384, &s->lod_tolerance_pixels,
                                err);
+    if (!st) st = sv_setting_number(lod, "lod", "slack", 0, 1, &s->lod_slack, err);
+    if (!st) st = sv_setting_number(lod, "lod", "cost_ratio", 0, 1e6, &s->lod_cost_ratio, err);
+    if (!st)
+        st = sv_setting_number(lod, "lod", "triangles_per_pixel", 0, 1e6,
+                               &s->lod_triangles_per_pixel, err);
     if (!st) st = sv_setting_bool(lod, "lod", "chain", &s->lod_chain, err);
     const cJSON *co = cJSON_GetObjectItemCaseSensitive(lod, "coarsest");
     if (st || !co) return st;

@@ -103,7 +103,7 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
     else
         snprintf(out, cap,
                  "goal %s: no setting reached it; the best within budget, %s, reached IoU %.3f%s",
-                 g, what, cJSON_IsNumber(iou) ? iou->valuedouble : 0.0,
+                 g, what, cJSON_IsNumber(iou) ? floor(iou->valuedouble * 1000.0) / 1000.0 : 0.0,
                  stopped ? ", and the next step was over the budget" : "");
 }
 
@@ -305,9 +305,11 @@ static void count_steps(search *s)
  * or below it that reaches the IoU. That is about log2 of the ladder's
  * length in tries (4 of 11 cluster counts where the linear search from the
  * cheapest tried all 11 on a tree that never reaches the goal: 4.3 times one
- * bake on the sapling maple). When the IoU is not reached, or with a budget
- * alone, the tried step within the budget with the best IoU (with no
- * evaluation: the richest) is baked. */
+ * bake on the sapling maple). With a budget, the tried step within it with
+ * the best IoU among those that reach the goal is baked, not the cheapest
+ * that does. When the IoU is not reached, or with a budget alone, the tried
+ * step within the budget with the best IoU (with no evaluation: the
+ * richest) is baked. */
 sv_status svp_target_search(run *r, sv_error *err)
 {
     search s;
@@ -341,6 +343,14 @@ sv_status svp_target_search(run *r, sv_error *err)
     if (goal->target_iou > 0 && hi >= 0) {
         int ans;
         if ((st = bisect_iou(&s, hi, &ans, err))) goto out;
+        if (ans >= 0 && (goal->target_max_planes || goal->target_max_triangles)) {
+            /* within a budget, the best of the tries that reach the goal
+             * (the budget is what the user pays; ties to the cheaper) */
+            for (int i = 0; i < s.steps; i++)
+                if (s.sr[i].baked && s.sr[i].within && s.sr[i].reached &&
+                    s.sr[i].iou > s.sr[ans].iou)
+                    ans = i;
+        }
         if (ans >= 0) {
             met = true;
             chosen = best = s.sr[ans].index;

@@ -1104,9 +1104,10 @@ sv_status sv_evaluator_preview(sv_evaluator *e, const sv_gpu_mesh *result, sv_ev
 
 /* Mean coverage error at screen size px: measured values interpolated in
  * log2(size), held constant outside the measured range. */
-static double error_at(const sv_eval_result *r, double px)
+double sv_eval_error_at(const sv_eval_result *r, double px)
 {
-    uint32_t n = r->size_count;
+    uint32_t n = r ? r->size_count : 0;
+    if (n == 0) return 1.0;
     if (px >= r->sizes[0].pixels) return 1.0 - r->sizes[0].mean.iou;
     if (px <= r->sizes[n - 1].pixels) return 1.0 - r->sizes[n - 1].mean.iou;
     for (uint32_t s = 0; s + 1 < n; s++) {
@@ -1133,12 +1134,12 @@ double sv_eval_max_pixels_scaled(const sv_eval_result *r, double max_error, doub
     double fail = top + step;
     for (double x = top; x >= bottom; x -= step) {
         double px = exp2(x);
-        if (error_at(r, px) * px <= budget) {
+        if (sv_eval_error_at(r, px) * px <= budget) {
             if (x >= top) return exp2(top);
             double pass = x;
             for (int k = 0; k < 40; k++) {
                 double mid = 0.5 * (pass + fail), mp = exp2(mid);
-                if (error_at(r, mp) * mp <= budget) pass = mid;
+                if (sv_eval_error_at(r, mp) * mp <= budget) pass = mid;
                 else fail = mid;
             }
             return exp2(pass);

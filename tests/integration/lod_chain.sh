@@ -118,6 +118,11 @@ print(' '.join(l['file'] for l in r['lods'] if int(sys.argv[2]) <= 25000 or l['t
     three_check "$tmp/three.json" "$c/bake/report.json" ||
         fail "$mesh: a standalone level is not the level three.js draws"
     res=$(glb_check "$c/bake/model.glb" "$c/bake/report.json") || fail "$mesh: chain structure"
+    # chosen by cost (docs/lod.md "Which level is drawn"): no level drawn
+    # where one 10 times cheaper is within 0.02, none of over 5,000
+    # triangles below 48 px, the original as LOD0
+    python3 "$root/tests/tools/chain_check.py" "$c/bake/report.json" ||
+        fail "$mesh: the chain draws a dearer level than its rules allow"
     echo "ok $mesh: $res (baked in $(cat "$c/bake_seconds") s)"
 done < "$tmp/trees"
 
@@ -140,11 +145,33 @@ d="$data/eztree_aspen_small"
     "$bake" info "$@" --json > "$tmp/info.json" || fail "aspen info"
     rad=$(json_get "$tmp/info.json" "j['bounds']['radius']")
     # seen only from 60 to 100 radii (about 31 px down to 19 px), with a
-    # tolerance the crossed quads meet: the full mesh is never needed
+    # tolerance the crossed quads meet: the original stays LOD0 (for a
+    # camera nearer than the scene says) and the crossed quads are drawn
+    # over the whole scene; nothing else is kept
     echo "{\"method\": \"crossed_quads\", \"lod\": {\"tolerance\": 0.5}, \"scene\": {\"distance\": [$(python3 -c "print(60*$rad, 100*$rad)" | tr ' ' ',')]},
            \"evaluate\": {\"views\": 4, \"sizes\": [64, 32]}}" > "$tmp/far.json"
     "$bake" bake "$@" --spec "$tmp/far.json" --out "$tmp/far" || fail "far bake"
-    [ "$(json_get "$tmp/far/report.json" "'full' in [s['name'] for s in j['lod_chain']['skipped']]")" = True ] ||
-        fail "a scene that never comes near still has the full mesh"
-    echo "ok aspen: motion term only with camera motion; chain off; far scene skips the full mesh"
+    [ "$(json_get "$tmp/far/report.json" "[l['name'] for l in j['lods']]")" = "['full', 'crossed']" ] ||
+        fail "a far scene: expected the original then the crossed quads, got $(json_get "$tmp/far/report.json" "[l['name'] for l in j['lods']]")"
+    echo "ok aspen: motion term only with camera motion; chain off; far scene: original, then crossed quads"
+    # a leafless tree (the aspen's bark alone, everything before its leaves
+    # object): the original is LOD0 and at least one trunk simplified with
+    # meshoptimizer comes before the quads
+    mkdir -p "$tmp/bare"
+    awk '/^o leaves/ { exit } { print }' "$d/aspen_small.obj" > "$tmp/bare/bare.obj"
+    cp "$d/aspen_small.mtl" "$d"/*.jpg "$d"/*.png "$tmp/bare/"
+    echo '{"import": {"units": 0.2}, "evaluate": {"views": 4, "sizes": [128, 64, 32]}}' > "$tmp/bare.json"
+    "$bake" bake "$tmp/bare/bare.obj" "$tmp/bare/aspen_small.mtl" "$tmp/bare/"*.jpg "$tmp/bare/"*.png \
+        --spec "$tmp/bare.json" --out "$tmp/bare/out" > "$tmp/bare.log" 2>&1 || fail "leafless bake: $(tail -n 3 "$tmp/bare.log")"
+    json_get "$tmp/bare/out/report.json" "' '.join('%s(%d)' % (l['name'], l['triangles']) for l in j['lods'])"
+    python3 - "$tmp/bare/out/report.json" <<'EOF' || fail "leafless tree: expected the original then a simplified trunk level before the quads"
+import json, sys
+lods = json.load(open(sys.argv[1]))['lods']
+assert lods[0]['name'] == 'full' and lods[0]['triangles'] == 2496, lods[0]
+first_quad = next(i for i, l in enumerate(lods) if l['quads'] > 0)
+trunk = [l for l in lods[1:first_quad] if l['source'] == 'trunk' and 0 < l['triangles'] < 2496]
+assert trunk, [l['name'] for l in lods]
+EOF
+    python3 "$root/tests/tools/chain_check.py" "$tmp/bare/out/report.json" || fail "leafless tree: chain rules"
+    echo "ok aspen without leaves: the original, simplified trunk levels, then quads"
 }
