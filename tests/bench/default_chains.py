@@ -5,7 +5,12 @@ centimetres are read as 100 times too tall and the ez-trees as 102 m), on
 every shared tree (one file per tree): the levels the chain keeps, finest
 first, with triangles, texels and the screen size each is drawn up to, the
 scene range `"auto"` chose, and the wall time. Every tree must keep four
-levels or more; the script exits 1 when one does not.
+levels or more; the script exits 1 when one does not. Each chain is also
+checked by tests/tools/chain_check.py (the chain chosen by cost, docs/lod.md
+"Which level is drawn": no level drawn where one 10 times cheaper is within
+0.02, none over 5,000 triangles below 48 px, the original as LOD0), on the
+shared trees and, beside them, on the held-out ez-tree presets unseen.py
+generates (never tuned on; skipped when node is missing).
 
 Run by `make bench` (tests/bench/run.sh). Env: BUILD, SYLVA_DATA,
 SYLVA_BENCH_TREES (comma-separated folders; default every tree). Bakes run
@@ -15,6 +20,7 @@ import json, os, subprocess, sys, tempfile, time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from docsection import write_section  # noqa: E402
+from chain_check_import import check as chain_rules  # noqa: E402
 
 root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 build = os.path.join(root, os.environ.get("BUILD", "build"))
@@ -43,16 +49,35 @@ def files(d, mesh):
     return [os.path.join(folder, mesh)] + [os.path.join(folder, f) for f in extra]
 
 
+def heldout(tmp):
+    """The held-out presets (unseen.py), as (name, [files]); [] without node."""
+    try:
+        import unseen
+        folder = unseen.generate(tmp)
+    except Exception as e:  # no node/npm here: the shared set alone
+        print("default_chains: no held-out trees (%s)" % e)
+        return []
+    out = []
+    for obj in sorted(f for f in os.listdir(folder) if f.endswith(".obj")):
+        extra = sorted(f for f in os.listdir(folder) if f.endswith((".mtl", ".png", ".jpg")))
+        out.append(("held-out " + obj[:-4], [os.path.join(folder, obj)] +
+                    [os.path.join(folder, f) for f in extra]))
+    return out
+
+
 def main():
     rows, short = [], []
     with tempfile.TemporaryDirectory() as tmp:
         spec = os.path.join(tmp, "spec.json")
         with open(spec, "w") as f:
             f.write("{}")
-        for d, mesh in trees():
-            out = os.path.join(tmp, d)
+        gen = os.path.join(tmp, "gen")
+        os.makedirs(gen)
+        todo = [(d, files(d, mesh)) for d, mesh in trees()] + heldout(gen)
+        for d, fl in todo:
+            out = os.path.join(tmp, d.replace(" ", "_"))
             t0 = time.time()
-            p = subprocess.run([bake, "bake"] + files(d, mesh) + ["--spec", spec, "--out", out],
+            p = subprocess.run([bake, "bake"] + fl + ["--spec", spec, "--out", out],
                                capture_output=True, text=True)
             dt = time.time() - t0
             if p.returncode != 0:
@@ -64,8 +89,9 @@ def main():
                 "%dk texels" % round(l["texels"] / 1024) if l.get("texels") else "no atlas",
                 l["switch_pixels"]) for l in lv)
             dist = r["scene"]["distance"]
-            rows.append("| %s | %d | %s | %.3g–%.3g m | %.1f |" % (
-                d, len(lv), chain, dist[0], dist[1], dt))
+            bad = chain_rules(os.path.join(out, "report.json"))
+            rows.append("| %s | %d | %s | %.3g–%.3g m | %s | %.1f |" % (
+                d, len(lv), chain, dist[0], dist[1], "ok" if not bad else "; ".join(bad), dt))
             print("default_chains: %s %d levels %.1f s" % (d, len(lv), dt))
             if len(lv) < 4:
                 short.append(d)
@@ -78,8 +104,8 @@ def main():
              "Each kept level, finest first: name (triangles, atlas texels, the largest "
              "screen height in pixels it is drawn at).",
              "",
-             "| tree | levels | chain | scene range | time (s) |",
-             "| --- | ---: | --- | --- | ---: |"] + rows + [
+             "| tree | levels | chain | scene range | chain rules | time (s) |",
+             "| --- | ---: | --- | --- | --- | ---: |"] + rows + [
              "",
              "Trees with fewer than four levels: %s." % (", ".join(short) or "none"),
              "<!-- defaultchains:end -->"]
