@@ -288,8 +288,8 @@ static sv_status compose_methods(const run *r, const sv_method_input *in, bool i
         if (c->info[i].scheduled && isfinite(c->info[i].distance) && c->info[i].distance > d_after)
             d_after = c->info[i].distance;
     d_after = fmin(d_after, sc->distance_max);
-    c->required = -1;
-    c->required_first = 0;
+    c->required = c->coarsest = -1;
+    c->required_first = c->coarsest_first = 0;
     if (is_stoch) c->required = (int)si->lod_count - 1;
     for (int k = 0; k < 2; k++) {
         if (!names[k]) continue;
@@ -306,6 +306,10 @@ static sv_status compose_methods(const run *r, const sv_method_input *in, bool i
         if (k == 0 && si->lod_count > first) {
             c->required = (int)si->lod_count - 1;
             c->required_first = (int)first;
+        }
+        if (k == 1 && si->lod_count > first) {
+            c->coarsest = (int)si->lod_count - 1;
+            c->coarsest_first = (int)first;
         }
     }
     return SV_OK;
@@ -481,20 +485,22 @@ static void plan_by_cost(const run *r, chain *c, lod_out *lods, const sv_stand_i
     free(out);
 }
 
-/* The method the spec names always yields a LOD, at the far end of the
- * chain when the plan left nothing of it and nothing after it: its most
- * accurate one (mean IoU at the smallest measured size; a coarser one
- * only when it is as good), not blindly its coarsest, which may be
- * dominated (issue 19). Its skip note is withdrawn. */
-static void keep_required(chain *c, lod_out *lods, const sv_stand_in *si, bool *drop)
+/* A method the spec names (its method, and lod.coarsest) always yields a
+ * LOD, at the far end of the chain when the plan left nothing of it and
+ * nothing after it: its most accurate one (mean IoU at the smallest
+ * measured size; a coarser one only when it is as good), not blindly its
+ * coarsest, which may be dominated. Its skip note is withdrawn. The
+ * method's LODs are [first, last] of si. */
+static void keep_required(chain *c, lod_out *lods, const sv_stand_in *si, bool *drop, int first,
+                          int last)
 {
     uint32_t n = si->lod_count;
-    int q = c->required;
+    int q = last;
     if (q >= 0 && (uint32_t)q < n && drop[q]) {
         bool any_kept = false;
-        for (int j = c->required_first; j <= q; j++) any_kept = any_kept || !drop[j];
+        for (int j = first; j <= q; j++) any_kept = any_kept || !drop[j];
         double best = -1;
-        for (int j = c->required_first; j <= q && !any_kept; j++) {
+        for (int j = first; j <= q && !any_kept; j++) {
             const lod_out *l = &lods[j];
             double iou = l->evaluated ? l->eval.sizes[l->eval.size_count - 1].mean.iou : 0;
             if (iou > best + 1e-9) best = iou, q = j;
@@ -531,7 +537,8 @@ void svp_plan_visibility(const run *r, chain *c, lod_out *lods, const sv_stand_i
                          double tree_h, bool *drop)
 {
     plan_by_cost(r, c, lods, si, tree_h, drop);
-    keep_required(c, lods, si, drop);
+    keep_required(c, lods, si, drop, c->required_first, c->required);
+    keep_required(c, lods, si, drop, c->coarsest_first, c->coarsest);
 }
 
 /* Removes the dropped LODs from si, lods and c->info (order kept). */

@@ -105,6 +105,8 @@ typedef struct chain {
     cJSON *skipped;     /* [{name, stage, reason}] */
     int required;       /* the spec method's last LOD (-1: none) */
     int required_first; /* the spec method's first LOD */
+    int coarsest;       /* lod.coarsest's last LOD (-1: none) */
+    int coarsest_first; /* ... and its first */
 } chain;
 
 /* r, the stochastic visible ratio, is measured on COVER_VIEWS renders of
