@@ -247,6 +247,14 @@ void sv_mesh_rotate_up(sv_mesh *m, int z_up)
     }
 }
 
+void sv_point_rotate_up(double p[3], int z_up)
+{
+    if (!p || !z_up) return;
+    double s = z_up > 0 ? 1.0 : -1.0, y = p[1], z = p[2];
+    p[1] = s * z;
+    p[2] = -s * y + 0.0; /* no -0 in the outputs */
+}
+
 static void append(char *buf, size_t cap, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void append(char *buf, size_t cap, const char *fmt, ...)

@@ -59,6 +59,10 @@ void sv_detect_up(const sv_mesh *mesh, const uint8_t *tri_part, sv_up_guess *g);
  * -1 maps (x, y, z) -> (x, -z, y); normals alike. z_up = 0 does nothing. */
 void sv_mesh_rotate_up(sv_mesh *mesh, int z_up);
 
+/* The same rotation on one point p (e.g. the mesh's local origin,
+ * import.h), in double. z_up = 0 does nothing. */
+void sv_point_rotate_up(double p[3], int z_up);
+
 /* Appends to buf (a '\n'-separated list, capacity cap, NUL-terminated) one
  * warning per implausibility of a tree of the given height (metres): taller
  * than SV_TALLEST_TREE_M or shorter than SV_SMALLEST_TREE_M, each naming

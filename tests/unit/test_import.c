@@ -994,6 +994,38 @@ static void units_and_z_up_are_converted_to_metres_y_up(void **state)
     upload_free(&u);
 }
 
+/* An OBJ far from the origin: read in double, written in a local frame whose
+ * origin (the grid point nearest the box's centre at its lowest Y) is in
+ * info.origin; the local vertices are the same tree's at the origin, bit for
+ * bit (float would hold 10^7 only to the unit). Near the origin: origin 0. */
+static void far_obj_is_read_in_double_into_a_local_frame(void **state)
+{
+    (void)state;
+    const char *near = "v 0.37 0 0.001\nv 0 0.5 -0.25\nv 0.125 3 0\nf 1 2 3\n";
+    const char *far = "v 10000000.37 10000000 10000000.001\nv 10000000 10000000.5 9999999.75\n"
+                      "v 10000000.125 10000003 10000000\nf 1 2 3\n";
+    sv_mesh *m[2] = {NULL, NULL};
+    sv_import_info info[2];
+    for (int i = 0; i < 2; i++) {
+        upload u = {0};
+        upload_add_str(&u, "t.obj", i ? far : near);
+        sv_import_options opt = {.unit_scale = 0.2};
+        sv_error err = {0};
+        assert_int_equal(import_upload(&u, &opt, &m[i], &info[i], &err), SV_OK);
+        upload_free(&u);
+    }
+    for (int k = 0; k < 3; k++) {
+        assert_true(info[0].origin[k] == 0);
+        assert_float_equal(info[1].origin[k], 2e6, 1e-6);
+    }
+    assert_int_equal(m[0]->vertex_count, m[1]->vertex_count);
+    for (uint32_t i = 0; i < 3 * m[0]->vertex_count; i++)
+        assert_true(m[0]->positions[i] == m[1]->positions[i]);
+    assert_float_equal(m[1]->positions[0], 0.074, 1e-7); /* 0.37 x 0.2, not 0 or 0.2 */
+    sv_mesh_destroy(m[0]);
+    sv_mesh_destroy(m[1]);
+}
+
 static void glb_materials_and_transforms_come_through(void **state)
 {
     (void)state;
@@ -1037,8 +1069,12 @@ static void glb_materials_and_transforms_come_through(void **state)
     assert_float_equal(info.unit_scale, 1.0, 0);
     double mn[3], mx[3];
     sv_mesh_bounds(m, mn, mx);
-    assert_float_equal(mn[1], 5.0, 1e-6);
-    assert_float_equal(mx[1], 6.0, 1e-6);
+    /* the translation is applied; the positions are local, their frame's
+     * origin (a grid point near the box's base, 2 m apart for this 1 m
+     * box) in info.origin */
+    assert_float_equal(info.origin[1], 6.0, 0);
+    assert_float_equal(mn[1] + info.origin[1], 5.0, 1e-6);
+    assert_float_equal(mx[1] + info.origin[1], 6.0, 1e-6);
     const sv_material *leaf = material_named(m, "leaf");
     assert_non_null(leaf);
     assert_int_equal(leaf->alpha_mode, SV_ALPHA_MASK);
@@ -1213,6 +1249,7 @@ int main(void)
         cmocka_unit_test(obj_alpha_rules_give_mask_blend_and_double_sided),
         cmocka_unit_test(texture_over_the_size_limit_is_refused),
         cmocka_unit_test(units_and_z_up_are_converted_to_metres_y_up),
+        cmocka_unit_test(far_obj_is_read_in_double_into_a_local_frame),
         cmocka_unit_test(glb_materials_and_transforms_come_through),
         cmocka_unit_test(imports_every_tree_in_the_data_set_with_readme_counts),
         cmocka_unit_test(scopia_trees_are_in_centimetres_unless_scaled),
