@@ -82,8 +82,9 @@ typedef struct sv_import_info {
  * in sylva's convention (metres, +Y up), node transforms applied, all meshes
  * merged, triangulated, in a local frame: positions are the file's minus
  * info->origin (the grid point nearest the bounding box's centre at its
- * lowest Y, the grid's spacing a power of two at least twice the longest
- * side, so 0 for a tree near the origin), computed in double; an OBJ's
+ * lowest Y, the grid's spacing the power of ten (file units, at least 1)
+ * at least twice the longest side, so 0 for a tree near the origin),
+ * computed in double; an OBJ's
  * positions are read in double before assimp sees them. On success *out owns the mesh (sv_mesh_destroy).
  * On failure *out is NULL and err names the problem. info may be NULL.
  * A referenced .mtl or base-colour texture that is not among the files fails

@@ -517,19 +517,21 @@ static sv_status normals_for_range(sv_mesh *mesh, uint32_t t0, uint32_t t1, uint
  * assimp 5.2.5 keeps positions as float (ai_real): an OBJ vertex written at
  * 10^7 units is read to the nearest unit. So an OBJ's "v" lines are read here
  * in double first; when the box of its vertices is away from the origin (by
- * more than half of SV_ORIGIN_GRID), assimp is served a copy whose "v" lines
+ * at least half a grid step, origin_grid), assimp is served a copy whose "v" lines
  * have `shift` (the grid point nearest the box's centre) taken off, written
  * with the decimals the file gave (or %.17g), and the shift is added back in
  * double in merge_scene. Other formats reach sylva as assimp's floats. */
 
-/* Power of two at least twice the longest side `extent` (at least 1): the
- * spacing of the grid an offset is snapped to, so a tree modelled near the
- * origin keeps an offset of exactly zero and its coordinates as they are. */
+/* The power of ten at least twice the longest side `extent` and at least 1
+ * (file units): the spacing of the grid an offset is snapped to, so a tree
+ * modelled near the origin keeps an offset of exactly zero and its
+ * coordinates as they are. Decimal, so a tree moved by a round number (a
+ * scene tile's corner) lands on the grid and bakes as it did unmoved; an
+ * integer, so offsets and their differences are exact in double. */
 static double origin_grid(double extent)
 {
     double q = 1;
-    while (q < 2 * extent && q < 1e300) q *= 2;
-    while (q / 2 >= 2 * extent && q > 0x1p-60) q /= 2;
+    while (q < 2 * extent && q < 1e300) q *= 10;
     return q;
 }
 

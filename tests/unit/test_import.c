@@ -1070,9 +1070,9 @@ static void glb_materials_and_transforms_come_through(void **state)
     double mn[3], mx[3];
     sv_mesh_bounds(m, mn, mx);
     /* the translation is applied; the positions are local, their frame's
-     * origin (a grid point near the box's base, 2 m apart for this 1 m
-     * box) in info.origin */
-    assert_float_equal(info.origin[1], 6.0, 0);
+     * origin (a grid point near the box's base, 10 m apart for this 1 m
+     * box: y 5 rounds up to 10) in info.origin */
+    assert_float_equal(info.origin[1], 10.0, 0);
     assert_float_equal(mn[1] + info.origin[1], 5.0, 1e-6);
     assert_float_equal(mx[1] + info.origin[1], 6.0, 1e-6);
     const sv_material *leaf = material_named(m, "leaf");
