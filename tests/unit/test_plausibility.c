@@ -108,9 +108,23 @@ static void z_up_tree_is_found_and_turned_upright(void **state)
     sv_plausibility_warnings(&g, g.height, true, w, sizeof w);
     assert_null(strstr(w, "would bake lying down"));
     assert_non_null(strstr(w, "rotated the tree upright"));
+    float before[3];
+    memcpy(before, m->positions, sizeof before);
     sv_mesh_rotate_up(m, g.z_up);
     for (uint32_t i = 0; i < 3 * m->vertex_count; i++)
         assert_float_equal(m->positions[i], ref->positions[i], 1e-6);
+    /* the local frame's origin turns as the vertices do */
+    for (int s = -1; s <= 1; s += 2) {
+        double p[3] = {before[0], before[1], before[2]};
+        float q[3] = {before[0], before[1], before[2]};
+        sv_point_rotate_up(p, s);
+        sv_mesh *one = sv_mesh_create(1, 0, 1, 0);
+        assert_non_null(one);
+        memcpy(one->positions, q, sizeof q);
+        sv_mesh_rotate_up(one, s);
+        for (int k = 0; k < 3; k++) assert_float_equal(p[k], one->positions[k], 1e-6);
+        sv_mesh_destroy(one);
+    }
     sv_detect_up(m, part, &g);
     assert_int_equal(g.z_up, 0);
     sv_mesh_destroy(m);
