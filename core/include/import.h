@@ -85,7 +85,8 @@ typedef struct sv_import_info {
  * lowest Y, the grid's spacing the power of ten (file units, at least 1)
  * at least twice the longest side, so 0 for a tree near the origin),
  * computed in double; an OBJ's
- * positions are read in double before assimp sees them. On success *out owns the mesh (sv_mesh_destroy).
+ * positions, and a glTF's root-node translations, are read in double before
+ * assimp sees them. On success *out owns the mesh (sv_mesh_destroy).
  * On failure *out is NULL and err names the problem. info may be NULL.
  * A referenced .mtl or base-colour texture that is not among the files fails
  * with SV_ERR_MISSING naming every such file (info->missing_files), unless

@@ -58,6 +58,8 @@
 #include <string.h>
 #include <strings.h>
 
+#include <cjson/cJSON.h>
+
 /* Copies src into dst (capacity cap), truncating. */
 static void copy_str(char *dst, size_t cap, const char *src)
 {
@@ -644,6 +646,122 @@ static sv_status obj_shift(const uint8_t *data, size_t size, double shift[3], ui
     return SV_OK;
 }
 
+/* glTF far from the origin: a tree placed by a large root-node translation
+ * is flattened by assimp in float (aiProcess_PreTransformVertices). When a
+ * root node of a scene (translation, or a matrix's last column) is at least
+ * SV_GLTF_SHIFT_MIN file units from the origin, assimp is served a copy whose
+ * root nodes have `shift` (that translation rounded to whole units, the same
+ * for every root) taken off, and the shift is added back in double in
+ * merge_scene, as for an OBJ. *out is NULL (shift zero) otherwise, and when
+ * the JSON has no scenes or cannot be read (assimp reports that). */
+#define SV_GLTF_SHIFT_MIN 1e4
+
+/* The translation of glTF node n (its "translation", or a 16-number
+ * "matrix"'s 13th..15th), into t; false when it has neither. */
+static bool gltf_node_translation(const cJSON *n, double t[3], cJSON **items)
+{
+    const cJSON *tr = cJSON_GetObjectItemCaseSensitive(n, "translation");
+    const cJSON *mt = cJSON_GetObjectItemCaseSensitive(n, "matrix");
+    int base = 0;
+    const cJSON *arr = NULL;
+    if (cJSON_IsArray(tr) && cJSON_GetArraySize(tr) == 3) arr = tr;
+    else if (cJSON_IsArray(mt) && cJSON_GetArraySize(mt) == 16) arr = mt, base = 12;
+    if (!arr) return false;
+    for (int k = 0; k < 3; k++) {
+        cJSON *x = cJSON_GetArrayItem(arr, base + k);
+        if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble)) return false;
+        t[k] = x->valuedouble;
+        if (items) items[k] = x;
+    }
+    return true;
+}
+
+static sv_status gltf_shift(const sv_file *f, bool is_glb, double shift[3], uint8_t **out,
+                            size_t *out_size, sv_error *err)
+{
+    shift[0] = shift[1] = shift[2] = 0;
+    *out = NULL;
+    *out_size = 0;
+    const uint8_t *js = f->data;
+    size_t jlen = f->size;
+    if (is_glb) { /* sv_gltf_precheck has checked the header and the chunk */
+        if (f->size < 20) return SV_OK;
+        jlen = (size_t)f->data[12] | (size_t)f->data[13] << 8 | (size_t)f->data[14] << 16 |
+               (size_t)f->data[15] << 24;
+        if (jlen > f->size - 20) return SV_OK;
+        js = f->data + 20;
+    }
+    cJSON *root = cJSON_ParseWithLength((const char *)js, jlen);
+    const cJSON *scenes = cJSON_GetObjectItemCaseSensitive(root, "scenes");
+    cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes");
+    int count = cJSON_GetArraySize(nodes);
+    uint8_t *is_root = count > 0 ? calloc((size_t)count, 1) : NULL;
+    bool far = false;
+    const cJSON *sc;
+    cJSON_ArrayForEach(sc, scenes)
+    {
+        const cJSON *r;
+        cJSON_ArrayForEach(r, cJSON_GetObjectItemCaseSensitive(sc, "nodes"))
+        {
+            int i = cJSON_IsNumber(r) ? r->valueint : -1;
+            double t[3];
+            if (!is_root || i < 0 || i >= count || is_root[i]) continue;
+            is_root[i] = 1;
+            if (!gltf_node_translation(cJSON_GetArrayItem(nodes, i), t, NULL)) continue;
+            if (!far && fmax(fabs(t[0]), fmax(fabs(t[1]), fabs(t[2]))) >= SV_GLTF_SHIFT_MIN) {
+                far = true;
+                for (int k = 0; k < 3; k++) shift[k] = round(t[k]);
+            }
+        }
+    }
+    sv_status st = SV_OK;
+    for (int i = 0; far && i < count; i++) {
+        if (!is_root[i]) continue;
+        cJSON *n = cJSON_GetArrayItem(nodes, i), *items[3];
+        double t[3];
+        if (gltf_node_translation(n, t, items)) {
+            for (int k = 0; k < 3; k++) cJSON_SetNumberValue(items[k], t[k] - shift[k]);
+        } else {
+            double minus[3] = {-shift[0], -shift[1], -shift[2]};
+            cJSON *tr = cJSON_CreateDoubleArray(minus, 3);
+            if (!tr || !cJSON_AddItemToObject(n, "translation", tr)) {
+                cJSON_Delete(tr);
+                far = false;
+                st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+            }
+        }
+    }
+    char *text = far ? cJSON_PrintUnformatted(root) : NULL;
+    if (far && !text) st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+    if (text) {
+        size_t tl = strlen(text), pad = is_glb ? (4 - tl % 4) % 4 : 0;
+        size_t rest = is_glb ? f->size - 20 - jlen : 0, total = (is_glb ? 20 : 0) + tl + pad + rest;
+        uint8_t *o = total <= UINT32_MAX ? malloc(total) : NULL;
+        if (!o) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+        } else if (is_glb) {
+            memcpy(o, f->data, 12);
+            for (int b = 0; b < 4; b++) {
+                o[8 + b] = (uint8_t)(total >> (8 * b));
+                o[12 + b] = (uint8_t)((tl + pad) >> (8 * b));
+            }
+            memcpy(o + 16, f->data + 16, 4); /* the chunk type: JSON */
+            memcpy(o + 20, text, tl);
+            memset(o + 20 + tl, ' ', pad);
+            memcpy(o + 20 + tl + pad, f->data + 20 + jlen, rest);
+        } else {
+            memcpy(o, text, tl);
+        }
+        *out = o;
+        *out_size = o ? total : 0;
+    }
+    if (st != SV_OK || !*out) shift[0] = shift[1] = shift[2] = 0;
+    cJSON_free(text);
+    free(is_root);
+    cJSON_Delete(root);
+    return st;
+}
+
 /* Position v of am in sylva's axes and the file's units, in double:
  * assimp's value plus shift (see obj_shift), Z-up turned Y-up (exact). */
 static void source_position(const struct aiMesh *am, unsigned v, const double shift[3], char up,
@@ -906,8 +1024,11 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
     double shift[3] = {0, 0, 0};
     uint8_t *shifted = NULL;
     size_t shifted_size = 0;
-    if (fmt == SV_FORMAT_OBJ) {
-        sv_status st = obj_shift(files[0].data, files[0].size, shift, &shifted, &shifted_size, err);
+    if (fmt == SV_FORMAT_OBJ || is_gltf(fmt)) {
+        sv_status st = fmt == SV_FORMAT_OBJ ? obj_shift(files[0].data, files[0].size, shift,
+                                                        &shifted, &shifted_size, err)
+                                            : gltf_shift(&files[0], fmt == SV_FORMAT_GLB, shift,
+                                                         &shifted, &shifted_size, err);
         if (st != SV_OK) return st;
     }
     char name[160];
