@@ -4,25 +4,121 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "classify.h"
 
-void sv_detect_up(const sv_mesh *m, const uint8_t *tri_part, sv_up_guess *g)
+/* Position of triangle t's centroid along axis k. */
+static double centroid_along(const sv_mesh *m, uint32_t t, int k)
 {
-    memset(g, 0, sizeof *g);
-    double bmn[3], bmx[3];
-    if (!m || !sv_mesh_bounds(m, bmn, bmx)) {
-        snprintf(g->reason, sizeof g->reason, "empty mesh");
-        return;
+    double c = 0;
+    for (int v = 0; v < 3; v++) c += m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + k];
+    return c / 3;
+}
+
+typedef struct pos_area {
+    double pos, area;
+} pos_area;
+
+static int pos_cmp(const void *a, const void *b)
+{
+    const pos_area *x = a, *y = b;
+    return (x->pos > y->pos) - (x->pos < y->pos);
+}
+
+/* Area-weighted median position along axis k of the trunk triangles'
+ * centroids. NAN when there are none or on allocation failure. */
+static double trunk_median(const sv_mesh *m, const uint8_t *tri_part, int k)
+{
+    pos_area *ta = malloc((size_t)m->triangle_count * sizeof *ta + 1);
+    if (!ta) return NAN;
+    uint32_t n = 0;
+    double total = 0;
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if (tri_part && tri_part[t] != SV_PART_TRUNK) continue;
+        double a = sv_tri_area(m, t);
+        if (!(a > 0)) continue;
+        ta[n++] = (pos_area){centroid_along(m, t, k), a};
+        total += a;
     }
-    double e[3];
-    for (int k = 0; k < 3; k++) e[k] = bmx[k] - bmn[k];
-    g->height = e[1];
-    double w = SV_UP_SLAB * fmax(e[0], fmax(e[1], e[2]));
-    /* area of the trunk triangles reaching within w of the lowest Y, lowest Z, highest Z */
-    double a_ylo = 0, a_zlo = 0, a_zhi = 0, total = 0;
-    double tmn[3] = {INFINITY, INFINITY, INFINITY}, tmx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double med = NAN;
+    if (n) {
+        qsort(ta, n, sizeof *ta, pos_cmp);
+        double acc = 0;
+        for (uint32_t i = 0; i < n && !isfinite(med); i++)
+            if ((acc += ta[i].area) >= 0.5 * total) med = ta[i].pos;
+    }
+    free(ta);
+    return med;
+}
+
+/* Whether triangle t's centroid lies within SV_UP_COLUMN x the box's longest
+ * side (extents e) of the line along axis k through mid[]. */
+static bool in_column(const sv_mesh *m, uint32_t t, int k, const double mid[3], const double e[3])
+{
+    int p = (k + 1) % 3, q = (k + 2) % 3;
+    double rho = SV_UP_COLUMN * fmax(e[0], fmax(e[1], e[2]));
+    double dp = centroid_along(m, t, p) - mid[p], dq = centroid_along(m, t, q) - mid[q];
+    return dp * dp + dq * dq <= rho * rho;
+}
+
+/* The area-weighted share of the squared normal component along axis k of
+ * the trunk triangles in the column along k through mid[] (in_column),
+ * leaving out flat caps (|n . k| > SV_UP_CAP: soil, a pot's floor): how
+ * much the trunk's surface there faces along k; half[0] for the part of the
+ * column below mid[k], half[1] above it (NAN where there is none). Returns
+ * the smaller of the two: the stem's half, where one tube runs along the
+ * column, rather than the crown's, where branches cross it. */
+static double column_share(const sv_mesh *m, const uint8_t *tri_part, int k, const double mid[3],
+                           const double e[3], double half[2])
+{
+    double along[2] = {0, 0}, total[2] = {0, 0};
+    for (uint32_t t = 0; t < m->triangle_count; t++) {
+        if ((tri_part && tri_part[t] != SV_PART_TRUNK) || !in_column(m, t, k, mid, e)) continue;
+        double nn[3];
+        sv_tri_normal(m, t, nn);
+        double a = sv_tri_area(m, t);
+        if (!(a > 0) || fabs(nn[k]) > SV_UP_CAP) continue;
+        int h = centroid_along(m, t, k) > mid[k];
+        along[h] += a * nn[k] * nn[k];
+        total[h] += a;
+    }
+    for (int h = 0; h < 2; h++) half[h] = total[h] > 0 ? along[h] / total[h] : NAN;
+    return isfinite(half[0]) && isfinite(half[1]) ? fmin(half[0], half[1])
+           : isfinite(half[0])                    ? half[0]
+                                                  : half[1];
+}
+
+/* The trunk area of the column along Z through mid[] in the lowest and the
+ * highest quarter of the column's extent along Z. */
+static void column_ends(const sv_mesh *m, const uint8_t *tri_part, const double mid[3],
+                        const double e[3], double *lo_a, double *hi_a)
+{
+    double lo = INFINITY, hi = -INFINITY;
+    *lo_a = *hi_a = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t t = 0; t < m->triangle_count; t++) {
+            if ((tri_part && tri_part[t] != SV_PART_TRUNK) || !in_column(m, t, 2, mid, e)) continue;
+            double z = centroid_along(m, t, 2);
+            if (pass == 0) {
+                lo = fmin(lo, z);
+                hi = fmax(hi, z);
+            } else if (z <= lo + 0.25 * (hi - lo)) {
+                *lo_a += sv_tri_area(m, t);
+            } else if (z >= hi - 0.25 * (hi - lo)) {
+                *hi_a += sv_tri_area(m, t);
+            }
+        }
+}
+
+/* The trunk area reaching within SV_UP_SLAB x the box's longest side of
+ * the box's lowest Y (a[0]), lowest Z (a[1]) and highest Z (a[2]). */
+static void extreme_slabs(const sv_mesh *m, const uint8_t *tri_part, const double bmn[3],
+                          const double bmx[3], double a[3])
+{
+    double w = SV_UP_SLAB * fmax(bmx[0] - bmn[0], fmax(bmx[1] - bmn[1], bmx[2] - bmn[2]));
+    a[0] = a[1] = a[2] = 0;
     for (uint32_t t = 0; t < m->triangle_count; t++) {
         if (tri_part && tri_part[t] != SV_PART_TRUNK) continue;
         double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -33,39 +129,106 @@ void sv_detect_up(const sv_mesh *m, const uint8_t *tri_part, sv_up_guess *g)
                 hi[k] = fmax(hi[k], p[k]);
             }
         }
-        for (int k = 0; k < 3; k++) {
-            tmn[k] = fmin(tmn[k], lo[k]);
-            tmx[k] = fmax(tmx[k], hi[k]);
-        }
         double area = sv_tri_area(m, t);
-        total += area;
-        if (lo[1] - bmn[1] <= w) a_ylo += area;
-        if (lo[2] - bmn[2] <= w) a_zlo += area;
-        if (bmx[2] - hi[2] <= w) a_zhi += area;
+        if (lo[1] - bmn[1] <= w) a[0] += area;
+        if (lo[2] - bmn[2] <= w) a[1] += area;
+        if (bmx[2] - hi[2] <= w) a[2] += area;
     }
-    if (!(total > 0)) {
+}
+
+/* -1: a > SV_UP_ROOT x b, +1: b > SV_UP_ROOT x a, 0: neither. */
+static int which_end(double a, double b)
+{
+    return a > SV_UP_ROOT * b ? -1 : b > SV_UP_ROOT * a ? 1 : 0;
+}
+
+void sv_detect_up(const sv_mesh *m, const uint8_t *tri_part, sv_up_guess *g)
+{
+    memset(g, 0, sizeof *g);
+    double bmn[3], bmx[3];
+    if (!m || !sv_mesh_bounds(m, bmn, bmx)) {
+        snprintf(g->reason, sizeof g->reason, "empty mesh");
+        return;
+    }
+    g->height = bmx[1] - bmn[1];
+    double e[3], mid[3];
+    for (int k = 0; k < 3; k++) {
+        e[k] = bmx[k] - bmn[k];
+        mid[k] = trunk_median(m, tri_part, k);
+    }
+    if (!isfinite(mid[0])) {
         snprintf(g->reason, sizeof g->reason, "no trunk triangles: up axis not checked");
         return;
     }
-    double ty = tmx[1] - tmn[1], tz = tmx[2] - tmn[2];
-    double a_z = fmax(a_zlo, a_zhi);
-    if (a_z > SV_UP_AREA_RATIO * a_ylo) {
-        g->z_up = a_zlo >= a_zhi ? 1 : -1;
+    /* The trunk's axis (tube walls face away from it), in a column along Y
+     * and one along Z through the trunk's median point. */
+    double hy[2], hz[2];
+    double sy = column_share(m, tri_part, 1, mid, e, hy),
+           sz = column_share(m, tri_part, 2, mid, e, hz);
+    g->normal_y = sy;
+    g->normal_z = sz;
+    double py = isfinite(sy) ? 100 * sy : 0, pz = isfinite(sz) ? 100 * sz : 0;
+    int axis = 0; /* 1: Y, 2: Z, 0: unclear; a column with no trunk but caps in it
+                     (a flat cut-out seen edge on) leaves the other to decide */
+    if (isfinite(sy) && isfinite(sz))
+        axis = sz >= SV_UP_RATIO * sy ? 1 : sy >= SV_UP_RATIO * sz ? 2 : 0;
+    else if (isfinite(sy)) axis = sy < SV_UP_TUBE_SHARE ? 1 : 0;
+    else if (isfinite(sz)) axis = sz < SV_UP_TUBE_SHARE ? 2 : 0;
+    /* Its root: the stem's thicker end (the column's trunk area in its lowest
+     * and highest quarter along Z), and where the trunk meets the box's
+     * extremes (the base sits at one). */
+    double lo_a, hi_a, slab[3];
+    column_ends(m, tri_part, mid, e, &lo_a, &hi_a);
+    extreme_slabs(m, tri_part, bmn, bmx, slab);
+    int thick = which_end(lo_a, hi_a), end = 0;
+    if (e[2] > 0 && fmax(slab[1], slab[2]) > SV_UP_SLAB_RATIO * slab[0])
+        end = slab[1] >= slab[2] ? -1 : 1;
+    if (axis == 1 && !(end && thick == end)) {
         snprintf(g->reason, sizeof g->reason,
-                 "the trunk base sits at the %s Z: %.3g m^2 of trunk there, %.3g m^2 at the "
-                 "lowest Y",
-                 g->z_up > 0 ? "lowest" : "highest", a_z, a_ylo);
-    } else if (a_ylo == 0 && e[2] >= SV_UP_LONG * e[1] && tz >= SV_UP_LONG * ty) {
-        g->z_up = tmn[2] - bmn[2] <= bmx[2] - tmx[2] ? 1 : -1;
-        snprintf(g->reason, sizeof g->reason,
-                 "no trunk at the lowest Y, the bounding box is %.3g x longer in Z than in Y and "
-                 "the trunk lies along Z",
-                 e[1] > 0 ? e[2] / e[1] : INFINITY);
-    } else {
-        snprintf(g->reason, sizeof g->reason, "the trunk base sits at the lowest Y");
+                 "the trunk runs along Y (in columns through it %.0f %% of its surface faces along "
+                 "Y, %.0f %% along Z)",
+                 py, pz);
         return;
     }
+    if (axis == 1) { /* both root signals contradict the axis */
+        g->unsure = true;
+        snprintf(g->reason, sizeof g->reason,
+                 "the trunk runs along Y (in columns through it %.0f %% of its surface faces along "
+                 "Y, %.0f %% along Z) but its thicker end and most of it at the box's extremes "
+                 "are at the %s Z",
+                 py, pz, end < 0 ? "lowest" : "highest");
+        return;
+    }
+    int root = 0; /* -1: lowest Z, +1: highest Z */
+    if (axis == 2) root = thick ? (end && end != thick ? 0 : thick) : end;
+    else if (end && (!thick || thick == end)) root = end; /* unclear axis: the extremes, */
+    /* unless the stem's thickness says the other end */
+    else if (slab[0] > 0 && !end) {
+        snprintf(g->reason, sizeof g->reason,
+                 "the trunk's direction is unclear (in columns through it %.0f %% of its surface "
+                 "faces along Y, %.0f %% along Z) but its base sits at the lowest Y",
+                 py, pz);
+        return;
+    }
+    if (!root) {
+        g->unsure = true;
+        snprintf(g->reason, sizeof g->reason,
+                 "%s (in columns through it %.0f %% of its surface faces along Y, %.0f %% along "
+                 "Z); its lowest and highest quarter along Z hold %.3g and %.3g m^2, the lowest "
+                 "Y, lowest Z and highest Z %.3g, %.3g and %.3g m^2",
+                 axis == 2 ? "the trunk runs along Z but its root is unclear"
+                           : "the trunk's direction is unclear",
+                 py, pz, lo_a, hi_a, slab[0], slab[1], slab[2]);
+        return;
+    }
+    g->z_up = root < 0 ? 1 : -1;
     g->height = e[2];
+    snprintf(g->reason, sizeof g->reason,
+             "the trunk %s (in columns through it %.0f %% of its surface faces along Y, %.0f %% "
+             "along Z) and its root is at the %s Z (its quarters there hold %.3g against %.3g "
+             "m^2)",
+             axis == 2 ? "runs along Z" : "may run along Z", py, pz,
+             root < 0 ? "lowest" : "highest", root < 0 ? lo_a : hi_a, root < 0 ? hi_a : lo_a);
 }
 
 void sv_mesh_rotate_up(sv_mesh *m, int z_up)
@@ -82,6 +245,14 @@ void sv_mesh_rotate_up(sv_mesh *m, int z_up)
             p[2] = -s * y;
         }
     }
+}
+
+void sv_point_rotate_up(double p[3], int z_up)
+{
+    if (!p || !z_up) return;
+    double s = z_up > 0 ? 1.0 : -1.0, y = p[1], z = p[2];
+    p[1] = s * z;
+    p[2] = -s * y + 0.0; /* no -0 in the outputs */
 }
 
 static void append(char *buf, size_t cap, const char *fmt, ...)
@@ -106,6 +277,16 @@ void sv_plausibility_warnings(const sv_up_guess *g, double height, bool rotated,
                "the tree looks %s (%s): it would bake lying down; set import.up to \"%s\" or "
                "\"auto\"",
                g->z_up > 0 ? "Z-up" : "upside down along Z", g->reason, g->z_up > 0 ? "Z" : "auto");
+    else if (g && g->z_up)
+        append(buf, cap,
+               "import.up \"auto\" rotated the tree upright: it looked %s (%s); set import.up "
+               "to \"Y\" to keep the file's axis",
+               g->z_up > 0 ? "Z-up" : "upside down along Z", g->reason);
+    else if (g && g->unsure)
+        append(buf, cap,
+               "the up axis could not be told from the trunk (%s): the file's axis was kept; "
+               "set import.up if the tree lies down",
+               g->reason);
     if (height > SV_TALLEST_TREE_M)
         append(buf, cap,
                "the tree is %.4g m tall, taller than any tree (%.0f m): are the units right? "

@@ -1,7 +1,8 @@
 /* gltf.h — glTF 2.0 binary (.glb) writer for a chain of levels of detail.
  *
  * Layout of what is written (glTF 2.0 spec, §4.4 "GLB file format"):
- *   - one node per LOD, one mesh per non-empty LOD; ONLY the finest LOD's node
+ *   - one node per LOD, one mesh per non-empty LOD, each node with the LOD's
+ *     translation when it is not zero; ONLY the finest LOD's node
  *     is in the scene. The coarser ones are MSFT_lod alternates of it
  *     (node.extensions.MSFT_lod.ids, finest→coarsest) and
  *     node.extras.MSFT_screencoverage holds one value per LOD: LOD i is drawn
@@ -44,6 +45,10 @@ typedef struct sv_gltf_lod {
     const cJSON *extras;   /* optional object merged into the node's extras
                                        (e.g. the fade window); copied, not owned */
     const char *mesh_name; /* mesh name; NULL = the node's name */
+    double translation[3]; /* the node's translation (the mesh's local origin in the
+                              scene, metres): written when not zero, with every
+                              digit of the double (JSON numbers), so a tree far
+                              from the origin keeps local float vertices */
 } sv_gltf_lod;
 
 /* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a

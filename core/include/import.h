@@ -73,11 +73,20 @@ typedef struct sv_import_info {
                                fills at most 3 KiB and says how many it left out, so
                                later checks (plausibility.h) always have room */
     uint32_t warnings_left_out; /* import notes that did not fit */
+    double origin[3];           /* where the mesh's local origin is in the file (metres, sylva's
+                         frame): positions are file positions minus origin, taken in
+                         double; zero for a tree modelled near the origin */
 } sv_import_info;
 
 /* Imports files[0] (with files[1..count-1] as its companions) into a new mesh
  * in sylva's convention (metres, +Y up), node transforms applied, all meshes
- * merged, triangulated. On success *out owns the mesh (sv_mesh_destroy).
+ * merged, triangulated, in a local frame: positions are the file's minus
+ * info->origin (the grid point nearest the bounding box's centre at its
+ * lowest Y, the grid's spacing the power of ten (file units, at least 1)
+ * at least twice the longest side, so 0 for a tree near the origin),
+ * computed in double; an OBJ's
+ * positions, and a glTF's root-node translations, are read in double before
+ * assimp sees them. On success *out owns the mesh (sv_mesh_destroy).
  * On failure *out is NULL and err names the problem. info may be NULL.
  * A referenced .mtl or base-colour texture that is not among the files fails
  * with SV_ERR_MISSING naming every such file (info->missing_files), unless

@@ -1,5 +1,5 @@
 /* plausibility.h — checks that an imported tree is the size and the way up a
- * tree is (issue 19, item 4): a Z-up source imported as Y-up bakes lying down,
+ * tree is: a Z-up source imported as Y-up bakes lying down,
  * a tree in the wrong units becomes 43 m or 4 mm tall, both without a word.
  * Pure geometry on the imported, classified mesh (sylva's frame: +Y up). */
 #ifndef SV_PLAUSIBILITY_H
@@ -11,29 +11,47 @@
 #define SV_SMALLEST_TREE_M 0.05 /* shorter than 5 cm: wrong units */
 
 typedef struct sv_up_guess {
-    int z_up;         /* +1: looks Z-up (trunk base at the lowest Z), -1: base at the
-                          highest Z, 0: looks Y-up or cannot tell */
+    int z_up;         /* +1: looks Z-up (trunk root at the lowest Z), -1: root at the
+                          highest Z, 0: looks Y-up, unsure or cannot tell */
+    bool unsure;      /* the trunk did not say: the file's axis is kept, with a warning */
     double height;    /* extent along the up axis the guess implies, metres */
-    char reason[200]; /* why, for warnings and the report */
+    double normal_y;  /* the Y column's share of trunk normals along Y (NAN: none) */
+    double normal_z;  /* the Z column's along Z (the two the rule compares) */
+    char reason[320]; /* why, for warnings and the report */
 } sv_up_guess;
 
-#define SV_UP_SLAB 0.05      /* base slab: 5 % of the box's longest side */
-#define SV_UP_AREA_RATIO 2.0 /* a Z extreme holds this much more trunk than the lowest Y */
-#define SV_UP_LONG 1.5       /* "much longer in Z than in Y" */
+#define SV_UP_RATIO 1.5      /* one axis's normal share this many times the other's */
+#define SV_UP_SLAB 0.05      /* a box extreme's slab: this x the box's longest side */
+#define SV_UP_SLAB_RATIO 2.0 /* a Z extreme holds this much more trunk than the lowest Y */
+#define SV_UP_ROOT 1.5       /* the root quarter holds this many times the other end's trunk area */
+#define SV_UP_CAP 0.94       /* |normal . axis| above this: a flat cap, not a tube wall */
+#define SV_UP_COLUMN 0.1     /* a column's radius: this x the box's longest side */
+#define SV_UP_TUBE_SHARE 0.2 /* a column alone says tubes along it: share below this */
 
 /* Decides whether mesh (in sylva's frame, +Y up) looks Z-up, from its trunk
- * triangles (tri_part[t] == SV_PART_TRUNK; tri_part may be NULL: every
- * triangle counts as trunk). The trunk base is where the lowest trunk
- * triangles are: the rule (docs/spec.md, import.up "auto") measures the trunk
- * area of the triangles that reach within SV_UP_SLAB x the box's longest side
- * of the lowest Y, the lowest Z and the highest Z of the bounding box:
- *   - a Z extreme holds more than SV_UP_AREA_RATIO x the trunk area at the
- *     lowest Y: the base is at that Z extreme (+1 lowest Z, -1 highest);
- *   - else, with no trunk at the lowest Y, a box at least SV_UP_LONG x longer
- *     in Z than in Y and trunk triangles spanning SV_UP_LONG x more Z than Y:
- *     the base is at the Z end the trunk comes closer to;
- *   - otherwise Y-up (0), also when there are no trunk triangles.
- * Fills *g (never fails). Pure and deterministic. */
+ * triangles alone (tri_part[t] == SV_PART_TRUNK; tri_part may be NULL: every
+ * triangle counts as trunk); foliage and the crown's extent play no part.
+ * The rule (docs/spec.md, "Plausibility checks"):
+ *   - the trunk's axis: bark is tubes, whose walls face away from their axis.
+ *     Columns along Y and along Z through the trunk's area-weighted median
+ *     point (radius SV_UP_COLUMN x the box's longest side), each split at that
+ *     point; per half, the area-weighted share of the squared normal
+ *     component along the column, caps (|n . axis| > SV_UP_CAP) left out; the
+ *     smaller half counts. Z's >= SV_UP_RATIO x Y's: along Y; the reverse:
+ *     along Z; else unclear. A column with nothing but caps leaves the other
+ *     to decide (a share below SV_UP_TUBE_SHARE: along it);
+ *   - the root: the thicker end of the Z column (its lowest and highest
+ *     quarter's trunk area, one SV_UP_ROOT x the other) and the box extreme
+ *     the base sits at (trunk area within SV_UP_SLAB x the longest side of
+ *     the lowest Y, lowest Z, highest Z; a Z extreme with SV_UP_SLAB_RATIO x
+ *     the lowest Y's). Along Z, the thicker end decides unless the extreme
+ *     says the other end; unclear axis, the extreme decides unless the
+ *     thicker end says the other end; along Y, kept unless both say one Z end.
+ * z_up +1: root at the lowest Z, -1: at the highest; signals that disagree
+ * set g->unsure (z_up 0: the file's axis is kept). No trunk triangles: z_up
+ * 0, not unsure ("not checked"). g->height is the box's extent along the up
+ * axis the guess implies (Y unless z_up != 0). Fills *g (never fails). Pure
+ * and deterministic. */
 void sv_detect_up(const sv_mesh *mesh, const uint8_t *tri_part, sv_up_guess *g);
 
 /* Rotates the mesh in place so that the base found by sv_detect_up is at the
@@ -41,11 +59,17 @@ void sv_detect_up(const sv_mesh *mesh, const uint8_t *tri_part, sv_up_guess *g);
  * -1 maps (x, y, z) -> (x, -z, y); normals alike. z_up = 0 does nothing. */
 void sv_mesh_rotate_up(sv_mesh *mesh, int z_up);
 
+/* The same rotation on one point p (e.g. the mesh's local origin,
+ * import.h), in double. z_up = 0 does nothing. */
+void sv_point_rotate_up(double p[3], int z_up);
+
 /* Appends to buf (a '\n'-separated list, capacity cap, NUL-terminated) one
  * warning per implausibility of a tree of the given height (metres): taller
  * than SV_TALLEST_TREE_M or shorter than SV_SMALLEST_TREE_M, each naming
- * import.units as the fix; and, when g->z_up != 0 and !rotated, that the tree
- * looks lying down, naming import.up. Truncates rather than overflows. */
+ * import.units as the fix; when g->z_up != 0, either that the tree looks
+ * lying down, naming import.up (!rotated), or that it was rotated upright
+ * (rotated: a rotation is never silent); when g->unsure, that the up axis
+ * could not be told and the file's was kept. Truncates rather than overflows. */
 void sv_plausibility_warnings(const sv_up_guess *g, double height, bool rotated, char *buf,
                               size_t cap);
 

@@ -317,6 +317,9 @@ static sv_status check_lod(const sv_gltf_lod *l, uint32_t i, sv_error *err)
 {
     const sv_mesh *m = l->mesh;
     if (!m) return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u has no mesh", i);
+    for (int k = 0; k < 3; k++)
+        if (!isfinite(l->translation[k]))
+            return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u translation is not finite", i);
     if (m->triangle_count && (!m->indices || !m->tri_material || !m->positions))
         return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u mesh lacks arrays", i);
     for (size_t t = 0; t < (size_t)m->triangle_count; t++) {
@@ -540,6 +543,18 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
             return nomem(w);
         }
         cJSON_AddItemToArray(w->nodes, node);
+        if (l->translation[0] != 0 || l->translation[1] != 0 || l->translation[2] != 0) {
+            /* %.17g: cJSON's own printing may drop the last bits of a double */
+            cJSON *tr = cJSON_AddArrayToObject(node, "translation");
+            for (int k = 0; tr && k < 3; k++) {
+                char num[32];
+                snprintf(num, sizeof num, "%.17g", l->translation[k]);
+                cJSON *x = cJSON_CreateRaw(num);
+                if (!x) tr = NULL;
+                else cJSON_AddItemToArray(tr, x);
+            }
+            if (!tr) return nomem(w);
+        }
         if (l->mesh->triangle_count) {
             int mesh_index = -1;
             sv_status st = write_mesh(w, l, l->mesh_name && l->mesh_name[0] ? l->mesh_name : name,

@@ -58,6 +58,8 @@
 #include <string.h>
 #include <strings.h>
 
+#include <cjson/cJSON.h>
+
 /* Copies src into dst (capacity cap), truncating. */
 static void copy_str(char *dst, size_t cap, const char *src)
 {
@@ -81,6 +83,8 @@ typedef struct io_ctx {
     char missing[IO_MISSING_MAX][160]; /* safe names asked for but not uploaded */
     unsigned missing_count;            /* all of them (the first IO_MISSING_MAX named) */
     bool fallback_used;                /* fallback_mtl was uploaded and opened after a miss */
+    const uint8_t *main_data;          /* files[0] as served (an OBJ's shifted copy), or NULL */
+    size_t main_size;
 } io_ctx;
 
 static bool ends_with_mtl(const char *name)
@@ -182,8 +186,8 @@ static struct aiFile *io_open(struct aiFileIO *io, const char *name, const char 
         free(m);
         return NULL;
     }
-    m->data = ctx->files[idx].data;
-    m->size = ctx->files[idx].size;
+    m->data = idx == 0 && ctx->main_data ? ctx->main_data : ctx->files[idx].data;
+    m->size = idx == 0 && ctx->main_data ? ctx->main_size : ctx->files[idx].size;
     f->ReadProc = mf_read;
     f->WriteProc = mf_write;
     f->TellProc = mf_tell;
@@ -510,9 +514,303 @@ static sv_status normals_for_range(sv_mesh *mesh, uint32_t t0, uint32_t t1, uint
     return SV_OK;
 }
 
-/* Merges every triangle mesh of the scene into one sv_mesh. */
+/* ---- far from the origin: positions in double before they are floats ----
+ *
+ * assimp 5.2.5 keeps positions as float (ai_real): an OBJ vertex written at
+ * 10^7 units is read to the nearest unit. So an OBJ's "v" lines are read here
+ * in double first; when the box of its vertices is away from the origin (by
+ * at least half a grid step, origin_grid), assimp is served a copy whose "v" lines
+ * have `shift` (the grid point nearest the box's centre) taken off, written
+ * with the decimals the file gave (or %.17g), and the shift is added back in
+ * double in merge_scene. Other formats reach sylva as assimp's floats. */
+
+/* The power of ten at least twice the longest side `extent` and at least 1
+ * (file units): the spacing of the grid an offset is snapped to, so a tree
+ * modelled near the origin keeps an offset of exactly zero and its
+ * coordinates as they are. Decimal, so a tree moved by a round number (a
+ * scene tile's corner) lands on the grid and bakes as it did unmoved; an
+ * integer, so offsets and their differences are exact in double. */
+static double origin_grid(double extent)
+{
+    double q = 1;
+    while (q < 2 * extent && q < 1e300) q *= 10;
+    return q;
+}
+
+/* The start of the next line after p (or end). */
+static const char *line_end(const char *p, const char *end)
+{
+    const char *nl = memchr(p, '\n', (size_t)(end - p));
+    return nl ? nl + 1 : end;
+}
+
+/* Parses the number token at *p (after blanks) within [*p, end) into *v,
+ * and its decimals (digits after '.', -1 when the token has an exponent or
+ * is not plain decimal). Advances *p past it. False when there is none. */
+static bool obj_number(const char **p, const char *end, double *v, int *decimals)
+{
+    const char *c = *p;
+    while (c < end && (*c == ' ' || *c == '\t')) c++;
+    const char *t = c;
+    while (c < end && !isspace((unsigned char)*c)) c++;
+    size_t n = (size_t)(c - t);
+    char buf[72];
+    if (n == 0 || n >= sizeof buf) return false;
+    memcpy(buf, t, n);
+    buf[n] = 0;
+    char *stop;
+    *v = strtod(buf, &stop);
+    if (*stop || !isfinite(*v)) return false;
+    int dec = -1;
+    bool plain = true;
+    for (size_t i = 0; i < n && plain; i++) {
+        char ch = buf[i];
+        if (ch == '.') dec = 0;
+        else if (isdigit((unsigned char)ch)) dec += dec >= 0;
+        else if (!((ch == '-' || ch == '+') && i == 0)) plain = false;
+    }
+    *decimals = plain ? (dec < 0 ? 0 : dec) : -1;
+    *p = c;
+    return true;
+}
+
+/* Whether the line at p is an OBJ vertex position ("v" then a blank). */
+static bool obj_v_line(const char *p, const char *end)
+{
+    return end - p >= 2 && p[0] == 'v' && (p[1] == ' ' || p[1] == '\t');
+}
+
+/* Computes an OBJ's shift (see above) and, when it is not zero, the copy of
+ * the file assimp reads (*out, malloc'ed, *out_size); else *out = NULL and
+ * shift is zero. Any "v" line that does not hold three finite numbers leaves
+ * the file as it is. */
+static sv_status obj_shift(const uint8_t *data, size_t size, double shift[3], uint8_t **out,
+                           size_t *out_size, sv_error *err)
+{
+    shift[0] = shift[1] = shift[2] = 0;
+    *out = NULL;
+    *out_size = 0;
+    const char *b = (const char *)data, *end = b + size;
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    size_t lines = 0;
+    for (const char *p = b; p < end; p = line_end(p, end)) {
+        if (!obj_v_line(p, end)) continue;
+        const char *c = p + 1, *le = line_end(p, end);
+        for (int k = 0; k < 3; k++) {
+            double v;
+            int dec;
+            if (!obj_number(&c, le, &v, &dec)) return SV_OK;
+            mn[k] = fmin(mn[k], v);
+            mx[k] = fmax(mx[k], v);
+        }
+        lines++;
+    }
+    if (!lines) return SV_OK;
+    double q = origin_grid(fmax(mx[0] - mn[0], fmax(mx[1] - mn[1], mx[2] - mn[2])));
+    bool any = false;
+    for (int k = 0; k < 3; k++) {
+        shift[k] = round(0.5 * (mn[k] + mx[k]) / q) * q;
+        any = any || shift[k] != 0;
+    }
+    if (!any) return SV_OK;
+    size_t cap = size + 3 * 40 * lines + 1;
+    char *o = malloc(cap), *w = o;
+    if (!o) {
+        shift[0] = shift[1] = shift[2] = 0;
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the OBJ");
+    }
+    for (const char *p = b; p < end;) {
+        const char *le = line_end(p, end);
+        if (obj_v_line(p, end)) {
+            const char *c = p + 1;
+            *w++ = 'v';
+            for (int k = 0; k < 3; k++) {
+                double v;
+                int dec;
+                obj_number(&c, le, &v, &dec);
+                double l = v - shift[k];
+                int n = dec >= 0 && dec <= 17 ? snprintf(w, 40, " %.*f", dec, l) : 40;
+                if (n >= 40) n = snprintf(w, 40, " %.17g", l); /* at most 25 bytes */
+                w += n;
+            }
+            memcpy(w, c, (size_t)(le - c)); /* the rest: colours, the line's end */
+            w += le - c;
+        } else {
+            memcpy(w, p, (size_t)(le - p));
+            w += le - p;
+        }
+        p = le;
+    }
+    *out = (uint8_t *)o;
+    *out_size = (size_t)(w - o);
+    return SV_OK;
+}
+
+/* glTF far from the origin: a tree placed by a large root-node translation
+ * is flattened by assimp in float (aiProcess_PreTransformVertices). When a
+ * root node of a scene (translation, or a matrix's last column) is at least
+ * SV_GLTF_SHIFT_MIN file units from the origin, assimp is served a copy whose
+ * root nodes have `shift` (that translation rounded to whole units, the same
+ * for every root) taken off, and the shift is added back in double in
+ * merge_scene, as for an OBJ. *out is NULL (shift zero) otherwise, and when
+ * the JSON has no scenes or cannot be read (assimp reports that). */
+#define SV_GLTF_SHIFT_MIN 1e4
+
+/* The translation of glTF node n (its "translation", or a 16-number
+ * "matrix"'s 13th..15th), into t; false when it has neither. */
+static bool gltf_node_translation(const cJSON *n, double t[3], cJSON **items)
+{
+    const cJSON *tr = cJSON_GetObjectItemCaseSensitive(n, "translation");
+    const cJSON *mt = cJSON_GetObjectItemCaseSensitive(n, "matrix");
+    int base = 0;
+    const cJSON *arr = NULL;
+    if (cJSON_IsArray(tr) && cJSON_GetArraySize(tr) == 3) arr = tr;
+    else if (cJSON_IsArray(mt) && cJSON_GetArraySize(mt) == 16) arr = mt, base = 12;
+    if (!arr) return false;
+    for (int k = 0; k < 3; k++) {
+        cJSON *x = cJSON_GetArrayItem(arr, base + k);
+        if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble)) return false;
+        t[k] = x->valuedouble;
+        if (items) items[k] = x;
+    }
+    return true;
+}
+
+static sv_status gltf_shift(const sv_file *f, bool is_glb, double shift[3], uint8_t **out,
+                            size_t *out_size, sv_error *err)
+{
+    shift[0] = shift[1] = shift[2] = 0;
+    *out = NULL;
+    *out_size = 0;
+    const uint8_t *js = f->data;
+    size_t jlen = f->size;
+    if (is_glb) { /* sv_gltf_precheck has checked the header and the chunk */
+        if (f->size < 20) return SV_OK;
+        jlen = (size_t)f->data[12] | (size_t)f->data[13] << 8 | (size_t)f->data[14] << 16 |
+               (size_t)f->data[15] << 24;
+        if (jlen > f->size - 20) return SV_OK;
+        js = f->data + 20;
+    }
+    cJSON *root = cJSON_ParseWithLength((const char *)js, jlen);
+    const cJSON *scenes = cJSON_GetObjectItemCaseSensitive(root, "scenes");
+    cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes");
+    int count = cJSON_GetArraySize(nodes);
+    uint8_t *is_root = count > 0 ? calloc((size_t)count, 1) : NULL;
+    bool far = false;
+    const cJSON *sc;
+    cJSON_ArrayForEach(sc, scenes)
+    {
+        const cJSON *r;
+        cJSON_ArrayForEach(r, cJSON_GetObjectItemCaseSensitive(sc, "nodes"))
+        {
+            int i = cJSON_IsNumber(r) ? r->valueint : -1;
+            double t[3];
+            if (!is_root || i < 0 || i >= count || is_root[i]) continue;
+            is_root[i] = 1;
+            if (!gltf_node_translation(cJSON_GetArrayItem(nodes, i), t, NULL)) continue;
+            if (!far && fmax(fabs(t[0]), fmax(fabs(t[1]), fabs(t[2]))) >= SV_GLTF_SHIFT_MIN) {
+                far = true;
+                for (int k = 0; k < 3; k++) shift[k] = round(t[k]);
+            }
+        }
+    }
+    sv_status st = SV_OK;
+    for (int i = 0; far && i < count; i++) {
+        if (!is_root[i]) continue;
+        cJSON *n = cJSON_GetArrayItem(nodes, i), *items[3];
+        double t[3];
+        if (gltf_node_translation(n, t, items)) {
+            for (int k = 0; k < 3; k++) cJSON_SetNumberValue(items[k], t[k] - shift[k]);
+        } else {
+            double minus[3] = {-shift[0], -shift[1], -shift[2]};
+            cJSON *tr = cJSON_CreateDoubleArray(minus, 3);
+            if (!tr || !cJSON_AddItemToObject(n, "translation", tr)) {
+                cJSON_Delete(tr);
+                far = false;
+                st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+            }
+        }
+    }
+    char *text = far ? cJSON_PrintUnformatted(root) : NULL;
+    if (far && !text) st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+    if (text) {
+        size_t tl = strlen(text), pad = is_glb ? (4 - tl % 4) % 4 : 0;
+        size_t rest = is_glb ? f->size - 20 - jlen : 0, total = (is_glb ? 20 : 0) + tl + pad + rest;
+        uint8_t *o = total <= UINT32_MAX ? malloc(total) : NULL;
+        if (!o) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory for a copy of the glTF");
+        } else if (is_glb) {
+            memcpy(o, f->data, 12);
+            for (int b = 0; b < 4; b++) {
+                o[8 + b] = (uint8_t)(total >> (8 * b));
+                o[12 + b] = (uint8_t)((tl + pad) >> (8 * b));
+            }
+            memcpy(o + 16, f->data + 16, 4); /* the chunk type: JSON */
+            memcpy(o + 20, text, tl);
+            memset(o + 20 + tl, ' ', pad);
+            memcpy(o + 20 + tl + pad, f->data + 20 + jlen, rest);
+        } else {
+            memcpy(o, text, tl);
+        }
+        *out = o;
+        *out_size = o ? total : 0;
+    }
+    if (st != SV_OK || !*out) shift[0] = shift[1] = shift[2] = 0;
+    cJSON_free(text);
+    free(is_root);
+    cJSON_Delete(root);
+    return st;
+}
+
+/* Position v of am in sylva's axes and the file's units, in double:
+ * assimp's value plus shift (see obj_shift), Z-up turned Y-up (exact). */
+static void source_position(const struct aiMesh *am, unsigned v, const double shift[3], char up,
+                            double o[3])
+{
+    const struct aiVector3D *p = &am->mVertices[v];
+    double x = p->x, y = p->y, z = p->z;
+    if (shift[0] != 0 || shift[1] != 0 || shift[2] != 0) /* else keep a -0 as it was */
+        x += shift[0], y += shift[1], z += shift[2];
+    o[0] = x;
+    o[1] = up == 'Z' ? z : y;
+    o[2] = up == 'Z' ? -y : z;
+}
+
+/* The local frame's origin (docs/outputs.md, "origin"), in sylva's axes and
+ * the file's units: the point of a grid (spacing origin_grid of the longest
+ * side) nearest the centre of the bounding box at its lowest Y, computed in
+ * double over every triangle mesh's vertices. Zero for an empty scene and
+ * for a tree modelled near the origin. Kept in the file's units so that a
+ * position's local value, (position - origin) x scale, is what the same tree
+ * at the origin would give, bit for bit. */
+static void local_origin(const struct aiScene *scene, const double shift[3], char up,
+                         double origin[3])
+{
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (unsigned i = 0; i < scene->mNumMeshes; i++) {
+        const struct aiMesh *am = scene->mMeshes[i];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
+        for (unsigned v = 0; v < am->mNumVertices; v++) {
+            double p[3];
+            source_position(am, v, shift, up, p);
+            for (int k = 0; k < 3; k++)
+                if (isfinite(p[k])) {
+                    mn[k] = fmin(mn[k], p[k]);
+                    mx[k] = fmax(mx[k], p[k]);
+                }
+        }
+    }
+    origin[0] = origin[1] = origin[2] = 0;
+    if (!(mn[0] <= mx[0] && mn[1] <= mx[1] && mn[2] <= mx[2])) return;
+    double q = origin_grid(fmax(mx[0] - mn[0], fmax(mx[1] - mn[1], mx[2] - mn[2])));
+    double at[3] = {0.5 * (mn[0] + mx[0]), mn[1], 0.5 * (mn[2] + mx[2])};
+    for (int k = 0; k < 3; k++) origin[k] = round(at[k] / q) * q + 0.0; /* no -0 */
+}
+
+/* Merges every triangle mesh of the scene into one sv_mesh, its positions
+ * relative to the local origin (local_origin, into im->info->origin). */
 static sv_status merge_scene(importer *im, const struct aiScene *scene, double scale, char up,
-                             sv_mesh **out)
+                             const double shift[3], sv_mesh **out)
 {
     uint64_t nv = 0, nt = 0;
     uint32_t used = 0;
@@ -563,6 +861,15 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
         mesh->images[i] = im->images[i];
         memset(&im->images[i], 0, sizeof im->images[i]);
     }
+    double origin[3], to_local[3];
+    local_origin(scene, shift, up, origin);
+    for (int k = 0; k < 3; k++) im->info->origin[k] = origin[k] * scale;
+    /* assimp's value plus (shift - origin), that difference taken first and in
+     * the file's axes: both are grid points, so it is exact, and a vertex of a
+     * tree moved by a grid step reads as the unmoved one's, bit for bit */
+    to_local[0] = shift[0] - origin[0];
+    to_local[1] = up == 'Z' ? shift[1] + origin[2] : shift[1] - origin[1];
+    to_local[2] = up == 'Z' ? shift[2] - origin[1] : shift[2] - origin[2];
     uint32_t v0 = 0, t0 = 0;
     bool bad_uv = false;
     for (unsigned i = 0; i < scene->mNumMeshes; i++) {
@@ -570,14 +877,10 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
         uint32_t mat = am->mMaterialIndex < nmat ? am->mMaterialIndex : 0;
         for (unsigned v = 0; v < am->mNumVertices; v++) {
-            const struct aiVector3D *p = &am->mVertices[v];
-            double x = p->x * scale, y = p->y * scale, z = p->z * scale;
+            double w[3];
+            source_position(am, v, to_local, up, w);
             float *o = &mesh->positions[3 * ((size_t)v0 + v)];
-            if (up == 'Z') {
-                o[0] = (float)x, o[1] = (float)z, o[2] = (float)-y;
-            } else {
-                o[0] = (float)x, o[1] = (float)y, o[2] = (float)z;
-            }
+            for (int k = 0; k < 3; k++) o[k] = (float)(w[k] * scale);
             for (int k = 0; k < 3; k++)
                 if (!isfinite(o[k])) {
                     st = sv_fail(im->err, SV_ERR_INVALID, "vertex %u has %s coordinate", v0 + v,
@@ -718,15 +1021,32 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
         if (st != SV_OK) return st;
     }
 
+    double shift[3] = {0, 0, 0};
+    uint8_t *shifted = NULL;
+    size_t shifted_size = 0;
+    if (fmt == SV_FORMAT_OBJ || is_gltf(fmt)) {
+        sv_status st = fmt == SV_FORMAT_OBJ ? obj_shift(files[0].data, files[0].size, shift,
+                                                        &shifted, &shifted_size, err)
+                                            : gltf_shift(&files[0], fmt == SV_FORMAT_GLB, shift,
+                                                         &shifted, &shifted_size, err);
+        if (st != SV_OK) return st;
+    }
     char name[160];
     main_file_name(&files[0], fmt, name, sizeof name);
-    io_ctx ctx = {.files = files, .count = count, .main_name = name};
+    io_ctx ctx = {.files = files,
+                  .count = count,
+                  .main_name = name,
+                  .main_data = shifted,
+                  .main_size = shifted_size};
     copy_str(ctx.fallback_mtl, sizeof ctx.fallback_mtl, name);
     char *dot = strrchr(ctx.fallback_mtl, '.');
     if (dot && (size_t)(dot - ctx.fallback_mtl) + 5 <= sizeof ctx.fallback_mtl) strcpy(dot, ".mtl");
     struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
     struct aiPropertyStore *props = aiCreatePropertyStore();
-    if (!props) return sv_fail(err, SV_ERR_NOMEM, "assimp: cannot create a property store");
+    if (!props) {
+        free(shifted);
+        return sv_fail(err, SV_ERR_NOMEM, "assimp: cannot create a property store");
+    }
     aiSetImportPropertyInteger(props, AI_CONFIG_PP_SBP_REMOVE,
                                aiPrimitiveType_POINT | aiPrimitiveType_LINE);
     /* Normals are computed by sylva when missing (cheaper than assimp's spatial
@@ -735,6 +1055,7 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
                      aiProcess_SortByPType | aiProcess_ValidateDataStructure | aiProcess_FlipUVs;
     const struct aiScene *scene = aiImportFileExWithProperties(name, flags, &io, props);
     aiReleasePropertyStore(props);
+    free(shifted); /* assimp has read it */
 
     sv_status st = SV_OK;
     if (ctx.refused != SV_OK) {
@@ -766,7 +1087,7 @@ sv_status sv_import(const sv_file *files, size_t count, const sv_import_options 
             add_missing(info, "...", "more files were asked for than are named here");
         importer im = {
             .files = files, .count = count, .lim = lim, .format = fmt, .info = info, .err = err};
-        st = merge_scene(&im, scene, scale, up, out);
+        st = merge_scene(&im, scene, scale, up, shift, out);
         if (info->warnings_left_out) { /* into the reserved KiB: never lost silently */
             size_t len = strlen(info->warnings);
             snprintf(info->warnings + len, sizeof info->warnings - len,

@@ -99,6 +99,7 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh_name = si->lods[i].name;
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
+        memcpy(gl[i].translation, r->p.info.origin, sizeof gl[i].translation);
         if (ch->info[i].stochastic)
             st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level,
                                     ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], &gl[i],

@@ -74,6 +74,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     sv_detect_up(p->mesh, p->cls.tri_part, &p->up);
     if (spec->up_axis == 'A' && p->up.z_up) {
         sv_mesh_rotate_up(p->mesh, p->up.z_up);
+        sv_point_rotate_up(p->info.origin, p->up.z_up); /* the local frame turns with it */
         p->up_rotated = true;
     }
     {

@@ -23,6 +23,19 @@ static cJSON *vec3_json(const double v[3])
     return cJSON_CreateDoubleArray(v, 3);
 }
 
+/* [x, y, z] with every digit of each double (%.17g; cJSON's own printing
+ * may drop the last bits): the local frame's origin. */
+static cJSON *origin_json(const double v[3])
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int k = 0; a && k < 3; k++) {
+        char num[32];
+        snprintf(num, sizeof num, "%.17g", v[k]);
+        cJSON_AddItemToArray(a, cJSON_CreateRaw(num));
+    }
+    return a;
+}
+
 /* The description `sylva-bake info` prints and report.json embeds. */
 cJSON *svp_describe(const prepared *p)
 {
@@ -35,6 +48,8 @@ cJSON *svp_describe(const prepared *p)
     cJSON_AddStringToObject(uc, "looks", p->up.z_up > 0 ? "Z" : p->up.z_up < 0 ? "-Z" : "Y");
     cJSON_AddBoolToObject(uc, "rotated", p->up_rotated);
     cJSON_AddStringToObject(uc, "reason", p->up.reason);
+    /* where the local frame of every written position is in the file */
+    cJSON_AddItemToObject(j, "origin", origin_json(p->info.origin));
     cJSON *m = cJSON_AddObjectToObject(j, "mesh");
     cJSON_AddNumberToObject(m, "triangles", p->mesh->triangle_count);
     /* before validation removed degenerate and duplicate triangles */
@@ -298,6 +313,7 @@ static sv_status write_level_docs(const run *r, const bake_state *b, sv_error *e
         const sv_level_ops *ops = si->lods[i].ops;
         cJSON *doc = cJSON_CreateObject();
         cJSON_AddStringToObject(doc, "schema", ops->doc_schema);
+        cJSON_AddItemToObject(doc, "origin", origin_json(r->p.info.origin));
         cJSON *entries = cJSON_AddArrayToObject(doc, "lods");
         for (uint32_t k = i; k < si->lod_count; k++) {
             const sv_lod_plan *lp = &si->lods[k];
@@ -321,6 +337,7 @@ sv_status svp_write_planes(const run *r, const bake_state *b, sv_error *err)
     cJSON_AddStringToObject(planes, "method", si->method[0] ? si->method : r->spec.method);
     cJSON_AddStringToObject(planes, "units", "m");
     cJSON_AddStringToObject(planes, "up", "+Y");
+    cJSON_AddItemToObject(planes, "origin", origin_json(r->p.info.origin));
     cJSON *pl = cJSON_AddArrayToObject(planes, "lods");
     for (uint32_t i = 0; i < si->lod_count; i++) cJSON_AddItemToArray(pl, planes_lod_json(r, b, i));
     sv_status st = svp_write_json(r->req->out_dir, "planes.json", planes, err);

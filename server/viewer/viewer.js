@@ -60,6 +60,15 @@ async function getText(url) {
 
 const V3 = THREE.Vector3;
 
+// report.json input.origin: where the bake's local frame is in the file
+// (docs/outputs.md, "Origin"); the page draws in the local frame, so the
+// original is moved by -origin and each level's node translation undone
+// ([0, 0, 0] for a tree modelled near the origin; absent in older bakes)
+function localOffset(report) {
+    const o = report.input && report.input.origin;
+    return o ? new V3(-o[0], -o[1], -o[2]) : new V3();
+}
+
 // the sphere every evaluation view frames: report.json evaluation.frame, or
 // (bakes written before it existed) the input's bounding sphere, which is
 // what the evaluator framed (sv_mesh_sphere: AABB centre, half diagonal)
@@ -415,6 +424,7 @@ async function loadOriginal(report) {
     const up = report.input.up;
     if (up === 'Z') wrap.rotation.x = -Math.PI / 2;
     else if (up === '-Z') wrap.rotation.x = Math.PI / 2;
+    wrap.position.copy(localOffset(report)); // after the rotation: origin is in sylva's frame
     wrap.add(inner);
     return wrap;
 }
@@ -503,6 +513,7 @@ async function main() {
             }
             if (oct) return { kind: 'octahedral', obj: await makeImpostor(oct, light) };
             const gltf = await gltfLoader.loadAsync(art(lod.file || pl.file));
+            gltf.scene.position.copy(localOffset(report)); // undoes the nodes' translation
             toUnlit(gltf.scene, false);
             if (pl.slicing) makeSlicing(gltf.scene, pl, sphere);
             return { kind: pl.slicing ? 'slicing' : 'mesh', obj: gltf.scene };

@@ -2,8 +2,9 @@
 # plausibility.sh — a Z-up tree is warned about through every channel (issue
 # 19, item 4): sylva-bake's stderr and report.json input.warnings, the daemon's
 # status document ("warnings") and the sylva client's output; import.up
-# "auto" turns it upright without a warning; a 4 cm tree (units "mm") is
-# warned about. The Z-up tree is the shared aspen turned Z-up by a few lines of
+# "auto" turns it upright and says so; a Y-up weeping tree with branches
+# hanging below its base and the aspen flattened to z = 0 are not taken for
+# Z-up; a 4 cm tree (units "mm") is warned about. The Z-up tree is the shared aspen turned Z-up by a few lines of
 # python ((x, y, z) -> (x, -z, y)). The client run also checks that the
 # standalone per-level files (lod<i>_<name>.glb) are downloaded. The default
 # chain does not depend on the units (scene.distance "auto"): the aspen in
@@ -48,17 +49,52 @@ contains "  naming import.up" 'import.up' "$(cat "$T/zo.err")"
 contains "report.json input.warnings" "looks Z-up" "$(jget "$T/zo/report.json" "d['input']['warnings']")"
 check "report.json up_check" "Z False" "$(jget "$T/zo/report.json" "d['input']['up_check']['looks'], d['input']['up_check']['rotated']" | tr -d "(),'")"
 
-# offline, import.up auto: rotated upright, no warning; the Y-up original is left alone
+# offline, import.up auto: rotated upright, said (never silently); the Y-up original is left alone
 # shellcheck disable=SC2086
 "$BAKE" bake $ZMESH --spec "$T/auto.json" --out "$T/za" 2> "$T/za.err"
 check "auto: bake exits 0" 0 $?
-check "auto: no warning" "" "$(grep -c 'looks Z-up' "$T/za.err" | grep -v '^0$')"
+check "auto: not warned as lying down" "" "$(grep -c 'would bake lying down' "$T/za.err" | grep -v '^0$')"
+contains "auto: the rotation is said on stderr" 'rotated the tree upright: it looked Z-up' "$(cat "$T/za.err")"
+contains "  and in report.json input.warnings" 'rotated the tree upright' \
+    "$(jget "$T/za/report.json" "d['input']['warnings']")"
 check "auto: rotated, up Z" "Z True" "$(jget "$T/za/report.json" "d['input']['up'], d['input']['up_check']['rotated']" | tr -d "(),'")"
 check "auto: the tree stands (height ~39 m along Y)" "39" "$(jget "$T/za/report.json" "round(d['input']['bounds']['size'][1])")"
 # shellcheck disable=SC2086
 "$BAKE" info $YMESH --spec "$T/auto.json" --json > "$T/ya.json"
 check "auto on a Y-up tree: not rotated, no warning" "Y False []" \
     "$(jget "$T/ya.json" "d['up_check']['looks'], d['up_check']['rotated'], d['warnings']" | tr -d "(),'")"
+
+# a Y-up weeping tree whose hanging branches reach below its base and to every
+# side of the box (tests/tools/willow_tree.py): not Z-up, not rotated by auto
+mkdir -p "$T/w"
+python3 "$SYLVA_ROOT/tests/tools/willow_tree.py" "$T/w/willow.obj"
+"$BAKE" info "$T/w/willow.obj" "$T/w/willow.mtl" --spec "$T/auto.json" --json > "$T/wa.json"
+check "weeping tree: Y, not rotated, no warning" "Y False []" \
+    "$(jget "$T/wa.json" "d['up_check']['looks'], d['up_check']['rotated'], d['warnings']" | tr -d "(),'")"
+check "  its lowest point is a hanging tip, not the trunk base" "True" \
+    "$(jget "$T/wa.json" "d['bounds']['min'][1] < -0.05")"
+
+# the aspen flattened to z = 0 (a cut-out, still Y-up): not Z-up, as tall as it is
+mkdir -p "$T/flat"
+cp "$D/aspen_small.mtl" "$D/bark_birch_color_1k.jpg" "$D/leaves_aspen_color.png" "$T/flat/"
+python3 - "$D/aspen_small.obj" "$T/flat/aspen_small.obj" <<'PY'
+import sys
+with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as o:
+    for line in f:
+        if line.startswith('v '):
+            p = line.split()
+            line = 'v %s %s 0\n' % (p[1], p[2])
+        elif line.startswith('vn '):
+            line = 'vn 0 0 1\n'
+        o.write(line)
+PY
+FMESH="$T/flat/aspen_small.obj $T/flat/aspen_small.mtl $T/flat/bark_birch_color_1k.jpg $T/flat/leaves_aspen_color.png"
+# shellcheck disable=SC2086
+"$BAKE" info $FMESH --spec "$T/auto.json" --json > "$T/fa.json"
+check "flat aspen: Y, not rotated, no warning" "Y False []" \
+    "$(jget "$T/fa.json" "d['up_check']['looks'], d['up_check']['rotated'], d['warnings']" | tr -d "(),'")"
+check "  its height is the aspen's (39 m with units m)" "39 0" \
+    "$(jget "$T/fa.json" "round(d['bounds']['size'][1]), d['bounds']['size'][2]")"
 
 # a 4 cm tree: the units are probably wrong
 echo '{"import":{"units":"mm"}}' > "$T/mm.json"

@@ -179,13 +179,47 @@ static void glb_container_has_aligned_chunks_and_exact_lengths(void **state)
     sv_mesh_destroy(m);
 }
 
+/* A translation is written on every node when it is not zero, every digit
+ * of the double kept (JSON numbers); a zero one is left out. */
+static void translation_is_written_with_every_digit_on_each_node(void **state)
+{
+    (void)state;
+    sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10);
+    sv_gltf_lod lods[2] = {{.name = "a", .mesh = m0, .screen_coverage = 0.3},
+                           {.name = "b", .mesh = m1, .screen_coverage = 0.1}};
+    const double t[3] = {2000000.0000000002, -12345678.901234567, 0.1};
+    for (int i = 0; i < 2; i++) memcpy(lods[i].translation, t, sizeof t);
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    for (int i = 0; i < 2; i++) {
+        cJSON *tr = get(at(get(g.json, "nodes"), i), "translation");
+        assert_non_null(tr);
+        for (int k = 0; k < 3; k++) assert_true(at(tr, k)->valuedouble == t[k]); /* exact */
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    memset(lods[0].translation, 0, sizeof t);
+    g = encode(lods, 1, &buf, &size);
+    assert_null(get(at(get(g.json, "nodes"), 0), "translation"));
+    cJSON_Delete(g.json);
+    free(buf);
+    lods[0].translation[1] = NAN;
+    sv_error err = {0};
+    uint8_t *out = NULL;
+    assert_int_equal(sv_gltf_encode_glb(lods, 1, &out, &size, &err), SV_ERR_INVALID);
+    assert_null(out);
+    sv_mesh_destroy(m0);
+    sv_mesh_destroy(m1);
+}
+
 static void only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_ids(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10), *m2 = leaf_mesh(1, 10);
-    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL},
-                           {"half", m1, 0.1, NULL, 0, NULL, NULL},
-                           {"cards", m2, 0.01, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"half", m1, 0.1, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"cards", m2, 0.01, NULL, 0, NULL, NULL, {0, 0, 0}}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 3, &buf, &size);
@@ -333,9 +367,9 @@ static void identical_images_are_stored_once_across_lods(void **state)
 {
     (void)state;
     sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10), *c = leaf_mesh(1, 99);
-    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL},
-                           {"b", b, 0.2, NULL, 0, NULL, NULL},
-                           {"c", c, 0.0, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"b", b, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"c", c, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -445,8 +479,8 @@ static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
-    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL},
-                           {"b", m1, 0.05, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"b", m1, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}}};
     char dir[] = "/tmp/sv_gltf_XXXXXX";
     assert_non_null(mkdtemp(dir));
     char p1[64], p2[64];
@@ -510,8 +544,8 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     (void)state;
     sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
     assert_non_null(e);
-    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL},
-                           {"culled", e, 0.0, NULL, 0, NULL, NULL}};
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}},
+                           {"culled", e, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -590,6 +624,7 @@ static void standalone_level_is_one_named_node_with_embedded_images(void **state
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(translation_is_written_with_every_digit_on_each_node),
         cmocka_unit_test(glb_container_has_aligned_chunks_and_exact_lengths),
         cmocka_unit_test(only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_ids),
         cmocka_unit_test(position_accessor_has_exact_min_max_and_counts),

@@ -994,6 +994,99 @@ static void units_and_z_up_are_converted_to_metres_y_up(void **state)
     upload_free(&u);
 }
 
+/* An OBJ far from the origin: read in double, written in a local frame whose
+ * origin (the grid point nearest the box's centre at its lowest Y) is in
+ * info.origin; the local vertices are the same tree's at the origin, bit for
+ * bit (float would hold 10^7 only to the unit). Near the origin: origin 0. */
+static void far_obj_is_read_in_double_into_a_local_frame(void **state)
+{
+    (void)state;
+    const char *near = "v 0.37 0 0.001\nv 0 0.5 -0.25\nv 0.125 3 0\nf 1 2 3\n";
+    const char *far = "v 10000000.37 10000000 10000000.001\nv 10000000 10000000.5 9999999.75\n"
+                      "v 10000000.125 10000003 10000000\nf 1 2 3\n";
+    sv_mesh *m[2] = {NULL, NULL};
+    sv_import_info info[2];
+    for (int i = 0; i < 2; i++) {
+        upload u = {0};
+        upload_add_str(&u, "t.obj", i ? far : near);
+        sv_import_options opt = {.unit_scale = 0.2};
+        sv_error err = {0};
+        assert_int_equal(import_upload(&u, &opt, &m[i], &info[i], &err), SV_OK);
+        upload_free(&u);
+    }
+    for (int k = 0; k < 3; k++) {
+        assert_true(info[0].origin[k] == 0);
+        assert_float_equal(info[1].origin[k], 2e6, 1e-6);
+    }
+    assert_int_equal(m[0]->vertex_count, m[1]->vertex_count);
+    for (uint32_t i = 0; i < 3 * m[0]->vertex_count; i++)
+        assert_true(m[0]->positions[i] == m[1]->positions[i]);
+    assert_float_equal(m[1]->positions[0], 0.074, 1e-7); /* 0.37 x 0.2, not 0 or 0.2 */
+    sv_mesh_destroy(m[0]);
+    sv_mesh_destroy(m[1]);
+}
+
+/* make_glb's triangle with its root node given `node` (JSON members after
+ * "mesh":0, e.g. ",\"translation\":[1,2,3]"): a new GLB, *size bytes. */
+static uint8_t *glb_with_root(const char *node, size_t *size)
+{
+    size_t n;
+    uint8_t *base = make_glb(2, &n);
+    uint32_t jn;
+    memcpy(&jn, base + 12, 4);
+    char json[2048], out[2048];
+    memcpy(json, base + 20, jn);
+    json[jn] = 0;
+    const char *from = "\"nodes\":[{\"mesh\":0";
+    char *a = strstr(json, from);
+    assert_non_null(a);
+    snprintf(out, sizeof out, "%.*s%s%s%s", (int)(a - json), json, from, node, a + strlen(from));
+    size_t jl = strlen(out);
+    while (jl % 4) out[jl++] = ' ';
+    size_t total = 12 + 8 + jl + 8 + 44;
+    uint8_t *glb = calloc(1, total);
+    assert_non_null(glb);
+    uint32_t h[5] = {0x46546C67u, 2, (uint32_t)total, (uint32_t)jl, 0x4E4F534Au};
+    memcpy(glb, h, 20);
+    memcpy(glb + 20, out, jl);
+    memcpy(glb + 20 + jl, base + 20 + jn, 8 + 44);
+    free(base);
+    *size = total;
+    return glb;
+}
+
+/* A GLB placed far away by its root node (a translation, or a matrix): the
+ * translation is taken off before assimp flattens the scene in float, so the
+ * local vertices are the unplaced triangle's, bit for bit. */
+static void far_glb_root_translation_is_kept_in_double(void **state)
+{
+    (void)state;
+    const char *roots[3] = {
+        "", ",\"translation\":[10000000,20000000.5,-30000000]",
+        ",\"matrix\":[1,0,0,0,0,1,0,0,0,0,1,0,10000000,20000000.5,-30000000,1]"};
+    sv_mesh *m[3];
+    sv_import_info info[3];
+    for (int i = 0; i < 3; i++) {
+        size_t n;
+        uint8_t *glb = glb_with_root(roots[i], &n);
+        upload u = {0};
+        upload_add(&u, "t.glb", glb, n);
+        sv_error err = {0};
+        sv_status st = import_upload(&u, NULL, &m[i], &info[i], &err);
+        if (st != SV_OK) print_error("%s\n", err.message);
+        assert_int_equal(st, SV_OK);
+        upload_free(&u);
+        free(glb);
+    }
+    const double want[3] = {1e7, 2e7, -3e7};
+    for (int i = 1; i < 3; i++) {
+        for (int k = 0; k < 3; k++) assert_true(info[i].origin[k] == want[k]);
+        for (uint32_t v = 0; v < 3 * m[0]->vertex_count; v++) /* + 0.5 in y, exact */
+            assert_true(m[i]->positions[v] == m[0]->positions[v] + (v % 3 == 1 ? 0.5f : 0.0f));
+    }
+    for (int i = 0; i < 3; i++) sv_mesh_destroy(m[i]);
+}
+
 static void glb_materials_and_transforms_come_through(void **state)
 {
     (void)state;
@@ -1037,8 +1130,12 @@ static void glb_materials_and_transforms_come_through(void **state)
     assert_float_equal(info.unit_scale, 1.0, 0);
     double mn[3], mx[3];
     sv_mesh_bounds(m, mn, mx);
-    assert_float_equal(mn[1], 5.0, 1e-6);
-    assert_float_equal(mx[1], 6.0, 1e-6);
+    /* the translation is applied; the positions are local, their frame's
+     * origin (a grid point near the box's base, 10 m apart for this 1 m
+     * box: y 5 rounds up to 10) in info.origin */
+    assert_float_equal(info.origin[1], 10.0, 0);
+    assert_float_equal(mn[1] + info.origin[1], 5.0, 1e-6);
+    assert_float_equal(mx[1] + info.origin[1], 6.0, 1e-6);
     const sv_material *leaf = material_named(m, "leaf");
     assert_non_null(leaf);
     assert_int_equal(leaf->alpha_mode, SV_ALPHA_MASK);
@@ -1213,6 +1310,8 @@ int main(void)
         cmocka_unit_test(obj_alpha_rules_give_mask_blend_and_double_sided),
         cmocka_unit_test(texture_over_the_size_limit_is_refused),
         cmocka_unit_test(units_and_z_up_are_converted_to_metres_y_up),
+        cmocka_unit_test(far_obj_is_read_in_double_into_a_local_frame),
+        cmocka_unit_test(far_glb_root_translation_is_kept_in_double),
         cmocka_unit_test(glb_materials_and_transforms_come_through),
         cmocka_unit_test(imports_every_tree_in_the_data_set_with_readme_counts),
         cmocka_unit_test(scopia_trees_are_in_centimetres_unless_scaled),

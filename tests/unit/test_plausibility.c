@@ -1,6 +1,9 @@
 /* test_plausibility.c — the up-axis detector and the size warnings
  * (plausibility.h): a synthetic Y-up tree is left alone, the same tree turned
- * Z-up (and upside down along Z) is recognised and turned back upright. */
+ * Z-up (and upside down along Z) is recognised and turned back upright; a
+ * Y-up weeping tree whose branches hang below its base and the tree flattened
+ * to z = 0 (a cut-out) are not taken for Z-up; a trunk whose axis cannot be
+ * told keeps the file's axis with a warning; a rotation is always said. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -96,17 +99,32 @@ static void z_up_tree_is_found_and_turned_upright(void **state)
     assert_int_equal(g.z_up, 1);
     assert_true(g.height > 3.3 && g.height <= 3.6);
     assert_non_null(strstr(g.reason, "lowest Z"));
-    char w[512] = "";
+    char w[1024] = "";
     sv_plausibility_warnings(&g, g.height, false, w, sizeof w);
     assert_non_null(strstr(w, "looks Z-up"));
     assert_non_null(strstr(w, "import.up"));
-    /* rotated: no warning, and the tree stands as it was built */
+    /* rotated: said, not warned as lying down; the tree stands as it was built */
     w[0] = 0;
     sv_plausibility_warnings(&g, g.height, true, w, sizeof w);
-    assert_string_equal(w, "");
+    assert_null(strstr(w, "would bake lying down"));
+    assert_non_null(strstr(w, "rotated the tree upright"));
+    float before[3];
+    memcpy(before, m->positions, sizeof before);
     sv_mesh_rotate_up(m, g.z_up);
     for (uint32_t i = 0; i < 3 * m->vertex_count; i++)
         assert_float_equal(m->positions[i], ref->positions[i], 1e-6);
+    /* the local frame's origin turns as the vertices do */
+    for (int s = -1; s <= 1; s += 2) {
+        double p[3] = {before[0], before[1], before[2]};
+        float q[3] = {before[0], before[1], before[2]};
+        sv_point_rotate_up(p, s);
+        sv_mesh *one = sv_mesh_create(1, 0, 1, 0);
+        assert_non_null(one);
+        memcpy(one->positions, q, sizeof q);
+        sv_mesh_rotate_up(one, s);
+        for (int k = 0; k < 3; k++) assert_float_equal(p[k], one->positions[k], 1e-6);
+        sv_mesh_destroy(one);
+    }
     sv_detect_up(m, part, &g);
     assert_int_equal(g.z_up, 0);
     sv_mesh_destroy(m);
@@ -170,6 +188,125 @@ static void heights_outside_5cm_to_150m_are_warned_about(void **state)
     assert_int_equal(strlen(small), sizeof small - 1);
 }
 
+/* A tube of SEG sides from a to b (radius r), its triangles marked trunk. */
+static void add_tube(sv_mesh *m, uint8_t *part, uint32_t *nv, uint32_t *nt, const double a[3],
+                     const double b[3], double r)
+{
+    double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; k++) d[k] /= l;
+    double h[3] = {0, 1, 0};
+    if (fabs(d[1]) > 0.9) h[0] = 1, h[1] = 0;
+    double u[3] = {d[1] * h[2] - d[2] * h[1], d[2] * h[0] - d[0] * h[2], d[0] * h[1] - d[1] * h[0]};
+    double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int k = 0; k < 3; k++) u[k] /= lu;
+    double w[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+    uint32_t v0 = *nv;
+    for (int e = 0; e < 2; e++)
+        for (uint32_t i = 0; i < SEG; i++) {
+            double t = 2 * M_PI * i / SEG;
+            float *p = &m->positions[3 * (*nv)++];
+            for (int k = 0; k < 3; k++)
+                p[k] = (float)((e ? b[k] : a[k]) + r * (cos(t) * u[k] + sin(t) * w[k]));
+        }
+    for (uint32_t i = 0; i < SEG; i++) {
+        uint32_t j = (i + 1) % SEG, *t = &m->indices[3 * (size_t)*nt];
+        t[0] = v0 + i, t[1] = v0 + j, t[2] = v0 + SEG + j;
+        t[3] = v0 + i, t[4] = v0 + SEG + j, t[5] = v0 + SEG + i;
+        part[*nt] = part[*nt + 1] = SV_PART_TRUNK;
+        *nt += 2;
+    }
+}
+
+#define WEEP 24
+
+/* A Y-up weeping tree (tests/tools/willow_tree.py in C): a trunk from y 0 to
+ * 3 and WEEP branches arching out from its top and hanging down past its
+ * base to y = -0.6, on every side of it. Trunk only: leaves play no part. */
+static sv_mesh *weeping_tree(uint8_t **part)
+{
+    uint32_t tubes = 1 + 4 * WEEP;
+    sv_mesh *m = sv_mesh_create(2 * SEG * tubes, 2 * SEG * tubes, 1, 0);
+    assert_non_null(m);
+    *part = calloc(m->triangle_count, 1);
+    assert_non_null(*part);
+    uint32_t nv = 0, nt = 0;
+    add_tube(m, *part, &nv, &nt, (double[3]){0, 0, 0}, (double[3]){0, 3, 0}, 0.17);
+    for (uint32_t k = 0; k < WEEP; k++) {
+        double a = 2 * M_PI * (k + 0.3 * sin(7.0 * k)) / WEEP, c = cos(a), s = sin(a);
+        double reach = 2.0 + 0.4 * sin(3.0 * k);
+        double pts[5][3] = {{0, 3, 0},
+                            {0.5 * reach * c, 3.5, 0.5 * reach * s},
+                            {reach * c, 3.3, reach * s},
+                            {1.05 * reach * c, 1.5, 1.05 * reach * s},
+                            {1.08 * reach * c, -0.6, 1.08 * reach * s}};
+        for (int i = 0; i < 4; i++) add_tube(m, *part, &nv, &nt, pts[i], pts[i + 1], 0.04);
+    }
+    sv_mesh_compute_normals(m);
+    return m;
+}
+
+static void weeping_tree_with_branches_below_its_base_is_y_up(void **state)
+{
+    (void)state;
+    uint8_t *part;
+    sv_mesh *m = weeping_tree(&part);
+    double mn[3], mx[3];
+    sv_mesh_bounds(m, mn, mx);
+    assert_true(mn[1] < -0.5); /* the hanging tips, not the trunk, are the lowest Y */
+    sv_up_guess g;
+    sv_detect_up(m, part, &g);
+    assert_int_equal(g.z_up, 0);
+    assert_false(g.unsure);
+    assert_float_equal(g.height, mx[1] - mn[1], 1e-9);
+    char w[1024] = "";
+    sv_plausibility_warnings(&g, g.height, false, w, sizeof w);
+    assert_string_equal(w, "");
+    sv_mesh_destroy(m);
+    free(part);
+}
+
+static void flat_cut_out_tree_is_y_up_and_as_tall_as_it_is(void **state)
+{
+    (void)state;
+    uint8_t *part;
+    sv_mesh *m = tree(&part);
+    for (uint32_t v = 0; v < m->vertex_count; v++) m->positions[3 * v + 2] = 0;
+    sv_mesh_compute_normals(m);
+    sv_up_guess g;
+    sv_detect_up(m, part, &g);
+    assert_int_equal(g.z_up, 0);
+    assert_false(g.unsure);
+    assert_true(g.height > 3.3 && g.height <= 3.6);
+    sv_mesh_destroy(m);
+    free(part);
+}
+
+static void unclear_trunk_keeps_the_axis_and_says_so(void **state)
+{
+    (void)state;
+    /* a trunk along Z of the same thickness from end to end: its axis is
+     * clear, its root is not */
+    sv_mesh *m = sv_mesh_create(10 * 2 * SEG, 10 * 2 * SEG, 1, 0);
+    assert_non_null(m);
+    uint8_t *part = calloc(m->triangle_count, 1);
+    assert_non_null(part);
+    uint32_t nv = 0, nt = 0;
+    for (int i = 0; i < 10; i++)
+        add_tube(m, part, &nv, &nt, (double[3]){0, 0, 0.2 * i}, (double[3]){0, 0, 0.2 * (i + 1)},
+                 0.1);
+    sv_up_guess g;
+    sv_detect_up(m, part, &g);
+    assert_int_equal(g.z_up, 0);
+    assert_true(g.unsure);
+    char w[1024] = "";
+    sv_plausibility_warnings(&g, 2, false, w, sizeof w);
+    assert_non_null(strstr(w, "could not be told"));
+    assert_non_null(strstr(w, "import.up"));
+    sv_mesh_destroy(m);
+    free(part);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -178,6 +315,9 @@ int main(void)
         cmocka_unit_test(tree_with_its_base_at_the_highest_z_is_turned_the_other_way),
         cmocka_unit_test(no_trunk_means_no_guess),
         cmocka_unit_test(heights_outside_5cm_to_150m_are_warned_about),
+        cmocka_unit_test(weeping_tree_with_branches_below_its_base_is_y_up),
+        cmocka_unit_test(flat_cut_out_tree_is_y_up_and_as_tall_as_it_is),
+        cmocka_unit_test(unclear_trunk_keeps_the_axis_and_says_so),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
