@@ -31,9 +31,10 @@
 
 #define ST_NAME "stochastic"
 #define LAMBDA_MIN 1e-9
-#define CONTRAST_STEPS 16 /* bins per octave of the luminance factor */
-#define CONTRAST_BINS 64  /* |bin| <= 64: factors 1/16 .. 16 */
+#define CONTRAST_STEPS 16  /* bins per octave of the luminance factor */
+#define CONTRAST_BINS 64   /* |bin| <= 64: factors 1/16 .. 16 */
 #define SV_STOCH_WHOLE 1e9 /* a min_cover no simplified leaf reaches: every leaf whole */
+#define COST_MARGIN 0.005  /* the score a candidate of many more triangles must gain */
 
 /* ---- formulas ------------------------------------------------------------- */
 
@@ -710,7 +711,8 @@ static double leaf_cover(const sv_mesh *m, const sv_leaves *lv, uint32_t i, doub
             uint32_t a0 = 0, a1 = 0;
             for (int sy = 0; sy < COVER_SUB; sy++)
                 for (int sx = 0; sx < COVER_SUB; sx++) {
-                    size_t at = (size_t)(cy * COVER_SUB + sy) * COVER_FINE + (size_t)(cx * COVER_SUB + sx);
+                    size_t at = (size_t)(cy * COVER_SUB + sy) * COVER_FINE +
+                                (size_t)(cx * COVER_SUB + sx);
                     a0 += g0[at];
                     a1 += g1[at];
                 }
@@ -1014,9 +1016,21 @@ static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_setti
     return st;
 }
 
+/* Whether a candidate scoring `score` with `tris` triangles replaces the kept
+ * one (`best`, `kept_tris`): better by more than 1e-4 at about the same
+ * cost; where the triangle counts differ by more than a tenth, the cheaper
+ * one wins unless the dearer one is better by more than COST_MARGIN. */
+static bool candidate_wins(double score, uint32_t tris, double best, uint32_t kept_tris)
+{
+    double lo = fmin(tris, kept_tris), hi = fmax(tris, kept_tris);
+    if (!(hi > 1.1 * lo)) return score > best + 1e-4;
+    if (tris < kept_tris) return score >= best - COST_MARGIN;
+    return score > best + COST_MARGIN;
+}
+
 /* One candidate of a level: the leaves at `gamma` beside `trunk` (built to et),
- * scored when a scorer is given; kept in *L when it is the first or better
- * than *best by more than 1e-4 (the candidates come coarsest / paper first). */
+ * scored when a scorer is given; kept in *L when it is the first or wins
+ * over *L (candidate_wins; the candidates come coarsest / paper first). */
 static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_stochastic_settings *s,
                            double r, uint32_t i, double e, double et, double all, double gamma,
                            sv_mesh **trunk, const sv_stoch_scorer *scorer, bool first, double *best,
@@ -1031,7 +1045,9 @@ static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_sto
     double score = 0;
     if (!st && scorer && scorer->fn) st = scorer->fn(scorer->user, cand.geometry, &score, err);
     cand.score = scorer && scorer->fn ? score : NAN;
-    *kept = !st && (first || score > *best + 1e-4);
+    *kept = !st &&
+            (first || candidate_wins(score, cand.geometry ? cand.geometry->triangle_count : 0,
+                                     *best, L->geometry ? L->geometry->triangle_count : 0));
     if (*kept) {
         *best = score;
         level_free(L);
