@@ -158,6 +158,12 @@ double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const 
  * towards (the error bound usually stops it first). */
 #define SV_STOCH_TRUNK_FLOOR 0.05
 
+/* A leaf element simplified to a level's error is drawn simplified only while
+ * its coverage (area times opacity, scaled by its area gain) stays at least
+ * this fraction of its modelled coverage; below, it is drawn whole (as
+ * modelled) or not at all, and the budget drops more leaves instead. */
+#define SV_STOCH_MIN_COVER 0.5
+
 /* The geometric error a level may have, in metres: one pixel at the nearest
  * distance d it is drawn by Cook's schedule (sv_stochastic_distance_for_lambda,
  * clamped to the scene's distance range), or, when larger, one pixel of the
@@ -187,6 +193,16 @@ typedef struct sv_stoch_level {
     uint32_t trunk_triangles;    /* when trunk_in_geometry: the geometry's first triangles */
     uint32_t contrast_materials; /* material copies added for contrast bins */
     uint32_t contrast_capped;    /* leaves whose brightening was capped at factor 1 */
+    uint32_t leaves_simplified;  /* drawn leaves with a simplified shape */
+    uint32_t leaves_whole;       /* drawn leaves kept as modelled because their simplified
+                                    shape lost coverage (below min_cover) */
+    double min_cover;            /* the coverage ratio a simplified leaf needed (>= 1e9: every
+                                    leaf whole, the paper's rule) */
+    double leaf_cover_min;       /* the least coverage ratio among drawn simplified leaves
+                                    (1 when none) */
+    double score;                /* the scorer's figure of the kept candidate (NAN unscored) */
+    int same_as;                 /* >= 0: a copy of that coarser level, which scored higher
+                                    than every candidate of this one; -1 otherwise */
 } sv_stoch_level;
 
 typedef struct sv_stoch_result {
@@ -225,8 +241,15 @@ typedef struct sv_stoch_scorer {
  * then scaling the leaves by (s × gain)^(γ/2) with
  * γ = 0.85 and 0.7 competes with the paper's γ = 1 (√s-scaled leaves at the
  * crown's edge widen the silhouette, which Cook's model ignores; the
- * original's coverage decides); without one, e and γ = 1; every leaf is simplified
- * (meshoptimizer, per leaf) to e(λ); the leaves drawn are the longest prefix
+ * original's coverage decides), then leaves drawn whole where their
+ * simplified silhouette keeps less than 0.8 of the modelled one, then every
+ * leaf whole (the paper's rule: the budget drops leaves), then every
+ * simplified leaf however thin; without one, e and γ = 1. Every leaf is
+ * simplified (meshoptimizer, per leaf) to e(λ), and drawn so only while its
+ * silhouette at the level's pixel e(λ) (the simplified shape scaled by its
+ * area gain against the modelled leaf, soft IoU in the leaf's plane where
+ * opaque) keeps SV_STOCH_MIN_COVER, else as modelled (min_cover,
+ * leaves_whole, leaves_simplified); the leaves drawn are the longest prefix
  * of the order whose triangles fit λ × all the tree's triangles (or N for a
  * {"triangles": N} level) minus the trunk's, at least one. A {"triangles": N}
  * level whose trunk and leaves exceed N gets its trunk capped at what the
@@ -238,8 +261,10 @@ typedef struct sv_stoch_scorer {
  * (μ = leaves / N), with the source's materials and images plus one copy of a
  * leaf material per contrast bin (contrast: each leaf's luminance Y is moved
  * to Ȳ + √μ (Y − Ȳ) by a base-colour factor, quantised in steps of 2^(1/16);
- * factors are capped where the base colour would exceed 1). On failure out is
- * freed. */
+ * factors are capped where the base colour would exceed 1). With a scorer,
+ * a level whose kept candidate scores below a coarser (cheaper) level's
+ * becomes a copy of the best such level (same_as; its λ kept), so no level
+ * is worse than one after it. On failure out is freed. */
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s, double r,
                               const sv_stoch_scorer *scorer, sv_stoch_result *out, sv_error *err);
 

@@ -30,6 +30,8 @@ python3 "$here/target_cost.py"
 python3 "$here/default_chains.py"
 # issue 24: every stochastic level against meshoptimizer at equal triangles (sveval)
 python3 "$here/stochastic_peers.py"
+# issue 40 item 3: every level of one default stochastic bake against sloppy, a twig tree too
+python3 "$here/stochastic_sloppy.py" --twig --doc
 # issue 20 item 5: each method's default against the floor, the one-triangle bake, peak RSS
 python3 "$here/speed.py"
 # issue 20 item 1: daemon jobs per minute with and without the worker pool

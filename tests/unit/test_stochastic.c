@@ -416,6 +416,151 @@ static void simplified_leaves_fit_more_of_the_tree_in_the_budget(void **state)
     toy_free(&t);
 }
 
+/* n twigs of 16 triangles: a thin stem (0.16 × 0.004 m, 4 quads) with four
+ * 0.04 m square leaves joined to it on alternate sides, all one element
+ * (leaf i as toy_leaf places it). Simplified as one piece to a level's error
+ * such a twig collapses towards its stem. */
+static void toy_make_twigs(toy *t, uint32_t n)
+{
+    sv_mesh *m = toy_alloc(t, 18 * n, n, 16, 1);
+    for (int c = 0; c < 3; c++) m->materials[0].base_color[c] = 0.4f;
+    for (uint32_t i = 0; i < n; i++) {
+        double c[3];
+        toy_leaf(t, i, 16, c);
+        float *p = &m->positions[3 * (size_t)(18 * i)];
+        for (uint32_t r = 0; r < 2; r++) /* stem: vertices 0-4 below, 5-9 above */
+            for (uint32_t x = 0; x < 5; x++) {
+                float *q = p + 3 * (5 * r + x);
+                q[0] = (float)(c[0] - 0.08 + 0.04 * x);
+                q[1] = (float)(c[1] + (r ? 0.002 : -0.002));
+                q[2] = (float)c[2];
+            }
+        for (uint32_t j = 0; j < 4; j++) { /* leaf j's outer corners: 10 + 2j, 11 + 2j */
+            double side = j % 2 ? 1 : -1;
+            for (uint32_t e = 0; e < 2; e++) {
+                float *q = p + 3 * (10 + 2 * j + e);
+                q[0] = (float)(c[0] - 0.08 + 0.04 * (j + e));
+                q[1] = (float)(c[1] + side * 0.042);
+                q[2] = (float)c[2];
+            }
+        }
+        for (uint32_t v = 0; v < 18; v++) m->normals[3 * (size_t)(18 * i + v) + 2] = 1;
+        uint32_t *ix = &m->indices[3 * (size_t)(16 * i)], b = 18 * i;
+        for (uint32_t x = 0; x < 4; x++) {
+            uint32_t q[6] = {b + x, b + x + 1, b + 6 + x, b + x, b + 6 + x, b + 5 + x};
+            memcpy(ix + 6 * x, q, sizeof q);
+        }
+        for (uint32_t j = 0; j < 4; j++) {
+            uint32_t in0 = j % 2 ? b + 5 + j : b + j, in1 = in0 + 1;
+            uint32_t o0 = b + 10 + 2 * j, o1 = o0 + 1;
+            uint32_t q[6] = {in0, in1, o1, in0, o1, o0};
+            memcpy(ix + 24 + 6 * j, q, sizeof q);
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) t->leaves.leaves[i].area = 0.004 * 0.16 + 4 * 0.04 * 0.04;
+    toy_finish(t);
+}
+
+/* Each drawn leaf's area in level L, by its order position (_LEAF_ORDER). */
+static void level_leaf_areas(const sv_stoch_result *res, const sv_stoch_level *L, double *area)
+{
+    const sv_mesh *g = L->geometry;
+    uint32_t N = res->leaf_count;
+    for (uint32_t i = 0; i < N; i++) area[i] = 0;
+    for (uint32_t t = L->trunk_triangles; t < g->triangle_count; t++) {
+        uint32_t v = g->indices[3 * (size_t)t] - L->trunk_vertices;
+        uint32_t pos = (uint32_t)floor(L->leaf_order[v] * N);
+        area[res->order[pos]] += sv_tri_area(g, t);
+    }
+}
+
+/* A kept leaf is never slivered: every leaf a level draws covers at least
+ * half of its modelled area (beyond the level's area scaling s^γ), so the
+ * budget is met by dropping twigs whole, not by thinning them; and the twigs
+ * this toy collapses are drawn as modelled (leaves_whole). */
+static void no_drawn_leaf_is_a_sliver(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_twigs(&t, 100);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.5, 0.25, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    sv_stoch_result a;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
+    double area[100], whole = 0.004 * 0.16 + 4 * 0.04 * 0.04;
+    uint32_t guarded = 0;
+    for (uint32_t k = 1; k < a.level_count; k++) {
+        const sv_stoch_level *L = &a.levels[k];
+        assert_true(L->leaf_error > 0);
+        level_leaf_areas(&a, L, area);
+        double s_gamma = pow(L->area_scale, L->area_gamma);
+        uint32_t drawn = 0;
+        for (uint32_t i = 0; i < 100; i++) {
+            if (area[i] == 0) continue;
+            drawn++;
+            double ratio = area[i] / (whole * s_gamma);
+            if (ratio < 0.5)
+                fail_msg("level %g: leaf %u drawn at %.3f of its area", L->lambda, i, ratio);
+        }
+        assert_int_equal(drawn, L->leaves);
+        assert_int_equal(L->leaves_whole + L->leaves_simplified, L->leaves);
+        assert_true(L->leaf_cover_min >= SV_STOCH_MIN_COVER);
+        guarded += L->leaves_whole;
+        assert_true(L->leaf_triangles <= (uint64_t)ceil(L->lambda * 1600) || L->leaves == 1);
+    }
+    assert_true(guarded > 0);
+    sv_stoch_result_free(&a);
+    toy_free(&t);
+}
+
+/* Fewer triangles score higher: the opposite of every real tree. */
+static sv_status score_fewer_triangles(void *user, const sv_mesh *g, double *score, sv_error *err)
+{
+    (void)user, (void)err;
+    *score = 1.0 / (1.0 + g->triangle_count);
+    return SV_OK;
+}
+
+/* No level scores below a coarser one: when every candidate of a finer
+ * level scores below a coarser level, it becomes a copy of that level. */
+static void a_level_never_scores_below_a_coarser_one(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_twigs(&t, 100);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [0.5, 0.25, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    sv_stoch_result a;
+    sv_error err = {0};
+    sv_stoch_scorer sc = {score_fewer_triangles, NULL};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, &sc, &a, &err), SV_OK);
+    assert_int_equal(a.level_count, 3);
+    const sv_stoch_level *c = &a.levels[2];
+    assert_int_equal(c->same_as, -1);
+    uint32_t copies = 0;
+    for (uint32_t k = 0; k < 2; k++) {
+        const sv_stoch_level *L = &a.levels[k];
+        for (uint32_t m = k + 1; m < 3; m++) assert_true(L->score >= a.levels[m].score - 1e-4);
+        if (L->same_as >= 0) {
+            copies++;
+            assert_true(L->same_as > (int)k);
+            const sv_stoch_level *o = &a.levels[L->same_as];
+            assert_int_equal(L->geometry->triangle_count, o->geometry->triangle_count);
+            assert_memory_equal(L->geometry->positions, o->geometry->positions,
+                                3 * sizeof(float) * o->geometry->vertex_count);
+            CLOSE(L->lambda, s.levels[k], 0);
+        }
+    }
+    assert_true(copies > 0);
+    sv_stoch_result_free(&a);
+    toy_free(&t);
+}
+
 /* The trunk first: below λ = 1 it is simplified within the level error and
  * leads the geometry, and the leaves get λ × all triangles minus its share. */
 static void the_trunk_is_built_first_and_the_leaves_get_the_rest(void **state)
@@ -769,6 +914,8 @@ int main(void)
         cmocka_unit_test(area_order_puts_larger_leaves_first_on_average),
         cmocka_unit_test(every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres),
         cmocka_unit_test(simplified_leaves_fit_more_of_the_tree_in_the_budget),
+        cmocka_unit_test(no_drawn_leaf_is_a_sliver),
+        cmocka_unit_test(a_level_never_scores_below_a_coarser_one),
         cmocka_unit_test(level_error_is_a_pixel_at_the_level_distance),
         cmocka_unit_test(the_trunk_is_built_first_and_the_leaves_get_the_rest),
         cmocka_unit_test(a_scorer_chooses_the_area_scaling),

@@ -12,12 +12,16 @@
  * Ours, beyond the paper (docs/methods/stochastic.md "Leaf shapes"): below
  * λ = 1 every leaf modelled with several triangles is simplified to the
  * level's pixel error (simplify_leaves), so a level's triangle budget draws
- * more of the leaves (the paper's leaves are two-triangle cards).
+ * more of the leaves (the paper's leaves are two-triangle cards); a leaf
+ * whose simplified silhouette at that pixel falls below SV_STOCH_MIN_COVER
+ * of its modelled one is drawn whole instead (leaf_cover), and with a scorer
+ * stricter rules up to the paper's (every leaf whole) compete.
  * Pure C: no GL (the daemon links this file through the method registry).
  */
 #include "stochastic.h"
 
 #include "trunk.h"
+#include "vec3.h"
 
 #include <math.h>
 #include <meshoptimizer.h>
@@ -27,8 +31,10 @@
 
 #define ST_NAME "stochastic"
 #define LAMBDA_MIN 1e-9
-#define CONTRAST_STEPS 16 /* bins per octave of the luminance factor */
-#define CONTRAST_BINS 64  /* |bin| <= 64: factors 1/16 .. 16 */
+#define CONTRAST_STEPS 16  /* bins per octave of the luminance factor */
+#define CONTRAST_BINS 64   /* |bin| <= 64: factors 1/16 .. 16 */
+#define SV_STOCH_WHOLE 1e9 /* a min_cover no simplified leaf reaches: every leaf whole */
+#define COST_MARGIN 0.005  /* the score a candidate of many more triangles must gain */
 
 /* ---- formulas ------------------------------------------------------------- */
 
@@ -437,9 +443,15 @@ static void leaf_colours(const sv_mesh *mesh, const sv_leaves *lv, double *col)
 typedef struct leaf_shapes {
     uint32_t *idx;   /* 3 per triangle: source vertex ids */
     uint32_t *mat;   /* per triangle: source material */
-    uint32_t *first; /* per leaf: first triangle */
-    uint32_t *count; /* per leaf: triangles */
+    uint32_t *first; /* per leaf: first triangle of the shape drawn (leaf_shapes_select) */
+    uint32_t *count; /* per leaf: its triangles */
     float *gain;     /* per leaf: modelled area / simplified area, in [1, 4] (1 as modelled) */
+    uint8_t *whole;  /* per leaf: 1 when drawn as modelled although simplified differently */
+    uint32_t *s_first, *s_count; /* per leaf: the simplified shape (or the modelled one) */
+    float *s_gain;
+    uint32_t *w_first; /* per leaf: its modelled triangles (copied after the simplified ones) */
+    float *cover;      /* per leaf: coverage of the simplified shape scaled by its gain over
+                          the modelled leaf's (leaf_cover); 1 when kept as modelled */
     uint64_t total;
 } leaf_shapes;
 
@@ -459,6 +471,12 @@ static void leaf_shapes_free(leaf_shapes *sh)
     free(sh->first);
     free(sh->count);
     free(sh->gain);
+    free(sh->whole);
+    free(sh->s_first);
+    free(sh->s_count);
+    free(sh->s_gain);
+    free(sh->w_first);
+    free(sh->cover);
     memset(sh, 0, sizeof *sh);
 }
 
@@ -474,13 +492,25 @@ static double tri_area_v(const sv_mesh *m, const uint32_t *ix)
     return 0.5 * sqrt(x * x + y * y + z * z);
 }
 
+/* Opacity of material m at uv as a renderer keeps it: 1 when opaque, the
+ * alpha test's 0 or 1 when masked, the alpha when blended. */
+static double opacity(const sv_mesh *mesh, uint32_t m, float u, float v)
+{
+    const sv_material *mt = &mesh->materials[m];
+    if (mt->alpha_mode == SV_ALPHA_OPAQUE) return 1.0;
+    double rgb[3], a;
+    sample(mesh, m, u, v, rgb, &a);
+    if (mt->alpha_mode == SV_ALPHA_MASK) return a >= mt->alpha_cutoff ? 1.0 : 0.0;
+    return a;
+}
+
 /* Copies leaf i's triangles as modelled into sh at sh->total. */
 static void shape_copy(const sv_mesh *m, const sv_leaves *lv, uint32_t i, leaf_shapes *sh)
 {
     const sv_leaf *l = &lv->leaves[i];
-    sh->first[i] = (uint32_t)sh->total;
-    sh->count[i] = l->count;
-    sh->gain[i] = 1.0f;
+    sh->s_first[i] = sh->w_first[i] = (uint32_t)sh->total;
+    sh->s_count[i] = l->count;
+    sh->s_gain[i] = 1.0f;
     for (uint32_t k = 0; k < l->count; k++) {
         uint32_t t = lv->tris[l->first + k];
         memcpy(&sh->idx[3 * sh->total], &m->indices[3 * (size_t)t], 3 * sizeof(uint32_t));
@@ -555,20 +585,159 @@ static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, do
         shape_copy(m, lv, i, sh);
         return;
     }
-    sh->first[i] = (uint32_t)sh->total;
-    sh->count[i] = (uint32_t)(got / 3);
+    sh->s_first[i] = (uint32_t)sh->total;
+    sh->w_first[i] = UINT32_MAX; /* its modelled copy follows the simplified shapes */
+    sh->s_count[i] = (uint32_t)(got / 3);
     for (size_t k = 0; k < got; k++) sh->idx[3 * sh->total + k] = x->rep[x->dst[k]];
     /* the outline moved inwards as often as out: the leaf is scaled about its
      * centre to its modelled area (a thin needle loses most of it) */
     double a0 = 0, a1 = 0;
     for (uint32_t k = 0; k < l->count; k++) a0 += sv_tri_area(m, lv->tris[l->first + k]);
     for (size_t k = 0; k < got / 3; k++) a1 += tri_area_v(m, &sh->idx[3 * (sh->total + k)]);
-    sh->gain[i] = a1 > 0 ? (float)fmin(fmax(a0 / a1, 1.0), 4.0) : 1.0f;
+    sh->s_gain[i] = a1 > 0 ? (float)fmin(fmax(a0 / a1, 1.0), 4.0) : 1.0f;
     for (size_t k = 0; k < got / 3; k++) sh->mat[sh->total + k] = m0;
     sh->total += got / 3;
 }
 
-/* Every leaf's shape at `error` metres (0 = as modelled). */
+#define COVER_GRID 24 /* at most this many pixels across a leaf's silhouette raster */
+#define COVER_SUB 4   /* samples across a pixel of it */
+#define COVER_FINE (COVER_GRID * COVER_SUB)
+
+/* Marks the samples of grid g (COVER_FINE², spacing h from corner o, in the
+ * plane basis u, v about c) that triangle ix of material mt covers where it
+ * is opaque (opacity >= 0.5), its vertices scaled by k about c. */
+static void raster_tri(const sv_mesh *m, const uint32_t *ix, uint32_t mt, const double c[3],
+                       const double u[3], const double v[3], double k, const double o[2], double h,
+                       uint8_t *g)
+{
+    double x[3], y[3];
+    for (int j = 0; j < 3; j++) {
+        const float *p = &m->positions[3 * (size_t)ix[j]];
+        double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+        x[j] = k * sv_dot3(d, u);
+        y[j] = k * sv_dot3(d, v);
+    }
+    double det = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
+    if (!(fabs(det) > 0)) return;
+    int x0 = (int)floor((fmin(x[0], fmin(x[1], x[2])) - o[0]) / h);
+    int x1 = (int)floor((fmax(x[0], fmax(x[1], x[2])) - o[0]) / h);
+    int y0 = (int)floor((fmin(y[0], fmin(y[1], y[2])) - o[1]) / h);
+    int y1 = (int)floor((fmax(y[0], fmax(y[1], y[2])) - o[1]) / h);
+    bool opaque = m->materials[mt].alpha_mode == SV_ALPHA_OPAQUE;
+    for (int cy = y0 < 0 ? 0 : y0; cy <= y1 && cy < COVER_FINE; cy++)
+        for (int cx = x0 < 0 ? 0 : x0; cx <= x1 && cx < COVER_FINE; cx++) {
+            uint8_t *cell = &g[cy * COVER_FINE + cx];
+            if (*cell) continue;
+            double px = o[0] + (cx + 0.5) * h, py = o[1] + (cy + 0.5) * h;
+            double b1 = ((px - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (py - y[0])) / det;
+            double b2 = ((x[1] - x[0]) * (py - y[0]) - (px - x[0]) * (y[1] - y[0])) / det;
+            double b0 = 1.0 - b1 - b2;
+            if (b0 < 0 || b1 < 0 || b2 < 0) continue;
+            if (!opaque) {
+                const float *t0 = &m->uvs[2 * (size_t)ix[0]], *t1 = &m->uvs[2 * (size_t)ix[1]],
+                            *t2 = &m->uvs[2 * (size_t)ix[2]];
+                float tu = (float)(b0 * t0[0] + b1 * t1[0] + b2 * t2[0]);
+                float tv = (float)(b0 * t0[1] + b1 * t1[1] + b2 * t2[1]);
+                if (opacity(m, mt, tu, tv) < 0.5) continue;
+            }
+            *cell = 1;
+        }
+}
+
+/* Leaf i's silhouette kept by its simplified shape, seen at the level's
+ * pixel: both the simplified shape (scaled by its area gain about the leaf's
+ * centre, as a level draws it) and the modelled leaf are rasterised in the
+ * leaf's plane where opaque (textures sampled, so a cut-out card whose UVs
+ * slide off its leaves loses them), on pixels of `error` metres (or finer,
+ * COVER_GRID across the leaf at most) with COVER_SUB² samples each; the ratio
+ * is their soft IoU, Σ min / Σ max of the pixels' covered fractions. A leaf
+ * reduced to a sliver scores low even when its gain restores its area; one
+ * smaller than a pixel scores high when it still covers its pixels. 1 when
+ * the leaf was kept as modelled or covers nothing either way. */
+static double leaf_cover(const sv_mesh *m, const sv_leaves *lv, uint32_t i, double error,
+                         const leaf_shapes *sh)
+{
+    const sv_leaf *l = &lv->leaves[i];
+    if (sh->s_first[i] == sh->w_first[i]) return 1.0;
+    const double *c = l->centre, *n = l->normal;
+    double u[3], v[3], a[3] = {1, 0, 0};
+    if (fabs(n[0]) > 0.6) a[0] = 0, a[1] = 1;
+    sv_cross3(n, a, u);
+    double un = sqrt(sv_dot3(u, u));
+    if (!(un > 0)) return 1.0;
+    for (int k = 0; k < 3; k++) u[k] /= un;
+    sv_cross3(n, u, v);
+    double k1 = sqrt((double)sh->s_gain[i]);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int pass = 0; pass < 2; pass++) {
+        uint32_t cnt = pass ? sh->s_count[i] : l->count;
+        for (uint32_t t = 0; t < cnt; t++) {
+            const uint32_t *ix = pass ? &sh->idx[3 * ((size_t)sh->s_first[i] + t)]
+                                      : &m->indices[3 * (size_t)lv->tris[l->first + t]];
+            for (int j = 0; j < 3; j++) {
+                const float *p = &m->positions[3 * (size_t)ix[j]];
+                double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+                double k = pass ? k1 : 1.0, x = k * sv_dot3(d, u), y = k * sv_dot3(d, v);
+                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+                lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            }
+        }
+    }
+    double px = fmax(error, fmax(hi[0] - lo[0], hi[1] - lo[1]) / COVER_GRID);
+    if (!(px > 0) || !isfinite(px)) return 1.0;
+    /* the leaf centred in its pixels */
+    int cells_x = (int)ceil((hi[0] - lo[0]) / px), cells_y = (int)ceil((hi[1] - lo[1]) / px);
+    if (cells_x < 1) cells_x = 1;
+    if (cells_y < 1) cells_y = 1;
+    if (cells_x > COVER_GRID) cells_x = COVER_GRID;
+    if (cells_y > COVER_GRID) cells_y = COVER_GRID;
+    double o[2] = {0.5 * (lo[0] + hi[0]) - 0.5 * cells_x * px,
+                   0.5 * (lo[1] + hi[1]) - 0.5 * cells_y * px};
+    double h = px / COVER_SUB;
+    static _Thread_local uint8_t g0[COVER_FINE * COVER_FINE], g1[COVER_FINE * COVER_FINE];
+    memset(g0, 0, sizeof g0);
+    memset(g1, 0, sizeof g1);
+    for (uint32_t t = 0; t < l->count; t++) {
+        uint32_t tt = lv->tris[l->first + t];
+        raster_tri(m, &m->indices[3 * (size_t)tt], m->tri_material[tt], c, u, v, 1.0, o, h, g0);
+    }
+    for (uint32_t t = 0; t < sh->s_count[i]; t++) {
+        size_t tt = (size_t)sh->s_first[i] + t;
+        raster_tri(m, &sh->idx[3 * tt], sh->mat[tt], c, u, v, k1, o, h, g1);
+    }
+    uint32_t mn = 0, mx = 0;
+    for (int cy = 0; cy < cells_y; cy++)
+        for (int cx = 0; cx < cells_x; cx++) {
+            uint32_t a0 = 0, a1 = 0;
+            for (int sy = 0; sy < COVER_SUB; sy++)
+                for (int sx = 0; sx < COVER_SUB; sx++) {
+                    size_t at = (size_t)(cy * COVER_SUB + sy) * COVER_FINE +
+                                (size_t)(cx * COVER_SUB + sx);
+                    a0 += g0[at];
+                    a1 += g1[at];
+                }
+            mn += a0 < a1 ? a0 : a1;
+            mx += a0 > a1 ? a0 : a1;
+        }
+    return mx ? (double)mn / mx : 1.0;
+}
+
+/* Draws leaf i simplified when its coverage ratio reaches min_cover, else as
+ * modelled (gain 1), for every leaf. */
+static void leaf_shapes_select(const sv_leaves *lv, leaf_shapes *sh, double min_cover)
+{
+    for (uint32_t i = 0; i < lv->count; i++) {
+        bool whole = sh->s_first[i] != sh->w_first[i] && !(sh->cover[i] >= min_cover);
+        sh->whole[i] = whole;
+        sh->first[i] = whole ? sh->w_first[i] : sh->s_first[i];
+        sh->count[i] = whole ? lv->leaves[i].count : sh->s_count[i];
+        sh->gain[i] = whole ? 1.0f : sh->s_gain[i];
+    }
+}
+
+/* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
+ * with its coverage ratio; drawn simplified where that ratio reaches
+ * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). */
 static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double error,
                                    leaf_shapes *sh, sv_error *err)
 {
@@ -578,11 +747,18 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double
         if (lv->leaves[i].count > most) most = lv->leaves[i].count;
     size_t cap = (size_t)3 * most;
     shape_scratch x = {0};
-    sh->idx = sv_calloc(lv->tri_count ? lv->tri_count : 1, 3 * sizeof(uint32_t));
-    sh->mat = sv_calloc(lv->tri_count ? lv->tri_count : 1, sizeof(uint32_t));
+    /* the simplified shapes, then the modelled ones of the leaves simplified */
+    sh->idx = sv_calloc(lv->tri_count ? lv->tri_count : 1, 6 * sizeof(uint32_t));
+    sh->mat = sv_calloc(lv->tri_count ? lv->tri_count : 1, 2 * sizeof(uint32_t));
     sh->first = sv_calloc(N ? N : 1, sizeof(uint32_t));
     sh->count = sv_calloc(N ? N : 1, sizeof(uint32_t));
     sh->gain = sv_calloc(N ? N : 1, sizeof(float));
+    sh->whole = sv_calloc(N ? N : 1, 1);
+    sh->s_first = sv_calloc(N ? N : 1, sizeof(uint32_t));
+    sh->s_count = sv_calloc(N ? N : 1, sizeof(uint32_t));
+    sh->s_gain = sv_calloc(N ? N : 1, sizeof(float));
+    sh->w_first = sv_calloc(N ? N : 1, sizeof(uint32_t));
+    sh->cover = sv_calloc(N ? N : 1, sizeof(float));
     x.stamp = sv_calloc(m->vertex_count ? m->vertex_count : 1, sizeof(uint32_t));
     x.local = sv_calloc(m->vertex_count ? m->vertex_count : 1, sizeof(uint32_t));
     x.verts = sv_calloc(cap, sizeof(uint32_t));
@@ -593,12 +769,25 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double
     x.src = sv_calloc(2 * cap, sizeof(uint32_t)); /* the second half: the sloppy result */
     x.dst = sv_calloc(cap, sizeof(uint32_t));
     sv_status st = SV_OK;
-    if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !x.stamp || !x.local ||
-        !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
+    if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !sh->whole ||
+        !sh->s_first || !sh->s_count || !sh->s_gain || !sh->w_first || !sh->cover || !x.stamp ||
+        !x.local || !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
         leaf_shapes_free(sh);
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
         for (uint32_t i = 0; i < N; i++) shape_simplify(m, lv, i, error, &x, sh);
+        for (uint32_t i = 0; i < N; i++) {
+            const sv_leaf *l = &lv->leaves[i];
+            if (sh->w_first[i] != UINT32_MAX) continue; /* kept as modelled */
+            sh->w_first[i] = (uint32_t)sh->total;
+            for (uint32_t k = 0; k < l->count; k++) {
+                uint32_t t = lv->tris[l->first + k];
+                memcpy(&sh->idx[3 * sh->total], &m->indices[3 * (size_t)t], 3 * sizeof(uint32_t));
+                sh->mat[sh->total++] = m->tri_material[t];
+            }
+        }
+        for (uint32_t i = 0; i < N; i++) sh->cover[i] = (float)leaf_cover(m, lv, i, error, sh);
+        leaf_shapes_select(lv, sh, SV_STOCH_MIN_COVER);
     }
     free(x.stamp);
     free(x.local);
@@ -625,12 +814,16 @@ typedef struct build_ctx {
     uint32_t *local;   /* per source vertex: index in the level's mesh */
     int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
     int32_t *leaf_bin; /* per leaf position */
+    double min_cover;  /* the shapes' selection (leaf_shapes_select) */
 } build_ctx;
 
 static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r, double lambda,
                              double leaf_budget, double gamma, sv_stoch_level *L, sv_error *err)
 {
     L->area_gamma = gamma;
+    L->min_cover = b->min_cover;
+    L->score = NAN;
+    L->same_as = -1;
     const sv_mesh *src = b->mesh;
     const sv_leaves *lv = b->lv;
     const leaf_shapes *sh = b->shapes;
@@ -696,6 +889,16 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
         }
     }
     L->leaf_triangles = nt;
+    L->leaves_simplified = L->leaves_whole = 0;
+    L->leaf_cover_min = 1.0;
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t li = b->order[k];
+        if (sh->whole[li]) L->leaves_whole++;
+        else if (sh->first[li] != sh->w_first[li]) {
+            L->leaves_simplified++;
+            L->leaf_cover_min = fmin(L->leaf_cover_min, sh->cover[li]);
+        }
+    }
     if (nv > UINT32_MAX || nt > UINT32_MAX || (uint64_t)M + copies > UINT32_MAX)
         return sv_fail(err, SV_ERR_LIMIT, "stochastic: level %g is too large", lambda);
     sv_mesh *g = sv_mesh_create((uint32_t)nv, (uint32_t)nt, M + copies, src->image_count);
@@ -813,9 +1016,21 @@ static sv_status trunk_lead(const sv_method_input *in, const sv_stochastic_setti
     return st;
 }
 
+/* Whether a candidate scoring `score` with `tris` triangles replaces the kept
+ * one (`best`, `kept_tris`): better by more than 1e-4 at about the same
+ * cost; where the triangle counts differ by more than a tenth, the cheaper
+ * one wins unless the dearer one is better by more than COST_MARGIN. */
+static bool candidate_wins(double score, uint32_t tris, double best, uint32_t kept_tris)
+{
+    double lo = fmin(tris, kept_tris), hi = fmax(tris, kept_tris);
+    if (!(hi > 1.1 * lo)) return score > best + 1e-4;
+    if (tris < kept_tris) return score >= best - COST_MARGIN;
+    return score > best + COST_MARGIN;
+}
+
 /* One candidate of a level: the leaves at `gamma` beside `trunk` (built to et),
- * scored when a scorer is given; kept in *L when it is the first or better
- * than *best by more than 1e-4 (the candidates come coarsest / paper first). */
+ * scored when a scorer is given; kept in *L when it is the first or wins
+ * over *L (candidate_wins; the candidates come coarsest / paper first). */
 static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_stochastic_settings *s,
                            double r, uint32_t i, double e, double et, double all, double gamma,
                            sv_mesh **trunk, const sv_stoch_scorer *scorer, bool first, double *best,
@@ -823,12 +1038,16 @@ static sv_status try_level(build_ctx *b, const sv_method_input *in, const sv_sto
 {
     sv_stoch_level cand = {0};
     cand.leaf_error = e;
+    cand.same_as = -1;
     uint32_t tn = *trunk ? (*trunk)->triangle_count : 0;
     sv_status st = build_level(b, s, r, s->levels[i], fmax(1.0, all - tn), gamma, &cand, err);
     if (!st) st = trunk_lead(in, s, i, et, trunk, &cand, err);
     double score = 0;
     if (!st && scorer && scorer->fn) st = scorer->fn(scorer->user, cand.geometry, &score, err);
-    *kept = !st && (first || score > *best + 1e-4);
+    cand.score = scorer && scorer->fn ? score : NAN;
+    *kept = !st &&
+            (first || candidate_wins(score, cand.geometry ? cand.geometry->triangle_count : 0,
+                                     *best, L->geometry ? L->geometry->triangle_count : 0));
     if (*kept) {
         *best = score;
         level_free(L);
@@ -846,6 +1065,31 @@ static void level_free(sv_stoch_level *L)
     free(L->leaf_centre);
     free(L->leaf_order);
     memset(L, 0, sizeof *L);
+}
+
+/* Replaces *L (keeping its λ) by a copy of the coarser level src (index j). */
+static sv_status level_copy(const sv_stoch_level *src, int j, sv_stoch_level *L, sv_error *err)
+{
+    sv_stoch_level c = *src;
+    c.geometry = NULL;
+    c.leaf_centre = NULL;
+    c.leaf_order = NULL;
+    c.lambda = L->lambda;
+    c.same_as = j;
+    uint32_t nv = src->geometry ? src->geometry->vertex_count - src->trunk_vertices : 0;
+    sv_status st = src->geometry ? sv_mesh_merge(src->geometry, NULL, &c.geometry, err) : SV_OK;
+    if (st) return st;
+    c.leaf_centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
+    c.leaf_order = sv_calloc(nv ? nv : 1, sizeof(float));
+    if (!c.leaf_centre || !c.leaf_order) {
+        level_free(&c);
+        return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory to copy a level");
+    }
+    memcpy(c.leaf_centre, src->leaf_centre, 3 * sizeof(float) * nv);
+    memcpy(c.leaf_order, src->leaf_order, sizeof(float) * nv);
+    level_free(L);
+    *L = c;
+    return SV_OK;
 }
 
 void sv_stoch_result_free(sv_stoch_result *res)
@@ -873,6 +1117,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     build_ctx b = {0};
     b.mesh = mesh;
     b.lv = lv;
+    b.min_cover = SV_STOCH_MIN_COVER;
     uint32_t N = lv->count;
     double *colour = sv_calloc(N, 3 * sizeof(double));
     out->order = sv_calloc(N, sizeof(uint32_t));
@@ -965,10 +1210,36 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
             st = try_level(&b, in, s, r, i, e, best_et, all, gammas[k], &best_trunk, scorer, false,
                            &best, &kept, L, err);
         }
+        /* then leaves kept whole where simplifying took more of their
+         * silhouette, up to every leaf whole (the paper's rule): the budget
+         * drops leaves instead of thinning them; last every simplified leaf
+         * kept however thin, where the rendering says that covers more */
+        static const double covers[] = {0.8, SV_STOCH_WHOLE, 0.0};
+        for (size_t k = 0; trunk_first && scored && !st && k < sizeof covers / sizeof covers[0];
+             k++) {
+            bool kept = false;
+            leaf_shapes_select(lv, &sh, covers[k]);
+            b.min_cover = covers[k];
+            st = try_level(&b, in, s, r, i, e, best_et, all, L->area_gamma, &best_trunk, scorer,
+                           false, &best, &kept, L, err);
+        }
+        b.min_cover = SV_STOCH_MIN_COVER;
         sv_mesh_destroy(best_trunk);
         b.shapes = NULL;
         leaf_shapes_free(&sh);
         if (st) goto out;
+    }
+    /* a level never scores below a coarser (cheaper) one: it becomes a copy */
+    for (uint32_t i = out->level_count; i-- > 0;) {
+        int top = -1;
+        for (uint32_t j = i + 1; j < out->level_count; j++)
+            if (!isnan(out->levels[j].score) &&
+                (top < 0 || out->levels[j].score > out->levels[top].score))
+                top = (int)j;
+        sv_stoch_level *L = &out->levels[i];
+        if (top >= 0 && !isnan(L->score) && L->score < out->levels[top].score - 1e-4 &&
+            (st = level_copy(&out->levels[top], top, L, err)))
+            goto out;
     }
 out:
     free(colour);
@@ -1087,6 +1358,14 @@ void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_se
     cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
     cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
     cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
+    cJSON_AddNumberToObject(o, "leaves_simplified", L->leaves_simplified);
+    cJSON_AddNumberToObject(o, "leaves_whole", L->leaves_whole);
+    if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
+    else cJSON_AddStringToObject(o, "min_cover", "whole");
+    cJSON_AddNumberToObject(o, "leaf_cover_min", L->leaf_cover_min);
+    if (!isnan(L->score)) cJSON_AddNumberToObject(o, "candidate_iou", L->score);
+    if (L->same_as >= 0)
+        cJSON_AddNumberToObject(o, "copy_of_lambda", res->levels[L->same_as].lambda);
 }
 
 /* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
