@@ -3,6 +3,7 @@
 #include "jobs.h"
 
 #include <cjson/cJSON.h>
+#include "json_strict.h"
 #include <math.h>
 #include <pthread.h>
 #include <time.h>
@@ -378,7 +379,7 @@ static svd_job_state state_from_name(const char *s)
 static void replay_one(void *user, const char *payload, size_t size)
 {
     svd_jobs *jobs = user;
-    cJSON *r = cJSON_ParseWithLength(payload, size);
+    cJSON *r = sv_json_parse_strict(payload, size, "journal record", SV_ERR_PARSE, NULL);
     const char *op = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "op"));
     const char *key = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "key"));
     if (!op || !svd_key_valid(key)) {
@@ -445,7 +446,7 @@ static cJSON *read_json_file(const char *path)
         if (got == 0) break;
     }
     fclose(f);
-    cJSON *j = buf ? cJSON_ParseWithLength(buf, n) : NULL;
+    cJSON *j = buf ? sv_json_parse_strict(buf, n, "stored JSON", SV_ERR_PARSE, NULL) : NULL;
     free(buf);
     return j;
 }

@@ -10,6 +10,7 @@
  * declared lengths. Everything here is iterative and bounded by the input size.
  */
 #include "import.h"
+#include "json_strict.h"
 
 #include <cJSON.h>
 #include <math.h>
@@ -803,13 +804,15 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const 
         st = check_glb(&pc, data, size, &json, &json_len, &bin, &bin_len);
         if (st != SV_OK) return st;
     }
-    const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts((const char *)json, json_len, &end, 0);
-    if (!root) {
-        size_t at = end ? (size_t)(end - (const char *)json) : 0;
-        return sv_fail(err, SV_ERR_PARSE, "glTF JSON syntax error at byte %zu of %zu", at,
-                       json_len);
-    }
+    /* A GLB's JSON chunk is padded to 4 bytes with spaces; some writers pad
+     * with NULs, which end the text for assimp's parser as well. */
+    if (is_glb)
+        for (int k = 0; k < 3 && json_len && json[json_len - 1] == 0; k++) json_len--;
+    /* The document assimp reads must be the one checked here: no duplicate
+     * key, no NUL in a string, nothing after the value. */
+    cJSON *root = sv_json_parse_strict((const char *)json, json_len, "glTF JSON", SV_ERR_PARSE,
+                                       err);
+    if (!root) return err && err->status ? err->status : SV_ERR_PARSE;
     if (!cJSON_IsObject(root)) {
         st = sv_fail(err, SV_ERR_PARSE, "glTF JSON is not an object");
         goto out;

@@ -37,6 +37,24 @@ refused stride_short "byteStride 4 is shorter"
 refused normalized_float "normalized"
 refused min_wrong_count "min is not an array of 3"
 
+# -- JSON two parsers could read differently: refused wherever it is parsed
+refused dup_key 'the key \"nodes\" appears twice'
+refused nul_key 'holds a NUL'
+refused trailing 'content after the JSON value'
+# spec SPEC WHAT: a spec answered 400 naming WHAT
+spec_refused() {
+    printf '%s' "$1" > "$T/spec.json"
+    m=$(mesh "spec$2.obj" ok)
+    body=$(curl -s -o - -w '\n%{http_code}' -F "spec=@$T/spec.json;type=application/json" \
+        -F "mesh=@$m" "$URL/v1/bakes")
+    check "spec $3: 400" 400 "$(echo "$body" | tail -n 1)"
+    contains "  names the problem" "$4" "$(echo "$body" | head -n 1)"
+}
+spec_refused '{} x' 1 "with trailing garbage" "content after the JSON value"
+spec_refused '{}{}' 2 "of two objects" "content after the JSON value"
+spec_refused '{"method":"billboard_cloud","method":7}' 3 "with a duplicate key" 'the key \"method\" appears twice'
+spec_refused '{"seed\u0000":1}' 4 "with a NUL in a key" "holds a NUL"
+
 check "the first bake is still readable" 200 \
     "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/bakes/$kept/artifacts/model.glb")"
 finish
