@@ -9,12 +9,17 @@
 #include <netdb.h>
 #include <netinet/in.h>
 #include <openssl/evp.h>
+#include <poll.h>
+#ifndef POLLRDHUP
+#define POLLRDHUP 0x2000 /* Linux: the peer shut its side (poll.h with _GNU_SOURCE) */
+#endif
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -40,6 +45,13 @@ struct svd_http {
     const svd_tokens *tokens;
     atomic_bool draining;
     uint16_t port;
+    /* Uploads whose body is still coming, watched by watch_uploads (see
+     * there): under wmu; the thread stops when stopping is set. */
+    pthread_mutex_t wmu;
+    pthread_cond_t wcv;
+    struct upload *watched;
+    bool stopping, watcher_started;
+    pthread_t watcher;
 };
 
 /* REQ_DRAIN: a PUT of a key already held, its body read and dropped before
@@ -57,6 +69,13 @@ typedef struct upload {
     uint64_t file_bytes; /* of every mesh/file part so far */
     uint64_t reserved;   /* held against store_max_bytes (svd_jobs_reserve) */
     svd_jobs *jobs;
+    const char *client; /* the request's client id (outlives the upload) */
+    double started;     /* sv_now() at the headers: upload_timeout counts from here */
+    /* in h->watched while the body is coming (under h->wmu) */
+    svd_http *h;
+    int sock;
+    bool in_watch, shut;
+    struct upload *wnext;
     char *spec;
     size_t spec_len;
     char mesh[SVD_NAME_MAX + 1];
@@ -228,12 +247,21 @@ static sv_status precheck_upload(const upload *u, sv_format fmt, sv_error *err)
     return st == SV_ERR_IO ? SV_OK : st; /* an unreadable file is the worker's to report */
 }
 
+/* Records the upload's first error. The rest of the body is read and
+ * dropped (nothing more is written), so what it holds goes at once: its
+ * reservation and its files, not when the request ends. */
 static void upload_fail(upload *u, int status, const char *code, const char *fmt, const char *arg)
 {
     if (u->err_status) return; /* keep the first */
     u->err_status = status;
     snprintf(u->err_code, sizeof u->err_code, "%s", code);
     snprintf(u->err_msg, sizeof u->err_msg, fmt, arg ? arg : "");
+    if (u->fd >= 0) close(u->fd);
+    u->fd = -1;
+    if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+    u->tmpdir[0] = '\0';
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
+    u->reserved = 0;
 }
 
 static bool name_taken(const upload *u, const char *name)
@@ -320,16 +348,7 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
     if (u->part_bytes > q->h->cfg->max_mesh_bytes)
         return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name),
                1;
-    /* Bytes are held against store_max_bytes before they are written (issue
-     * 22 item 5). */
     u->file_bytes += size;
-    if (u->file_bytes > u->reserved) {
-        uint64_t more = u->file_bytes - u->reserved;
-        char why[300];
-        if (!svd_jobs_reserve(u->jobs, more, why, sizeof why))
-            return upload_fail(u, 507, "store_full", "%s", why), 1;
-        u->reserved += more;
-    }
     EVP_DigestUpdate(u->md, data, size);
     while (size) {
         ssize_t w = write(u->fd, data, size);
@@ -342,6 +361,19 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
         }
         data += w;
         size -= (size_t)w;
+    }
+    /* Bytes are held against store_max_bytes once they are on disk, never
+     * before: only bytes a client has really sent can make finished bakes
+     * be evicted, and a client's uploads together hold at most
+     * client_upload_bytes. */
+    if (u->file_bytes > u->reserved) {
+        uint64_t more = u->file_bytes - u->reserved;
+        char why[300];
+        if (!svd_jobs_reserve(u->jobs, u->client, more, u->reserved, why, sizeof why)) {
+            u->reserved = 0; /* given back by svd_jobs_reserve */
+            return upload_fail(u, 507, "store_full", "%s", why), 1;
+        }
+        u->reserved += more;
     }
     return 0;
 }
@@ -369,10 +401,80 @@ static int on_part_end(void *user)
     return 0;
 }
 
+/* Puts u in the watched list (its body is coming on socket sock). */
+static void watch_add(svd_http *h, upload *u, int sock)
+{
+    pthread_mutex_lock(&h->wmu);
+    u->h = h;
+    u->sock = sock;
+    u->in_watch = true;
+    u->wnext = h->watched;
+    h->watched = u;
+    pthread_mutex_unlock(&h->wmu);
+}
+
+/* Takes u out of the watched list (its body is complete, or it ends). */
+static void watch_remove(upload *u)
+{
+    if (!u->h) return;
+    pthread_mutex_lock(&u->h->wmu);
+    for (upload **p = &u->h->watched; *p; p = &(*p)->wnext)
+        if (*p == u) {
+            *p = u->wnext;
+            break;
+        }
+    u->in_watch = false;
+    pthread_mutex_unlock(&u->h->wmu);
+}
+
+/* The watcher thread. libmicrohttpd 0.9.75 (epoll) can miss the end of a
+ * connection whose last body bytes and FIN arrived together: the socket sat
+ * in CLOSE-WAIT, the upload holding its bytes and its tmp/ folder until the
+ * idle timeout. Every quarter second each upload whose body is still coming
+ * is looked at: a peer that closed (POLLRDHUP with nothing left unread) will
+ * never finish the body, and an upload older than upload_timeout has had its
+ * time (a trickle of one byte every few seconds never trips the idle timeout).
+ * Either socket is shut down: libmicrohttpd then reads its end at once and
+ * ends the request, which frees the upload (on_completed). The socket is
+ * never closed here, so its descriptor cannot be reused under us: entries
+ * leave the list (on_completed, under wmu) before libmicrohttpd closes it. */
+static void *watch_uploads(void *arg)
+{
+    svd_http *h = arg;
+    pthread_mutex_lock(&h->wmu);
+    while (!h->stopping) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += 250 * 1000 * 1000;
+        if (ts.tv_nsec >= 1000000000L) ts.tv_sec++, ts.tv_nsec -= 1000000000L;
+        pthread_cond_timedwait(&h->wcv, &h->wmu, &ts);
+        double now = sv_now();
+        for (upload *u = h->watched; u && !h->stopping; u = u->wnext) {
+            if (u->shut) continue;
+            const char *why = NULL;
+            struct pollfd pf = {.fd = u->sock, .events = POLLIN | POLLRDHUP};
+            int unread = 0;
+            if (h->cfg->upload_timeout && now - u->started > h->cfg->upload_timeout)
+                why = "upload over upload_timeout";
+            else if (poll(&pf, 1, 0) == 1 && (pf.revents & (POLLRDHUP | POLLHUP | POLLERR)) &&
+                     ioctl(u->sock, FIONREAD, &unread) == 0 && unread == 0)
+                why = "the client closed before the end of the body";
+            if (!why) continue;
+            u->shut = true;
+            shutdown(u->sock, SHUT_RDWR);
+            svd_log_kv(h->log, SVD_LOG_INFO, "upload_ended_early", "client", u->client, "msg",
+                       why, (const char *)NULL);
+        }
+    }
+    pthread_mutex_unlock(&h->wmu);
+    return NULL;
+}
+
 static void upload_free(upload *u)
 {
     if (!u) return;
-    if (u->reserved) svd_jobs_unreserve(u->jobs, u->reserved);
+    watch_remove(u);
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
     if (u->fd >= 0) close(u->fd);
     svd_multipart_destroy(u->mp);
     EVP_MD_CTX_free(u->md);
@@ -463,16 +565,14 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     u->fd = -1;
     u->jobs = h->jobs;
+    u->client = q->client;
+    u->started = sv_now();
     q->up = u;
-    /* A declared length is held against store_max_bytes before the body is
-     * read (issue 22 item 5): concurrent uploads cannot each take a part of
-     * the room and all fail; a chunked body reserves as it streams. */
-    if (body_len) {
-        char why[300];
-        if (!svd_jobs_reserve(h->jobs, body_len, why, sizeof why))
-            return send_error(h, c, q->m.route, 507, "store_full", why);
-        u->reserved = body_len;
-    }
+    /* Nothing is reserved for the declared length: a client that declares
+     * the limit and sends nothing must not make finished bakes be evicted or
+     * other uploads be refused. Bytes are reserved as they reach the disk
+     * (on_part_data). */
+    (void)body_len;
     u->md = EVP_MD_CTX_new();
     u->objects = cJSON_CreateObject();
     u->mp = svd_multipart_create(boundary, &mp_cb, q);
@@ -487,6 +587,9 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (ms != SV_OK)
         return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
     q->kind = REQ_UPLOAD;
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
+        c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    if (ci) watch_add(h, u, ci->connect_fd);
     *answered = 0;
     return MHD_YES;
 }
@@ -504,6 +607,7 @@ static enum MHD_Result upload_end(req *q)
     upload *u = q->up;
     svd_route route = q->m.route;
     sv_error e = {0};
+    watch_remove(u); /* the body is complete */
     if (!u->err_status && svd_multipart_finish(u->mp, &e) != SV_OK)
         upload_fail(u, 400, "bad_multipart", "%s", e.message);
     if (!u->err_status && !u->mesh[0])
@@ -613,7 +717,7 @@ static enum MHD_Result upload_end(req *q)
     up.bytes = svd_dir_bytes(u->tmpdir);
     char *body = NULL;
     /* the reservation becomes the job's bytes in submit (make_room again) */
-    svd_jobs_unreserve(h->jobs, u->reserved);
+    svd_jobs_unreserve(h->jobs, u->client, u->reserved);
     u->reserved = 0;
     svd_jobs_rc rc = svd_jobs_submit(h->jobs, &up, &body, &e);
     u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
@@ -1152,6 +1256,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             *upload_data_size = 0;
             u->total += n;
             if (u->total > h->cfg->max_upload_bytes) return cut_off(q);
+            if (h->cfg->upload_timeout && sv_now() - u->started > h->cfg->upload_timeout) {
+                svd_log_kv(h->log, SVD_LOG_WARN, "upload_cut_off", "client", q->client, "msg",
+                           "upload over upload_timeout", (const char *)NULL);
+                svd_metrics_request(h->metrics, q->m.route, 408);
+                return MHD_NO;
+            }
             if (!u->err_status) {
                 sv_error e = {0};
                 if (svd_multipart_feed(u->mp, (const uint8_t *)upload_data, n, &e) != SV_OK)
@@ -1350,8 +1460,14 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
                             MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
                             MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
                             MHD_OPTION_URI_LOG_CALLBACK, on_uri, h, MHD_OPTION_END);
-    if (!h->d) {
-        close(lfd);
+    pthread_mutex_init(&h->wmu, NULL);
+    pthread_cond_init(&h->wcv, NULL);
+    if (h->d) h->watcher_started = pthread_create(&h->watcher, NULL, watch_uploads, h) == 0;
+    if (!h->d || !h->watcher_started) {
+        if (h->d) MHD_stop_daemon(h->d); /* closes lfd */
+        else close(lfd);
+        pthread_cond_destroy(&h->wcv);
+        pthread_mutex_destroy(&h->wmu);
         sv_fail(err, SV_ERR_IO, "cannot start the HTTP server on %s:%u", cfg->listen_host,
                 cfg->port);
         free(h);
@@ -1381,6 +1497,13 @@ void svd_http_stop(svd_http *h)
 {
     if (!h) return;
     svd_jobs_sweep(h->jobs, 0, true); /* resume every long-poll first */
+    pthread_mutex_lock(&h->wmu);
+    h->stopping = true;
+    pthread_cond_signal(&h->wcv);
+    pthread_mutex_unlock(&h->wmu);
+    pthread_join(h->watcher, NULL);
     MHD_stop_daemon(h->d);
+    pthread_cond_destroy(&h->wcv);
+    pthread_mutex_destroy(&h->wmu);
     free(h);
 }

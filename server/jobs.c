@@ -43,6 +43,13 @@ struct svd_job {
     bool listed;            /* in one of them */
 };
 
+/* Bytes one client's uploads in progress hold (svd_jobs_reserve). */
+struct client_hold {
+    char client[96];
+    uint64_t bytes;
+    struct client_hold *next;
+};
+
 struct svd_jobs {
     const svd_config *cfg;
     svd_store *store;
@@ -57,6 +64,7 @@ struct svd_jobs {
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
     uint64_t uploading; /* bytes reserved by uploads in progress (svd_jobs_reserve) */
+    struct client_hold *holds; /* the same, per client (only clients holding bytes) */
     bool stopping, aborting;
     /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
      * taking work, a queue position, the queue's length and a client's load
@@ -361,6 +369,11 @@ void svd_jobs_destroy(svd_jobs *jobs)
             job_free(j);
             j = next;
         }
+    }
+    while (jobs->holds) {
+        struct client_hold *c = jobs->holds;
+        jobs->holds = c->next;
+        free(c);
     }
     svd_journal_close(jobs->journal);
     pthread_cond_destroy(&jobs->cv);
@@ -772,28 +785,102 @@ static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
              (unsigned long long)unfinished, (unsigned long long)jobs->uploading);
 }
 
-bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap)
+/* The hold of `client`, created (zero bytes) when create; NULL if none or out
+ * of memory. Called with mu held. */
+static struct client_hold *client_hold(svd_jobs *jobs, const char *client, bool create)
+{
+    for (struct client_hold *c = jobs->holds; c; c = c->next)
+        if (strcmp(c->client, client) == 0) return c;
+    if (!create) return NULL;
+    struct client_hold *c = calloc(1, sizeof *c);
+    if (!c) return NULL;
+    snprintf(c->client, sizeof c->client, "%s", client);
+    c->next = jobs->holds;
+    jobs->holds = c;
+    return c;
+}
+
+/* Lowers `client`'s hold by bytes; a hold of zero is freed (only clients
+ * holding bytes stay listed). Called with mu held. */
+static void give_back(svd_jobs *jobs, const char *client, uint64_t bytes)
+{
+    for (struct client_hold **pc = &jobs->holds; *pc; pc = &(*pc)->next) {
+        struct client_hold *c = *pc;
+        if (strcmp(c->client, client) != 0) continue;
+        c->bytes -= bytes < c->bytes ? bytes : c->bytes;
+        if (c->bytes == 0) {
+            *pc = c->next;
+            free(c);
+        }
+        return;
+    }
+}
+
+/* Takes `bytes` for `client` if its hold and the store have room (evicting
+ * when evict); false with why set otherwise. Called with mu held. */
+static bool take_hold(svd_jobs *jobs, const char *client, uint64_t bytes, bool evict, char *why,
+                      size_t cap, bool *full)
+{
+    struct client_hold *c = client_hold(jobs, client, true);
+    *full = false;
+    if (!c) {
+        if (why && cap) snprintf(why, cap, "out of memory");
+        return false;
+    }
+    uint64_t lim = jobs->cfg->client_upload_bytes;
+    if (lim && c->bytes + bytes > lim) {
+        uint64_t held = c->bytes;
+        give_back(jobs, client, 0);
+        if (why && cap)
+            snprintf(why, cap,
+                     "this client's uploads in progress hold %llu bytes: client_upload_bytes is "
+                     "%llu; retry when one has finished",
+                     (unsigned long long)held, (unsigned long long)lim);
+        return false;
+    }
+    bool ok = evict ? make_room(jobs, bytes)
+                    : jobs->store_bytes + jobs->uploading + bytes <= jobs->cfg->store_max_bytes;
+    if (ok) {
+        c->bytes += bytes;
+        jobs->uploading += bytes;
+    } else {
+        *full = true;
+        if (evict && why && cap) store_use(jobs, bytes, why, cap);
+        give_back(jobs, client, 0);
+    }
+    return ok;
+}
+
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
+                      char *why, size_t cap)
 {
     /* the common case, room without eviction: the table lock only */
+    bool full;
     pthread_mutex_lock(&jobs->mu);
-    bool fits = jobs->store_bytes + jobs->uploading + bytes <= jobs->cfg->store_max_bytes;
-    if (fits) jobs->uploading += bytes;
+    bool ok = take_hold(jobs, client, bytes, false, why, cap, &full);
+    if (!ok && !full) {
+        jobs->uploading -= held < jobs->uploading ? held : jobs->uploading;
+        give_back(jobs, client, held);
+    }
     pthread_mutex_unlock(&jobs->mu);
-    if (fits) return true;
+    if (ok || !full) return ok;
     pthread_mutex_lock(&jobs->commit_mu); /* evictions are journaled: commit_mu, then mu */
     pthread_mutex_lock(&jobs->mu);
-    bool ok = make_room(jobs, bytes);
-    if (ok) jobs->uploading += bytes;
-    else if (why && cap) store_use(jobs, bytes, why, cap);
+    ok = take_hold(jobs, client, bytes, true, why, cap, &full);
+    if (!ok) {
+        jobs->uploading -= held < jobs->uploading ? held : jobs->uploading;
+        give_back(jobs, client, held);
+    }
     pthread_mutex_unlock(&jobs->mu);
     pthread_mutex_unlock(&jobs->commit_mu);
     return ok;
 }
 
-void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes)
+void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes)
 {
     pthread_mutex_lock(&jobs->mu);
     jobs->uploading -= bytes < jobs->uploading ? bytes : jobs->uploading;
+    give_back(jobs, client, bytes);
     pthread_mutex_unlock(&jobs->mu);
 }
 

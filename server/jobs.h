@@ -100,15 +100,19 @@ typedef struct svd_upload {
  * STORE_FULL, IO or NOMEM, with err's message and *json_out NULL. */
 svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out, sv_error *err);
 
-/* Uploads in progress hold their bytes against store_max_bytes as they stream
- * (issue 22 item 5: three concurrent 15 MB uploads filled a 10 MiB store
- * 4.5 times over). Reserves `bytes` more, evicting finished bakes LRU-first
- * if needed; false when even that cannot make room: nothing is reserved and
- * why (cap bytes) says how the store is used. */
-bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap);
-/* Gives back bytes reserved by svd_jobs_reserve (an upload that ended:
- * committed, refused or aborted). */
-void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes);
+/* Uploads in progress hold against store_max_bytes the bytes they have
+ * received, never what they declare (a declared length is a promise a client
+ * need not keep). Reserves `bytes` more for `client`, evicting finished bakes
+ * LRU-first if needed; false, with why (cap bytes) saying what is full, when
+ * that client already holds client_upload_bytes or even eviction cannot make
+ * room. On false the `held` bytes this upload reserved before are given back
+ * in the same step, so of uploads racing for the last room one fails and the
+ * others see its room. */
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
+                      char *why, size_t cap);
+/* Gives back bytes `client` reserved with svd_jobs_reserve (an upload that
+ * ended: committed, refused or aborted). */
+void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes);
 
 /* True if a job with this key exists (and its inputs are kept). */
 bool svd_jobs_has(svd_jobs *jobs, const char *key);
