@@ -104,6 +104,22 @@ typedef struct req {
 
 /* ---- responses ---- */
 
+/* What no response may be read as: a document that runs script. Every answer
+ * says nosniff (a browser never guesses HTML from the bytes) and carries a
+ * policy that allows nothing, so even a stored file opened as a page cannot
+ * run script on the daemon's origin (the viewer's); the viewer page alone gets
+ * its own policy (viewer_csp). */
+#define CSP_NONE                                                                            \
+    "default-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'; " \
+    "sandbox"
+
+/* Adds the headers every response carries (nosniff; csp, or CSP_NONE). */
+static void harden(struct MHD_Response *r, const char *csp)
+{
+    MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+    MHD_add_response_header(r, "Content-Security-Policy", csp ? csp : CSP_NONE);
+}
+
 static enum MHD_Result send_text(svd_http *h, struct MHD_Connection *c, svd_route route,
                                  unsigned status, const char *body, const char *ctype)
 {
@@ -111,6 +127,7 @@ static enum MHD_Result send_text(svd_http *h, struct MHD_Connection *c, svd_rout
                                                              MHD_RESPMEM_MUST_COPY);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", ctype);
+    harden(r, NULL);
     if (status == 401) MHD_add_response_header(r, "WWW-Authenticate", "Bearer realm=\"sylva\"");
     if (status == 429 || status == 503) MHD_add_response_header(r, "Retry-After", "5");
     enum MHD_Result ret = MHD_queue_response(c, status, r);
@@ -137,6 +154,7 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
     free(body);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", "application/json");
+    harden(r, NULL);
     if (header && value && value[0]) MHD_add_response_header(r, header, value);
     enum MHD_Result ret = MHD_queue_response(c, status, r);
     MHD_destroy_response(r);
@@ -145,13 +163,17 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
 }
 
 /* The body of every error answer (docs/api.md): {"error":{"code","message"}}
- * (malloc'ed). */
+ * (malloc'ed). A message quoting an upload's bytes is made valid UTF-8 first
+ * (bad bytes become '?'), so the answer is always valid JSON. */
 static char *error_body(const char *code, const char *message)
 {
+    char *m = strdup(message ? message : "");
+    if (m) sylva_utf8_fix(m);
     cJSON *root = cJSON_CreateObject();
     cJSON *e = cJSON_AddObjectToObject(root, "error");
     cJSON_AddStringToObject(e, "code", code);
-    cJSON_AddStringToObject(e, "message", message);
+    cJSON_AddStringToObject(e, "message", m ? m : "");
+    free(m);
     char *s = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     return s;
@@ -298,6 +320,11 @@ static int on_part_begin(void *user, const svd_part_info *info)
                            head),
                1;
     }
+    if (info->has_filename && !sylva_utf8_ok(info->filename, strlen(info->filename)))
+        return upload_fail(u, 400, "bad_name",
+                           "a file name is not valid UTF-8 (names are UTF-8 text, RFC 3629)%s",
+                           NULL),
+               1;
     if (!info->has_filename || !svd_name_valid(info->filename))
         return upload_fail(
                    u, 400, "bad_name",
@@ -864,7 +891,7 @@ static enum MHD_Result answer_not_done(req *q)
  * byte range (206/416), as docs/api.md says for artifacts; `missing` is the
  * 404 message when it cannot be opened. */
 static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, const char *sha,
-                                    sv_status vs, const char *missing)
+                                    sv_status vs, const char *missing, bool attachment)
 {
     svd_http *h = q->h;
     struct MHD_Connection *c = q->conn;
@@ -892,7 +919,12 @@ static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, con
         return MHD_NO;
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
-    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, content_type_of(q->m.name));
+    /* An uploaded file is the client's bytes, whatever its name says: never
+     * a page of this origin. */
+    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE,
+                            attachment ? "application/octet-stream" : content_type_of(q->m.name));
+    if (attachment) MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_DISPOSITION, "attachment");
+    harden(r, NULL);
     MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
     if (ranged > 0) {
         snprintf(crange, sizeof crange, "bytes %llu-%llu/%llu", (unsigned long long)off,
@@ -921,6 +953,7 @@ static int answer_not_modified(req *q, const char *sha, enum MHD_Result *ret)
         return 1;
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+    harden(r, NULL);
     /* RFC 9110 §8.6 wants no Content-Length on a 304, or the 200's;
      * libmicrohttpd 0.9.75 writes "Content-Length: 0" and, given the
      * artifact's length as well, sends both: its 0 is left (clients
@@ -952,7 +985,7 @@ static enum MHD_Result handle_artifact(req *q)
                           "the stored artifact failed its SHA-256 check; it was quarantined and "
                           "the bake requeued");
     }
-    return serve_stored(q, path, size, sha, vs, "artifact missing from the store");
+    return serve_stored(q, path, size, sha, vs, "artifact missing from the store", false);
 }
 
 /* GET /v1/bakes/{key}/inputs/{name}: a file the bake was uploaded with, as
@@ -977,7 +1010,50 @@ static enum MHD_Result handle_input(req *q)
         return send_error(h, c, q->m.route, 500, "corrupt",
                           "the stored input failed its SHA-256 check; upload the bake again");
     }
-    return serve_stored(q, path, size, sha, vs, "input missing from the store");
+    return serve_stored(q, path, size, sha, vs, "input missing from the store", true);
+}
+
+/* The first needle[0..nl) in hay[0..hl), or NULL (memmem is a GNU extension). */
+static const char *find_bytes(const char *hay, size_t hl, const char *needle, size_t nl)
+{
+    for (size_t i = 0; nl && i + nl <= hl; i++)
+        if (hay[i] == needle[0] && memcmp(hay + i, needle, nl) == 0) return hay + i;
+    return NULL;
+}
+
+/* The Content-Security-Policy of a viewer page whose bytes are html[0..n):
+ * scripts from this origin and the page's inline import maps only (each by
+ * its SHA-256, so no other inline script runs), styles from this origin,
+ * images and fetches from this origin or blob:/data: (GLTFLoader decodes
+ * embedded textures through blob: URLs), nothing framed or posted. Written
+ * into out (cap bytes); false if it does not fit. */
+static bool viewer_csp(const char *html, size_t n, char *out, size_t cap)
+{
+    static const char open_tag[] = "<script type=\"importmap\">", close_tag[] = "</script>";
+    char hashes[512] = "";
+    const char *p = html, *end = html + n;
+    while (p < end) {
+        const char *o = find_bytes(p, (size_t)(end - p), open_tag, sizeof open_tag - 1);
+        if (!o) break;
+        const char *body = o + sizeof open_tag - 1;
+        const char *c = find_bytes(body, (size_t)(end - body), close_tag, sizeof close_tag - 1);
+        if (!c) break;
+        unsigned char md[32];
+        unsigned int ml = 0;
+        EVP_Digest(body, (size_t)(c - body), md, &ml, EVP_sha256(), NULL);
+        unsigned char b64[48];
+        EVP_EncodeBlock(b64, md, 32);
+        size_t hl = strlen(hashes);
+        int k = snprintf(hashes + hl, sizeof hashes - hl, " 'sha256-%s'", (const char *)b64);
+        if (k < 0 || (size_t)k >= sizeof hashes - hl) return false;
+        p = c + sizeof close_tag - 1;
+    }
+    int k = snprintf(out, cap,
+                     "default-src 'none'; script-src 'self'%s; style-src 'self'; "
+                     "img-src 'self' blob: data:; connect-src 'self' blob: data:; "
+                     "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+                     hashes);
+    return k > 0 && (size_t)k < cap;
 }
 
 /* A file of the viewer directory (cfg->viewer_dir): rel is a path that
@@ -998,15 +1074,29 @@ static enum MHD_Result serve_viewer_file(req *q, const char *rel, const char *ct
         return send_error(h, q->conn, q->m.route, 404, "not_found",
                           q->m.route == SVD_R_VIEW ? "the viewer page is not installed (viewer_dir)"
                                                    : "no such viewer file");
-    struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)sb.st_size,
-                                                           fd); /* closes fd */
-    if (!r) {
+    struct MHD_Response *r = NULL;
+    char csp[1024];
+    if (strncmp(ctype, "text/html", 9) == 0) { /* read whole: its policy hashes its import map */
+        size_t len = (size_t)sb.st_size;
+        char *html = len <= (1u << 20) ? malloc(len ? len : 1) : NULL;
+        bool ok = html && read(fd, html, len) == (ssize_t)len && viewer_csp(html, len, csp,
+                                                                             sizeof csp);
         close(fd);
-        return MHD_NO;
+        if (ok) r = MHD_create_response_from_buffer(len, html, MHD_RESPMEM_MUST_FREE);
+        if (!r) {
+            free(html);
+            return send_error(h, q->conn, q->m.route, 500, "io", "cannot read the viewer page");
+        }
+    } else {
+        r = MHD_create_response_from_fd64((uint64_t)sb.st_size, fd); /* closes fd */
+        if (!r) {
+            close(fd);
+            return MHD_NO;
+        }
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
     MHD_add_response_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
-    MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+    harden(r, strncmp(ctype, "text/html", 9) == 0 ? csp : NULL);
     enum MHD_Result ret = MHD_queue_response(q->conn, MHD_HTTP_OK, r);
     MHD_destroy_response(r);
     svd_metrics_request(h->metrics, q->m.route, MHD_HTTP_OK);
@@ -1165,6 +1255,7 @@ static enum MHD_Result answer_refused(req *q)
         if (!r) return MHD_NO;
         MHD_add_response_header(r, "Allow", q->m.allow);
         MHD_add_response_header(r, "Content-Type", "application/json");
+        harden(r, NULL);
         enum MHD_Result ret = MHD_queue_response(c, 405, r);
         MHD_destroy_response(r);
         svd_metrics_request(h->metrics, SVD_R_NONE, 405);
@@ -1174,6 +1265,32 @@ static enum MHD_Result answer_refused(req *q)
         return send_error(h, c, SVD_R_NONE, (unsigned)q->m.status,
                           q->m.status == 404 ? "not_found" : "bad_request", q->m.message);
     return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+}
+
+/* Counts a request's Content-Length and Transfer-Encoding headers. */
+struct framing {
+    unsigned cl, te;
+};
+static enum MHD_Result count_framing(void *cls, enum MHD_ValueKind kind, const char *key,
+                                     const char *value)
+{
+    (void)kind;
+    (void)value;
+    struct framing *f = cls;
+    if (key && strcasecmp(key, MHD_HTTP_HEADER_CONTENT_LENGTH) == 0) f->cl++;
+    if (key && strcasecmp(key, MHD_HTTP_HEADER_TRANSFER_ENCODING) == 0) f->te++;
+    return MHD_YES;
+}
+
+/* Whether the request's body length is ambiguous (RFC 9112 §6.3): more than
+ * one Content-Length, more than one Transfer-Encoding, or both. A proxy in
+ * front may have framed the body otherwise, and a request hidden in it would
+ * be answered (request smuggling): such a request is refused. */
+static bool framing_ambiguous(struct MHD_Connection *c)
+{
+    struct framing f = {0, 0};
+    MHD_get_connection_values(c, MHD_HEADER_KIND, count_framing, &f);
+    return f.cl > 1 || f.te > 1 || (f.cl && f.te);
 }
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
@@ -1198,6 +1315,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         svd_client_id(h->tokens ? auth : NULL, addr, q->client, sizeof q->client);
         q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH ||
                         svd_tokens_check(h->tokens, auth);
+        if (framing_ambiguous(c)) { /* answered now: the body is never read */
+            q->answered = 1;
+            return send_error(h, c, SVD_R_NONE, 400, "bad_request",
+                              "the body's length is ambiguous: more than one Content-Length or "
+                              "Transfer-Encoding header, or both (RFC 9112 section 6.3)");
+        }
         /* The answer is decided here, before any body byte is read. An answer
          * queued now makes libmicrohttpd send it and close the connection
          * without reading the body (docs/reliability.md, "Bounded reads"). */

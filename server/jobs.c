@@ -279,11 +279,16 @@ static bool add_owner(svd_job *j, const char *client)
     return true;
 }
 
+/* Sets a job's error code and message. A message may quote an upload's bytes
+ * (a worker's error names what it read): it is made valid UTF-8 so the status
+ * document stays valid JSON. */
 static void set_message(svd_job *j, const char *code, const char *msg)
 {
     snprintf(j->code, sizeof j->code, "%s", code ? code : "");
+    sylva_utf8_fix(j->code);
     free(j->message);
     j->message = msg ? strdup(msg) : NULL;
+    if (j->message) sylva_utf8_fix(j->message);
 }
 
 /* ---- journal records ---- */

@@ -55,6 +55,95 @@ spec_refused '{}{}' 2 "of two objects" "content after the JSON value"
 spec_refused '{"method":"billboard_cloud","method":7}' 3 "with a duplicate key" 'the key \"method\" appears twice'
 spec_refused '{"seed\u0000":1}' 4 "with a NUL in a key" "holds a NUL"
 
+# -- stored files are never pages of this origin
+printf '<html><script>fetch("/v1/bakes")</script></html>' > "$T/evil.html"
+m=$(mesh page.obj ok)
+key=$(curl -s -F "spec=$SPEC;type=application/json" -F "mesh=@$m" -F "file=@$T/evil.html" \
+    "$URL/v1/bakes" | json_str key)
+check "a bake with an .html companion is accepted" 64 "${#key}"
+curl -s -D "$T/h" -o /dev/null "$URL/v1/bakes/$key/inputs/evil.html"
+hdr() { sed -n "s/^$1: *//Ip" "$T/h" | tr -d '\r' | head -n 1; }
+check "  the input is served as application/octet-stream" application/octet-stream "$(hdr Content-Type)"
+check "  as an attachment" attachment "$(hdr Content-Disposition)"
+check "  with nosniff" nosniff "$(hdr X-Content-Type-Options)"
+contains "  with a policy that allows nothing" "default-src 'none'" "$(hdr Content-Security-Policy)"
+contains "  and no script even if opened as a page" "sandbox" "$(hdr Content-Security-Policy)"
+curl -s -D "$T/h" -o /dev/null "$URL/v1/health"
+check "a JSON answer carries nosniff too" nosniff "$(hdr X-Content-Type-Options)"
+if wait_state "$key" done && [ -d "$(dirname "$SYLVAD")/viewer" ]; then
+    curl -s -D "$T/h" -o "$T/view.html" "$URL/v1/bakes/$key/view"
+    want=$(python3 -c '
+import base64, hashlib, re, sys
+t = open(sys.argv[1], "rb").read()
+for m in re.finditer(rb"<script type=\"importmap\">(.*?)</script>", t, re.S):
+    print("sha256-" + base64.b64encode(hashlib.sha256(m.group(1)).digest()).decode())' "$T/view.html")
+    csp=$(hdr Content-Security-Policy)
+    contains "the viewer page's policy allows its own import map by hash" "script-src 'self' '$want'" "$csp"
+    contains "  and no other origin" "default-src 'none'" "$csp"
+else
+    bad "no viewer page to check (bake not done or viewer not built)"
+fi
+
+# -- framing: two Content-Length headers are refused, the hidden request unanswered
+resp=$(python3 - "$PORT" <<'PY'
+import socket, sys
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+hidden = b"GET /v1/info HTTP/1.1\r\nHost: x\r\n\r\n"
+s.sendall(b"POST /v1/bakes HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nContent-Length: %d\r\n"
+          b"Content-Type: multipart/form-data; boundary=b\r\n\r\n" % len(hidden) + hidden)
+s.settimeout(3)
+out = b""
+try:
+    while True:
+        d = s.recv(65536)
+        if not d:
+            break
+        out += d
+except socket.timeout:
+    pass
+print(out.count(b"HTTP/1.1 "), out.split(b"\r\n", 1)[0].decode())
+print(out.decode(errors="replace").split("\r\n\r\n", 1)[-1][:300])
+PY
+)
+check "two Content-Length headers: one answer, 400" "1 HTTP/1.1 400 Bad Request" "$(echo "$resp" | head -n 1)"
+contains "  naming the problem" "more than one Content-Length" "$resp"
+
+# -- names: invalid UTF-8 is 400, and every answer stays valid JSON
+resp=$(python3 - "$PORT" <<'PY'
+import json, socket, sys
+b = b"nb"
+mesh = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+body = (b"--nb\r\nContent-Disposition: form-data; name=\"mesh\"; filename=\"t.obj\"\r\n\r\n" + mesh +
+        b"\r\n--nb\r\nContent-Disposition: form-data; name=\"file\"; filename=\"bad\xff\xfe.png\"\r\n\r\n"
+        b"x\r\n--nb--\r\n")
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(b"POST /v1/bakes HTTP/1.1\r\nHost: x\r\nConnection: close\r\n"
+          b"Content-Type: multipart/form-data; boundary=nb\r\nContent-Length: %d\r\n\r\n" % len(body) + body)
+out = b""
+while True:
+    d = s.recv(65536)
+    if not d:
+        break
+    out += d
+head, _, doc = out.partition(b"\r\n\r\n")
+print(head.split(b"\r\n", 1)[0].decode())
+print(json.dumps(json.loads(doc.decode("utf-8", errors="strict"))))
+PY
+)
+check "a file name of invalid UTF-8 is 400" "HTTP/1.1 400 Bad Request" "$(echo "$resp" | head -n 1)"
+contains "  with a valid JSON body naming the problem" "not valid UTF-8" "$resp"
+
+# -- the store lock is never followed through a symlink
+stop_daemon
+mkdir -p "$T/s2"
+printf 'precious\n' > "$T/victim"
+ln -s "$T/victim" "$T/s2/lock"
+timeout 10 "$SYLVAD" --listen 127.0.0.1:0 --store "$T/s2" --worker "$FAKE" 2> "$T/s2.log"
+check "a store whose lock is a symlink: sylvad refuses to start" 1 "$?"
+check "  the symlink's target is untouched" precious "$(cat "$T/victim")"
+contains "  naming the lock" "s2/lock" "$(cat "$T/s2.log")"
+
+start_daemon --workers 1
 check "the first bake is still readable" 200 \
     "$(curl -s -o /dev/null -w '%{http_code}' "$URL/v1/bakes/$kept/artifacts/model.glb")"
 finish
