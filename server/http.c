@@ -54,8 +54,8 @@ struct svd_http {
     pthread_t watcher;
 };
 
-/* REQ_DRAIN: a PUT of a key already held, its body read and dropped before
- * the answer so the connection stays open (see upload_begin). */
+/* REQ_DRAIN: a PUT of a key already held whose body is not a form, read and
+ * dropped before * the answer so the connection stays open (see upload_begin). */
 enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT, REQ_DRAIN };
 
 typedef struct upload {
@@ -71,6 +71,8 @@ typedef struct upload {
     svd_jobs *jobs;
     const char *client; /* the request's client id (outlives the upload) */
     double started;     /* sv_now() at the headers: upload_timeout counts from here */
+    bool known; /* a PUT of a key held when its headers came */
+    bool drop;  /* the rest of the body is read and dropped (upload_drop) */
     /* in h->watched while the body is coming (under h->wmu) */
     svd_http *h;
     int sock;
@@ -286,6 +288,20 @@ static void upload_fail(upload *u, int status, const char *code, const char *fmt
     u->reserved = 0;
 }
 
+/* A PUT of a held key that the store has no room for: what it wrote and
+ * holds is given back, the rest of its body is read and dropped, and the held
+ * bake is answered at its end (upload_end). */
+static void upload_drop(upload *u)
+{
+    u->drop = true;
+    if (u->fd >= 0) close(u->fd);
+    u->fd = -1;
+    if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+    u->tmpdir[0] = '\0';
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
+    u->reserved = 0;
+}
+
 static bool name_taken(const upload *u, const char *name)
 {
     if (strcmp(u->mesh, name) == 0) return true;
@@ -299,6 +315,7 @@ static int on_part_begin(void *user, const svd_part_info *info)
     req *q = user;
     upload *u = q->up;
     const svd_config *cfg = q->h->cfg;
+    if (u->drop) return 0;
     if (strcmp(info->name, "spec") == 0) {
         if (u->spec)
             return upload_fail(u, 400, "bad_request", "more than one spec part%s", NULL), 1;
@@ -364,6 +381,7 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
 {
     req *q = user;
     upload *u = q->up;
+    if (u->drop) return 0;
     if (u->part == 1) {
         if (u->spec_len + size > SPEC_MAX)
             return upload_fail(u, 413, "too_large", "spec part over 1 MiB%s", NULL), 1;
@@ -398,6 +416,7 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
         char why[300];
         if (!svd_jobs_reserve(u->jobs, u->client, more, u->reserved, why, sizeof why)) {
             u->reserved = 0; /* given back by svd_jobs_reserve */
+            if (u->known && svd_jobs_has(u->jobs, q->m.key)) return upload_drop(u), 0;
             return upload_fail(u, 507, "store_full", "%s", why), 1;
         }
         u->reserved += more;
@@ -409,7 +428,7 @@ static int on_part_end(void *user)
 {
     req *q = user;
     upload *u = q->up;
-    if (u->part >= 2) {
+    if (u->part >= 2 && !u->drop) {
         close(u->fd);
         u->fd = -1;
         unsigned char md[32];
@@ -567,23 +586,29 @@ static enum MHD_Result upload_begin(req *q, int *answered)
      * its next write. Behind nginx (which never forwards Expect) that reads
      * as a failed node: nginx marks a healthy node down for fail_timeout and
      * sends its keys to another node, which bakes them again. So the body is
-     * read and dropped first (REQ_DRAIN), then answered on a live connection. */
+     * read first, then answered on a live connection. It is read as an
+     * upload, not dropped: the key can be evicted or deleted while the body
+     * comes, and then the upload is a new one (202), not a 404 that loses it.
+     * If the store has no room for it while the key is still held, the rest
+     * is dropped and the held bake answered (upload_drop). */
     /* (with tokens only for an owner: anyone else proves possession by
      * sending the bytes, issue 22 item 8) */
+    bool known = false;
     if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key) &&
         (!h->tokens || svd_jobs_owned(h->jobs, q->m.key, q->client))) {
         const char *ex = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_EXPECT);
-        if (!ex || strcasecmp(ex, "100-continue") != 0) {
-            q->kind = REQ_DRAIN;
-            *answered = 0;
-            return MHD_YES;
-        }
-        return answer_known(q);
+        if (ex && strcasecmp(ex, "100-continue") == 0) return answer_known(q);
+        known = true;
     }
     const char *ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     char boundary[71];
     sv_error e = {0};
     sv_status st = svd_multipart_boundary(ct, boundary, &e);
+    if (st != SV_OK && known) { /* not a form: read and dropped, the held bake answered */
+        q->kind = REQ_DRAIN;
+        *answered = 0;
+        return MHD_YES;
+    }
     if (st != SV_OK)
         return send_error(h, c, q->m.route, st == SV_ERR_FORMAT ? 415 : 400,
                           st == SV_ERR_FORMAT ? "unsupported_media_type" : "bad_request",
@@ -592,6 +617,7 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     u->fd = -1;
     u->jobs = h->jobs;
+    u->known = known;
     u->client = q->client;
     u->started = sv_now();
     q->up = u;
@@ -609,6 +635,13 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     sv_status ms = svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e);
     if (ms == SV_OK && (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
         ms = errno == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO;
+    if (ms != SV_OK && known) { /* no room to read it as an upload: the held bake answers */
+        if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+        u->tmpdir[0] = '\0';
+        q->kind = REQ_DRAIN;
+        *answered = 0;
+        return MHD_YES;
+    }
     if (ms == SV_ERR_LIMIT) /* a full disk: the 507 an upload gets later, before its body */
         return send_error(h, c, q->m.route, 507, "store_full", "the store's disk is full");
     if (ms != SV_OK)
@@ -635,6 +668,10 @@ static enum MHD_Result upload_end(req *q)
     svd_route route = q->m.route;
     sv_error e = {0};
     watch_remove(u); /* the body is complete */
+    /* A PUT of a key still held is answered with the held bake, whatever its
+     * body was; only when the key went away while the body came does the
+     * upload count (see upload_begin). */
+    if (u->drop || (u->known && svd_jobs_has(h->jobs, q->m.key))) return answer_known(q);
     if (!u->err_status && svd_multipart_finish(u->mp, &e) != SV_OK)
         upload_fail(u, 400, "bad_multipart", "%s", e.message);
     if (!u->err_status && !u->mesh[0])

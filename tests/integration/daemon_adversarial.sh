@@ -55,6 +55,25 @@ spec_refused '{}{}' 2 "of two objects" "content after the JSON value"
 spec_refused '{"method":"billboard_cloud","method":7}' 3 "with a duplicate key" 'the key \"method\" appears twice'
 spec_refused '{"seed\u0000":1}' 4 "with a NUL in a key" "holds a NUL"
 
+# -- a PUT of a held key whose bake goes away while the body comes: a new upload
+m=$(mesh put.obj ok)
+head -c 600000 /dev/zero | tr '\0' '#' | fold -w 1000 >> "$m"
+key=$(post "$m" | json_str key)
+wait_state "$key" done && ok "a bake to PUT again is done" || bad "the bake to PUT again did not finish"
+curl -s -o "$T/put" -w '%{http_code}' -X PUT -H 'Expect:' --limit-rate 100K \
+    -F "spec=$SPEC;type=application/json" -F "mesh=@$m" "$URL/v1/bakes/$key" > "$T/put.code" &
+pp=$!
+sleep 1.5
+check "  the bake is deleted while the PUT's body comes" 200 \
+    "$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/bakes/$key")"
+wait "$pp"
+check "  the PUT is a new upload: 202" 202 "$(cat "$T/put.code")"
+wait_state "$key" done && ok "  and is baked again" || bad "  the PUT's bake did not finish"
+# and a PUT of a held key still answers the held bake (200), body read first
+check "a PUT of a held key without Expect answers 200" 200 \
+    "$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Expect:' -F "spec=$SPEC;type=application/json" \
+        -F "mesh=@$m" "$URL/v1/bakes/$key")"
+
 # -- stored files are never pages of this origin
 printf '<html><script>fetch("/v1/bakes")</script></html>' > "$T/evil.html"
 m=$(mesh page.obj ok)
