@@ -55,6 +55,32 @@ spec_refused '{}{}' 2 "of two objects" "content after the JSON value"
 spec_refused '{"method":"billboard_cloud","method":7}' 3 "with a duplicate key" 'the key \"method\" appears twice'
 spec_refused '{"seed\u0000":1}' 4 "with a NUL in a key" "holds a NUL"
 
+# -- OBJ lines as assimp reads them: '\' continuations join lines
+objc() { # objc NAME FACE_VERTICES TAIL: a fan of FACE_VERTICES vertices, one index a line
+    python3 - "$T/$1" "$2" "$3" <<'PY'
+import math, sys
+path, n, tail = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+with open(path, "w", newline="") as f:
+    f.write("# mode=ok\n")
+    for k in range(n):
+        f.write("v %.4f %.4f 0\n" % (math.cos(2 * math.pi * k / n), math.sin(2 * math.pi * k / n)))
+    f.write("f" + "".join(" %d \\\n" % (k + 1) for k in range(n - 1)) + " %d\n" % n)
+    f.write(tail.replace("CR", "\r"))
+PY
+}
+objc cont_ok.obj 200 ""
+post "$T/cont_ok.obj" > /dev/null
+check "an OBJ face of 200 vertices over 200 continued lines is accepted" 202 "$(cat "$T/status")"
+objc cont_big.obj 2000 ""
+body=$(post "$T/cont_big.obj")
+check "an OBJ face of 2000 vertices over continued lines is 422" 422 "$(cat "$T/status")"
+contains "  naming the face and the limit" "face on line 2002 has 2000 vertices (limit 256)" "$body"
+objc cont_cr.obj 3 'f 1 2 \\CRf 3 2 1
+'
+body=$(post "$T/cont_cr.obj")
+check "a '\\' continuation before a lone CR (assimp would hide the rest) is 422" 422 "$(cat "$T/status")"
+contains "  naming it" "continuation that is not followed by a newline" "$body"
+
 # -- a PUT of a held key whose bake goes away while the body comes: a new upload
 m=$(mesh put.obj ok)
 head -c 600000 /dev/zero | tr '\0' '#' | fold -w 1000 >> "$m"
