@@ -692,6 +692,7 @@ static enum MHD_Result upload_end(req *q)
         snprintf(msg, sizeof msg, "bad spec: %s", e.message);
         return send_error(h, c, route, 400, "spec", msg);
     }
+    uint64_t out_est = sv_spec_output_estimate(&parsed, u->file_bytes);
     sv_spec_free(&parsed);
 
     /* The format, sniffed from the mesh's first bytes. */
@@ -779,6 +780,7 @@ static enum MHD_Result upload_end(req *q)
                           st == SV_ERR_LIMIT ? "store_full" : "io", "could not store the upload");
     }
     up.bytes = svd_dir_bytes(u->tmpdir);
+    up.out_bytes = out_est;
     char *body = NULL;
     /* the reservation becomes the job's bytes in submit (make_room again) */
     svd_jobs_unreserve(h->jobs, u->client, u->reserved);
@@ -1451,10 +1453,19 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     }
     switch (q->m.route) {
     case SVD_R_HEALTH: {
-        bool d = atomic_load(&h->draining);
-        return send_text(h, c, q->m.route, d ? 503 : 200,
-                         d ? "{\"status\":\"draining\"}" : "{\"status\":\"ok\"}",
-                         "application/json");
+        /* the store's disk too: a node whose disk is low refuses new bakes
+         * (507) but serves what it holds, so it stays 200 */
+        bool d = atomic_load(&h->draining), low = false;
+        uint64_t free_bytes = 0;
+        svd_jobs_disk(h->jobs, &free_bytes, &low);
+        char body[160];
+        if (free_bytes == UINT64_MAX)
+            snprintf(body, sizeof body, "{\"status\":\"%s\"}", d ? "draining" : "ok");
+        else
+            snprintf(body, sizeof body,
+                     "{\"status\":\"%s\",\"disk\":\"%s\",\"disk_free_bytes\":%llu}",
+                     d ? "draining" : "ok", low ? "low" : "ok", (unsigned long long)free_bytes);
+        return send_text(h, c, q->m.route, d ? 503 : 200, body, "application/json");
     }
     case SVD_R_METRICS:
         return handle_metrics(q);

@@ -12,6 +12,7 @@
 #include <string.h>
 #include <dirent.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 
 #define NBUCKETS 4096
 
@@ -32,6 +33,7 @@ struct svd_job {
     char *message;   /* failure reason */
     cJSON *manifest; /* when done */
     uint64_t bytes;  /* on disk: inputs + result */
+    uint64_t out_est; /* estimated output bytes, held on the disk while not final */
     bool cancel;
     bool resubmitted;  /* uploaded again while a DELETE was stopping it: run it again */
     double not_before; /* a retry waits until then (sv_now() clock; backoff) */
@@ -64,6 +66,7 @@ struct svd_jobs {
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
     uint64_t uploading; /* bytes reserved by uploads in progress (svd_jobs_reserve) */
+    uint64_t pending_out; /* out_est of every job not final: disk room held for outputs */
     struct client_hold *holds; /* the same, per client (only clients holding bytes) */
     bool stopping, aborting;
     /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
@@ -134,6 +137,10 @@ static void list_in(svd_jobs *jobs, svd_job *j)
 static void set_state(svd_jobs *jobs, svd_job *j, svd_job_state s)
 {
     list_out(jobs, j);
+    if (!is_final(j->state) && is_final(s))
+        jobs->pending_out -= j->out_est < jobs->pending_out ? j->out_est : jobs->pending_out;
+    else if (is_final(j->state) && !is_final(s))
+        jobs->pending_out += j->out_est;
     j->state = s;
     list_in(jobs, j);
 }
@@ -250,6 +257,8 @@ static void unlink_job(svd_jobs *jobs, svd_job *j)
     while (*pp && *pp != j) pp = &(*pp)->hnext;
     if (*pp) *pp = j->hnext;
     list_out(jobs, j);
+    if (!is_final(j->state))
+        jobs->pending_out -= j->out_est < jobs->pending_out ? j->out_est : jobs->pending_out;
     jobs->count--;
     wake_all(j);
     jobs->store_bytes -= j->bytes < jobs->store_bytes ? j->bytes : jobs->store_bytes;
@@ -744,10 +753,51 @@ static unsigned count_state(svd_jobs *jobs, svd_job_state s)
 /* Evicts least-recently-used finished jobs until need more bytes fit under
  * the limit. Never touches queued or running jobs (their inputs are needed).
  * Called with mu held. */
-static bool make_room(svd_jobs *jobs, uint64_t need)
+/* Bytes free on the store's filesystem for the daemon (statvfs f_bavail), or
+ * UINT64_MAX when that cannot be known (the quota alone decides then). */
+static uint64_t disk_free(svd_jobs *jobs)
+{
+    struct statvfs sv;
+    if (statvfs(svd_store_root(jobs->store), &sv) != 0) return UINT64_MAX;
+    return (uint64_t)sv.f_bavail * (uint64_t)sv.f_frsize;
+}
+
+/* Whether the store's filesystem lacks room for disk_need more bytes of
+ * outputs beside those of the bakes not finished (pending_out) and the
+ * disk_reserve_bytes kept free. Called with mu held. */
+static bool disk_short(svd_jobs *jobs, uint64_t disk_need)
+{
+    uint64_t f = disk_free(jobs);
+    return f != UINT64_MAX &&
+           f < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes;
+}
+
+/* Evicts least-recently-used finished jobs until need more bytes fit under
+ * store_max_bytes and, when disk, until the filesystem has room for
+ * disk_need more output bytes (disk_short). Never touches queued or running
+ * jobs (their inputs are needed). Called with mu and commit_mu held. */
+static bool make_room_disk(svd_jobs *jobs, uint64_t need, bool disk, uint64_t disk_need)
 {
     uint64_t limit = jobs->cfg->store_max_bytes;
-    while (jobs->store_bytes + jobs->uploading + need > limit) {
+    bool quota = jobs->store_bytes + jobs->uploading + need > limit;
+    bool short_ = disk && disk_short(jobs, disk_need);
+    if (!quota && !short_) return true;
+    /* Nothing is evicted for a request that evicting every finished bake
+     * could not satisfy: what is stored is not thrown away for nothing. */
+    uint64_t evictable = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            if (is_final(o->state)) evictable += o->bytes;
+    if (quota && jobs->store_bytes - (evictable < jobs->store_bytes ? evictable : jobs->store_bytes) +
+                         jobs->uploading + need > limit)
+        return false;
+    if (short_) {
+        uint64_t f = disk_free(jobs);
+        if (f + evictable < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes)
+            return false;
+    }
+    while (jobs->store_bytes + jobs->uploading + need > limit ||
+           (disk && disk_short(jobs, disk_need))) {
         svd_job *victim = NULL;
         for (size_t b = 0; b < NBUCKETS; b++)
             for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
@@ -764,6 +814,12 @@ static bool make_room(svd_jobs *jobs, uint64_t need)
         unlink_job(jobs, victim);
     }
     return true;
+}
+
+/* make_room_disk for the quota alone. */
+static bool make_room(svd_jobs *jobs, uint64_t need)
+{
+    return make_room_disk(jobs, need, false, 0);
 }
 
 /* Failure codes the server caused, not the input (docs/api.md): such a
@@ -946,8 +1002,18 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
     } else if (client_load(jobs, up->client, false) >= jobs->cfg->queue_per_client) {
         rc = refuse(err, SVD_JOBS_CLIENT_FULL,
                     "this client has too many bakes queued or running; retry later");
-    } else if (!make_room(jobs, up->bytes)) {
-        store_use(jobs, up->bytes, why, sizeof why);
+    } else if (!make_room_disk(jobs, up->bytes, true, up->out_bytes)) {
+        if (disk_short(jobs, up->out_bytes)) {
+            uint64_t f = disk_free(jobs);
+            snprintf(why, sizeof why,
+                     "the store's disk has %llu bytes free: bakes not finished will write about "
+                     "%llu, this one about %llu, and disk_reserve_bytes keeps %llu free",
+                     (unsigned long long)f, (unsigned long long)jobs->pending_out,
+                     (unsigned long long)up->out_bytes,
+                     (unsigned long long)jobs->cfg->disk_reserve_bytes);
+        } else {
+            store_use(jobs, up->bytes, why, sizeof why);
+        }
         rc = refuse(err, SVD_JOBS_STORE_FULL, why);
     } else {
         rc = SVD_JOBS_OK;
@@ -992,6 +1058,8 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
     snprintf(j->client, sizeof j->client, "%s", up->client);
     j->bytes = up->bytes;
     set_state(jobs, j, SVD_JOB_QUEUED);
+    j->out_est = up->out_bytes; /* its outputs' room, held until it is final */
+    jobs->pending_out += j->out_est;
     pthread_cond_broadcast(&jobs->cv);
     *json_out = print_free(status_json(jobs, j));
     pthread_mutex_unlock(&jobs->mu);
@@ -1228,6 +1296,14 @@ void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
     pthread_mutex_unlock(&jobs->commit_mu);
 }
 
+void svd_jobs_disk(svd_jobs *jobs, uint64_t *free_bytes, bool *low)
+{
+    pthread_mutex_lock(&jobs->mu);
+    *free_bytes = disk_free(jobs);
+    *low = disk_short(jobs, 0);
+    pthread_mutex_unlock(&jobs->mu);
+}
+
 void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g)
 {
     memset(g, 0, sizeof *g);
@@ -1360,6 +1436,16 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
                  t->attempt);
         out = SVD_OUT_FAILED;
         code = code ? code : "crash";
+    }
+    if (out == SVD_OUT_RETRY) {
+        /* A failure the server caused may be a full disk: finished bakes are
+         * evicted until the disk has room for the outputs of the bakes not
+         * finished, so the retry does not meet the same full disk. */
+        pthread_mutex_lock(&jobs->commit_mu);
+        pthread_mutex_lock(&jobs->mu);
+        if (disk_short(jobs, 0)) make_room_disk(jobs, 0, true, 0);
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
     }
     if (out == SVD_OUT_FAILED) { /* error.json beside the inputs, for operators */
         char *ej = error_doc(code ? code : "failed", msg);

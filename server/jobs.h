@@ -91,6 +91,8 @@ typedef struct svd_upload {
     char key[SVD_KEY_HEX];
     const char *client;
     uint64_t bytes;
+    uint64_t out_bytes; /* estimated output bytes (svd_output_estimate): room the store's
+                           disk must have at acceptance, held until the bake is final */
 } svd_upload;
 
 /* Commits an upload: a known key is OK with its status document (the upload
@@ -177,6 +179,12 @@ void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path);
 
 /* Gauges for metrics and /v1/info. */
 void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g);
+
+/* The store's disk: *free_bytes free for the daemon (UINT64_MAX if unknown)
+ * and whether it is low, i.e. below what the bakes not finished will write
+ * plus disk_reserve_bytes (new bakes are then refused 507 unless evicting
+ * finished ones makes room). */
+void svd_jobs_disk(svd_jobs *jobs, uint64_t *free_bytes, bool *low);
 
 /* ---- worker side ---- */
 

@@ -469,3 +469,10 @@ void sv_spec_free(sv_spec *s)
     memset(s, 0, sizeof *s);
     memcpy(s->method, method, sizeof method);
 }
+
+uint64_t sv_spec_output_estimate(const sv_spec *spec, uint64_t input_bytes)
+{
+    uint64_t a = spec && spec->max_atlas ? spec->max_atlas : 2048;
+    /* 3 copies × 4/3 of the levels × 8 bytes a texel */
+    return 3 * input_bytes + 32 * a * a;
+}
