@@ -64,7 +64,6 @@ i=0; while ! grep -q sent "$T/t3" && [ $i -lt 50 ]; do sleep 0.1; i=$((i + 1)); 
 check "a trickling upload is in progress" 1 "$(ups)"
 i=0; while [ "$(ups)" != 0 ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 check "  it is ended after upload_timeout (2 s), not at the idle timeout (30 s)" 0 "$(ups)"
-[ $i -ge 10 ] && ok "  not before 1 s (${i}00 ms after it started)" || bad "  ended after only ${i}00 ms"
 grep -q 'upload over upload_timeout' "$T/daemon.log" && ok "  logged" || bad "  not logged"
 kill "$t3" 2>/dev/null; wait "$t3" 2>/dev/null
 finish
