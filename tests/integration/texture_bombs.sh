@@ -40,7 +40,7 @@ for ext in png tga; do
     rc=$?
     check "sylva-bake info with a 16384² $ext bomb: exit 1" 1 "$rc"
     contains "  naming the texture budget" "budget of a texture" "$out"
-    [ $(( $(date +%s) - s )) -le 10 ] && ok "  within 10 s" || bad "  took $(( $(date +%s) - s )) s"
+    [ $(( $(date +%s) - s )) -le 30 ] && ok "  within 30 s (decoding it took 43-115 s)" || bad "  took $(( $(date +%s) - s )) s"
 done
 
 # -- through sylvad and its real worker
