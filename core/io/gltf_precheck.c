@@ -637,8 +637,39 @@ static sv_status check_meshes(precheck *pc)
             if (pos < 0)
                 return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no POSITION",
                                m, p);
+            /* what assimp reads as positions and indices must be what they
+             * are (glTF 2.0 §3.7.2.1: POSITION is float VEC3, indices SCALAR) */
+            const cJSON *pa = cJSON_GetArrayItem(pc->accessors, (int)pos);
+            const cJSON *pt = cJSON_GetObjectItemCaseSensitive(pa, "type");
+            if (strcmp(pt->valuestring, "VEC3") != 0 ||
+                cJSON_GetObjectItemCaseSensitive(pa, "componentType")->valuedouble != 5126)
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF mesh %d primitive %d: POSITION accessor %lld is not a float "
+                               "VEC3",
+                               m, p, (long long)pos);
+            if (ind >= 0) {
+                const cJSON *it = cJSON_GetObjectItemCaseSensitive(
+                    cJSON_GetArrayItem(pc->accessors, (int)ind), "type");
+                if (strcmp(it->valuestring, "SCALAR") != 0)
+                    return sv_fail(pc->err, SV_ERR_PARSE,
+                                   "glTF mesh %d primitive %d: index accessor %lld is not SCALAR",
+                                   m, p, (long long)ind);
+            }
             uint64_t nv = accessor_count(pc, pos);
             uint64_t ni = ind >= 0 ? accessor_count(pc, ind) : nv;
+            /* a primitive too short for its mode: assimp computes its face
+             * count as count - 2 unsigned (a strip of 1 vertex: 2^32 - 1
+             * faces allocated) */
+            static const uint64_t min_of_mode[7] = {1, 2, 2, 2, 3, 3, 3};
+            if (mode > 6)
+                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d: mode %llu", m,
+                               p, (unsigned long long)mode);
+            if (ni < min_of_mode[mode])
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF mesh %d primitive %d: %llu %s, mode %llu needs at least %llu",
+                               m, p, (unsigned long long)ni, ind >= 0 ? "indices" : "vertices",
+                               (unsigned long long)mode,
+                               (unsigned long long)min_of_mode[mode]);
             uint64_t tris = mode == 4                  ? ni / 3
                             : (mode == 5 || mode == 6) ? (ni >= 3 ? ni - 2 : 0)
                                                        : 0;

@@ -36,6 +36,8 @@ refused sparse_index_past_count "sparse index 1 is 7"
 refused stride_short "byteStride 4 is shorter"
 refused normalized_float "normalized"
 refused min_wrong_count "min is not an array of 3"
+refused strip_one_vertex "1 vertices, mode 5 needs at least 3"
+refused position_vec2 "POSITION accessor 0 is not a float VEC3"
 
 # -- JSON two parsers could read differently: refused wherever it is parsed
 refused dup_key 'the key \"nodes\" appears twice'

@@ -80,6 +80,16 @@ def form(name):
         d["accessors"][0]["normalized"] = True
     elif name == "min_wrong_count":
         d["accessors"][0]["min"] = [0]
+    elif name == "strip_one_vertex":  # found by fuzz_gltf_struct: assimp allocates 2^32 faces
+        d["meshes"][0]["primitives"][0].pop("indices")
+        d["meshes"][0]["primitives"][0]["mode"] = 5
+        d["accessors"][0]["count"] = 1
+        d["accessors"][0]["min"] = [0, 0, 0]
+        d["accessors"][0]["max"] = [0, 0, 0]
+    elif name == "position_vec2":
+        d["accessors"][0]["type"] = "VEC2"
+        d["accessors"][0].pop("min")
+        d["accessors"][0].pop("max")
     elif name == "dup_key":  # "nodes" twice: the second would be what another parser reads
         t = json.dumps(d)
         return glb(t[:-1] + ', "nodes": [{"mesh": 0}, {"mesh": 0}]}')
@@ -95,7 +105,7 @@ def form(name):
 
 FORMS = ["ok", "sparse_ok", "sparse_indices_offset", "sparse_values_offset", "sparse_count",
          "sparse_index_past_count", "stride_short", "normalized_float", "min_wrong_count",
-         "dup_key", "nul_key", "trailing"]
+         "strip_one_vertex", "position_vec2", "dup_key", "nul_key", "trailing"]
 
 if __name__ == "__main__":
     if len(sys.argv) != 3 or sys.argv[1] not in FORMS:
