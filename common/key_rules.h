@@ -23,9 +23,57 @@
 #define SYLVA_UPLOAD_NAME_MAX 255 /* longest upload name, bytes */
 #define SYLVA_KEY_HEX_LEN 64      /* a key: 64 lowercase hex digits */
 
-/* True when name is a valid upload name: 1..SYLVA_UPLOAD_NAME_MAX bytes, not
- * "." or "..", no '/', '\\', space or control character (a base name that
- * is safe as a file name in the store and in an output folder). */
+/* The length of the well-formed UTF-8 sequence at s[0..n) (RFC 3629: no
+ * overlong form, no surrogate, nothing above U+10FFFF), or 0 if there is none. */
+static inline size_t sylva_utf8_seq(const unsigned char *s, size_t n)
+{
+    if (n == 0) return 0;
+    unsigned char c = s[0];
+    if (c < 0x80) return 1;
+    size_t len = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3
+               : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    if (len == 0 || len > n) return 0;
+    for (size_t i = 1; i < len; i++)
+        if ((s[i] & 0xC0) != 0x80) return 0;
+    if (c == 0xE0 && s[1] < 0xA0) return 0; /* overlong */
+    if (c == 0xED && s[1] > 0x9F) return 0; /* surrogate */
+    if (c == 0xF0 && s[1] < 0x90) return 0; /* overlong */
+    if (c == 0xF4 && s[1] > 0x8F) return 0; /* above U+10FFFF */
+    return len;
+}
+
+/* True when s[0..n) is well-formed UTF-8. */
+static inline bool sylva_utf8_ok(const char *s, size_t n)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    for (size_t i = 0; i < n;) {
+        size_t k = sylva_utf8_seq(p + i, n - i);
+        if (!k) return false;
+        i += k;
+    }
+    return true;
+}
+
+/* Replaces, in place, every byte of the NUL-terminated s that does not start
+ * a well-formed UTF-8 sequence with '?', so s can go into a JSON document. */
+static inline void sylva_utf8_fix(char *s)
+{
+    unsigned char *p = (unsigned char *)s;
+    size_t n = strlen(s);
+    for (size_t i = 0; i < n;) {
+        size_t k = sylva_utf8_seq(p + i, n - i);
+        if (!k) {
+            p[i] = '?';
+            k = 1;
+        }
+        i += k;
+    }
+}
+
+/* True when name is a valid upload name: 1..SYLVA_UPLOAD_NAME_MAX bytes of
+ * well-formed UTF-8, not "." or "..", no '/', '\\', space or control
+ * character (a base name that is safe as a file name in the store and in an
+ * output folder, and as a string in a JSON document). */
 static inline bool sylva_upload_name_ok(const char *name)
 {
     if (!name || !name[0]) return false;
@@ -36,7 +84,7 @@ static inline bool sylva_upload_name_ok(const char *name)
         unsigned char c = (unsigned char)name[i];
         if (c < 0x20 || c == 0x7f || c == ' ' || c == '/' || c == '\\') return false;
     }
-    return true;
+    return sylva_utf8_ok(name, n);
 }
 
 /* True when s is a key (or any SHA-256 in hex): exactly 64 of [0-9a-f]. */

@@ -62,6 +62,8 @@ sv_limits sv_limits_resolve(sv_limits l)
     if (!l.max_node_depth) l.max_node_depth = 256;
     if (!l.max_nodes) l.max_nodes = 100000;
     if (!l.max_file_bytes) l.max_file_bytes = (uint64_t)1 << 30;
+    if (!l.max_texture_bytes) l.max_texture_bytes = (uint64_t)1 << 30;
+    if (!l.max_textures_bytes) l.max_textures_bytes = (uint64_t)1 << 30;
     return l;
 }
 

@@ -20,6 +20,9 @@ void svd_config_defaults(svd_config *c)
     c->connection_memory = 64 * 1024;
     c->connection_timeout = 30;
     c->max_upload_bytes = (uint64_t)1 << 30;
+    c->client_upload_bytes = (uint64_t)2 << 30;
+    c->upload_timeout = 1800;
+    c->disk_reserve_bytes = (uint64_t)256 << 20;
     c->max_mesh_bytes = (uint64_t)512 << 20;
     c->max_files = 256;
     c->queue_max = 1024;
@@ -110,6 +113,9 @@ static const struct setting {
     S("connection_memory", K_SIZE, connection_memory),
     S("connection_timeout", K_U32, connection_timeout),
     S("max_upload_bytes", K_SIZE, max_upload_bytes),
+    S("client_upload_bytes", K_SIZE, client_upload_bytes),
+    S("upload_timeout", K_U32, upload_timeout),
+    S("disk_reserve_bytes", K_SIZE, disk_reserve_bytes),
     S("max_mesh_bytes", K_SIZE, max_mesh_bytes),
     S("max_files", K_U32, max_files),
     S("queue_max", K_U32, queue_max),

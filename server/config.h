@@ -41,6 +41,11 @@ typedef struct svd_config {
     uint64_t connection_memory;    /* per connection, default 64K */
     uint32_t connection_timeout;   /* idle seconds, default 30 */
     uint64_t max_upload_bytes;     /* whole request body, default 1G */
+    uint64_t client_upload_bytes;  /* bytes one client's uploads in progress may hold against
+                                     store_max_bytes together, default 2G -> 507 */
+    uint32_t upload_timeout;       /* seconds one upload request may last, default 1800 */
+    uint64_t disk_reserve_bytes;   /* bytes kept free on the store's filesystem beside the
+                                     outputs of bakes not finished, default 256M */
     uint64_t max_mesh_bytes;       /* one file part, default 512M */
     uint32_t max_files;            /* companion files per upload, default 256 */
     uint32_t queue_max;            /* queued jobs (all clients), default 1024 -> 503 */

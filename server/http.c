@@ -9,12 +9,17 @@
 #include <netdb.h>
 #include <netinet/in.h>
 #include <openssl/evp.h>
+#include <poll.h>
+#ifndef POLLRDHUP
+#define POLLRDHUP 0x2000 /* Linux: the peer shut its side (poll.h with _GNU_SOURCE) */
+#endif
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -40,10 +45,17 @@ struct svd_http {
     const svd_tokens *tokens;
     atomic_bool draining;
     uint16_t port;
+    /* Uploads whose body is still coming, watched by watch_uploads (see
+     * there): under wmu; the thread stops when stopping is set. */
+    pthread_mutex_t wmu;
+    pthread_cond_t wcv;
+    struct upload *watched;
+    bool stopping, watcher_started;
+    pthread_t watcher;
 };
 
-/* REQ_DRAIN: a PUT of a key already held, its body read and dropped before
- * the answer so the connection stays open (see upload_begin). */
+/* REQ_DRAIN: a PUT of a key already held whose body is not a form, read and
+ * dropped before * the answer so the connection stays open (see upload_begin). */
 enum req_kind { REQ_PLAIN, REQ_UPLOAD, REQ_WAIT, REQ_DRAIN };
 
 typedef struct upload {
@@ -57,6 +69,15 @@ typedef struct upload {
     uint64_t file_bytes; /* of every mesh/file part so far */
     uint64_t reserved;   /* held against store_max_bytes (svd_jobs_reserve) */
     svd_jobs *jobs;
+    const char *client; /* the request's client id (outlives the upload) */
+    double started;     /* sv_now() at the headers: upload_timeout counts from here */
+    bool known; /* a PUT of a key held when its headers came */
+    bool drop;  /* the rest of the body is read and dropped (upload_drop) */
+    /* in h->watched while the body is coming (under h->wmu) */
+    svd_http *h;
+    int sock;
+    bool in_watch, shut;
+    struct upload *wnext;
     char *spec;
     size_t spec_len;
     char mesh[SVD_NAME_MAX + 1];
@@ -85,6 +106,22 @@ typedef struct req {
 
 /* ---- responses ---- */
 
+/* What no response may be read as: a document that runs script. Every answer
+ * says nosniff (a browser never guesses HTML from the bytes) and carries a
+ * policy that allows nothing, so even a stored file opened as a page cannot
+ * run script on the daemon's origin (the viewer's); the viewer page alone gets
+ * its own policy (viewer_csp). */
+#define CSP_NONE                                                                            \
+    "default-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'; " \
+    "sandbox"
+
+/* Adds the headers every response carries (nosniff; csp, or CSP_NONE). */
+static void harden(struct MHD_Response *r, const char *csp)
+{
+    MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+    MHD_add_response_header(r, "Content-Security-Policy", csp ? csp : CSP_NONE);
+}
+
 static enum MHD_Result send_text(svd_http *h, struct MHD_Connection *c, svd_route route,
                                  unsigned status, const char *body, const char *ctype)
 {
@@ -92,6 +129,7 @@ static enum MHD_Result send_text(svd_http *h, struct MHD_Connection *c, svd_rout
                                                              MHD_RESPMEM_MUST_COPY);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", ctype);
+    harden(r, NULL);
     if (status == 401) MHD_add_response_header(r, "WWW-Authenticate", "Bearer realm=\"sylva\"");
     if (status == 429 || status == 503) MHD_add_response_header(r, "Retry-After", "5");
     enum MHD_Result ret = MHD_queue_response(c, status, r);
@@ -118,6 +156,7 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
     free(body);
     if (!r) return MHD_NO;
     MHD_add_response_header(r, "Content-Type", "application/json");
+    harden(r, NULL);
     if (header && value && value[0]) MHD_add_response_header(r, header, value);
     enum MHD_Result ret = MHD_queue_response(c, status, r);
     MHD_destroy_response(r);
@@ -126,13 +165,17 @@ static enum MHD_Result send_json_with(svd_http *h, struct MHD_Connection *c, svd
 }
 
 /* The body of every error answer (docs/api.md): {"error":{"code","message"}}
- * (malloc'ed). */
+ * (malloc'ed). A message quoting an upload's bytes is made valid UTF-8 first
+ * (bad bytes become '?'), so the answer is always valid JSON. */
 static char *error_body(const char *code, const char *message)
 {
+    char *m = strdup(message ? message : "");
+    if (m) sylva_utf8_fix(m);
     cJSON *root = cJSON_CreateObject();
     cJSON *e = cJSON_AddObjectToObject(root, "error");
     cJSON_AddStringToObject(e, "code", code);
-    cJSON_AddStringToObject(e, "message", message);
+    cJSON_AddStringToObject(e, "message", m ? m : "");
+    free(m);
     char *s = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     return s;
@@ -228,12 +271,35 @@ static sv_status precheck_upload(const upload *u, sv_format fmt, sv_error *err)
     return st == SV_ERR_IO ? SV_OK : st; /* an unreadable file is the worker's to report */
 }
 
+/* Records the upload's first error. The rest of the body is read and
+ * dropped (nothing more is written), so what it holds goes at once: its
+ * reservation and its files, not when the request ends. */
 static void upload_fail(upload *u, int status, const char *code, const char *fmt, const char *arg)
 {
     if (u->err_status) return; /* keep the first */
     u->err_status = status;
     snprintf(u->err_code, sizeof u->err_code, "%s", code);
     snprintf(u->err_msg, sizeof u->err_msg, fmt, arg ? arg : "");
+    if (u->fd >= 0) close(u->fd);
+    u->fd = -1;
+    if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+    u->tmpdir[0] = '\0';
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
+    u->reserved = 0;
+}
+
+/* A PUT of a held key that the store has no room for: what it wrote and
+ * holds is given back, the rest of its body is read and dropped, and the held
+ * bake is answered at its end (upload_end). */
+static void upload_drop(upload *u)
+{
+    u->drop = true;
+    if (u->fd >= 0) close(u->fd);
+    u->fd = -1;
+    if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+    u->tmpdir[0] = '\0';
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
+    u->reserved = 0;
 }
 
 static bool name_taken(const upload *u, const char *name)
@@ -249,6 +315,7 @@ static int on_part_begin(void *user, const svd_part_info *info)
     req *q = user;
     upload *u = q->up;
     const svd_config *cfg = q->h->cfg;
+    if (u->drop) return 0;
     if (strcmp(info->name, "spec") == 0) {
         if (u->spec)
             return upload_fail(u, 400, "bad_request", "more than one spec part%s", NULL), 1;
@@ -270,6 +337,11 @@ static int on_part_begin(void *user, const svd_part_info *info)
                            head),
                1;
     }
+    if (info->has_filename && !sylva_utf8_ok(info->filename, strlen(info->filename)))
+        return upload_fail(u, 400, "bad_name",
+                           "a file name is not valid UTF-8 (names are UTF-8 text, RFC 3629)%s",
+                           NULL),
+               1;
     if (!info->has_filename || !svd_name_valid(info->filename))
         return upload_fail(
                    u, 400, "bad_name",
@@ -309,6 +381,7 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
 {
     req *q = user;
     upload *u = q->up;
+    if (u->drop) return 0;
     if (u->part == 1) {
         if (u->spec_len + size > SPEC_MAX)
             return upload_fail(u, 413, "too_large", "spec part over 1 MiB%s", NULL), 1;
@@ -320,16 +393,7 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
     if (u->part_bytes > q->h->cfg->max_mesh_bytes)
         return upload_fail(u, 413, "too_large", "file '%s' is over max_mesh_bytes", u->part_name),
                1;
-    /* Bytes are held against store_max_bytes before they are written (issue
-     * 22 item 5). */
     u->file_bytes += size;
-    if (u->file_bytes > u->reserved) {
-        uint64_t more = u->file_bytes - u->reserved;
-        char why[300];
-        if (!svd_jobs_reserve(u->jobs, more, why, sizeof why))
-            return upload_fail(u, 507, "store_full", "%s", why), 1;
-        u->reserved += more;
-    }
     EVP_DigestUpdate(u->md, data, size);
     while (size) {
         ssize_t w = write(u->fd, data, size);
@@ -343,6 +407,20 @@ static int on_part_data(void *user, const uint8_t *data, size_t size)
         data += w;
         size -= (size_t)w;
     }
+    /* Bytes are held against store_max_bytes once they are on disk, never
+     * before: only bytes a client has really sent can make finished bakes
+     * be evicted, and a client's uploads together hold at most
+     * client_upload_bytes. */
+    if (u->file_bytes > u->reserved) {
+        uint64_t more = u->file_bytes - u->reserved;
+        char why[300];
+        if (!svd_jobs_reserve(u->jobs, u->client, more, u->reserved, why, sizeof why)) {
+            u->reserved = 0; /* given back by svd_jobs_reserve */
+            if (u->known && svd_jobs_has(u->jobs, q->m.key)) return upload_drop(u), 0;
+            return upload_fail(u, 507, "store_full", "%s", why), 1;
+        }
+        u->reserved += more;
+    }
     return 0;
 }
 
@@ -350,7 +428,7 @@ static int on_part_end(void *user)
 {
     req *q = user;
     upload *u = q->up;
-    if (u->part >= 2) {
+    if (u->part >= 2 && !u->drop) {
         close(u->fd);
         u->fd = -1;
         unsigned char md[32];
@@ -369,10 +447,80 @@ static int on_part_end(void *user)
     return 0;
 }
 
+/* Puts u in the watched list (its body is coming on socket sock). */
+static void watch_add(svd_http *h, upload *u, int sock)
+{
+    pthread_mutex_lock(&h->wmu);
+    u->h = h;
+    u->sock = sock;
+    u->in_watch = true;
+    u->wnext = h->watched;
+    h->watched = u;
+    pthread_mutex_unlock(&h->wmu);
+}
+
+/* Takes u out of the watched list (its body is complete, or it ends). */
+static void watch_remove(upload *u)
+{
+    if (!u->h) return;
+    pthread_mutex_lock(&u->h->wmu);
+    for (upload **p = &u->h->watched; *p; p = &(*p)->wnext)
+        if (*p == u) {
+            *p = u->wnext;
+            break;
+        }
+    u->in_watch = false;
+    pthread_mutex_unlock(&u->h->wmu);
+}
+
+/* The watcher thread. libmicrohttpd 0.9.75 (epoll) can miss the end of a
+ * connection whose last body bytes and FIN arrived together: the socket sat
+ * in CLOSE-WAIT, the upload holding its bytes and its tmp/ folder until the
+ * idle timeout. Every quarter second each upload whose body is still coming
+ * is looked at: a peer that closed (POLLRDHUP with nothing left unread) will
+ * never finish the body, and an upload older than upload_timeout has had its
+ * time (a trickle of one byte every few seconds never trips the idle timeout).
+ * Either socket is shut down: libmicrohttpd then reads its end at once and
+ * ends the request, which frees the upload (on_completed). The socket is
+ * never closed here, so its descriptor cannot be reused under us: entries
+ * leave the list (on_completed, under wmu) before libmicrohttpd closes it. */
+static void *watch_uploads(void *arg)
+{
+    svd_http *h = arg;
+    pthread_mutex_lock(&h->wmu);
+    while (!h->stopping) {
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += 250 * 1000 * 1000;
+        if (ts.tv_nsec >= 1000000000L) ts.tv_sec++, ts.tv_nsec -= 1000000000L;
+        pthread_cond_timedwait(&h->wcv, &h->wmu, &ts);
+        double now = sv_now();
+        for (upload *u = h->watched; u && !h->stopping; u = u->wnext) {
+            if (u->shut) continue;
+            const char *why = NULL;
+            struct pollfd pf = {.fd = u->sock, .events = POLLIN | POLLRDHUP};
+            int unread = 0;
+            if (h->cfg->upload_timeout && now - u->started > h->cfg->upload_timeout)
+                why = "upload over upload_timeout";
+            else if (poll(&pf, 1, 0) == 1 && (pf.revents & (POLLRDHUP | POLLHUP | POLLERR)) &&
+                     ioctl(u->sock, FIONREAD, &unread) == 0 && unread == 0)
+                why = "the client closed before the end of the body";
+            if (!why) continue;
+            u->shut = true;
+            shutdown(u->sock, SHUT_RDWR);
+            svd_log_kv(h->log, SVD_LOG_INFO, "upload_ended_early", "client", u->client, "msg",
+                       why, (const char *)NULL);
+        }
+    }
+    pthread_mutex_unlock(&h->wmu);
+    return NULL;
+}
+
 static void upload_free(upload *u)
 {
     if (!u) return;
-    if (u->reserved) svd_jobs_unreserve(u->jobs, u->reserved);
+    watch_remove(u);
+    if (u->reserved) svd_jobs_unreserve(u->jobs, u->client, u->reserved);
     if (u->fd >= 0) close(u->fd);
     svd_multipart_destroy(u->mp);
     EVP_MD_CTX_free(u->md);
@@ -438,23 +586,29 @@ static enum MHD_Result upload_begin(req *q, int *answered)
      * its next write. Behind nginx (which never forwards Expect) that reads
      * as a failed node: nginx marks a healthy node down for fail_timeout and
      * sends its keys to another node, which bakes them again. So the body is
-     * read and dropped first (REQ_DRAIN), then answered on a live connection. */
+     * read first, then answered on a live connection. It is read as an
+     * upload, not dropped: the key can be evicted or deleted while the body
+     * comes, and then the upload is a new one (202), not a 404 that loses it.
+     * If the store has no room for it while the key is still held, the rest
+     * is dropped and the held bake answered (upload_drop). */
     /* (with tokens only for an owner: anyone else proves possession by
      * sending the bytes, issue 22 item 8) */
+    bool known = false;
     if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key) &&
         (!h->tokens || svd_jobs_owned(h->jobs, q->m.key, q->client))) {
         const char *ex = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_EXPECT);
-        if (!ex || strcasecmp(ex, "100-continue") != 0) {
-            q->kind = REQ_DRAIN;
-            *answered = 0;
-            return MHD_YES;
-        }
-        return answer_known(q);
+        if (ex && strcasecmp(ex, "100-continue") == 0) return answer_known(q);
+        known = true;
     }
     const char *ct = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     char boundary[71];
     sv_error e = {0};
     sv_status st = svd_multipart_boundary(ct, boundary, &e);
+    if (st != SV_OK && known) { /* not a form: read and dropped, the held bake answered */
+        q->kind = REQ_DRAIN;
+        *answered = 0;
+        return MHD_YES;
+    }
     if (st != SV_OK)
         return send_error(h, c, q->m.route, st == SV_ERR_FORMAT ? 415 : 400,
                           st == SV_ERR_FORMAT ? "unsupported_media_type" : "bad_request",
@@ -463,16 +617,15 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (!u) return send_error(h, c, q->m.route, 500, "nomem", "out of memory");
     u->fd = -1;
     u->jobs = h->jobs;
+    u->known = known;
+    u->client = q->client;
+    u->started = sv_now();
     q->up = u;
-    /* A declared length is held against store_max_bytes before the body is
-     * read (issue 22 item 5): concurrent uploads cannot each take a part of
-     * the room and all fail; a chunked body reserves as it streams. */
-    if (body_len) {
-        char why[300];
-        if (!svd_jobs_reserve(h->jobs, body_len, why, sizeof why))
-            return send_error(h, c, q->m.route, 507, "store_full", why);
-        u->reserved = body_len;
-    }
+    /* Nothing is reserved for the declared length: a client that declares
+     * the limit and sends nothing must not make finished bakes be evicted or
+     * other uploads be refused. Bytes are reserved as they reach the disk
+     * (on_part_data). */
+    (void)body_len;
     u->md = EVP_MD_CTX_new();
     u->objects = cJSON_CreateObject();
     u->mp = svd_multipart_create(boundary, &mp_cb, q);
@@ -482,11 +635,21 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     sv_status ms = svd_store_mktemp(svd_jobs_store(h->jobs), "up", u->tmpdir, &e);
     if (ms == SV_OK && (snprintf(in, sizeof in, "%s/in", u->tmpdir), mkdir(in, 0700)) != 0)
         ms = errno == ENOSPC ? SV_ERR_LIMIT : SV_ERR_IO;
+    if (ms != SV_OK && known) { /* no room to read it as an upload: the held bake answers */
+        if (u->tmpdir[0]) svd_rm_rf(u->tmpdir);
+        u->tmpdir[0] = '\0';
+        q->kind = REQ_DRAIN;
+        *answered = 0;
+        return MHD_YES;
+    }
     if (ms == SV_ERR_LIMIT) /* a full disk: the 507 an upload gets later, before its body */
         return send_error(h, c, q->m.route, 507, "store_full", "the store's disk is full");
     if (ms != SV_OK)
         return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
     q->kind = REQ_UPLOAD;
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
+        c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    if (ci) watch_add(h, u, ci->connect_fd);
     *answered = 0;
     return MHD_YES;
 }
@@ -504,6 +667,11 @@ static enum MHD_Result upload_end(req *q)
     upload *u = q->up;
     svd_route route = q->m.route;
     sv_error e = {0};
+    watch_remove(u); /* the body is complete */
+    /* A PUT of a key still held is answered with the held bake, whatever its
+     * body was; only when the key went away while the body came does the
+     * upload count (see upload_begin). */
+    if (u->drop || (u->known && svd_jobs_has(h->jobs, q->m.key))) return answer_known(q);
     if (!u->err_status && svd_multipart_finish(u->mp, &e) != SV_OK)
         upload_fail(u, 400, "bad_multipart", "%s", e.message);
     if (!u->err_status && !u->mesh[0])
@@ -524,6 +692,7 @@ static enum MHD_Result upload_end(req *q)
         snprintf(msg, sizeof msg, "bad spec: %s", e.message);
         return send_error(h, c, route, 400, "spec", msg);
     }
+    uint64_t out_est = sv_spec_output_estimate(&parsed, u->file_bytes);
     sv_spec_free(&parsed);
 
     /* The format, sniffed from the mesh's first bytes. */
@@ -611,9 +780,10 @@ static enum MHD_Result upload_end(req *q)
                           st == SV_ERR_LIMIT ? "store_full" : "io", "could not store the upload");
     }
     up.bytes = svd_dir_bytes(u->tmpdir);
+    up.out_bytes = out_est;
     char *body = NULL;
     /* the reservation becomes the job's bytes in submit (make_room again) */
-    svd_jobs_unreserve(h->jobs, u->reserved);
+    svd_jobs_unreserve(h->jobs, u->client, u->reserved);
     u->reserved = 0;
     svd_jobs_rc rc = svd_jobs_submit(h->jobs, &up, &body, &e);
     u->tmpdir[0] = '\0'; /* submit consumed (installed or removed) it */
@@ -760,7 +930,7 @@ static enum MHD_Result answer_not_done(req *q)
  * byte range (206/416), as docs/api.md says for artifacts; `missing` is the
  * 404 message when it cannot be opened. */
 static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, const char *sha,
-                                    sv_status vs, const char *missing)
+                                    sv_status vs, const char *missing, bool attachment)
 {
     svd_http *h = q->h;
     struct MHD_Connection *c = q->conn;
@@ -788,7 +958,12 @@ static enum MHD_Result serve_stored(req *q, const char *path, uint64_t size, con
         return MHD_NO;
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
-    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, content_type_of(q->m.name));
+    /* An uploaded file is the client's bytes, whatever its name says: never
+     * a page of this origin. */
+    MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE,
+                            attachment ? "application/octet-stream" : content_type_of(q->m.name));
+    if (attachment) MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_DISPOSITION, "attachment");
+    harden(r, NULL);
     MHD_add_response_header(r, MHD_HTTP_HEADER_ACCEPT_RANGES, "bytes");
     if (ranged > 0) {
         snprintf(crange, sizeof crange, "bytes %llu-%llu/%llu", (unsigned long long)off,
@@ -817,6 +992,7 @@ static int answer_not_modified(req *q, const char *sha, enum MHD_Result *ret)
         return 1;
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_ETAG, etag);
+    harden(r, NULL);
     /* RFC 9110 §8.6 wants no Content-Length on a 304, or the 200's;
      * libmicrohttpd 0.9.75 writes "Content-Length: 0" and, given the
      * artifact's length as well, sends both: its 0 is left (clients
@@ -848,7 +1024,7 @@ static enum MHD_Result handle_artifact(req *q)
                           "the stored artifact failed its SHA-256 check; it was quarantined and "
                           "the bake requeued");
     }
-    return serve_stored(q, path, size, sha, vs, "artifact missing from the store");
+    return serve_stored(q, path, size, sha, vs, "artifact missing from the store", false);
 }
 
 /* GET /v1/bakes/{key}/inputs/{name}: a file the bake was uploaded with, as
@@ -873,7 +1049,50 @@ static enum MHD_Result handle_input(req *q)
         return send_error(h, c, q->m.route, 500, "corrupt",
                           "the stored input failed its SHA-256 check; upload the bake again");
     }
-    return serve_stored(q, path, size, sha, vs, "input missing from the store");
+    return serve_stored(q, path, size, sha, vs, "input missing from the store", true);
+}
+
+/* The first needle[0..nl) in hay[0..hl), or NULL (memmem is a GNU extension). */
+static const char *find_bytes(const char *hay, size_t hl, const char *needle, size_t nl)
+{
+    for (size_t i = 0; nl && i + nl <= hl; i++)
+        if (hay[i] == needle[0] && memcmp(hay + i, needle, nl) == 0) return hay + i;
+    return NULL;
+}
+
+/* The Content-Security-Policy of a viewer page whose bytes are html[0..n):
+ * scripts from this origin and the page's inline import maps only (each by
+ * its SHA-256, so no other inline script runs), styles from this origin,
+ * images and fetches from this origin or blob:/data: (GLTFLoader decodes
+ * embedded textures through blob: URLs), nothing framed or posted. Written
+ * into out (cap bytes); false if it does not fit. */
+static bool viewer_csp(const char *html, size_t n, char *out, size_t cap)
+{
+    static const char open_tag[] = "<script type=\"importmap\">", close_tag[] = "</script>";
+    char hashes[512] = "";
+    const char *p = html, *end = html + n;
+    while (p < end) {
+        const char *o = find_bytes(p, (size_t)(end - p), open_tag, sizeof open_tag - 1);
+        if (!o) break;
+        const char *body = o + sizeof open_tag - 1;
+        const char *c = find_bytes(body, (size_t)(end - body), close_tag, sizeof close_tag - 1);
+        if (!c) break;
+        unsigned char md[32];
+        unsigned int ml = 0;
+        EVP_Digest(body, (size_t)(c - body), md, &ml, EVP_sha256(), NULL);
+        unsigned char b64[48];
+        EVP_EncodeBlock(b64, md, 32);
+        size_t hl = strlen(hashes);
+        int k = snprintf(hashes + hl, sizeof hashes - hl, " 'sha256-%s'", (const char *)b64);
+        if (k < 0 || (size_t)k >= sizeof hashes - hl) return false;
+        p = c + sizeof close_tag - 1;
+    }
+    int k = snprintf(out, cap,
+                     "default-src 'none'; script-src 'self'%s; style-src 'self'; "
+                     "img-src 'self' blob: data:; connect-src 'self' blob: data:; "
+                     "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+                     hashes);
+    return k > 0 && (size_t)k < cap;
 }
 
 /* A file of the viewer directory (cfg->viewer_dir): rel is a path that
@@ -894,15 +1113,29 @@ static enum MHD_Result serve_viewer_file(req *q, const char *rel, const char *ct
         return send_error(h, q->conn, q->m.route, 404, "not_found",
                           q->m.route == SVD_R_VIEW ? "the viewer page is not installed (viewer_dir)"
                                                    : "no such viewer file");
-    struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)sb.st_size,
-                                                           fd); /* closes fd */
-    if (!r) {
+    struct MHD_Response *r = NULL;
+    char csp[1024];
+    if (strncmp(ctype, "text/html", 9) == 0) { /* read whole: its policy hashes its import map */
+        size_t len = (size_t)sb.st_size;
+        char *html = len <= (1u << 20) ? malloc(len ? len : 1) : NULL;
+        bool ok = html && read(fd, html, len) == (ssize_t)len && viewer_csp(html, len, csp,
+                                                                             sizeof csp);
         close(fd);
-        return MHD_NO;
+        if (ok) r = MHD_create_response_from_buffer(len, html, MHD_RESPMEM_MUST_FREE);
+        if (!r) {
+            free(html);
+            return send_error(h, q->conn, q->m.route, 500, "io", "cannot read the viewer page");
+        }
+    } else {
+        r = MHD_create_response_from_fd64((uint64_t)sb.st_size, fd); /* closes fd */
+        if (!r) {
+            close(fd);
+            return MHD_NO;
+        }
     }
     MHD_add_response_header(r, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
     MHD_add_response_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-cache");
-    MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+    harden(r, strncmp(ctype, "text/html", 9) == 0 ? csp : NULL);
     enum MHD_Result ret = MHD_queue_response(q->conn, MHD_HTTP_OK, r);
     MHD_destroy_response(r);
     svd_metrics_request(h->metrics, q->m.route, MHD_HTTP_OK);
@@ -1061,6 +1294,7 @@ static enum MHD_Result answer_refused(req *q)
         if (!r) return MHD_NO;
         MHD_add_response_header(r, "Allow", q->m.allow);
         MHD_add_response_header(r, "Content-Type", "application/json");
+        harden(r, NULL);
         enum MHD_Result ret = MHD_queue_response(c, 405, r);
         MHD_destroy_response(r);
         svd_metrics_request(h->metrics, SVD_R_NONE, 405);
@@ -1070,6 +1304,32 @@ static enum MHD_Result answer_refused(req *q)
         return send_error(h, c, SVD_R_NONE, (unsigned)q->m.status,
                           q->m.status == 404 ? "not_found" : "bad_request", q->m.message);
     return send_error(h, c, q->m.route, 401, "unauthorized", "a valid bearer token is required");
+}
+
+/* Counts a request's Content-Length and Transfer-Encoding headers. */
+struct framing {
+    unsigned cl, te;
+};
+static enum MHD_Result count_framing(void *cls, enum MHD_ValueKind kind, const char *key,
+                                     const char *value)
+{
+    (void)kind;
+    (void)value;
+    struct framing *f = cls;
+    if (key && strcasecmp(key, MHD_HTTP_HEADER_CONTENT_LENGTH) == 0) f->cl++;
+    if (key && strcasecmp(key, MHD_HTTP_HEADER_TRANSFER_ENCODING) == 0) f->te++;
+    return MHD_YES;
+}
+
+/* Whether the request's body length is ambiguous (RFC 9112 §6.3): more than
+ * one Content-Length, more than one Transfer-Encoding, or both. A proxy in
+ * front may have framed the body otherwise, and a request hidden in it would
+ * be answered (request smuggling): such a request is refused. */
+static bool framing_ambiguous(struct MHD_Connection *c)
+{
+    struct framing f = {0, 0};
+    MHD_get_connection_values(c, MHD_HEADER_KIND, count_framing, &f);
+    return f.cl > 1 || f.te > 1 || (f.cl && f.te);
 }
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
@@ -1094,6 +1354,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         svd_client_id(h->tokens ? auth : NULL, addr, q->client, sizeof q->client);
         q->authorized = !h->tokens || q->m.route == SVD_R_HEALTH ||
                         svd_tokens_check(h->tokens, auth);
+        if (framing_ambiguous(c)) { /* answered now: the body is never read */
+            q->answered = 1;
+            return send_error(h, c, SVD_R_NONE, 400, "bad_request",
+                              "the body's length is ambiguous: more than one Content-Length or "
+                              "Transfer-Encoding header, or both (RFC 9112 section 6.3)");
+        }
         /* The answer is decided here, before any body byte is read. An answer
          * queued now makes libmicrohttpd send it and close the connection
          * without reading the body (docs/reliability.md, "Bounded reads"). */
@@ -1152,6 +1418,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             *upload_data_size = 0;
             u->total += n;
             if (u->total > h->cfg->max_upload_bytes) return cut_off(q);
+            if (h->cfg->upload_timeout && sv_now() - u->started > h->cfg->upload_timeout) {
+                svd_log_kv(h->log, SVD_LOG_WARN, "upload_cut_off", "client", q->client, "msg",
+                           "upload over upload_timeout", (const char *)NULL);
+                svd_metrics_request(h->metrics, q->m.route, 408);
+                return MHD_NO;
+            }
             if (!u->err_status) {
                 sv_error e = {0};
                 if (svd_multipart_feed(u->mp, (const uint8_t *)upload_data, n, &e) != SV_OK)
@@ -1181,10 +1453,19 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     }
     switch (q->m.route) {
     case SVD_R_HEALTH: {
-        bool d = atomic_load(&h->draining);
-        return send_text(h, c, q->m.route, d ? 503 : 200,
-                         d ? "{\"status\":\"draining\"}" : "{\"status\":\"ok\"}",
-                         "application/json");
+        /* the store's disk too: a node whose disk is low refuses new bakes
+         * (507) but serves what it holds, so it stays 200 */
+        bool d = atomic_load(&h->draining), low = false;
+        uint64_t free_bytes = 0;
+        svd_jobs_disk(h->jobs, &free_bytes, &low);
+        char body[160];
+        if (free_bytes == UINT64_MAX)
+            snprintf(body, sizeof body, "{\"status\":\"%s\"}", d ? "draining" : "ok");
+        else
+            snprintf(body, sizeof body,
+                     "{\"status\":\"%s\",\"disk\":\"%s\",\"disk_free_bytes\":%llu}",
+                     d ? "draining" : "ok", low ? "low" : "ok", (unsigned long long)free_bytes);
+        return send_text(h, c, q->m.route, d ? 503 : 200, body, "application/json");
     }
     case SVD_R_METRICS:
         return handle_metrics(q);
@@ -1350,8 +1631,14 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
                             MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,
                             MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
                             MHD_OPTION_URI_LOG_CALLBACK, on_uri, h, MHD_OPTION_END);
-    if (!h->d) {
-        close(lfd);
+    pthread_mutex_init(&h->wmu, NULL);
+    pthread_cond_init(&h->wcv, NULL);
+    if (h->d) h->watcher_started = pthread_create(&h->watcher, NULL, watch_uploads, h) == 0;
+    if (!h->d || !h->watcher_started) {
+        if (h->d) MHD_stop_daemon(h->d); /* closes lfd */
+        else close(lfd);
+        pthread_cond_destroy(&h->wcv);
+        pthread_mutex_destroy(&h->wmu);
         sv_fail(err, SV_ERR_IO, "cannot start the HTTP server on %s:%u", cfg->listen_host,
                 cfg->port);
         free(h);
@@ -1381,6 +1668,13 @@ void svd_http_stop(svd_http *h)
 {
     if (!h) return;
     svd_jobs_sweep(h->jobs, 0, true); /* resume every long-poll first */
+    pthread_mutex_lock(&h->wmu);
+    h->stopping = true;
+    pthread_cond_signal(&h->wcv);
+    pthread_mutex_unlock(&h->wmu);
+    pthread_join(h->watcher, NULL);
     MHD_stop_daemon(h->d);
+    pthread_cond_destroy(&h->wcv);
+    pthread_mutex_destroy(&h->wmu);
     free(h);
 }

@@ -3,6 +3,7 @@
 #include "jobs.h"
 
 #include <cjson/cJSON.h>
+#include "json_strict.h"
 #include <math.h>
 #include <pthread.h>
 #include <time.h>
@@ -11,6 +12,7 @@
 #include <string.h>
 #include <dirent.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 
 #define NBUCKETS 4096
 
@@ -31,6 +33,7 @@ struct svd_job {
     char *message;   /* failure reason */
     cJSON *manifest; /* when done */
     uint64_t bytes;  /* on disk: inputs + result */
+    uint64_t out_est; /* estimated output bytes, held on the disk while not final */
     bool cancel;
     bool resubmitted;  /* uploaded again while a DELETE was stopping it: run it again */
     double not_before; /* a retry waits until then (sv_now() clock; backoff) */
@@ -40,6 +43,13 @@ struct svd_job {
     svd_job *hnext;
     svd_job *lprev, *lnext; /* in the queue (QUEUED, by seq) or the running list */
     bool listed;            /* in one of them */
+};
+
+/* Bytes one client's uploads in progress hold (svd_jobs_reserve). */
+struct client_hold {
+    char client[96];
+    uint64_t bytes;
+    struct client_hold *next;
 };
 
 struct svd_jobs {
@@ -56,6 +66,8 @@ struct svd_jobs {
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
     uint64_t uploading; /* bytes reserved by uploads in progress (svd_jobs_reserve) */
+    uint64_t pending_out; /* out_est of every job not final: disk room held for outputs */
+    struct client_hold *holds; /* the same, per client (only clients holding bytes) */
     bool stopping, aborting;
     /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
      * taking work, a queue position, the queue's length and a client's load
@@ -125,6 +137,10 @@ static void list_in(svd_jobs *jobs, svd_job *j)
 static void set_state(svd_jobs *jobs, svd_job *j, svd_job_state s)
 {
     list_out(jobs, j);
+    if (!is_final(j->state) && is_final(s))
+        jobs->pending_out -= j->out_est < jobs->pending_out ? j->out_est : jobs->pending_out;
+    else if (is_final(j->state) && !is_final(s))
+        jobs->pending_out += j->out_est;
     j->state = s;
     list_in(jobs, j);
 }
@@ -241,6 +257,8 @@ static void unlink_job(svd_jobs *jobs, svd_job *j)
     while (*pp && *pp != j) pp = &(*pp)->hnext;
     if (*pp) *pp = j->hnext;
     list_out(jobs, j);
+    if (!is_final(j->state))
+        jobs->pending_out -= j->out_est < jobs->pending_out ? j->out_est : jobs->pending_out;
     jobs->count--;
     wake_all(j);
     jobs->store_bytes -= j->bytes < jobs->store_bytes ? j->bytes : jobs->store_bytes;
@@ -270,11 +288,16 @@ static bool add_owner(svd_job *j, const char *client)
     return true;
 }
 
+/* Sets a job's error code and message. A message may quote an upload's bytes
+ * (a worker's error names what it read): it is made valid UTF-8 so the status
+ * document stays valid JSON. */
 static void set_message(svd_job *j, const char *code, const char *msg)
 {
     snprintf(j->code, sizeof j->code, "%s", code ? code : "");
+    sylva_utf8_fix(j->code);
     free(j->message);
     j->message = msg ? strdup(msg) : NULL;
+    if (j->message) sylva_utf8_fix(j->message);
 }
 
 /* ---- journal records ---- */
@@ -361,6 +384,11 @@ void svd_jobs_destroy(svd_jobs *jobs)
             j = next;
         }
     }
+    while (jobs->holds) {
+        struct client_hold *c = jobs->holds;
+        jobs->holds = c->next;
+        free(c);
+    }
     svd_journal_close(jobs->journal);
     pthread_cond_destroy(&jobs->cv);
     pthread_mutex_destroy(&jobs->commit_mu);
@@ -378,7 +406,7 @@ static svd_job_state state_from_name(const char *s)
 static void replay_one(void *user, const char *payload, size_t size)
 {
     svd_jobs *jobs = user;
-    cJSON *r = cJSON_ParseWithLength(payload, size);
+    cJSON *r = sv_json_parse_strict(payload, size, "journal record", SV_ERR_PARSE, NULL);
     const char *op = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "op"));
     const char *key = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(r, "key"));
     if (!op || !svd_key_valid(key)) {
@@ -445,7 +473,7 @@ static cJSON *read_json_file(const char *path)
         if (got == 0) break;
     }
     fclose(f);
-    cJSON *j = buf ? cJSON_ParseWithLength(buf, n) : NULL;
+    cJSON *j = buf ? sv_json_parse_strict(buf, n, "stored JSON", SV_ERR_PARSE, NULL) : NULL;
     free(buf);
     return j;
 }
@@ -725,10 +753,51 @@ static unsigned count_state(svd_jobs *jobs, svd_job_state s)
 /* Evicts least-recently-used finished jobs until need more bytes fit under
  * the limit. Never touches queued or running jobs (their inputs are needed).
  * Called with mu held. */
-static bool make_room(svd_jobs *jobs, uint64_t need)
+/* Bytes free on the store's filesystem for the daemon (statvfs f_bavail), or
+ * UINT64_MAX when that cannot be known (the quota alone decides then). */
+static uint64_t disk_free(svd_jobs *jobs)
+{
+    struct statvfs sv;
+    if (statvfs(svd_store_root(jobs->store), &sv) != 0) return UINT64_MAX;
+    return (uint64_t)sv.f_bavail * (uint64_t)sv.f_frsize;
+}
+
+/* Whether the store's filesystem lacks room for disk_need more bytes of
+ * outputs beside those of the bakes not finished (pending_out) and the
+ * disk_reserve_bytes kept free. Called with mu held. */
+static bool disk_short(svd_jobs *jobs, uint64_t disk_need)
+{
+    uint64_t f = disk_free(jobs);
+    return f != UINT64_MAX &&
+           f < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes;
+}
+
+/* Evicts least-recently-used finished jobs until need more bytes fit under
+ * store_max_bytes and, when disk, until the filesystem has room for
+ * disk_need more output bytes (disk_short). Never touches queued or running
+ * jobs (their inputs are needed). Called with mu and commit_mu held. */
+static bool make_room_disk(svd_jobs *jobs, uint64_t need, bool disk, uint64_t disk_need)
 {
     uint64_t limit = jobs->cfg->store_max_bytes;
-    while (jobs->store_bytes + jobs->uploading + need > limit) {
+    bool quota = jobs->store_bytes + jobs->uploading + need > limit;
+    bool short_ = disk && disk_short(jobs, disk_need);
+    if (!quota && !short_) return true;
+    /* Nothing is evicted for a request that evicting every finished bake
+     * could not satisfy: what is stored is not thrown away for nothing. */
+    uint64_t evictable = 0;
+    for (size_t b = 0; b < NBUCKETS; b++)
+        for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
+            if (is_final(o->state)) evictable += o->bytes;
+    if (quota && jobs->store_bytes - (evictable < jobs->store_bytes ? evictable : jobs->store_bytes) +
+                         jobs->uploading + need > limit)
+        return false;
+    if (short_) {
+        uint64_t f = disk_free(jobs);
+        if (f + evictable < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes)
+            return false;
+    }
+    while (jobs->store_bytes + jobs->uploading + need > limit ||
+           (disk && disk_short(jobs, disk_need))) {
         svd_job *victim = NULL;
         for (size_t b = 0; b < NBUCKETS; b++)
             for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
@@ -745,6 +814,12 @@ static bool make_room(svd_jobs *jobs, uint64_t need)
         unlink_job(jobs, victim);
     }
     return true;
+}
+
+/* make_room_disk for the quota alone. */
+static bool make_room(svd_jobs *jobs, uint64_t need)
+{
+    return make_room_disk(jobs, need, false, 0);
 }
 
 /* Failure codes the server caused, not the input (docs/api.md): such a
@@ -771,28 +846,102 @@ static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
              (unsigned long long)unfinished, (unsigned long long)jobs->uploading);
 }
 
-bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap)
+/* The hold of `client`, created (zero bytes) when create; NULL if none or out
+ * of memory. Called with mu held. */
+static struct client_hold *client_hold(svd_jobs *jobs, const char *client, bool create)
+{
+    for (struct client_hold *c = jobs->holds; c; c = c->next)
+        if (strcmp(c->client, client) == 0) return c;
+    if (!create) return NULL;
+    struct client_hold *c = calloc(1, sizeof *c);
+    if (!c) return NULL;
+    snprintf(c->client, sizeof c->client, "%s", client);
+    c->next = jobs->holds;
+    jobs->holds = c;
+    return c;
+}
+
+/* Lowers `client`'s hold by bytes; a hold of zero is freed (only clients
+ * holding bytes stay listed). Called with mu held. */
+static void give_back(svd_jobs *jobs, const char *client, uint64_t bytes)
+{
+    for (struct client_hold **pc = &jobs->holds; *pc; pc = &(*pc)->next) {
+        struct client_hold *c = *pc;
+        if (strcmp(c->client, client) != 0) continue;
+        c->bytes -= bytes < c->bytes ? bytes : c->bytes;
+        if (c->bytes == 0) {
+            *pc = c->next;
+            free(c);
+        }
+        return;
+    }
+}
+
+/* Takes `bytes` for `client` if its hold and the store have room (evicting
+ * when evict); false with why set otherwise. Called with mu held. */
+static bool take_hold(svd_jobs *jobs, const char *client, uint64_t bytes, bool evict, char *why,
+                      size_t cap, bool *full)
+{
+    struct client_hold *c = client_hold(jobs, client, true);
+    *full = false;
+    if (!c) {
+        if (why && cap) snprintf(why, cap, "out of memory");
+        return false;
+    }
+    uint64_t lim = jobs->cfg->client_upload_bytes;
+    if (lim && c->bytes + bytes > lim) {
+        uint64_t held = c->bytes;
+        give_back(jobs, client, 0);
+        if (why && cap)
+            snprintf(why, cap,
+                     "this client's uploads in progress hold %llu bytes: client_upload_bytes is "
+                     "%llu; retry when one has finished",
+                     (unsigned long long)held, (unsigned long long)lim);
+        return false;
+    }
+    bool ok = evict ? make_room(jobs, bytes)
+                    : jobs->store_bytes + jobs->uploading + bytes <= jobs->cfg->store_max_bytes;
+    if (ok) {
+        c->bytes += bytes;
+        jobs->uploading += bytes;
+    } else {
+        *full = true;
+        if (evict && why && cap) store_use(jobs, bytes, why, cap);
+        give_back(jobs, client, 0);
+    }
+    return ok;
+}
+
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
+                      char *why, size_t cap)
 {
     /* the common case, room without eviction: the table lock only */
+    bool full;
     pthread_mutex_lock(&jobs->mu);
-    bool fits = jobs->store_bytes + jobs->uploading + bytes <= jobs->cfg->store_max_bytes;
-    if (fits) jobs->uploading += bytes;
+    bool ok = take_hold(jobs, client, bytes, false, why, cap, &full);
+    if (!ok && !full) {
+        jobs->uploading -= held < jobs->uploading ? held : jobs->uploading;
+        give_back(jobs, client, held);
+    }
     pthread_mutex_unlock(&jobs->mu);
-    if (fits) return true;
+    if (ok || !full) return ok;
     pthread_mutex_lock(&jobs->commit_mu); /* evictions are journaled: commit_mu, then mu */
     pthread_mutex_lock(&jobs->mu);
-    bool ok = make_room(jobs, bytes);
-    if (ok) jobs->uploading += bytes;
-    else if (why && cap) store_use(jobs, bytes, why, cap);
+    ok = take_hold(jobs, client, bytes, true, why, cap, &full);
+    if (!ok) {
+        jobs->uploading -= held < jobs->uploading ? held : jobs->uploading;
+        give_back(jobs, client, held);
+    }
     pthread_mutex_unlock(&jobs->mu);
     pthread_mutex_unlock(&jobs->commit_mu);
     return ok;
 }
 
-void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes)
+void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes)
 {
     pthread_mutex_lock(&jobs->mu);
     jobs->uploading -= bytes < jobs->uploading ? bytes : jobs->uploading;
+    give_back(jobs, client, bytes);
     pthread_mutex_unlock(&jobs->mu);
 }
 
@@ -853,8 +1002,18 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
     } else if (client_load(jobs, up->client, false) >= jobs->cfg->queue_per_client) {
         rc = refuse(err, SVD_JOBS_CLIENT_FULL,
                     "this client has too many bakes queued or running; retry later");
-    } else if (!make_room(jobs, up->bytes)) {
-        store_use(jobs, up->bytes, why, sizeof why);
+    } else if (!make_room_disk(jobs, up->bytes, true, up->out_bytes)) {
+        if (disk_short(jobs, up->out_bytes)) {
+            uint64_t f = disk_free(jobs);
+            snprintf(why, sizeof why,
+                     "the store's disk has %llu bytes free: bakes not finished will write about "
+                     "%llu, this one about %llu, and disk_reserve_bytes keeps %llu free",
+                     (unsigned long long)f, (unsigned long long)jobs->pending_out,
+                     (unsigned long long)up->out_bytes,
+                     (unsigned long long)jobs->cfg->disk_reserve_bytes);
+        } else {
+            store_use(jobs, up->bytes, why, sizeof why);
+        }
         rc = refuse(err, SVD_JOBS_STORE_FULL, why);
     } else {
         rc = SVD_JOBS_OK;
@@ -899,6 +1058,8 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
     snprintf(j->client, sizeof j->client, "%s", up->client);
     j->bytes = up->bytes;
     set_state(jobs, j, SVD_JOB_QUEUED);
+    j->out_est = up->out_bytes; /* its outputs' room, held until it is final */
+    jobs->pending_out += j->out_est;
     pthread_cond_broadcast(&jobs->cv);
     *json_out = print_free(status_json(jobs, j));
     pthread_mutex_unlock(&jobs->mu);
@@ -1135,6 +1296,14 @@ void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path)
     pthread_mutex_unlock(&jobs->commit_mu);
 }
 
+void svd_jobs_disk(svd_jobs *jobs, uint64_t *free_bytes, bool *low)
+{
+    pthread_mutex_lock(&jobs->mu);
+    *free_bytes = disk_free(jobs);
+    *low = disk_short(jobs, 0);
+    pthread_mutex_unlock(&jobs->mu);
+}
+
 void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g)
 {
     memset(g, 0, sizeof *g);
@@ -1267,6 +1436,16 @@ void svd_jobs_finish(svd_jobs *jobs, svd_ticket *t, svd_outcome out, const char 
                  t->attempt);
         out = SVD_OUT_FAILED;
         code = code ? code : "crash";
+    }
+    if (out == SVD_OUT_RETRY) {
+        /* A failure the server caused may be a full disk: finished bakes are
+         * evicted until the disk has room for the outputs of the bakes not
+         * finished, so the retry does not meet the same full disk. */
+        pthread_mutex_lock(&jobs->commit_mu);
+        pthread_mutex_lock(&jobs->mu);
+        if (disk_short(jobs, 0)) make_room_disk(jobs, 0, true, 0);
+        pthread_mutex_unlock(&jobs->mu);
+        pthread_mutex_unlock(&jobs->commit_mu);
     }
     if (out == SVD_OUT_FAILED) { /* error.json beside the inputs, for operators */
         char *ej = error_doc(code ? code : "failed", msg);

@@ -91,6 +91,8 @@ typedef struct svd_upload {
     char key[SVD_KEY_HEX];
     const char *client;
     uint64_t bytes;
+    uint64_t out_bytes; /* estimated output bytes (svd_output_estimate): room the store's
+                           disk must have at acceptance, held until the bake is final */
 } svd_upload;
 
 /* Commits an upload: a known key is OK with its status document (the upload
@@ -100,15 +102,19 @@ typedef struct svd_upload {
  * STORE_FULL, IO or NOMEM, with err's message and *json_out NULL. */
 svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_out, sv_error *err);
 
-/* Uploads in progress hold their bytes against store_max_bytes as they stream
- * (issue 22 item 5: three concurrent 15 MB uploads filled a 10 MiB store
- * 4.5 times over). Reserves `bytes` more, evicting finished bakes LRU-first
- * if needed; false when even that cannot make room: nothing is reserved and
- * why (cap bytes) says how the store is used. */
-bool svd_jobs_reserve(svd_jobs *jobs, uint64_t bytes, char *why, size_t cap);
-/* Gives back bytes reserved by svd_jobs_reserve (an upload that ended:
- * committed, refused or aborted). */
-void svd_jobs_unreserve(svd_jobs *jobs, uint64_t bytes);
+/* Uploads in progress hold against store_max_bytes the bytes they have
+ * received, never what they declare (a declared length is a promise a client
+ * need not keep). Reserves `bytes` more for `client`, evicting finished bakes
+ * LRU-first if needed; false, with why (cap bytes) saying what is full, when
+ * that client already holds client_upload_bytes or even eviction cannot make
+ * room. On false the `held` bytes this upload reserved before are given back
+ * in the same step, so of uploads racing for the last room one fails and the
+ * others see its room. */
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
+                      char *why, size_t cap);
+/* Gives back bytes `client` reserved with svd_jobs_reserve (an upload that
+ * ended: committed, refused or aborted). */
+void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes);
 
 /* True if a job with this key exists (and its inputs are kept). */
 bool svd_jobs_has(svd_jobs *jobs, const char *key);
@@ -173,6 +179,12 @@ void svd_jobs_result_corrupt(svd_jobs *jobs, const char *key, const char *path);
 
 /* Gauges for metrics and /v1/info. */
 void svd_jobs_gauges(svd_jobs *jobs, svd_gauges *g);
+
+/* The store's disk: *free_bytes free for the daemon (UINT64_MAX if unknown)
+ * and whether it is low, i.e. below what the bakes not finished will write
+ * plus disk_reserve_bytes (new bakes are then refused 507 unless evicting
+ * finished ones makes room). */
+void svd_jobs_disk(svd_jobs *jobs, uint64_t *free_bytes, bool *low);
 
 /* ---- worker side ---- */
 

@@ -76,7 +76,7 @@ static void quarantine(const char *path, const unsigned char *data, uint64_t off
 {
     char q[4200];
     snprintf(q, sizeof q, "%s.corrupt-%llu", path, (unsigned long long)off);
-    int fd = open(q, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    int fd = open(q, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
     if (fd < 0) return;
     if (write_all(fd, data, n) == 0) fsync(fd);
     close(fd);
@@ -119,7 +119,7 @@ svd_journal *svd_journal_open(const char *path, svd_journal_replay_fn fn, void *
     svd_journal_stats local = {0};
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
-    int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+    int fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
     if (fd < 0) {
         sv_fail(err, SV_ERR_IO, "%s: cannot open journal: %s", path, strerror(errno));
         return NULL;
@@ -230,7 +230,7 @@ sv_status svd_journal_rewrite(svd_journal *j, const char *const *payloads, const
     snprintf(tmp, sizeof tmp, "%s.tmp", j->path);
     /* O_RDWR: after the rename this descriptor is the journal's (no reopen
      * that could fail and leave appends going to the unlinked old file). */
-    int fd = open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    int fd = open(tmp, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
     if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
     uint64_t total = 0;
     sv_status st = SV_OK;

@@ -46,7 +46,9 @@ static int lock_store(const char *root, sv_error *err)
 {
     char p[SVD_STORE_PATH];
     snprintf(p, sizeof p, "%s/lock", root);
-    int fd = open(p, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    /* O_NOFOLLOW: a symlink put in its place must not make us truncate and
+     * write whatever it names */
+    int fd = open(p, O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (fd < 0) {
         sv_fail(err, SV_ERR_IO, "cannot open %s: %s", p, strerror(errno));
         return -1;
@@ -280,7 +282,7 @@ sv_status svd_store_write_file(const char *dir, const char *name, const void *da
     char tmp[SVD_STORE_PATH + 300], dst[SVD_STORE_PATH + 300];
     snprintf(tmp, sizeof tmp, "%s/.%s.tmp", dir, name);
     snprintf(dst, sizeof dst, "%s/%s", dir, name);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
     if (fd < 0) return sv_fail(err, SV_ERR_IO, "%s: cannot create: %s", tmp, strerror(errno));
     const char *p = data;
     size_t left = size;

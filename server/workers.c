@@ -4,6 +4,7 @@
 #include "workers.h"
 
 #include <cjson/cJSON.h>
+#include "json_strict.h"
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -59,7 +60,7 @@ static cJSON *read_json(const char *path, size_t max)
     char *buf = malloc(max);
     size_t n = buf ? fread(buf, 1, max, f) : 0;
     fclose(f);
-    cJSON *j = buf ? cJSON_ParseWithLength(buf, n) : NULL;
+    cJSON *j = buf ? sv_json_parse_strict(buf, n, "worker JSON", SV_ERR_PARSE, NULL) : NULL;
     free(buf);
     return j;
 }
@@ -154,7 +155,7 @@ static int spawn_child(const char *path, char *const argv[], const char *out, in
 
 static void handle_line(svd_jobs *jobs, svd_ticket *t, const char *line)
 {
-    cJSON *j = cJSON_Parse(line);
+    cJSON *j = sv_json_parse_strict(line, strlen(line), "worker progress", SV_ERR_PARSE, NULL);
     const char *stage = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(j, "stage"));
     const cJSON *pr = cJSON_GetObjectItemCaseSensitive(j, "progress");
     const cJSON *tk = cJSON_GetObjectItemCaseSensitive(j, "try");

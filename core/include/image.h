@@ -68,6 +68,14 @@ void *sv_image_plugin_symbol(const char *name);
 sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
                                 sv_image *out, sv_error *err);
 
+/* As sv_image_decode_rgba8, and an image whose decode would take more than
+ * max_bytes of memory (its decoded pixels at their stored depth and the RGBA8
+ * result; 0: 1 GiB) is refused with SV_ERR_LIMIT before its pixels are
+ * decoded: a small compressed file can hold a huge image. */
+sv_status sv_image_decode_rgba8_within(const void *data, size_t size, const char *name,
+                                       uint32_t max_size, uint64_t max_bytes, sv_image *out,
+                                       sv_error *err);
+
 /* Decodes the first channel of a PNG as 16 bits (8-bit PNGs are widened)
  * into a 1-channel 16-bit image (depth maps). SV_ERR_FORMAT for other formats. */
 sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
@@ -78,6 +86,10 @@ sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name
  * not read, and the comparison in the tests. */
 sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char *name,
                                        uint32_t max_size, sv_image *out, sv_error *err);
+/* sv_image_plugin_decode_rgba8 with sv_image_decode_rgba8_within's max_bytes. */
+sv_status sv_image_plugin_decode_rgba8_within(const void *data, size_t size, const char *name,
+                                              uint32_t max_size, uint64_t max_bytes,
+                                              sv_image *out, sv_error *err);
 sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,
                                         uint32_t max_size, sv_image *out, sv_error *err);
 

@@ -83,6 +83,15 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *out, sv_error *er
 /* Frees what sv_spec_parse allocated. NULL or an empty spec is fine. */
 void sv_spec_free(sv_spec *spec);
 
+/* An upper estimate of the bytes a bake of input_bytes of uploads with this
+ * spec writes: the full mesh kept in model.glb and its own level file (three
+ * times the input), and every quad level's maps at most max_atlas² texels of
+ * 8 bytes (RGBA albedo, normal, ao, depth), levels after the first a quarter
+ * the size of the one before (4/3 in all), written as PNG files and embedded
+ * in two GLBs (three copies). Used to hold disk room for a bake's outputs
+ * when it is accepted. */
+uint64_t sv_spec_output_estimate(const sv_spec *spec, uint64_t input_bytes);
+
 /* Default method name when the spec does not give one. */
 #define SV_DEFAULT_METHOD "billboard_cloud"
 

@@ -66,6 +66,10 @@ typedef struct sv_limits {
     uint32_t max_node_depth;   /* glTF node depth, default 256 */
     uint32_t max_nodes;        /* glTF node count, default 100,000 */
     uint64_t max_file_bytes;   /* per file, default 1 GiB */
+    uint64_t max_texture_bytes; /* memory one texture's decode may take (its decoded
+                                   pixels and the decoder's own copy), default 1 GiB */
+    uint64_t max_textures_bytes; /* decoded RGBA8 bytes of all an import's textures,
+                                    default 1 GiB */
 } sv_limits;
 
 /* Returns l with every zero field replaced by its default. */

@@ -10,6 +10,7 @@
  * declared lengths. Everything here is iterative and bounded by the input size.
  */
 #include "import.h"
+#include "json_strict.h"
 
 #include <cJSON.h>
 #include <math.h>
@@ -335,16 +336,157 @@ static int type_components(const char *t)
     return 0;
 }
 
+/* The bytes [off, off + count × stride) (the last element only `elem` long)
+ * that `what` (NULL: the accessor's own data) reads from bufferView vi: they must lie inside the view, whose
+ * own range was checked against its buffer in check_buffers. */
+static sv_status check_view_range(precheck *pc, int acc, const char *what, int64_t vi,
+                                  uint64_t off, uint64_t count, uint64_t elem, uint64_t stride)
+{
+    const cJSON *v = cJSON_GetArrayItem(pc->views, (int)vi);
+    uint64_t vlen = 0;
+    bool present;
+    get_uint(pc, v, "byteLength", "bufferView", (int)vi, &vlen, &present);
+    /* off < 2^53, count < 2^32, stride and elem <= 252: no overflow */
+    uint64_t need = count ? off + (count - 1) * stride + elem : off;
+    if (off > vlen || need > vlen)
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d%s%s needs %llu bytes (offset %llu, count %llu × stride "
+                       "%llu) but bufferView %lld has %llu",
+                       acc, what ? ": " : "", what ? what : "", (unsigned long long)need, (unsigned long long)off,
+                       (unsigned long long)count, (unsigned long long)stride, (long long)vi,
+                       (unsigned long long)vlen);
+    return SV_OK;
+}
+
+/* Reads one little-endian unsigned integer of cs bytes (1, 2 or 4). */
+static uint32_t rd_uint(const uint8_t *p, int cs)
+{
+    return cs == 1 ? p[0] : cs == 2 ? (uint32_t)(p[0] | p[1] << 8) : rd32(p);
+}
+
+/* The in-memory bytes of bufferView vi from offset off on, or NULL when its
+ * buffer is not in memory; *avail is how many bytes follow. */
+static const uint8_t *view_bytes(precheck *pc, int64_t vi, uint64_t off, uint64_t *avail)
+{
+    const cJSON *v = cJSON_GetArrayItem(pc->views, (int)vi);
+    uint64_t voff = 0;
+    bool present;
+    get_uint(pc, v, "byteOffset", "bufferView", (int)vi, &voff, &present);
+    int bi = (int)cJSON_GetObjectItemCaseSensitive(v, "buffer")->valuedouble;
+    const buffer_info *b = &pc->buf[bi];
+    if (!b->data || voff + off > b->size) return NULL;
+    *avail = b->size - (voff + off);
+    return b->data + voff + off;
+}
+
+/* The `sparse` member of accessor i (count elements of elem bytes, components
+ * of cs bytes): its count, its indices (an unsigned integer type, no
+ * byteStride, every index < the accessor's count and increasing) and its
+ * values (count elements, no byteStride) inside their buffer views. */
+static sv_status check_sparse(precheck *pc, int i, const cJSON *sp, uint64_t count, uint64_t elem)
+{
+    if (!cJSON_IsObject(sp))
+        return sv_fail(pc->err, SV_ERR_PARSE, "glTF accessor %d: sparse is not an object", i);
+    uint64_t n = 0;
+    bool present;
+    sv_status st = get_uint(pc, sp, "count", "accessor sparse", i, &n, &present);
+    if (st != SV_OK) return st;
+    if (!present || n == 0 || n > count)
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d: sparse count must be 1..%llu (the accessor's count)", i,
+                       (unsigned long long)count);
+    const cJSON *ind = cJSON_GetObjectItemCaseSensitive(sp, "indices");
+    const cJSON *val = cJSON_GetObjectItemCaseSensitive(sp, "values");
+    if (!cJSON_IsObject(ind) || !cJSON_IsObject(val))
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d: sparse needs indices and values objects", i);
+    int64_t ivi, vvi;
+    uint64_t ioff = 0, voff = 0, ict = 0;
+    bool has_ict;
+    st = get_index(pc, ind, "bufferView", "accessor sparse indices", i, pc->n_views,
+                   "bufferView", &ivi);
+    if (st == SV_OK)
+        st = get_uint(pc, ind, "byteOffset", "accessor sparse indices", i, &ioff, &present);
+    if (st == SV_OK)
+        st = get_uint(pc, ind, "componentType", "accessor sparse indices", i, &ict, &has_ict);
+    if (st == SV_OK)
+        st = get_index(pc, val, "bufferView", "accessor sparse values", i, pc->n_views,
+                       "bufferView", &vvi);
+    if (st == SV_OK)
+        st = get_uint(pc, val, "byteOffset", "accessor sparse values", i, &voff, &present);
+    if (st != SV_OK) return st;
+    if (ivi < 0 || vvi < 0)
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d: sparse indices and values need a bufferView", i);
+    if (!has_ict || (ict != 5121 && ict != 5123 && ict != 5125))
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d: sparse indices componentType must be 5121, 5123 or 5125",
+                       i);
+    int ics = component_size(ict);
+    for (int k = 0; k < 2; k++) {
+        const cJSON *v = cJSON_GetArrayItem(pc->views, (int)(k ? vvi : ivi));
+        if (cJSON_GetObjectItemCaseSensitive(v, "byteStride"))
+            return sv_fail(pc->err, SV_ERR_PARSE,
+                           "glTF accessor %d: sparse %s bufferView %lld has a byteStride", i,
+                           k ? "values" : "indices", (long long)(k ? vvi : ivi));
+    }
+    if (ioff % (uint64_t)ics)
+        return sv_fail(pc->err, SV_ERR_PARSE,
+                       "glTF accessor %d: sparse indices byteOffset %llu is not a multiple of %d",
+                       i, (unsigned long long)ioff, ics);
+    st = check_view_range(pc, i, "sparse indices", ivi, ioff, n, (uint64_t)ics, (uint64_t)ics);
+    if (st == SV_OK) st = check_view_range(pc, i, "sparse values", vvi, voff, n, elem, elem);
+    if (st != SV_OK) return st;
+    uint64_t avail = 0;
+    const uint8_t *p = view_bytes(pc, ivi, ioff, &avail);
+    if (!p || avail < n * (uint64_t)ics) return SV_OK; /* declared sizes checked above */
+    uint64_t prev = 0;
+    for (uint64_t k = 0; k < n; k++) {
+        uint64_t ix = rd_uint(p + k * (uint64_t)ics, ics);
+        if (ix >= count || (k && ix <= prev))
+            return sv_fail(pc->err, SV_ERR_PARSE,
+                           "glTF accessor %d: sparse index %llu is %llu (indices must increase "
+                           "and be below the count %llu)",
+                           i, (unsigned long long)k, (unsigned long long)ix,
+                           (unsigned long long)count);
+        prev = ix;
+    }
+    return SV_OK;
+}
+
+/* min and max, when present: arrays of exactly nc finite numbers. */
+static sv_status check_min_max(precheck *pc, int i, const cJSON *a, int nc)
+{
+    static const char *const keys[2] = {"min", "max"};
+    for (int k = 0; k < 2; k++) {
+        const cJSON *m = cJSON_GetObjectItemCaseSensitive(a, keys[k]);
+        if (!m) continue;
+        if (!cJSON_IsArray(m) || cJSON_GetArraySize(m) != nc)
+            return sv_fail(pc->err, SV_ERR_PARSE,
+                           "glTF accessor %d: %s is not an array of %d numbers", i, keys[k], nc);
+        for (const cJSON *x = m->child; x; x = x->next)
+            if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble))
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF accessor %d: %s holds something not a finite number", i,
+                               keys[k]);
+    }
+    return SV_OK;
+}
+
+/* Every accessor form against its buffer view: the element range (byteOffset,
+ * count, byteStride), component alignment, normalized, min/max and sparse. */
 static sv_status check_accessors(precheck *pc)
 {
     for (int i = 0; i < pc->n_accessors; i++) {
         const cJSON *a = cJSON_GetArrayItem(pc->accessors, i);
         uint64_t ct = 0, count = 0, off = 0;
-        bool has_ct, has_count, present;
+        bool has_ct, has_count, has_off;
         int64_t vi;
+        if (!cJSON_IsObject(a))
+            return sv_fail(pc->err, SV_ERR_PARSE, "glTF accessor %d is not an object", i);
         sv_status st = get_uint(pc, a, "componentType", "accessor", i, &ct, &has_ct);
         if (st == SV_OK) st = get_uint(pc, a, "count", "accessor", i, &count, &has_count);
-        if (st == SV_OK) st = get_uint(pc, a, "byteOffset", "accessor", i, &off, &present);
+        if (st == SV_OK) st = get_uint(pc, a, "byteOffset", "accessor", i, &off, &has_off);
         if (st == SV_OK)
             st = get_index(pc, a, "bufferView", "accessor", i, pc->n_views, "bufferView", &vi);
         if (st != SV_OK) return st;
@@ -359,20 +501,41 @@ static sv_status check_accessors(precheck *pc)
         if (count > UINT32_MAX)
             return sv_fail(pc->err, SV_ERR_LIMIT, "glTF accessor %d declares %llu elements", i,
                            (unsigned long long)count);
-        if (vi < 0) continue; /* all zeros (or sparse only) */
-        const cJSON *v = cJSON_GetArrayItem(pc->views, (int)vi);
-        uint64_t vlen = 0, stride = 0;
-        get_uint(pc, v, "byteLength", "bufferView", (int)vi, &vlen, &present);
-        get_uint(pc, v, "byteStride", "bufferView", (int)vi, &stride, &present);
-        uint64_t elem = (uint64_t)cs * (uint64_t)nc;
-        if (!present || stride == 0) stride = elem;
-        uint64_t need = off + (count - 1) * stride + elem; /* count < 2^32, stride <= 252 */
-        if (off > vlen || need > vlen)
+        const cJSON *norm = cJSON_GetObjectItemCaseSensitive(a, "normalized");
+        if (norm && !cJSON_IsBool(norm))
+            return sv_fail(pc->err, SV_ERR_PARSE, "glTF accessor %d: normalized is not a boolean",
+                           i);
+        if (cJSON_IsTrue(norm) && (ct == 5125 || ct == 5126))
             return sv_fail(pc->err, SV_ERR_PARSE,
-                           "glTF accessor %d needs %llu bytes (count %llu × stride %llu) but "
-                           "bufferView %lld has %llu",
-                           i, (unsigned long long)need, (unsigned long long)count,
-                           (unsigned long long)stride, (long long)vi, (unsigned long long)vlen);
+                           "glTF accessor %d: normalized is only for 8- and 16-bit components", i);
+        st = check_min_max(pc, i, a, nc);
+        if (st != SV_OK) return st;
+        uint64_t elem = (uint64_t)cs * (uint64_t)nc;
+        const cJSON *sp = cJSON_GetObjectItemCaseSensitive(a, "sparse");
+        if (sp && (st = check_sparse(pc, i, sp, count, elem)) != SV_OK) return st;
+        if (vi < 0) {
+            if (has_off)
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF accessor %d has a byteOffset but no bufferView", i);
+            continue; /* all zeros (or sparse only) */
+        }
+        const cJSON *v = cJSON_GetArrayItem(pc->views, (int)vi);
+        uint64_t stride = 0;
+        bool has_stride;
+        get_uint(pc, v, "byteStride", "bufferView", (int)vi, &stride, &has_stride);
+        if (!has_stride || stride == 0) stride = elem;
+        if (stride < elem)
+            return sv_fail(pc->err, SV_ERR_PARSE,
+                           "glTF accessor %d: bufferView %lld byteStride %llu is shorter than "
+                           "its %llu-byte element",
+                           i, (long long)vi, (unsigned long long)stride, (unsigned long long)elem);
+        if (off % (uint64_t)cs || stride % (uint64_t)cs)
+            return sv_fail(pc->err, SV_ERR_PARSE,
+                           "glTF accessor %d: byteOffset %llu or byteStride %llu is not a "
+                           "multiple of its %d-byte component",
+                           i, (unsigned long long)off, (unsigned long long)stride, cs);
+        st = check_view_range(pc, i, NULL, vi, off, count, elem, stride);
+        if (st != SV_OK) return st;
     }
     return SV_OK;
 }
@@ -390,16 +553,33 @@ static uint64_t accessor_count(precheck *pc, int64_t ai)
 static sv_status check_index_values(precheck *pc, int mesh, int prim, int64_t ai, uint64_t nverts)
 {
     const cJSON *a = cJSON_GetArrayItem(pc->accessors, (int)ai);
-    if (cJSON_GetObjectItemCaseSensitive(a, "sparse")) return SV_OK;
-    const cJSON *bv = cJSON_GetObjectItemCaseSensitive(a, "bufferView");
-    if (!bv) return SV_OK;
-    const cJSON *v = cJSON_GetArrayItem(pc->views, (int)bv->valuedouble);
     uint64_t ct = (uint64_t)cJSON_GetObjectItemCaseSensitive(a, "componentType")->valuedouble;
     int cs = component_size(ct);
     if (ct != 5121 && ct != 5123 && ct != 5125)
         return sv_fail(pc->err, SV_ERR_PARSE,
                        "glTF mesh %d primitive %d: index accessor %lld has componentType %llu",
                        mesh, prim, (long long)ai, (unsigned long long)ct);
+    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(a, "sparse");
+    if (sp) { /* the substituted values are indices too (ranges checked in check_sparse) */
+        const cJSON *val = cJSON_GetObjectItemCaseSensitive(sp, "values");
+        uint64_t n = (uint64_t)cJSON_GetObjectItemCaseSensitive(sp, "count")->valuedouble;
+        uint64_t voff = 0, avail = 0;
+        bool has;
+        get_uint(pc, val, "byteOffset", "accessor sparse values", (int)ai, &voff, &has);
+        int64_t vvi = (int64_t)cJSON_GetObjectItemCaseSensitive(val, "bufferView")->valuedouble;
+        const uint8_t *p = view_bytes(pc, vvi, voff, &avail);
+        for (uint64_t k = 0; p && k < n && (k + 1) * (uint64_t)cs <= avail; k++) {
+            uint32_t ix = rd_uint(p + k * (uint64_t)cs, cs);
+            if ((uint64_t)ix >= nverts)
+                return sv_fail(pc->err, SV_ERR_INVALID,
+                               "glTF mesh %d primitive %d: sparse index value %u is past vertex "
+                               "%llu",
+                               mesh, prim, ix, (unsigned long long)nverts);
+        }
+    }
+    const cJSON *bv = cJSON_GetObjectItemCaseSensitive(a, "bufferView");
+    if (!bv) return SV_OK;
+    const cJSON *v = cJSON_GetArrayItem(pc->views, (int)bv->valuedouble);
     uint64_t aoff = 0, voff = 0, stride = 0, count = accessor_count(pc, ai);
     bool present;
     get_uint(pc, a, "byteOffset", "accessor", (int)ai, &aoff, &present);
@@ -457,8 +637,39 @@ static sv_status check_meshes(precheck *pc)
             if (pos < 0)
                 return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d has no POSITION",
                                m, p);
+            /* what assimp reads as positions and indices must be what they
+             * are (glTF 2.0 §3.7.2.1: POSITION is float VEC3, indices SCALAR) */
+            const cJSON *pa = cJSON_GetArrayItem(pc->accessors, (int)pos);
+            const cJSON *pt = cJSON_GetObjectItemCaseSensitive(pa, "type");
+            if (strcmp(pt->valuestring, "VEC3") != 0 ||
+                cJSON_GetObjectItemCaseSensitive(pa, "componentType")->valuedouble != 5126)
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF mesh %d primitive %d: POSITION accessor %lld is not a float "
+                               "VEC3",
+                               m, p, (long long)pos);
+            if (ind >= 0) {
+                const cJSON *it = cJSON_GetObjectItemCaseSensitive(
+                    cJSON_GetArrayItem(pc->accessors, (int)ind), "type");
+                if (strcmp(it->valuestring, "SCALAR") != 0)
+                    return sv_fail(pc->err, SV_ERR_PARSE,
+                                   "glTF mesh %d primitive %d: index accessor %lld is not SCALAR",
+                                   m, p, (long long)ind);
+            }
             uint64_t nv = accessor_count(pc, pos);
             uint64_t ni = ind >= 0 ? accessor_count(pc, ind) : nv;
+            /* a primitive too short for its mode: assimp computes its face
+             * count as count - 2 unsigned (a strip of 1 vertex: 2^32 - 1
+             * faces allocated) */
+            static const uint64_t min_of_mode[7] = {1, 2, 2, 2, 3, 3, 3};
+            if (mode > 6)
+                return sv_fail(pc->err, SV_ERR_PARSE, "glTF mesh %d primitive %d: mode %llu", m,
+                               p, (unsigned long long)mode);
+            if (ni < min_of_mode[mode])
+                return sv_fail(pc->err, SV_ERR_PARSE,
+                               "glTF mesh %d primitive %d: %llu %s, mode %llu needs at least %llu",
+                               m, p, (unsigned long long)ni, ind >= 0 ? "indices" : "vertices",
+                               (unsigned long long)mode,
+                               (unsigned long long)min_of_mode[mode]);
             uint64_t tris = mode == 4                  ? ni / 3
                             : (mode == 5 || mode == 6) ? (ni >= 3 ? ni - 2 : 0)
                                                        : 0;
@@ -624,13 +835,15 @@ sv_status sv_gltf_precheck(const uint8_t *data, size_t size, bool is_glb, const 
         st = check_glb(&pc, data, size, &json, &json_len, &bin, &bin_len);
         if (st != SV_OK) return st;
     }
-    const char *end = NULL;
-    cJSON *root = cJSON_ParseWithLengthOpts((const char *)json, json_len, &end, 0);
-    if (!root) {
-        size_t at = end ? (size_t)(end - (const char *)json) : 0;
-        return sv_fail(err, SV_ERR_PARSE, "glTF JSON syntax error at byte %zu of %zu", at,
-                       json_len);
-    }
+    /* A GLB's JSON chunk is padded to 4 bytes with spaces; some writers pad
+     * with NULs, which end the text for assimp's parser as well. */
+    if (is_glb)
+        for (int k = 0; k < 3 && json_len && json[json_len - 1] == 0; k++) json_len--;
+    /* The document assimp reads must be the one checked here: no duplicate
+     * key, no NUL in a string, nothing after the value. */
+    cJSON *root = sv_json_parse_strict((const char *)json, json_len, "glTF JSON", SV_ERR_PARSE,
+                                       err);
+    if (!root) return err && err->status ? err->status : SV_ERR_PARSE;
     if (!cJSON_IsObject(root)) {
         st = sv_fail(err, SV_ERR_PARSE, "glTF JSON is not an object");
         goto out;

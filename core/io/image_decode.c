@@ -47,14 +47,25 @@ static bool is_jpeg(const uint8_t *d, size_t n)
     return n >= 3 && d[0] == 0xFF && d[1] == 0xD8 && d[2] == 0xFF;
 }
 
-static sv_status check_size(uint32_t w, uint32_t h, uint32_t max_size, const char *name,
-                            sv_error *err)
+#define IMAGE_MAX_BYTES_DEFAULT ((uint64_t)1 << 30)
+
+/* The size checks made before any pixel is decoded: w and h within max_size,
+ * and w × h × px_bytes (the memory the decode takes a pixel) within
+ * max_bytes. */
+static sv_status check_size(uint32_t w, uint32_t h, uint32_t max_size, uint64_t px_bytes,
+                            uint64_t max_bytes, const char *name, sv_error *err)
 {
     if (w == 0 || h == 0)
         return sv_fail(err, SV_ERR_PARSE, "image '%s' has an empty size %ux%u", name, w, h);
     if (w > max_size || h > max_size)
         return sv_fail(err, SV_ERR_LIMIT, "image '%s' is %ux%u, over the %u texel limit per side",
                        name, w, h, max_size);
+    uint64_t need = (uint64_t)w * h * px_bytes;
+    if (need > max_bytes)
+        return sv_fail(err, SV_ERR_LIMIT,
+                       "image '%s' is %ux%u: decoding it takes %llu bytes, over the %llu-byte "
+                       "budget of a texture",
+                       name, w, h, (unsigned long long)need, (unsigned long long)max_bytes);
     return SV_OK;
 }
 
@@ -100,7 +111,7 @@ static void png_on_warning(png_structp p, png_const_charp msg)
 /* Decodes a PNG (chunks already checked) into RGBA8 (gray16 false) or its
  * first channel at 16 bits (gray16 true). */
 static sv_status decode_png(const uint8_t *d, size_t n, const char *name, uint32_t max_size,
-                            bool gray16, sv_image *out, sv_error *err)
+                            uint64_t max_bytes, bool gray16, sv_image *out, sv_error *err)
 {
     png_src src = {.d = d, .n = n};
     png_structp p = png_create_read_struct(PNG_LIBPNG_VER_STRING, &src, png_on_error,
@@ -124,8 +135,11 @@ static sv_status decode_png(const uint8_t *d, size_t n, const char *name, uint32
     if (png_get_bit_depth(p, info) == 16) png_set_swap(p); /* native-endian uint16 */
     png_read_update_info(p, info);
     uint32_t w = png_get_image_width(p, info), h = png_get_image_height(p, info);
-    if ((st = check_size(w, h, max_size, name, err))) goto out;
     int ch = png_get_channels(p, info), depth = png_get_bit_depth(p, info);
+    /* the whole image at its depth, then the result beside it */
+    uint64_t px_bytes = (uint64_t)(ch > 0 ? ch : 4) * (uint64_t)(depth == 16 ? 2 : 1) +
+                        (gray16 ? 2 : 4);
+    if ((st = check_size(w, h, max_size, px_bytes, max_bytes, name, err))) goto out;
     size_t rowbytes = png_get_rowbytes(p, info);
     if (ch < 1 || ch > 4 || (depth != 8 && depth != 16) ||
         rowbytes != (size_t)w * (size_t)ch * (size_t)(depth / 8)) {
@@ -193,7 +207,7 @@ static void jpeg_on_message(j_common_ptr c)
 /* Decodes a JPEG into RGBA8; *cmyk set (and nothing decoded) for a CMYK or
  * YCCK JPEG, which the plugin converts. */
 static sv_status decode_jpeg(const uint8_t *d, size_t n, const char *name, uint32_t max_size,
-                             sv_image *out, bool *cmyk, sv_error *err)
+                             uint64_t max_bytes, sv_image *out, bool *cmyk, sv_error *err)
 {
     struct jpeg_decompress_struct ci;
     jpeg_fail f;
@@ -217,7 +231,7 @@ static sv_status decode_jpeg(const uint8_t *d, size_t n, const char *name, uint3
     jpeg_start_decompress(&ci);
     uint32_t w = ci.output_width, h = ci.output_height;
     int ch = ci.output_components;
-    if ((st = check_size(w, h, max_size, name, err))) goto out;
+    if ((st = check_size(w, h, max_size, 4, max_bytes, name, err))) goto out; /* row by row */
     if (ch != 1 && ch != 3) {
         st = sv_fail(err, SV_ERR_PARSE, "image '%s' (jpeg) has %d channels", name, ch);
         goto out;
@@ -264,22 +278,30 @@ static sv_status begin(const void *data, size_t size, const char **name, uint32_
     return SV_OK;
 }
 
-sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
-                                sv_image *out, sv_error *err)
+sv_status sv_image_decode_rgba8_within(const void *data, size_t size, const char *name,
+                                       uint32_t max_size, uint64_t max_bytes, sv_image *out,
+                                       sv_error *err)
 {
     sv_status st = begin(data, size, &name, &max_size, out, err);
     if (st) return st;
+    if (max_bytes == 0) max_bytes = IMAGE_MAX_BYTES_DEFAULT;
     const uint8_t *d = data;
     if (is_png(d, size)) {
         if ((st = sv_png_check_chunks(d, size, name, err))) return st;
-        return decode_png(d, size, name, max_size, false, out, err);
+        return decode_png(d, size, name, max_size, max_bytes, false, out, err);
     }
     if (is_jpeg(d, size)) {
         bool cmyk = false;
-        st = decode_jpeg(d, size, name, max_size, out, &cmyk, err);
+        st = decode_jpeg(d, size, name, max_size, max_bytes, out, &cmyk, err);
         if (st || !cmyk) return st;
     }
-    return sv_image_plugin_decode_rgba8(data, size, name, max_size, out, err);
+    return sv_image_plugin_decode_rgba8_within(data, size, name, max_size, max_bytes, out, err);
+}
+
+sv_status sv_image_decode_rgba8(const void *data, size_t size, const char *name, uint32_t max_size,
+                                sv_image *out, sv_error *err)
+{
+    return sv_image_decode_rgba8_within(data, size, name, max_size, 0, out, err);
 }
 
 sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name, uint32_t max_size,
@@ -291,5 +313,5 @@ sv_status sv_image_decode_gray16(const void *data, size_t size, const char *name
     if (!is_png(d, size)) /* the plugin names what it is */
         return sv_image_plugin_decode_gray16(data, size, name, max_size, out, err);
     if ((st = sv_png_check_chunks(d, size, name, err))) return st;
-    return decode_png(d, size, name, max_size, true, out, err);
+    return decode_png(d, size, name, max_size, IMAGE_MAX_BYTES_DEFAULT, true, out, err);
 }

@@ -106,18 +106,27 @@ void expand_rgba8(const uint8_t *src, int ch, int alpha_channel, size_t n, uint8
     }
 }
 
-sv_status check_size(int w, int h, uint32_t max_size, const char *name, sv_error *err)
+/* w and h within max_size, and w × h × px_bytes (the memory the decode
+ * takes a pixel) within max_bytes, before any pixel is decoded. */
+sv_status check_size(int w, int h, uint32_t max_size, uint64_t px_bytes, uint64_t max_bytes,
+                     const char *name, sv_error *err)
 {
     if (w <= 0 || h <= 0)
         return sv_fail(err, SV_ERR_PARSE, "image '%s' has an empty size %dx%d", name, w, h);
     if ((uint32_t)w > max_size || (uint32_t)h > max_size)
         return sv_fail(err, SV_ERR_LIMIT, "image '%s' is %dx%d, over the %u texel limit per side",
                        name, w, h, max_size);
+    uint64_t need = (uint64_t)w * (uint64_t)h * px_bytes;
+    if (need > max_bytes)
+        return sv_fail(err, SV_ERR_LIMIT,
+                       "image '%s' is %dx%d: decoding it takes %llu bytes, over the %llu-byte "
+                       "budget of a texture",
+                       name, w, h, (unsigned long long)need, (unsigned long long)max_bytes);
     return SV_OK;
 }
 
 sv_status decode_stb(const uint8_t *data, size_t size, const char *name, uint32_t max_size,
-                     sv_image *out, sv_error *err)
+                     uint64_t max_bytes, sv_image *out, sv_error *err)
 {
     if (size > (size_t)INT_MAX)
         return sv_fail(err, SV_ERR_LIMIT, "image '%s' is too large to decode (%zu bytes)", name,
@@ -126,7 +135,7 @@ sv_status decode_stb(const uint8_t *data, size_t size, const char *name, uint32_
     if (!stbi_info_from_memory(data, (int)size, &w, &h, &c))
         return sv_fail(err, SV_ERR_PARSE, "cannot decode image '%s': %s", name,
                        stbi_failure_reason());
-    sv_status st = check_size(w, h, max_size, name, err);
+    sv_status st = check_size(w, h, max_size, 8, max_bytes, name, err); /* stb's copy and ours */
     if (st != SV_OK) return st;
     uint8_t *px = stbi_load_from_memory(data, (int)size, &w, &h, &c, 4);
     if (!px)
@@ -141,8 +150,8 @@ sv_status decode_stb(const uint8_t *data, size_t size, const char *name, uint32_
 /* Returns SV_OK, an error, or SV_ERR_FORMAT with *fallback set when OIIO has no
  * reader for the format that can read from memory. */
 sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const char *name,
-                      uint32_t max_size, sv_image *out, bool *fallback, sv_error *err,
-                      bool gray16 = false)
+                      uint32_t max_size, uint64_t max_bytes, sv_image *out, bool *fallback,
+                      sv_error *err, bool gray16 = false)
 {
     *fallback = false;
     Filesystem::IOMemReader proxy(data, size);
@@ -165,9 +174,12 @@ sv_status decode_oiio(const uint8_t *data, size_t size, const char *fmt, const c
         return sv_fail(err, SV_ERR_PARSE, "cannot decode image '%s' (%s): %s", name, fmt,
                        e.c_str());
     }
-    sv_status st = check_size(spec.width, spec.height, max_size, name, err);
-    if (st != SV_OK) return st;
     int ch = spec.nchannels;
+    /* OIIO's pixels at their stored type (a float TIFF: 16 bytes a pixel),
+     * our 8-bit copy and the RGBA8 result */
+    uint64_t px_bytes = (uint64_t)spec.pixel_bytes(true) + (uint64_t)(ch > 0 ? ch : 0) + 4;
+    sv_status st = check_size(spec.width, spec.height, max_size, px_bytes, max_bytes, name, err);
+    if (st != SV_OK) return st;
     if (ch < 1 || ch > 64)
         return sv_fail(err, SV_ERR_PARSE, "image '%s' has %d channels", name, ch);
     size_t npx = (size_t)spec.width * (size_t)spec.height, nbytes;
@@ -207,13 +219,14 @@ namespace
  * PNG chunk check, and no C++ exception escaping. gray16: the first channel
  * of a PNG at 16 bits; else RGBA8 from any format (stb as the fallback). */
 sv_status decode_any(const void *data, size_t size, const char *name, uint32_t max_size,
-                     sv_image *out, sv_error *err, bool gray16)
+                     uint64_t max_bytes, sv_image *out, sv_error *err, bool gray16)
 {
     if (!out) return sv_fail(err, SV_ERR_INTERNAL, "image decode: out is NULL");
     std::memset(out, 0, sizeof *out);
     if (!name) name = "(unnamed)";
     if (!data || size == 0) return sv_fail(err, SV_ERR_PARSE, "image '%s' is empty", name);
     if (max_size == 0) max_size = 16384;
+    if (max_bytes == 0) max_bytes = (uint64_t)1 << 30;
     try {
         const uint8_t *d = (const uint8_t *)data;
         const char *fmt = image_format(d, size, name);
@@ -229,8 +242,10 @@ sv_status decode_any(const void *data, size_t size, const char *name, uint32_t m
             if (st != SV_OK) return st;
         }
         bool fallback = false;
-        sv_status st = decode_oiio(d, size, fmt, name, max_size, out, &fallback, err, gray16);
-        if (st != SV_OK && fallback && !gray16) st = decode_stb(d, size, name, max_size, out, err);
+        sv_status st = decode_oiio(d, size, fmt, name, max_size, max_bytes, out, &fallback, err,
+                                   gray16);
+        if (st != SV_OK && fallback && !gray16)
+            st = decode_stb(d, size, name, max_size, max_bytes, out, err);
         if (st != SV_OK) sv_image_free(out);
         return st;
     } catch (const std::exception &e) {
@@ -251,12 +266,19 @@ extern "C" __attribute__((visibility("default"))) sv_status sv_plugin_decode_rgb
     const void *data, size_t size, const char *name, uint32_t max_size, sv_image *out,
     sv_error *err)
 {
-    return decode_any(data, size, name, max_size, out, err, false);
+    return decode_any(data, size, name, max_size, 0, out, err, false);
+}
+
+extern "C" __attribute__((visibility("default"))) sv_status sv_plugin_decode_rgba8_within(
+    const void *data, size_t size, const char *name, uint32_t max_size, uint64_t max_bytes,
+    sv_image *out, sv_error *err)
+{
+    return decode_any(data, size, name, max_size, max_bytes, out, err, false);
 }
 
 extern "C" __attribute__((visibility("default"))) sv_status sv_plugin_decode_gray16(
     const void *data, size_t size, const char *name, uint32_t max_size, sv_image *out,
     sv_error *err)
 {
-    return decode_any(data, size, name, max_size, out, err, true);
+    return decode_any(data, size, name, max_size, 0, out, err, true);
 }

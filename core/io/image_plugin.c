@@ -29,8 +29,12 @@
 typedef sv_status (*decode_fn)(const void *, size_t, const char *, uint32_t, sv_image *,
                                sv_error *);
 
+typedef sv_status (*decode_within_fn)(const void *, size_t, const char *, uint32_t, uint64_t,
+                                      sv_image *, sv_error *);
+
 static pthread_once_t once = PTHREAD_ONCE_INIT;
 static decode_fn decode_rgba8, decode_gray16;
+static decode_within_fn decode_rgba8_within;
 static void *handle;
 static char load_error[400];
 
@@ -44,13 +48,15 @@ static bool try_open(const char *path)
     }
     decode_fn a = (decode_fn)(uintptr_t)dlsym(h, "sv_plugin_decode_rgba8");
     decode_fn b = (decode_fn)(uintptr_t)dlsym(h, "sv_plugin_decode_gray16");
-    if (!a || !b) {
+    decode_within_fn c = (decode_within_fn)(uintptr_t)dlsym(h, "sv_plugin_decode_rgba8_within");
+    if (!a || !b || !c) {
         snprintf(load_error, sizeof load_error, "%s has no sv_plugin_decode_* entry points", path);
         dlclose(h);
         return false;
     }
     decode_rgba8 = a;
     decode_gray16 = b;
+    decode_rgba8_within = c;
     handle = h;
     return true;
 }
@@ -107,6 +113,15 @@ sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char
     if (out) memset(out, 0, sizeof *out);
     sv_status st = sv_image_plugin_load(err);
     return st != SV_OK ? st : decode_rgba8(data, size, name, max_size, out, err);
+}
+
+sv_status sv_image_plugin_decode_rgba8_within(const void *data, size_t size, const char *name,
+                                              uint32_t max_size, uint64_t max_bytes,
+                                              sv_image *out, sv_error *err)
+{
+    if (out) memset(out, 0, sizeof *out);
+    sv_status st = sv_image_plugin_load(err);
+    return st != SV_OK ? st : decode_rgba8_within(data, size, name, max_size, max_bytes, out, err);
 }
 
 sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,

@@ -299,6 +299,7 @@ typedef struct importer {
     const sv_file *files;
     size_t count;
     sv_limits lim;
+    uint64_t texture_bytes; /* decoded RGBA8 bytes of the textures so far */
     sv_format format;
     sv_import_info *info;
     sv_error *err;
@@ -386,9 +387,24 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
     sv_image *img = &im->images[im->image_count];
     if (data) {
         sv_error e = {0};
-        sv_status st = sv_image_decode_rgba8(data, size, shown, im->lim.max_texture_size, img, &e);
+        sv_status st = sv_image_decode_rgba8_within(data, size, shown, im->lim.max_texture_size,
+                                                    im->lim.max_texture_bytes, img, &e);
         if (st == SV_ERR_LIMIT || st == SV_ERR_NOMEM)
             return sv_fail(im->err, st, "material '%s': %s", mname, e.message);
+        /* every texture stays decoded until the bake ends: their sum is bounded
+         * as well as each decode */
+        if (st == SV_OK) {
+            im->texture_bytes += (uint64_t)img->width * img->height * 4;
+            if (im->texture_bytes > im->lim.max_textures_bytes) {
+                sv_image_free(img);
+                return sv_fail(im->err, SV_ERR_LIMIT,
+                               "material '%s': texture '%s' (%ux%u) takes the upload's decoded "
+                               "textures to %llu bytes, over the %llu-byte budget of an upload",
+                               mname, shown, img->width, img->height,
+                               (unsigned long long)im->texture_bytes,
+                               (unsigned long long)im->lim.max_textures_bytes);
+            }
+        }
         /* a broken texture is the input's (a warning, drawn without it); an
          * image decoder that cannot load is the installation's, and would
          * silently drop every texture */

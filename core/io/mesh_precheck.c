@@ -15,7 +15,9 @@
  *    record by record. So element counts are bounded by the file size. A
  *    polygon list (vertex_index / vertex_indices) may not be empty: assimp's
  *    TriangulateProcess aborts on a face with no index (found by fuzz_import).
- *  - OBJ: text (no NUL byte anywhere), no line longer than SV_OBJ_MAX_LINE.
+ *  - OBJ: text (no NUL byte anywhere), lines split and '\' continuations
+ *    joined as assimp does, no joined line longer than SV_OBJ_MAX_LINE, no
+ *    face of more than SV_OBJ_MAX_FACE_VERTICES vertices.
  *  - FBX binary: the node-record tree is walked: every end offset, property
  *    list and array inside the file and consistent, nesting at most
  *    SV_FBX_MAX_DEPTH. FBX ascii: no control byte, strings closed, braces balanced
@@ -39,6 +41,10 @@
 #define SV_PLY_MAX_ELEMENTS 64u
 #define SV_PLY_MAX_PROPERTIES 256u
 #define SV_OBJ_MAX_LINE 65536u
+/* vertices of one OBJ face: assimp triangulates a polygon in time quadratic
+ * in its size, so the face size bounds the CPU a file of a given triangle
+ * count can cost */
+#define SV_OBJ_MAX_FACE_VERTICES 256u
 #define SV_FBX_MAX_DEPTH 64u
 
 /* ---------------------------------------------------------------- PLY ---- */
@@ -386,6 +392,19 @@ static sv_status ply_check(const uint8_t *d, size_t n, const char *shown, const 
 
 /* ---------------------------------------------------------------- OBJ ---- */
 
+/* Whether c ends a line for assimp's OBJ reader (ParsingUtils' IsLineEnd). */
+static bool obj_line_end(uint8_t c)
+{
+    return c == '\n' || c == '\r' || c == '\f' || c == 0;
+}
+
+/* OBJ, read line by line exactly as assimp 5.2.5's reader reads it
+ * (IOStreamBuffer::getNextDataLine): a line ends at '\n', '\r' or '\f', and a
+ * '\' right before a line end joins the next line to it (assimp skips to the
+ * next '\n'). Counts, lengths and the face size are held on those joined
+ * lines, not on physical ones: a face continued over many short lines is one
+ * face. A continuation assimp would read past the end, or that would hide the
+ * rest of a line (a '\' then a lone '\r' or '\f'), is refused. */
 static sv_status obj_check(const uint8_t *d, size_t n, const char *shown, const sv_limits *lim,
                            sv_error *err)
 {
@@ -395,27 +414,53 @@ static sv_status obj_check(const uint8_t *d, size_t n, const char *shown, const 
     uint64_t verts = 0, tris = 0, line = 0;
     size_t i = 0;
     while (i < n) {
-        const uint8_t *nl = memchr(d + i, '\n', n - i);
-        size_t eol = nl ? (size_t)(nl - d) : n;
         line++;
-        if (eol - i > SV_OBJ_MAX_LINE)
-            return sv_fail(err, SV_ERR_PARSE, "'%s': OBJ line %llu is longer than %u bytes", shown,
-                           (unsigned long long)line, SV_OBJ_MAX_LINE);
-        size_t s = i;
-        while (s < eol && (d[s] == ' ' || d[s] == '\t')) s++;
-        if (eol - s >= 2 && d[s] == 'v' && (d[s + 1] == ' ' || d[s + 1] == '\t')) {
-            verts++;
-        } else if (eol - s >= 2 && d[s] == 'f' && (d[s + 1] == ' ' || d[s + 1] == '\t')) {
-            uint64_t toks = 0;
-            bool in = false;
-            for (size_t k = s + 1; k < eol; k++) {
-                bool sp = isspace(d[k]) != 0;
-                if (!sp && !in) toks++;
-                in = !sp;
+        uint64_t start_line = line, len = 0, toks = 0;
+        int kind = 0; /* 1: v, 2: f, 3: another keyword */
+        bool in = false;
+        size_t k = i;
+        while (k < n && !obj_line_end(d[k])) {
+            if (d[k] == '\\' && (k + 1 == n || obj_line_end(d[k + 1]))) {
+                if (k + 1 < n && d[k + 1] == '\n') k += 2;
+                else if (k + 2 < n && d[k + 1] == '\r' && d[k + 2] == '\n') k += 3;
+                else
+                    return sv_fail(err, SV_ERR_PARSE,
+                                   "'%s': OBJ line %llu ends in a '\\' continuation that is not "
+                                   "followed by a newline",
+                                   shown, (unsigned long long)line);
+                line++;
+                continue;
             }
-            if (toks >= 3) tris += toks - 2;
+            bool sp = d[k] == ' ' || d[k] == '\t' || d[k] == '\v';
+            if (!sp && !in) {
+                toks++;
+                if (toks == 1)
+                    kind = d[k] == 'v' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t')
+                               ? 1
+                           : d[k] == 'f' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t')
+                               ? 2
+                               : 3;
+            }
+            in = !sp;
+            if (++len > SV_OBJ_MAX_LINE)
+                return sv_fail(err, SV_ERR_PARSE,
+                               "'%s': OBJ line %llu is longer than %u bytes (with its '\\' "
+                               "continuations)",
+                               shown, (unsigned long long)start_line, SV_OBJ_MAX_LINE);
+            k++;
         }
-        i = eol + 1;
+        if (kind == 1) {
+            verts++;
+        } else if (kind == 2) {
+            uint64_t nv = toks - 1;
+            if (nv > SV_OBJ_MAX_FACE_VERTICES)
+                return sv_fail(err, SV_ERR_LIMIT,
+                               "'%s': OBJ face on line %llu has %llu vertices (limit %u)", shown,
+                               (unsigned long long)start_line, (unsigned long long)nv,
+                               SV_OBJ_MAX_FACE_VERTICES);
+            if (nv >= 3) tris += nv - 2;
+        }
+        i = k < n && d[k] == '\r' && k + 1 < n && d[k + 1] == '\n' ? k + 2 : k + 1;
     }
     if (tris > lim->max_triangles)
         return sv_fail(err, SV_ERR_LIMIT, "'%s' declares %llu triangles (limit %llu)", shown,

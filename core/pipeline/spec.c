@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json_strict.h"
 #include "method.h"
 
 static const char *const top_keys[] = {"method",   "scene", "import", "classify", "bake",
@@ -383,6 +384,11 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(json, len, &end, false);
     if (!root) return invalid_json(json, len, end, err);
+    /* The worker and the daemon must read the same spec: refuse what two
+     * parsers could read differently (docs/spec.md). */
+    cJSON_Delete(root);
+    root = sv_json_parse_strict(json, len, "spec", SV_ERR_SPEC, err);
+    if (!root) return err && err->status ? err->status : SV_ERR_SPEC;
     s->root = root;
     if (!cJSON_IsObject(root)) {
         st = sv_fail(err, SV_ERR_SPEC, "spec: expected a JSON object");
@@ -474,4 +480,11 @@ void sv_spec_free(sv_spec *s)
     memcpy(method, s->method, sizeof method);
     memset(s, 0, sizeof *s);
     memcpy(s->method, method, sizeof method);
+}
+
+uint64_t sv_spec_output_estimate(const sv_spec *spec, uint64_t input_bytes)
+{
+    uint64_t a = spec && spec->max_atlas ? spec->max_atlas : 2048;
+    /* 3 copies × 4/3 of the levels × 8 bytes a texel */
+    return 3 * input_bytes + 32 * a * a;
 }

@@ -433,6 +433,12 @@ CORPUS = [
      "unknown property type"),
     ("obj_long_line.obj", obj(TRI_V + "# " + "x" * 70000 + "\nf 1 2 3\n"),
      "a 70 KB line"),
+    ("obj_continued_face.obj",
+     obj("".join("v %d %d 0\n" % (k % 7, k // 7) for k in range(300)) + "f" +
+         "".join(" %d \\\n" % (k + 1) for k in range(299)) + " 300\n"),
+     "a 300-vertex face continued over 300 lines with '\\' (assimp joins them)"),
+    ("obj_continuation_cr.obj", obj(TRI_V + "f 1 2 \\\r3\n"),
+     "a '\\' continuation before a lone CR (assimp skips to the next newline)"),
     ("obj_nul_after_64k.obj", obj(TRI_V + ("# " + "x" * 98 + "\n") * 700) + b"\0f 1 2 3\n",
      "NUL byte after the sniffer's 64 KiB"),
     ("fbx_binary_offset_past_end.fbx", fbx_patch(FBX_BIN, 27, 0xFFFFFF00),

@@ -1,8 +1,9 @@
 #!/bin/sh
 # daemon_store_quota.sh — issue 22 item 5: store_max_bytes holds while uploads
-# stream. Three concurrent 4 MiB uploads into a 10 MiB store: each upload's
-# declared length is reserved before its body is read (a chunked one reserves
-# as it streams), so two are taken and the third gets 507
+# stream. Three concurrent 4 MiB uploads into a 10 MiB store: each upload
+# reserves the bytes it has written as they stream (never its declared length:
+# daemon_reservations.sh), and the one that finds the store full gives its
+# room back in the same step, so two are taken and the third gets 507
 # with a message that says how the store is used (before the fix all three
 # were written, 12 MiB in a 10 MiB store, and the 507 that came later said
 # "full of jobs that are not finished" of an empty store).

@@ -81,7 +81,7 @@ try:
         if not d: break
         r += d
 except OSError: pass
-out.append("reused" if b'{"status":"ok"}' in r else "lost")
+out.append("reused" if b'{"status":"ok"' in r else "lost")
 s.close()
 s = socket.create_connection(("127.0.0.1", port)); s.settimeout(10)
 s.sendall(head("Expect: 100-continue\r\n", 200000))

@@ -969,6 +969,41 @@ static void texture_over_the_size_limit_is_refused(void **state)
     free(png);
 }
 
+/* Decoded-pixel budgets: a texture whose decode would take more memory than
+ * max_texture_bytes is refused before its pixels are decoded, and an upload
+ * whose textures together decode to more than max_textures_bytes is refused
+ * naming the texture that crossed it. */
+static void texture_over_the_memory_budgets_is_refused(void **state)
+{
+    (void)state;
+    size_t n;
+    uint8_t *png = png_bytes(256, 256, 255, &n); /* 8 bytes a pixel to decode: 512 KiB */
+    upload u = {0};
+    upload_add_str(&u, "t.obj", uv_obj);
+    upload_add_str(&u, "t.mtl", "newmtl leafy\nmap_Kd big.png\n");
+    upload_add(&u, "big.png", png, n);
+    sv_import_options opt = {.limits = {.max_texture_bytes = 256 * 1024}};
+    sv_mesh *m = NULL;
+    sv_error err = {0};
+    assert_int_equal(import_upload(&u, &opt, &m, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "budget of a texture"));
+    upload_free(&u);
+    /* two materials of 256 KiB decoded each, an upload budget of 384 KiB */
+    upload u2 = {0};
+    upload_add_str(&u2, "t.obj",
+                   "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                   "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2/2 4/1 3/3\n");
+    upload_add_str(&u2, "t.mtl", "newmtl a\nmap_Kd a.png\nnewmtl b\nmap_Kd b.png\n");
+    upload_add(&u2, "a.png", png, n);
+    upload_add(&u2, "b.png", png, n);
+    sv_import_options opt2 = {.limits = {.max_textures_bytes = 384 * 1024}};
+    m = NULL;
+    assert_int_equal(import_upload(&u2, &opt2, &m, NULL, &err), SV_ERR_LIMIT);
+    assert_non_null(strstr(err.message, "budget of an upload"));
+    upload_free(&u2);
+    free(png);
+}
+
 static void units_and_z_up_are_converted_to_metres_y_up(void **state)
 {
     (void)state;
@@ -1296,6 +1331,7 @@ int main(void)
         cmocka_unit_test(obj_face_referencing_a_missing_vertex_is_refused),
         cmocka_unit_test(ply_renamed_glb_is_imported_as_ply),
         cmocka_unit_test(limits_are_enforced_before_assimp_allocates),
+        cmocka_unit_test(texture_over_the_memory_budgets_is_refused),
         cmocka_unit_test(bad_units_or_axis_options_are_refused),
         cmocka_unit_test(texture_outside_the_upload_is_never_read),
         cmocka_unit_test(mtllib_outside_the_upload_is_refused),

@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "json_strict.h"
 #include "spec.h"
 
 static sv_status parse(const char *json, sv_spec *s, sv_error *e)
@@ -131,6 +132,27 @@ static void expect_error(const char *json, const char *needle)
     sv_spec_free(&s); /* safe after failure */
 }
 
+/* What two JSON parsers could read differently is refused, in a spec, in any
+ * object of it, and by the shared reader glTF and the daemon use. */
+static void ambiguous_json_is_refused(void **state)
+{
+    (void)state;
+    expect_error("{} x", "content after the JSON value at byte 3");
+    expect_error("{}{}", "content after the JSON value");
+    expect_error("{\"method\":\"octahedral\",\"method\":7}", "\"method\" appears twice");
+    expect_error("{\"scene\":{\"sky\":1,\"sky\":2}}", "\"sky\" appears twice");
+    expect_error("{\"seed\\u0000\":1}", "key at byte 1 holds a NUL");
+    expect_error("{\"seed\":\"a\\u0000\"}", "string at byte 8 holds a NUL");
+    sv_error e = {0};
+    const char raw[] = "{\"a\x01\":1}";
+    assert_null(sv_json_parse_strict(raw, sizeof raw - 1, "t", SV_ERR_PARSE, &e));
+    assert_non_null(strstr(e.message, "raw control character"));
+    const char ok[] = " {\"a\":[{\"b\":1},{\"b\":2}],\"c\":\"\\u0001\"}\n";
+    cJSON *j = sv_json_parse_strict(ok, sizeof ok - 1, "t", SV_ERR_PARSE, &e);
+    assert_non_null(j); /* the same key in two objects is fine */
+    cJSON_Delete(j);
+}
+
 static void bad_specs_are_refused_naming_the_key(void **state)
 {
     (void)state;
@@ -238,6 +260,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(empty_spec_gives_every_default),
+        cmocka_unit_test(ambiguous_json_is_refused),
         cmocka_unit_test(full_spec_sets_every_section),
         cmocka_unit_test(import_up_accepts_auto),
         cmocka_unit_test(import_missing_files_defaults_to_error_and_accepts_warn),
