@@ -31,7 +31,7 @@ WARN     := -Wall -Wextra -Werror
 # common/, the server its own, core's and common/; tests and tools everything.
 INC_ALL    := -Icore/include -Iserver -Iclient -Icommon
 INC         = $(INC_ALL)
-CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS) -DSYLVA_DOC_DIR=\"$(DOCDIR)\"
 $(BUILD)/client/%.o $(BUILD)/pic/client/%.o: INC = -Iclient -Icommon
 $(BUILD)/core/%.o $(BUILD)/pic/core/%.o $(BUILD)/fuzz/obj/core/%.o: INC = -Icore/include -Icommon
 $(BUILD)/server/%.o $(BUILD)/fuzz/obj/server/%.o: INC = -Iserver -Icore/include -Icommon
