@@ -231,13 +231,8 @@ static inline bool sylva_have_(const sylva_scan_ *s, const char *base)
 static inline void sylva_on_ref_(void *user, const char *ref)
 {
     sylva_scan_ *s = user;
-    const char *why = sylva_ref_unsafe(ref);
-    if (why) {
-        if (s->log)
-            fprintf(s->log, "%s: %s names '%.200s': not looked for (%s)\n", s->prog,
-                    sylva_base_(s->from), ref, why);
-        return;
-    }
+    /* never followed; the importer refuses it, naming it (one line, not two) */
+    if (sylva_ref_unsafe(ref)) return;
     const char *base = sylva_base_(ref);
     if (!base[0] || sylva_have_(s, base) || s->out->count >= SYLVA_COMPANIONS_MAX) return;
     size_t need = strlen(s->dir) + strlen(ref) + 2;
@@ -260,9 +255,9 @@ static inline void sylva_on_ref_(void *user, const char *ref)
  * naming them, then the references of those found and of the listed .mtl
  * files, and so on. A reference whose base name a listed file already has is
  * taken as supplied. Each file used is said on log ("PROG: using PATH (named
- * by NAME)"), as is each unsafe reference, which is never followed; a safe
- * one that is not there is left out silently (the import refuses it, naming
- * it). *out receives the paths (sylva_companions_free). Returns false when
+ * by NAME)"). An unsafe reference is never followed and a safe one that is
+ * not there is left out, both silently: the import refuses either, naming
+ * it, in its one line. *out receives the paths (sylva_companions_free). Returns false when
  * the mesh cannot be read (nothing found then). */
 static inline bool sylva_companions_find(const char *mesh, const char *const *listed, size_t n,
                                          const char *prog, FILE *log, sylva_companions *out)
