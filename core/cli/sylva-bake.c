@@ -134,7 +134,8 @@ static const char usage[] =
     "report.json). Warnings go to stderr.\n"
     "Guides: " SYLVA_DOC_DIR "/ (spec.md, outputs.md, client.md, methods/)\n";
 
-/* A usage error: one line and where the help is, on stderr. Returns 2. */
+/* A usage error: one line (fmt with its one string argument) and where the
+ * help is, on stderr. Returns 2, the usage exit status. */
 static int usage_error(const char *fmt, const char *arg)
 {
     fputs("sylva-bake: ", stderr);
@@ -479,6 +480,10 @@ static int parse_opts(int argc, char **argv, bool bake, bake_opts *o)
         else if (strcmp(name, "--spec") == 0) o->spec_path = val;
         else if (strcmp(name, "--out") == 0) o->out_dir = val;
         else if (strcmp(name, "--method") == 0) o->method = val;
+        else if ((strcmp(name, "--set") == 0 || strcmp(name, "--units") == 0 ||
+                  strcmp(name, "--up") == 0) &&
+                 o->set_count >= MAX_FILES)
+            return usage_error("at most %s --set, --units and --up", "256");
         else if (strcmp(name, "--set") == 0) {
             const char *eq = strchr(val, '=');
             if (!eq || eq == val) return usage_error("--set expects key=value, not '%.60s'", val);
@@ -570,7 +575,10 @@ static int cmd_info(int argc, char **argv)
         if (o.help) fputs(usage, stdout);
         return prc;
     }
-    if (o.n == 0) return usage_error("%s", "info needs MESH");
+    if (o.n == 0) {
+        opts_free(&o);
+        return usage_error("%s", "info needs MESH");
+    }
     cpu_guard(o.cpu_limit, o.paths[0], NULL);
     sylva_companions found;
     add_companions(&o, &found);

@@ -50,7 +50,7 @@ check "sylva-bake info: --up X: 2" 2 $rc
 run b_unmet "$BAKE" bake "$T/tree.obj" --spec "$T/unmet.json" -o "$T/b_unmet" --progress none
 check "sylva-bake: the target not met: 3" 3 $rc
 run b_method "$BAKE" bake "$T/tree.obj" --method crossed_quads --set lod.chain=false \
-    --set bake.max_atlas=256 --set 'evaluate={"views":4,"sizes":[64]}' -o "$T/b_method" -v
+    --set bake.max_atlas=256 --set evaluate.views=4 --set 'evaluate.sizes=[64]' -o "$T/b_method" -v
 check "sylva-bake: the spec as flags: 0" 0 $rc
 cmp -s "$T/b_method/model.glb" "$T/b_ok/model.glb" && ok "  the same bake as the spec file's" ||
     bad "  model.glb differs from the spec file's bake"
