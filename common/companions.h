@@ -56,6 +56,7 @@ static inline const char *sylva_ref_unsafe(const char *ref)
 /* Called for each reference found, as written (glTF URIs percent-decoded). */
 typedef void (*sylva_ref_fn)(void *user, const char *ref);
 
+/* The value of one hex digit, -1 for another character. */
 static inline int sylva_hex_(int c)
 {
     return c >= '0' && c <= '9'   ? c - '0'
@@ -171,12 +172,14 @@ typedef struct sylva_companions {
     size_t count;
 } sylva_companions;
 
+/* Frees the paths of c and empties it. */
 static inline void sylva_companions_free(sylva_companions *c)
 {
     for (size_t i = 0; i < c->count; i++) free(c->paths[i]);
     c->count = 0;
 }
 
+/* The base name of p, with / or \ as separators. */
 static inline const char *sylva_base_(const char *p)
 {
     const char *b = p;
@@ -219,6 +222,7 @@ typedef struct sylva_scan_ {
     sylva_companions *out;
 } sylva_scan_;
 
+/* Whether a given or found file already has this base name (any case). */
 static inline bool sylva_have_(const sylva_scan_ *s, const char *base)
 {
     for (size_t i = 0; i < s->given_count; i++)
@@ -228,6 +232,8 @@ static inline bool sylva_have_(const sylva_scan_ *s, const char *base)
     return false;
 }
 
+/* sylva_ref_fn of sylva_companions_find: follows one reference if safe, new
+ * and there. */
 static inline void sylva_on_ref_(void *user, const char *ref)
 {
     sylva_scan_ *s = user;

@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Formats a message into err (errlen bytes; nothing when err is NULL). */
 static inline void sylva_spec_err_(char *err, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static inline void sylva_spec_err_(char *err, size_t errlen, const char *fmt, ...)
