@@ -64,7 +64,7 @@
 
 static const char usage[] =
     "usage: sylva-bake info MESH [FILES...] [--json] [--spec SPEC.json] [SPEC FLAGS]\n"
-    "                       [--cpu-limit S]\n"
+    "                       [-q|--quiet] [-v|--verbose] [--cpu-limit S]\n"
     "       sylva-bake bake MESH [FILES...] -o|--out DIR [--spec SPEC.json] [SPEC FLAGS]\n"
     "                       [-q|--quiet] [-v|--verbose] [--progress auto|bar|plain|none]\n"
     "                       [--progress-fd N] [--sandbox] [--cpu-limit S]\n"
@@ -94,7 +94,7 @@ static const char usage[] =
     "           on stdout: level, triangles, texels, switch size in px, IoU at\n"
     "           64 px, file.\n"
     "-q, --quiet  no progress, notes, warnings or table: errors and an unmet\n"
-    "           target only.\n"
+    "           target only (info: no notes of the companions used).\n"
     "-v, --verbose  also the spec baked with, on stderr.\n"
     "--progress auto|bar|plain|none  on stderr: a bar with the stage, the target\n"
     "           search's try k of at most n and the elapsed time on a terminal\n"
@@ -467,9 +467,9 @@ static int parse_opts(int argc, char **argv, bool bake, bake_opts *o)
         } else if (!takes && val) {
             return usage_error("%s takes no value", name);
         }
-        bool bake_only = strcmp(name, "--out") == 0 || strcmp(name, "--quiet") == 0 ||
-                         strcmp(name, "--progress") == 0 || strcmp(name, "--progress-fd") == 0 ||
-                         strcmp(name, "--parent-pid") == 0 || strcmp(name, "--sandbox") == 0 ||
+        bool bake_only = strcmp(name, "--out") == 0 || strcmp(name, "--progress") == 0 ||
+                         strcmp(name, "--progress-fd") == 0 || strcmp(name, "--parent-pid") == 0 ||
+                         strcmp(name, "--sandbox") == 0 ||
                          strcmp(name, "--shader-cache") == 0 ||
                          strcmp(name, "--shader-cache-dir") == 0;
         if (bake_only && !bake) return usage_error("%s belongs to the bake command", name);
