@@ -31,7 +31,7 @@ WARN     := -Wall -Wextra -Werror
 # common/, the server its own, core's and common/; tests and tools everything.
 INC_ALL    := -Icore/include -Iserver -Iclient -Icommon
 INC         = $(INC_ALL)
-CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS)
+CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS) -DSYLVA_DOC_DIR=\"$(DOCDIR)\"
 $(BUILD)/client/%.o $(BUILD)/pic/client/%.o: INC = -Iclient -Icommon
 $(BUILD)/core/%.o $(BUILD)/pic/core/%.o $(BUILD)/fuzz/obj/core/%.o: INC = -Icore/include -Icommon
 $(BUILD)/server/%.o $(BUILD)/fuzz/obj/server/%.o: INC = -Iserver -Icore/include -Icommon
@@ -232,7 +232,9 @@ soak: all
 
 # Installs the binaries, libsylva (sylva.h, libsylva.a, libsylva.so.*, sylva.pc),
 # the default config (kept if one exists: the new one goes beside it as
-# sylvad.conf.new), the man pages (deploy/man/, written by hand), the guides,
+# sylvad.conf.new), the man pages (deploy/man/, written by hand), the guides
+# (docs/*.md and docs/methods/ into $(DOCDIR), the path the --help texts
+# name: they are built with -DSYLVA_DOC_DIR of the same PREFIX),
 # the systemd unit + sysusers entry and the nginx example (docs/deploy.md).
 # PREFIX and DESTDIR are honoured; LIBDIR and INCLUDEDIR may be set apart.
 # The config lives in $(PREFIX)/etc/sylva/, or /etc/sylva/ when PREFIX=/usr.
@@ -273,8 +275,9 @@ install: $(BINS) $(PLUGIN) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
 	else install -m 644 deploy/sylvad.conf $(DESTDIR)$(SYSCONFDIR)/sylva/sylvad.conf; fi
 	set -e; for b in $(notdir $(BINS)); do \
 	    sed $(MAN_SED) deploy/man/$$b.1 > $(DESTDIR)$(MANDIR)/$$b.1; done
-	install -m 644 docs/operations.md docs/api.md docs/client.md docs/spec.md docs/outputs.md docs/runtime.md \
-	    docs/deploy.md $(DESTDIR)$(DOCDIR)/
+	install -d $(DESTDIR)$(DOCDIR)/methods
+	install -m 644 docs/*.md $(DESTDIR)$(DOCDIR)/
+	install -m 644 docs/methods/*.md $(DESTDIR)$(DOCDIR)/methods/
 	install -m 644 deploy/nginx/sylva.conf deploy/nginx/sylva-nodes.conf $(DESTDIR)$(DOCDIR)/nginx/
 	sed -e 's#/usr/local/bin#$(BINDIR)#g' -e 's#/usr/local/etc/sylva#$(SYSCONFDIR)/sylva#g' \
 	    -e 's#/usr/local/share/doc/sylva#$(DOCDIR)#g' deploy/sylvad.service \

@@ -1,6 +1,7 @@
 /* cli.c — pure helpers of the `sylva` command: argument parsing, batch grouping,
  * spec building, summary and exit codes (contracts in cli.h). No network. */
 #include "cli.h"
+#include "spec_flags.h"
 
 #include <ctype.h>
 #include <stdarg.h>
@@ -26,6 +27,8 @@ void sylva_cli_free(sylva_cli *cli)
     if (!cli) return;
     for (size_t i = 0; i < cli->server_count; i++) free(cli->servers[i]);
     free(cli->servers);
+    for (size_t i = 0; i < cli->owned_count; i++) free(cli->owned[i]);
+    free(cli->owned);
     free(cli->sets);
     free(cli->args);
     memset(cli, 0, sizeof *cli);
@@ -85,7 +88,8 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
     size_t cap = argc > 0 ? (size_t)argc : 1;
     cli->sets = calloc(cap, sizeof *cli->sets);
     cli->args = calloc(cap, sizeof *cli->args);
-    if (!cli->sets || !cli->args) {
+    cli->owned = calloc(cap, sizeof *cli->owned);
+    if (!cli->sets || !cli->args || !cli->owned) {
         set_err(err, errlen, "out of memory");
         return SYLVA_EXIT_USAGE;
     }
@@ -107,12 +111,18 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             val = eq ? eq + 1 : NULL;
         } else if (strcmp(a, "-h") == 0) {
             snprintf(name, sizeof name, "--help");
+        } else if (strcmp(a, "-o") == 0 || strcmp(a, "-q") == 0 || strcmp(a, "-v") == 0) {
+            /* the short forms both tools share (docs/client.md "Options") */
+            snprintf(name, sizeof name, "%s", a[1] == 'o'   ? "--out"
+                                              : a[1] == 'q' ? "--quiet"
+                                                            : "--verbose");
         } else {
             name[0] = '\0';
         }
         static const char *const with_value[] = {"--server",  "--token",    "--out",     "--spec",
                                                  "--method",  "--set",      "--timeout", "--wait",
-                                                 "--retries", "--progress", NULL};
+                                                 "--retries", "--progress", "--units",
+                                                 "--up",      NULL};
         bool takes = false;
         for (size_t k = 0; with_value[k]; k++)
             if (strcmp(name, with_value[k]) == 0) takes = true;
@@ -162,6 +172,28 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             cli->spec_path = val;
         } else if (strcmp(name, "--method") == 0) {
             cli->method = val;
+        } else if (strcmp(name, "--units") == 0 || strcmp(name, "--up") == 0) {
+            /* --units U is --set import.units=U, --up A is --set import.up=A */
+            bool units = name[3] == 'n';
+            if (!units && strcmp(val, "Y") != 0 && strcmp(val, "Z") != 0 &&
+                strcmp(val, "auto") != 0) {
+                set_err(err, errlen, "--up expects Y, Z or auto, got \"%.40s\"", val);
+                return SYLVA_EXIT_USAGE;
+            }
+            if (!val[0]) {
+                set_err(err, errlen, "--units expects m, cm, mm, in, ft or metres per unit");
+                return SYLVA_EXIT_USAGE;
+            }
+            char *own = malloc(strlen(val) + 16);
+            if (!own) {
+                set_err(err, errlen, "out of memory");
+                return SYLVA_EXIT_USAGE;
+            }
+            sprintf(own, "import.%s=%s", units ? "units" : "up", val);
+            cli->owned[cli->owned_count++] = own;
+            cli->sets[cli->set_count++] = own;
+        } else if (strcmp(name, "--verbose") == 0 && !val) {
+            cli->verbose = true;
         } else if (strcmp(name, "--set") == 0) {
             const char *eq = strchr(val, '=');
             if (!eq || eq == val) {
@@ -193,6 +225,7 @@ int sylva_cli_parse(int argc, char **argv, const char *env_server, const char *e
             cli->delete_done = true;
         } else if (strcmp(name, "--quiet") == 0 && !val) {
             cli->progress = SYLVA_PROGRESS_NONE;
+            cli->quiet = true;
         } else if (strcmp(name, "--progress") == 0) {
             const char *m = val;
             if (strcmp(m, "auto") == 0) cli->progress = SYLVA_PROGRESS_AUTO;
@@ -461,137 +494,9 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
                          const char *const *sets, size_t set_count, char **out, size_t *out_len,
                          char *err, size_t errlen)
 {
-    *out = NULL;
-    *out_len = 0;
-    if (!method && set_count == 0) {
-        if (!base) return SYLVA_EXIT_OK;
-        char *copy = malloc(base_len + 1);
-        if (!copy) {
-            set_err(err, errlen, "out of memory");
-            return SYLVA_EXIT_USAGE;
-        }
-        memcpy(copy, base, base_len);
-        copy[base_len] = '\0';
-        *out = copy;
-        *out_len = base_len;
-        return SYLVA_EXIT_OK;
-    }
-    int rc = SYLVA_EXIT_USAGE;
-    cJSON *root = base ? cJSON_ParseWithLength(base, base_len) : cJSON_CreateObject();
-    if (!cJSON_IsObject(root)) {
-        set_err(err, errlen, "the spec file is not a JSON object");
-        goto out;
-    }
-    if (method) {
-        cJSON *m = cJSON_CreateString(method);
-        if (!m || (cJSON_HasObjectItem(root, "method")
-                       ? !cJSON_ReplaceItemInObjectCaseSensitive(root, "method", m)
-                       : !cJSON_AddItemToObject(root, "method", m))) {
-            cJSON_Delete(m);
-            set_err(err, errlen, "out of memory");
-            goto out;
-        }
-    }
-    const cJSON *jm = cJSON_GetObjectItemCaseSensitive(root, "method");
-    const char *mname = cJSON_IsString(jm) ? jm->valuestring : NULL;
-    for (size_t i = 0; i < set_count; i++) {
-        const char *eq = strchr(sets[i], '=');
-        if (!eq || eq == sets[i]) {
-            set_err(err, errlen, "--set expects key=value, got \"%.60s\"", sets[i]);
-            goto out;
-        }
-        char key[512];
-        size_t kl = (size_t)(eq - sets[i]);
-        if (kl >= sizeof key) {
-            set_err(err, errlen, "--set key too long");
-            goto out;
-        }
-        memcpy(key, sets[i], kl);
-        key[kl] = '\0';
-        const char *value = eq + 1;
-        cJSON *v = cJSON_ParseWithOpts(value, NULL, 1);
-        if (!v) v = cJSON_CreateString(value);
-        if (!v) {
-            set_err(err, errlen, "out of memory");
-            goto out;
-        }
-        cJSON *obj = root;
-        char *path = key;
-        /* The root: a leading dot (".lod={...}"), or an undotted key naming one
-         * of the spec's top-level scalars (docs/spec.md). */
-        bool at_root = key[0] == '.' || strcmp(key, "seed") == 0 || strcmp(key, "method") == 0;
-        if (key[0] == '.') path = key + 1;
-        if (at_root && (!path[0] || strchr(path, '.'))) {
-            cJSON_Delete(v);
-            set_err(err, errlen, "--set %.*s: a root key is one name after the dot", (int)kl,
-                    sets[i]);
-            goto out;
-        }
-        if (at_root) {
-            /* obj stays the root */
-        } else if (!strchr(key, '.')) {
-            if (!mname) {
-                cJSON_Delete(v);
-                set_err(err, errlen, "--set %s needs --method (or a spec naming the method)", key);
-                goto out;
-            }
-            cJSON *mo = cJSON_GetObjectItemCaseSensitive(root, mname);
-            if (!mo) mo = cJSON_AddObjectToObject(root, mname);
-            if (!cJSON_IsObject(mo)) {
-                cJSON_Delete(v);
-                set_err(err, errlen, "--set %s: spec key \"%s\" is not an object", key, mname);
-                goto out;
-            }
-            obj = mo;
-        } else {
-            char *dot;
-            while ((dot = strchr(path, '.')) != NULL) {
-                *dot = '\0';
-                if (!path[0]) {
-                    cJSON_Delete(v);
-                    set_err(err, errlen, "--set: empty component in key \"%.*s\"", (int)kl,
-                            sets[i]);
-                    goto out;
-                }
-                cJSON *next = cJSON_GetObjectItemCaseSensitive(obj, path);
-                if (!next) next = cJSON_AddObjectToObject(obj, path);
-                if (!cJSON_IsObject(next)) {
-                    cJSON_Delete(v);
-                    set_err(err, errlen, "--set %.*s: \"%s\" is not an object", (int)kl, sets[i],
-                            path);
-                    goto out;
-                }
-                obj = next;
-                path = dot + 1;
-            }
-            if (!path[0]) {
-                cJSON_Delete(v);
-                set_err(err, errlen, "--set: key \"%.*s\" ends with a dot", (int)kl, sets[i]);
-                goto out;
-            }
-        }
-        bool ok = cJSON_HasObjectItem(obj, path)
-                      ? cJSON_ReplaceItemInObjectCaseSensitive(obj, path, v)
-                      : cJSON_AddItemToObject(obj, path, v);
-        if (!ok) {
-            cJSON_Delete(v);
-            set_err(err, errlen, "out of memory");
-            goto out;
-        }
-        jm = cJSON_GetObjectItemCaseSensitive(root, "method");
-        mname = cJSON_IsString(jm) ? jm->valuestring : NULL;
-    }
-    char *text = cJSON_PrintUnformatted(root);
-    if (!text) {
-        set_err(err, errlen, "out of memory");
-        goto out;
-    }
-    *out = text;
-    *out_len = strlen(text);
-    rc = SYLVA_EXIT_OK;
-out:
-    cJSON_Delete(root);
-    return rc;
+    return sylva_spec_build(base, base_len, method, sets, set_count, out, out_len, err, errlen) == 0
+               ? SYLVA_EXIT_OK
+               : SYLVA_EXIT_USAGE;
 }
 
 /* ---- summary ----------------------------------------------------------------- */
@@ -756,9 +661,14 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
         cJSON_ArrayForEach(l, lods)
         {
             const cJSON *name = get(l, "name"), *pl = get(l, "planes"), *at = get(l, "atlas");
+            const cJSON *tri = get(l, "triangles");
             put(&o, "    %-8s", cJSON_IsString(name) ? name->valuestring : "?");
-            if (cJSON_IsNumber(pl)) put(&o, " %5.0f planes", pl->valuedouble);
-            if (cJSON_GetArraySize(at) == 2)
+            if (cJSON_IsNumber(tri)) put(&o, " %7.0f triangles", tri->valuedouble);
+            /* planes and an atlas only for the levels that have them: a mesh
+             * level has neither */
+            bool planar = cJSON_IsNumber(pl) && pl->valuedouble > 0;
+            if (planar) put(&o, " %5.0f planes", pl->valuedouble);
+            if (planar && cJSON_GetArraySize(at) == 2)
                 put(&o, "  atlas %.0fx%.0f", cJSON_GetArrayItem(at, 0)->valuedouble,
                     cJSON_GetArrayItem(at, 1)->valuedouble);
             const cJSON *a = get(l, "accuracy");

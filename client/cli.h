@@ -15,16 +15,19 @@
 
 #define SYLVA_DEFAULT_SERVER "http://127.0.0.1:8080"
 
-/* Exit codes of the command. */
+/* Exit codes of the command: one table for sylva, sylva-bake and what a
+ * libsylva status maps to (sylva_cli_exit_code; docs/client.md "Exit status").
+ * The same outcome has the same code in both tools. */
 enum {
     SYLVA_EXIT_OK = 0,
-    SYLVA_EXIT_FAILED = 1,    /* the bake failed or the server refused the input */
-    SYLVA_EXIT_USAGE = 2,     /* bad command line or unusable local input */
-    SYLVA_EXIT_SERVICE = 3,   /* no server, server error, busy, timeout, auth, protocol */
+    SYLVA_EXIT_FAILED = 1,    /* the input was refused or missing (a local file that cannot
+                                 be read included), or the bake failed */
+    SYLVA_EXIT_USAGE = 2,     /* bad command line */
+    SYLVA_EXIT_TARGET = 3,    /* done (outputs written or downloaded), but the spec's
+                                 "target" was not met */
     SYLVA_EXIT_INTEGRITY = 4, /* a downloaded artifact did not match its SHA-256 */
     SYLVA_EXIT_CANCELLED = 5, /* the bake was cancelled */
-    SYLVA_EXIT_TARGET = 6     /* done and downloaded, but the spec's "target" was not met
-                                 (sylva-bake says 3: the client's 3 is taken by SERVICE) */
+    SYLVA_EXIT_SERVICE = 6    /* no server, server error, busy, timeout, auth, protocol */
 };
 
 typedef enum sylva_cmd {
@@ -57,8 +60,12 @@ typedef struct sylva_cli {
     const char *out;              /* --out DIR */
     const char *spec_path;        /* --spec FILE */
     const char *method;           /* --method M */
-    const char **sets;            /* --set key=value, in order */
+    const char **sets;            /* --set key=value, --units U, --up A, in order */
     size_t set_count;
+    char **owned; /* the sets made of --units and --up */
+    size_t owned_count;
+    bool quiet;   /* -q, --quiet: no progress, no summary table, no notes */
+    bool verbose; /* -v, --verbose: the spec sent and each companion looked for */
     const char **args; /* positional arguments; NULL entries are "--" separators */
     size_t arg_count;
     double timeout_s; /* --timeout S (bake wait), 0 = none */
@@ -125,8 +132,9 @@ int sylva_cli_build_spec(const char *base, size_t base_len, const char *method,
  * leave fields out. */
 cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const char *planes_json);
 
-/* Formats a summary as short human-readable lines into buf (one
- * "  warning: ..." line per warning, "  target met" or "  target not met: why";
+/* Formats a summary as short human-readable lines into buf (one line per
+ * level: its name, triangles, and planes and atlas only when it has planes;
+ * one "  warning: ..." line per warning, "  target met" or "  target not met: why";
  * always NUL-terminated, truncated to len). Returns the length it wanted. */
 size_t sylva_cli_summary_format(const cJSON *summary, char *buf, size_t len);
 
@@ -144,8 +152,8 @@ int sylva_cli_exit_code(sylva_status st);
 int sylva_cli_done_exit_code(const cJSON *summary);
 
 /* The exit code of a batch holding bakes that ended with a and b: any failure
- * (1-5) outranks an unmet target (6), which outranks success; among failures
- * the higher code wins. */
+ * (1, 2, 4-6) outranks an unmet target (3), which outranks success; among
+ * failures the higher code wins. */
 int sylva_cli_worse_exit(int a, int b);
 
 #endif

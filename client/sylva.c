@@ -1,9 +1,12 @@
 /* sylva.c — the `sylva` command: bake, status, fetch, cancel, health against
  * sylvad (docs/client.md). Built on libsylva (sylva.h) and the pure helpers of
- * cli.h. Exit codes: cli.h (0 ok, 1 failed, 2 usage, 3 service, 4 integrity,
- * 5 cancelled, 6 done but the spec's target not met). One clear line on stderr
+ * cli.h. Exit codes: cli.h (0 ok, 1 failed or input missing, 2 usage, 3 done
+ * but the spec's target not met, 4 integrity, 5 cancelled, 6 service: the
+ * same table as sylva-bake's). One clear line on stderr
  * on failure; --json prints one JSON document on stdout for every command. */
 #include "cli.h"
+#include "companions.h"
+#include "summary_table.h"
 #include "sylva.h"
 
 #include <cjson/cJSON.h>
@@ -16,21 +19,30 @@
 #include <time.h>
 #include <unistd.h>
 
+#ifndef SYLVA_DOC_DIR
+#define SYLVA_DOC_DIR "/usr/local/share/doc/sylva"
+#endif
+
 static const char usage_text[] =
     "usage: sylva [--server URL]... [--token T] [--json] COMMAND ...\n"
-    "  sylva bake MESH [FILES...] [-- MESH [FILES...]]... --out DIR\n"
+    "  sylva bake MESH [FILES...] [-- MESH [FILES...]]... -o|--out DIR\n"
     "             [--spec spec.json] [--method M] [--set key=value]...\n"
-    "             [--timeout S] [--progress auto|bar|plain|none] [--quiet]\n"
+    "             [--units U] [--up Y|Z|auto] [-q|--quiet] [-v|--verbose]\n"
+    "             [--timeout S] [--progress auto|bar|plain|none]\n"
     "             [--retries N]  (on every command; default 7)\n"
     "  sylva status KEY [--wait S]\n"
     "  sylva fetch KEY --out DIR\n"
     "  sylva cancel KEY [--delete]  (--delete: also a finished bake, results and all)\n"
     "  sylva health\n"
+    "The companions a mesh names (.mtl, textures, .bin) are found beside it when\n"
+    "not listed. --method, --set, --units, --up, -o, -q and -v mean what they mean\n"
+    "for sylva-bake bake; flags override --spec.\n"
     "Server from --server (repeatable, or a comma list: failover in order) or\n"
     "SYLVA_SERVER (default " SYLVA_DEFAULT_SERVER "); token from --token or SYLVA_TOKEN.\n"
-    "Exit: 0 ok, 1 failed/refused, 2 usage, 3 server unreachable or failing,\n"
-    "4 artifact verification failed, 5 cancelled, 6 done (outputs downloaded) but\n"
-    "the spec's \"target\" was not met. Guide: docs/client.md\n";
+    "Exit: 0 ok, 1 failed/refused/input missing, 2 usage, 3 done (outputs\n"
+    "downloaded) but the spec's \"target\" was not met, 4 artifact verification\n"
+    "failed, 5 cancelled, 6 server unreachable or failing.\n"
+    "Guide: " SYLVA_DOC_DIR "/client.md\n";
 
 /* Prints the JSON document (compact, one line) on stdout. */
 static void print_json(const cJSON *doc)
@@ -163,6 +175,20 @@ static void print_summary(const cJSON *summary)
     fflush(stdout);
 }
 
+/* Prints the summary table (summary_table.h) of the report.json in dir, as
+ * sylva-bake prints it; nothing when there is none. */
+static void print_table(const char *dir)
+{
+    char path[4200], err[256];
+    size_t len = 0;
+    snprintf(path, sizeof path, "%s/report.json", dir);
+    char *text = read_file(path, &len, err, sizeof err);
+    cJSON *rep = text ? cJSON_ParseWithLength(text, len) : NULL;
+    sylva_summary_table(rep, dir, stdout);
+    cJSON_Delete(rep);
+    free(text);
+}
+
 /* A done, downloaded bake whose spec's target was not met: says so on stderr
  * with the reason, where the outputs are and the exit code. Returns the bake's
  * exit code (SYLVA_EXIT_TARGET or SYLVA_EXIT_OK). */
@@ -201,6 +227,7 @@ typedef struct bake {
     double cur_progress;
     double t0;             /* submitted (monotonic s), for the elapsed time */
     int refetch_resubmits; /* submitted again after a 404 on download */
+    sylva_companions comp; /* companions found beside the mesh */
 } bake;
 
 /* How often a bake whose artifacts vanished is submitted again (finish_done). */
@@ -364,7 +391,7 @@ static int cmd_bake(const sylva_cli *cli)
     if ((rc = sylva_cli_groups(cli, &groups, &ng, err, sizeof err)) != SYLVA_EXIT_OK)
         return fail_out(cli, rc, "usage", err);
     if (cli->spec_path && !(base = read_file(cli->spec_path, &base_len, err, sizeof err))) {
-        rc = fail_out(cli, SYLVA_EXIT_USAGE, "usage", err);
+        rc = fail_out(cli, SYLVA_EXIT_FAILED, "missing", err);
         goto out;
     }
     if ((rc = sylva_cli_build_spec(base, base_len, cli->method, cli->sets, cli->set_count, &spec,
@@ -372,6 +399,8 @@ static int cmd_bake(const sylva_cli *cli)
         rc = fail_out(cli, rc, "usage", err);
         goto out;
     }
+    if (cli->verbose)
+        fprintf(stderr, "sylva: spec: %.*s\n", (int)(spec ? spec_len : 2), spec ? spec : "{}");
     bakes = calloc(ng, sizeof *bakes);
     if (!bakes) {
         rc = fail_out(cli, SYLVA_EXIT_SERVICE, "nomem", "out of memory");
@@ -383,21 +412,27 @@ static int cmd_bake(const sylva_cli *cli)
         b->group = &groups[i];
         const char *bn = strrchr(groups[i].mesh, '/');
         snprintf(b->label, sizeof b->label, "%s", bn ? bn + 1 : groups[i].mesh);
-        b->files = calloc(groups[i].file_count ? groups[i].file_count : 1, sizeof *b->files);
+        /* the companions the mesh names and the command line lacks, from
+         * beside it (companions.h), as sylva-bake finds them */
+        sylva_companions_find(groups[i].mesh, groups[i].files, groups[i].file_count, "sylva",
+                              cli->quiet ? NULL : stderr, &b->comp);
+        size_t nf = groups[i].file_count + b->comp.count;
+        b->files = calloc(nf ? nf : 1, sizeof *b->files);
         if (!b->files) {
             rc = fail_out(cli, SYLVA_EXIT_SERVICE, "nomem", "out of memory");
             goto out;
         }
         for (size_t k = 0; k < groups[i].file_count; k++) b->files[k].path = groups[i].files[k];
+        for (size_t k = 0; k < b->comp.count; k++)
+            b->files[groups[i].file_count + k].path = b->comp.paths[k];
         b->in.spec = spec;
         b->in.spec_len = spec_len;
         b->in.mesh.path = groups[i].mesh;
         b->in.files = b->files;
-        b->in.file_count = groups[i].file_count;
+        b->in.file_count = nf;
         sylva_status st = sylva_key_compute(&b->in, b->key, err, sizeof err);
         if (st != SYLVA_OK) {
-            rc = fail_out(cli, st == SYLVA_ERR_IO ? SYLVA_EXIT_USAGE : sylva_cli_exit_code(st),
-                          sylva_status_name(st), err);
+            rc = fail_out(cli, sylva_cli_exit_code(st), sylva_status_name(st), err);
             goto out;
         }
     }
@@ -499,8 +534,9 @@ static int cmd_bake(const sylva_cli *cli)
         cJSON *summary = NULL;
         if (b->st == SYLVA_OK) {
             summary = summary_for(b);
-            if (!cli->json) {
+            if (!cli->json && !cli->quiet) {
                 printf("%s: done -> %s (key %.12s)\n", b->label, b->group->out_dir, b->key);
+                print_table(b->group->out_dir);
                 print_summary(summary);
             }
             worst = sylva_cli_worse_exit(worst,
@@ -528,6 +564,7 @@ static int cmd_bake(const sylva_cli *cli)
 out:
     for (size_t i = 0; bakes && i < ng; i++) {
         free(bakes[i].files);
+        sylva_companions_free(&bakes[i].comp);
         sylva_job_clear(&bakes[i].job);
     }
     free(bakes);

@@ -23,6 +23,10 @@
 #include "store.h"
 #include "workers.h"
 
+#ifndef SYLVA_DOC_DIR
+#define SYLVA_DOC_DIR "/usr/local/share/doc/sylva"
+#endif
+
 /* The directory of this executable into out (false when /proc cannot say). */
 static bool exe_dir(char *out, size_t cap)
 {
@@ -59,21 +63,73 @@ static void default_viewer_dir(char *out, size_t cap)
     snprintf(out, cap, "%.1000s/../share/sylva/viewer", dir);
 }
 
+/* The first command-line option that names no setting (--bogus, -x), or
+ * NULL: checked before the values are read, so that an unknown option is
+ * called unknown rather than short of a value. */
+static const char *unknown_option(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) return NULL;
+        if (a[0] != '-') continue; /* a value, or an argument config.c refuses */
+        if (a[1] != '-' || !a[2]) return a;
+        char key[64];
+        const char *eq = strchr(a, '=');
+        size_t kl = eq ? (size_t)(eq - a - 2) : strlen(a + 2);
+        if (kl >= sizeof key) return a;
+        memcpy(key, a + 2, kl);
+        key[kl] = '\0';
+        if (!eq) i++; /* its value */
+        if (strcmp(key, "config") == 0) continue;
+        svd_config scratch;
+        svd_config_defaults(&scratch);
+        sv_error e = {0};
+        if (svd_config_set(&scratch, key, "", &e) != SV_OK &&
+            strncmp(e.message, "unknown setting", 15) == 0)
+            return a;
+    }
+    return NULL;
+}
+
+/* Whether argv names a store (--store DIR, --store=DIR). */
+static bool store_given(int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++)
+        if (strcmp(argv[i], "--store") == 0 || strncmp(argv[i], "--store=", 8) == 0) return true;
+    return false;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 2 && strcmp(argv[1], "--version") == 0) {
         printf("sylvad %s\n", SV_VERSION);
         return 0;
     }
+    const char *unknown = unknown_option(argc, argv);
+    if (unknown) {
+        fprintf(stderr, "sylvad: unknown option %.80s\ntry 'sylvad --help'\n", unknown);
+        return 2;
+    }
     svd_config cfg;
     sv_error err = {0};
     sv_status st = svd_config_from_args(&cfg, argc, argv, &err);
     if (st == SV_ERR_CANCELLED) {
         fputs(svd_config_usage(), stdout);
+        printf("Installed guides: %s/ (operations.md, api.md, deploy.md)\n", SYLVA_DOC_DIR);
         return 0;
     }
     if (st != SV_OK) {
-        fprintf(stderr, "sylvad: %s\n%s", err.message, svd_config_usage());
+        fprintf(stderr, "sylvad: %s\ntry 'sylvad --help'\n", err.message);
+        return 2;
+    }
+    /* No store named, by flag or config file: refuse rather than fill the
+     * current directory (config.c's default is a relative path). */
+    svd_config defaults;
+    svd_config_defaults(&defaults);
+    if (!store_given(argc, argv) && strcmp(cfg.store, defaults.store) == 0) {
+        fprintf(stderr,
+                "sylvad: no store: pass --store DIR (an absolute path, e.g. /var/lib/sylva) "
+                "or set store = DIR in the --config file\ntry 'sylvad --help'\n");
         return 2;
     }
     svd_log *log = svd_log_open(cfg.log_file, cfg.log_level);

@@ -50,41 +50,65 @@
 #include "spec.h"
 #include "zygote.h"
 #include "zygote_proto.h"
+#include "companions.h"
+#include "spec_flags.h"
+#include "summary_table.h"
 
 #define MAX_FILES 256
 #define EXIT_TARGET_UNMET 3      /* bake: outputs written, the spec's target not met */
 #define SV_DEFAULT_CPU_LIMIT 600 /* seconds of CPU time */
 
+#ifndef SYLVA_DOC_DIR
+#define SYLVA_DOC_DIR "/usr/local/share/doc/sylva"
+#endif
+
 static const char usage[] =
-    "usage: sylva-bake info MESH [FILES...] [--spec SPEC.json] [--json] [--cpu-limit S]\n"
-    "       sylva-bake bake MESH [FILES...] --spec SPEC.json --out DIR [--progress-fd N]\n"
-    "                       [--progress auto|bar|plain|none] [--quiet] [--sandbox]\n"
-    "                       [--cpu-limit S] [--shader-cache DB --shader-cache-dir DIR]\n"
+    "usage: sylva-bake info MESH [FILES...] [--json] [--spec SPEC.json] [SPEC FLAGS]\n"
+    "                       [-q|--quiet] [-v|--verbose] [--cpu-limit S]\n"
+    "       sylva-bake bake MESH [FILES...] -o|--out DIR [--spec SPEC.json] [SPEC FLAGS]\n"
+    "                       [-q|--quiet] [-v|--verbose] [--progress auto|bar|plain|none]\n"
+    "                       [--progress-fd N] [--sandbox] [--cpu-limit S]\n"
+    "                       [--shader-cache DB --shader-cache-dir DIR]\n"
     "       sylva-bake check-spec SPEC.json\n"
     "       sylva-bake view DIR --lod NAME --dir X,Y,Z [--size S] --out FILE.png\n"
     "       sylva-bake warm-shaders DIR   (sylvad's: fills a shader cache, prints its DB)\n"
     "\n"
     "MESH is a .glb, .gltf, .obj, .ply, .fbx or .dae file; FILES are the files it\n"
-    "references (.bin, .mtl, textures), matched by base name. Only these files are\n"
-    "ever read; one that MESH references but FILES lack refuses the input (code\n"
-    "\"missing\") unless the spec says \"import\": {\"missing_files\": \"warn\"}.\n"
-    "See docs/spec.md for the spec and docs/outputs.md for the outputs.\n"
+    "references (.bin, .mtl, textures), matched by base name. Those it names that\n"
+    "FILES lack (an OBJ's mtllib, a .mtl's map_* lines, a glTF's buffer and image\n"
+    "uris) are looked for beside it, plain names or relative paths without '..'\n"
+    "only, and each one used is said on stderr. One that cannot be found refuses\n"
+    "the input (code \"missing\") unless the spec says\n"
+    "\"import\": {\"missing_files\": \"warn\"}.\n"
     "\n"
-    "--out DIR  created with its parents; files an earlier bake left there (sylva's\n"
-    "           names only) are removed first.\n"
+    "SPEC FLAGS (the same for `sylva bake`; they override --spec):\n"
+    "--method NAME    the spec's \"method\" (billboard_cloud, leaf_clusters, ...)\n"
+    "--set key=value  a spec setting, the value as JSON when it parses, else a\n"
+    "           string: an undotted key is a setting of the method, a dotted key\n"
+    "           a path from the root (--set billboard_cloud.lods=[20]); repeatable\n"
+    "--units U  m, cm, mm, in, ft or metres per unit (--set import.units=U)\n"
+    "--up Y|Z|auto  the source's up axis (--set import.up=...)\n"
+    "\n"
+    "-o, --out DIR  created with its parents; files an earlier bake left there\n"
+    "           (sylva's names only) are removed first. A bake ends with a table\n"
+    "           on stdout: level, triangles, texels, switch size in px, IoU at\n"
+    "           64 px, file.\n"
+    "-q, --quiet  no progress, notes, warnings or table: errors and an unmet\n"
+    "           target only (info: no notes of the companions used).\n"
+    "-v, --verbose  also the spec baked with, on stderr.\n"
     "--progress auto|bar|plain|none  on stderr: a bar with the stage, the target\n"
     "           search's try k of at most n and the elapsed time on a terminal\n"
     "           (auto), one line per stage or try otherwise (auto when stderr is\n"
     "           not a terminal), or nothing (auto with --progress-fd).\n"
-    "--quiet    no progress and no warnings: errors and an unmet target only.\n"
     "--progress-fd N  JSON lines {\"stage\",\"progress\"[,\"try\",\"tries\"]} on fd N.\n"
     "--parent-pid P  die with process P, the parent (sylvad passes its pid): a\n"
-    "           worker never outlives its daemon.\n"
+    "           worker never outlives its daemon. A worker (--progress-fd,\n"
+    "           --parent-pid or --sandbox) bakes only the files it is given.\n"
     "\n"
     "--sandbox  bake under a seccomp filter, entered before any input is read: only\n"
     "           the system calls a bake needs are allowed, others fail with EPERM,\n"
     "           and network, exec and ptrace calls kill the process with SIGSYS\n"
-    "           (docs/operations.md). sylvad passes it unless worker_sandbox = off.\n"
+    "           (operations.md). sylvad passes it unless worker_sandbox = off.\n"
     "\n"
     "--shader-cache DB --shader-cache-dir DIR  Mesa's shader cache for this bake:\n"
     "           DB (printed by `sylva-bake warm-shaders DIR`) read-only, what the\n"
@@ -104,9 +128,21 @@ static const char usage[] =
     "           octahedral level by the C reference runtime): an RGBA PNG, alpha\n"
     "           255 where drawn. For comparing a runtime with the evaluator.\n"
     "\n"
-    "Exit status: 0 done; 1 input refused or bake failed (DIR/error.json);\n"
-    "2 usage; 3 bake done but the spec's \"target\" was not met (outputs written,\n"
-    "the reason on stderr and in report.json). Warnings go to stderr.\n";
+    "Exit status (the same as sylva's): 0 done; 1 input refused or missing, or\n"
+    "the bake failed (DIR/error.json); 2 usage; 3 bake done but the spec's\n"
+    "\"target\" was not met (outputs written, the reason on stderr and in\n"
+    "report.json). Warnings go to stderr.\n"
+    "Guides: " SYLVA_DOC_DIR "/ (spec.md, outputs.md, client.md, methods/)\n";
+
+/* A usage error: one line (fmt with its one string argument) and where the
+ * help is, on stderr. Returns 2, the usage exit status. */
+static int usage_error(const char *fmt, const char *arg)
+{
+    fputs("sylva-bake: ", stderr);
+    fprintf(stderr, fmt, arg);
+    fputs("\ntry 'sylva-bake --help'\n", stderr);
+    return 2;
+}
 
 typedef struct loaded {
     sv_file files[MAX_FILES];
@@ -364,39 +400,208 @@ static bool on_progress(void *user, const char *stage, double fraction)
     return true;
 }
 
+/* The command line of info and bake. */
+typedef struct bake_opts {
+    char *paths[MAX_FILES]; /* MESH, then FILES */
+    size_t n;
+    const char *spec_path, *out_dir;
+    const char *method;
+    const char *sets[MAX_FILES]; /* --set, --units and --up, in order */
+    size_t set_count;
+    char *owned[MAX_FILES]; /* the sets made of --units and --up */
+    size_t owned_count;
+    bool json, quiet, verbose, sandbox, help;
+    int progress_fd;
+    progress_mode mode;
+    long parent;
+    long cpu_limit;
+    const char *shader_db, *shader_dir;
+} bake_opts;
+
+static void opts_free(bake_opts *o)
+{
+    for (size_t i = 0; i < o->owned_count; i++) free(o->owned[i]);
+    o->owned_count = 0;
+}
+
+/* Parses the arguments of info (bake false) or bake: "--opt value" and
+ * "--opt=value", the short -o, -q, -v, -h. Returns 0, or 2 after a usage
+ * error's line on stderr. --help sets o->help. */
+static int parse_opts(int argc, char **argv, bool bake, bake_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->progress_fd = -1;
+    o->mode = PROGRESS_AUTO;
+    o->cpu_limit = -1;
+    static const char *const with_value[] = {
+        "--spec",     "--out",         "--method",      "--set",          "--units",
+        "--up",       "--cpu-limit",   "--progress",    "--progress-fd",  "--parent-pid",
+        "--shader-cache", "--shader-cache-dir", NULL};
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        char name[32];
+        const char *val = NULL;
+        if (strcmp(a, "-o") == 0) snprintf(name, sizeof name, "--out");
+        else if (strcmp(a, "-q") == 0) snprintf(name, sizeof name, "--quiet");
+        else if (strcmp(a, "-v") == 0) snprintf(name, sizeof name, "--verbose");
+        else if (strcmp(a, "-h") == 0) snprintf(name, sizeof name, "--help");
+        else if (a[0] == '-' && a[1] == '-' && a[2]) {
+            const char *eq = strchr(a, '=');
+            size_t k = eq ? (size_t)(eq - a) : strlen(a);
+            if (k >= sizeof name) return usage_error("unknown option %.60s", a);
+            memcpy(name, a, k);
+            name[k] = 0;
+            val = eq ? eq + 1 : NULL;
+        } else if (a[0] == '-' && a[1]) {
+            return usage_error("unknown option %.60s", a);
+        } else {
+            if (o->n >= MAX_FILES) return usage_error("at most %s files", "256");
+            o->paths[o->n++] = argv[i];
+            continue;
+        }
+        bool takes = false;
+        for (size_t k = 0; with_value[k]; k++) takes |= strcmp(name, with_value[k]) == 0;
+        if (takes && !val) {
+            if (i + 1 >= argc) return usage_error("%s needs a value", name);
+            val = argv[++i];
+        } else if (!takes && val) {
+            return usage_error("%s takes no value", name);
+        }
+        bool bake_only = strcmp(name, "--out") == 0 || strcmp(name, "--progress") == 0 ||
+                         strcmp(name, "--progress-fd") == 0 || strcmp(name, "--parent-pid") == 0 ||
+                         strcmp(name, "--sandbox") == 0 ||
+                         strcmp(name, "--shader-cache") == 0 ||
+                         strcmp(name, "--shader-cache-dir") == 0;
+        if (bake_only && !bake) return usage_error("%s belongs to the bake command", name);
+        if (strcmp(name, "--json") == 0 && bake)
+            return usage_error("%s belongs to the info command", name);
+        if (strcmp(name, "--help") == 0) o->help = true;
+        else if (strcmp(name, "--json") == 0) o->json = true;
+        else if (strcmp(name, "--spec") == 0) o->spec_path = val;
+        else if (strcmp(name, "--out") == 0) o->out_dir = val;
+        else if (strcmp(name, "--method") == 0) o->method = val;
+        else if ((strcmp(name, "--set") == 0 || strcmp(name, "--units") == 0 ||
+                  strcmp(name, "--up") == 0) &&
+                 o->set_count >= MAX_FILES)
+            return usage_error("at most %s --set, --units and --up", "256");
+        else if (strcmp(name, "--set") == 0) {
+            const char *eq = strchr(val, '=');
+            if (!eq || eq == val) return usage_error("--set expects key=value, not '%.60s'", val);
+            o->sets[o->set_count++] = val;
+        } else if (strcmp(name, "--units") == 0 || strcmp(name, "--up") == 0) {
+            bool units = name[3] == 'n';
+            if (!val[0]) return usage_error("%s needs a value", name);
+            if (!units && strcmp(val, "Y") != 0 && strcmp(val, "Z") != 0 &&
+                strcmp(val, "auto") != 0)
+                return usage_error("--up expects Y, Z or auto, not '%.40s'", val);
+            char *own = malloc(strlen(val) + 16);
+            if (!own) return usage_error("%s", "out of memory");
+            sprintf(own, "import.%s=%s", units ? "units" : "up", val);
+            o->owned[o->owned_count++] = own;
+            o->sets[o->set_count++] = own;
+        } else if (strcmp(name, "--quiet") == 0) o->quiet = true;
+        else if (strcmp(name, "--verbose") == 0) o->verbose = true;
+        else if (strcmp(name, "--sandbox") == 0) o->sandbox = true;
+        else if (strcmp(name, "--shader-cache") == 0) o->shader_db = val;
+        else if (strcmp(name, "--shader-cache-dir") == 0) o->shader_dir = val;
+        else if (strcmp(name, "--cpu-limit") == 0) {
+            if (!parse_cpu_limit(val, &o->cpu_limit)) return 2;
+        } else if (strcmp(name, "--parent-pid") == 0) {
+            char *end;
+            o->parent = strtol(val, &end, 10);
+            if (*end || o->parent <= 0)
+                return usage_error("--parent-pid: expected a process id, not '%.40s'", val);
+        } else if (strcmp(name, "--progress") == 0) {
+            if (strcmp(val, "auto") == 0) o->mode = PROGRESS_AUTO;
+            else if (strcmp(val, "bar") == 0) o->mode = PROGRESS_BAR;
+            else if (strcmp(val, "plain") == 0) o->mode = PROGRESS_PLAIN;
+            else if (strcmp(val, "none") == 0) o->mode = PROGRESS_NONE;
+            else
+                return usage_error("--progress: expected auto, bar, plain or none, not '%.40s'",
+                                   val);
+        } else if (strcmp(name, "--progress-fd") == 0) {
+            char *end;
+            long fd = strtol(val, &end, 10);
+            if (*end || fd < 0 || fd > 65535)
+                return usage_error("--progress-fd: expected a file descriptor, not '%.40s'", val);
+            o->progress_fd = (int)fd;
+        } else {
+            return usage_error("unknown option %.60s", a);
+        }
+    }
+    return 0;
+}
+
+/* The spec to run with: the --spec file's bytes with the flags applied
+ * (spec_flags.h). *spec is NULL (the default spec) when there is neither.
+ * Returns 0; 1 when the file cannot be read (the message in e); 2 after a
+ * usage error's line on stderr. */
+static int load_spec(const bake_opts *o, char **spec, size_t *len, sv_error *e)
+{
+    *spec = NULL;
+    *len = 0;
+    size_t base_len = 0;
+    char *base = NULL;
+    if (o->spec_path && !(base = read_all(o->spec_path, &base_len))) {
+        sv_fail(e, SV_ERR_IO, "cannot read %s: %s", o->spec_path, strerror(errno));
+        return 1;
+    }
+    char err[300];
+    int rc = sylva_spec_build(base, base_len, o->method, o->sets, o->set_count, spec, len, err,
+                              sizeof err);
+    free(base);
+    if (rc != 0) return usage_error("%s", err);
+    if (o->verbose)
+        fprintf(stderr, "sylva-bake: spec: %.*s\n", (int)(*spec ? *len : 2), *spec ? *spec : "{}");
+    return 0;
+}
+
+/* Adds to o->paths the companions the mesh names that the command line
+ * lacks, found beside it (companions.h), saying each on stderr unless quiet.
+ * found keeps the paths (sylva_companions_free after the bake). */
+static void add_companions(bake_opts *o, sylva_companions *found)
+{
+    sylva_companions_find(o->paths[0], (const char *const *)o->paths + 1, o->n - 1, "sylva-bake",
+                          o->quiet ? NULL : stderr, found);
+    for (size_t i = 0; i < found->count && o->n < MAX_FILES; i++) o->paths[o->n++] = found->paths[i];
+}
+
 static int cmd_info(int argc, char **argv)
 {
-    char *paths[MAX_FILES];
-    size_t n = 0;
-    const char *spec_path = NULL;
-    bool json = false;
-    long cpu_limit = -1;
-    for (int i = 0; i < argc; i++) {
-        if (strcmp(argv[i], "--json") == 0) json = true;
-        else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
-        else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
-            if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
-        } else if (argv[i][0] == '-' && argv[i][1] == '-') {
-            fprintf(stderr, "sylva-bake: unknown option %s\n%s", argv[i], usage);
-            return 2;
-        } else if (n < MAX_FILES) paths[n++] = argv[i];
+    bake_opts o;
+    int prc = parse_opts(argc, argv, false, &o);
+    if (prc || o.help) {
+        opts_free(&o);
+        if (o.help) fputs(usage, stdout);
+        return prc;
     }
-    if (n == 0) {
-        fputs(usage, stderr);
-        return 2;
+    if (o.n == 0) {
+        opts_free(&o);
+        return usage_error("%s", "info needs MESH");
     }
-    cpu_guard(cpu_limit, paths[0], NULL);
+    cpu_guard(o.cpu_limit, o.paths[0], NULL);
+    sylva_companions found;
+    add_companions(&o, &found);
+    char **paths = o.paths;
+    size_t n = o.n;
+    bool json = o.json;
     loaded l;
     if (load_files(paths, n, &l)) {
         free_files(&l);
+        sylva_companions_free(&found);
+        opts_free(&o);
         return 1;
     }
     size_t spec_len = 0;
     char *spec = NULL;
-    if (spec_path && !(spec = read_all(spec_path, &spec_len))) {
-        fprintf(stderr, "sylva-bake: cannot read %s: %s\n", spec_path, strerror(errno));
+    sv_error se = {0};
+    int src = load_spec(&o, &spec, &spec_len, &se);
+    if (src) {
+        if (src == 1) fprintf(stderr, "sylva-bake: %s\n", se.message);
         free_files(&l);
-        return 1;
+        sylva_companions_free(&found);
+        opts_free(&o);
+        return src;
     }
     char *out = NULL;
     sv_error e = {0};
@@ -405,6 +610,8 @@ static int cmd_info(int argc, char **argv)
     free_files(&l);
     if (st) {
         fprintf(stderr, "sylva-bake: %s: %s\n", paths[0], e.message);
+        sylva_companions_free(&found);
+        opts_free(&o);
         return 1;
     }
     if (json) {
@@ -460,6 +667,8 @@ static int cmd_info(int argc, char **argv)
         cJSON_Delete(j);
     }
     free(out);
+    sylva_companions_free(&found);
+    opts_free(&o);
     return 0;
 }
 
@@ -580,64 +789,62 @@ static bool may_need_plugin(char **paths, int n)
     return false;
 }
 
+static int bake_run(const bake_opts *o, char **paths, size_t n, const char *out_dir,
+                    int progress_fd, progress_mode mode, bool quiet, long parent, bool sandbox,
+                    const char *shader_db, const char *shader_dir);
+
 static int cmd_bake(int argc, char **argv)
 {
-    char *paths[MAX_FILES];
-    size_t n = 0;
-    const char *spec_path = NULL, *out_dir = NULL;
-    int progress_fd = -1;
-    progress_mode mode = PROGRESS_AUTO;
-    bool quiet = false;
-    long parent = 0;
-    bool sandbox = false;
-    long cpu_limit = -1;
-    const char *shader_db = NULL, *shader_dir = NULL;
-    for (int i = 0; i < argc; i++) {
-        if (strcmp(argv[i], "--sandbox") == 0) sandbox = true;
-        else if (strcmp(argv[i], "--shader-cache") == 0 && i + 1 < argc) shader_db = argv[++i];
-        else if (strcmp(argv[i], "--shader-cache-dir") == 0 && i + 1 < argc) shader_dir = argv[++i];
-        else if (strcmp(argv[i], "--cpu-limit") == 0 && i + 1 < argc) {
-            if (!parse_cpu_limit(argv[++i], &cpu_limit)) return 2;
-        } else if (strcmp(argv[i], "--spec") == 0 && i + 1 < argc) spec_path = argv[++i];
-        else if (strcmp(argv[i], "--out") == 0 && i + 1 < argc) out_dir = argv[++i];
-        else if (strcmp(argv[i], "--quiet") == 0) quiet = true;
-        else if (strcmp(argv[i], "--parent-pid") == 0 && i + 1 < argc) {
-            char *end;
-            parent = strtol(argv[++i], &end, 10);
-            if (*end || parent <= 0) {
-                fprintf(stderr, "sylva-bake: --parent-pid: expected a process id\n");
-                return 2;
-            }
-        } else if (strcmp(argv[i], "--progress") == 0 && i + 1 < argc) {
-            const char *m = argv[++i];
-            if (strcmp(m, "auto") == 0) mode = PROGRESS_AUTO;
-            else if (strcmp(m, "bar") == 0) mode = PROGRESS_BAR;
-            else if (strcmp(m, "plain") == 0) mode = PROGRESS_PLAIN;
-            else if (strcmp(m, "none") == 0) mode = PROGRESS_NONE;
-            else {
-                fprintf(stderr,
-                        "sylva-bake: --progress: expected auto, bar, plain or none, not "
-                        "'%s'\n",
-                        m);
-                return 2;
-            }
-        } else if (strcmp(argv[i], "--progress-fd") == 0 && i + 1 < argc) {
-            char *end;
-            long fd = strtol(argv[++i], &end, 10);
-            if (*end || fd < 0 || fd > 65535) {
-                fprintf(stderr, "sylva-bake: --progress-fd: expected a file descriptor\n");
-                return 2;
-            }
-            progress_fd = (int)fd;
-        } else if (argv[i][0] == '-' && argv[i][1] == '-') {
-            fprintf(stderr, "sylva-bake: unknown or incomplete option %s\n%s", argv[i], usage);
-            return 2;
-        } else if (n < MAX_FILES) paths[n++] = argv[i];
+    bake_opts o;
+    int prc = parse_opts(argc, argv, true, &o);
+    if (prc || o.help) {
+        opts_free(&o);
+        if (o.help) fputs(usage, stdout);
+        return prc;
     }
-    if (n == 0 || !out_dir) {
-        fprintf(stderr, "sylva-bake: bake needs MESH and --out DIR\n%s", usage);
-        return 2;
+    if (o.n == 0 || !o.out_dir) {
+        opts_free(&o);
+        return usage_error("%s", "bake needs MESH and -o/--out DIR");
     }
+    char **paths = o.paths;
+    const char *out_dir = o.out_dir;
+    int progress_fd = o.progress_fd;
+    progress_mode mode = o.mode;
+    bool quiet = o.quiet;
+    long parent = o.parent;
+    bool sandbox = o.sandbox;
+    const char *shader_db = o.shader_db, *shader_dir = o.shader_dir;
+    /* sylvad's worker bakes the upload as it is: the client looked for the
+     * companions on its side */
+    bool worker = progress_fd >= 0 || parent > 0 || sandbox;
+    sylva_companions found = {0};
+    if (!worker) add_companions(&o, &found);
+    size_t n = o.n;
+    int rc = bake_run(&o, paths, n, out_dir, progress_fd, mode, quiet, parent, sandbox, shader_db,
+                      shader_dir);
+    if (rc != 2 && rc != 1 && !quiet && !worker) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/report.json", out_dir);
+        size_t len = 0;
+        char *text = read_all(path, &len);
+        cJSON *rep = text ? cJSON_ParseWithLength(text, len) : NULL;
+        fflush(stderr);
+        sylva_summary_table(rep, out_dir, stdout);
+        cJSON_Delete(rep);
+        free(text);
+    }
+    sylva_companions_free(&found);
+    opts_free(&o);
+    return rc;
+}
+
+/* The bake itself, once the command line is read (cmd_bake): 0 done, 1
+ * refused or failed, 3 the target not met. */
+static int bake_run(const bake_opts *o, char **paths, size_t n, const char *out_dir,
+                    int progress_fd, progress_mode mode, bool quiet, long parent, bool sandbox,
+                    const char *shader_db, const char *shader_dir)
+{
+    long cpu_limit = o->cpu_limit;
     /* sylvad's worker dies with it (issue 22 item 9): SIGKILL when the parent
      * goes; a parent already gone before the prctl is caught by getppid. */
     if (parent > 0) {
@@ -686,12 +893,12 @@ static int cmd_bake(int argc, char **argv)
     }
     size_t spec_len = 0;
     char *spec = NULL;
-    if (spec_path && !(spec = read_all(spec_path, &spec_len))) {
-        sv_fail(&e, SV_ERR_IO, "cannot read %s: %s", spec_path, strerror(errno));
+    int src = load_spec(o, &spec, &spec_len, &e);
+    if (src == 1) {
         fprintf(stderr, "sylva-bake: %s\n", e.message);
         write_error_json(out_dir, &e);
-        return 1;
     }
+    if (src) return src;
     loaded l;
     if (load_files(paths, n, &l)) {
         free(spec);
@@ -719,10 +926,7 @@ static int cmd_bake(int argc, char **argv)
 
 static int cmd_check_spec(int argc, char **argv)
 {
-    if (argc != 1) {
-        fputs(usage, stderr);
-        return 2;
-    }
+    if (argc != 1) return usage_error("%s", "check-spec takes one SPEC.json");
     size_t len = 0;
     char *s = read_all(argv[0], &len);
     sv_error e = {0};
@@ -821,13 +1025,11 @@ static int cmd_view(int argc, char **argv)
                 return 2;
             }
         } else if (argv[i][0] == '-' || dir) {
-            fprintf(stderr, "sylva-bake view: unexpected argument '%s'\n%s", argv[i], usage);
-            return 2;
+            return usage_error("view: unexpected argument '%.60s'", argv[i]);
         } else dir = argv[i];
     }
     if (!dir || !lod || !out || !have_dir) {
-        fprintf(stderr, "sylva-bake view: DIR, --lod, --dir and --out are required\n%s", usage);
-        return 2;
+        return usage_error("%s", "view: DIR, --lod, --dir and --out are required");
     }
     sv_error err = {0};
     if (sv_view_render(dir, lod, d, (uint32_t)size, out, &err) != SV_OK) {
@@ -868,9 +1070,10 @@ static int cmd_zygote(int argc, char **argv, char **all, int all_argc)
 
 int main(int argc, char **argv)
 {
-    if (argc < 2 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
-        fputs(usage, argc < 2 ? stderr : stdout);
-        return argc < 2 ? 2 : 0;
+    if (argc < 2) return usage_error("%s", "no command (info, bake, check-spec, view)");
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+        fputs(usage, stdout);
+        return 0;
     }
     if (strcmp(argv[1], "--version") == 0) {
         printf("sylva-bake %s\n", SV_VERSION);
@@ -883,6 +1086,5 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "sandbox-selftest") == 0) return cmd_sandbox_selftest(argc - 2, argv + 2);
     if (strcmp(argv[1], "warm-shaders") == 0) return sv_warm_shaders_main(argc - 2, argv + 2);
     if (strcmp(argv[1], "zygote") == 0) return cmd_zygote(argc - 2, argv + 2, argv, argc);
-    fprintf(stderr, "sylva-bake: unknown command '%s'\n%s", argv[1], usage);
-    return 2;
+    return usage_error("unknown command '%.60s'", argv[1]);
 }

@@ -7,6 +7,7 @@
  * from magic bytes and passes only GLB/glTF/OBJ/PLY/FBX/COLLADA on.
  */
 #include "import.h"
+#include "companions.h"
 
 #include <ctype.h>
 #include <stdio.h>
@@ -155,31 +156,15 @@ static bool name_eq(const char *a, const char *b, bool fold_case)
     }
 }
 
-/* Refuses a reference that could leave the upload; SV_OK when it is safe. */
+/* Refuses a reference that could leave the upload; SV_OK when it is safe.
+ * The rule is companions.h's, shared with sylva-bake's and the client's
+ * search for companions beside a mesh. */
 static sv_status check_safe(const char *ref, const char *shown, sv_error *err)
 {
-    if (!ref[0]) return sv_fail(err, SV_ERR_REFUSED, "refused an empty file reference");
-    if (ref[0] == '/' || ref[0] == '\\')
-        return sv_fail(err, SV_ERR_REFUSED, "refused '%s': absolute paths are not allowed", shown);
-    /* A scheme (file:, http:, ...) or a drive letter (C:) — anything before a ':'
-     * that looks like a scheme name. */
-    if (isalpha((unsigned char)ref[0])) {
-        const char *c = ref + 1;
-        while (isalnum((unsigned char)*c) || *c == '+' || *c == '-' || *c == '.') c++;
-        if (*c == ':')
-            return sv_fail(err, SV_ERR_REFUSED,
-                           "refused '%s': URI schemes and drive letters are not allowed", shown);
-    }
-    /* `..` as a path component, with / or \ as separators; control bytes. */
-    for (const char *c = ref; *c; c++) {
-        if ((unsigned char)*c < 0x20 || *c == 0x7f)
-            return sv_fail(err, SV_ERR_REFUSED, "refused '%s': control characters in a file name",
-                           shown);
-        bool start = (c == ref) || c[-1] == '/' || c[-1] == '\\';
-        if (start && c[0] == '.' && c[1] == '.' && (c[2] == 0 || c[2] == '/' || c[2] == '\\'))
-            return sv_fail(err, SV_ERR_REFUSED, "refused '%s': '..' leaves the upload", shown);
-    }
-    return SV_OK;
+    const char *why = sylva_ref_unsafe(ref);
+    if (!why) return SV_OK;
+    if (!ref[0]) return sv_fail(err, SV_ERR_REFUSED, "refused %s", why);
+    return sv_fail(err, SV_ERR_REFUSED, "refused '%s': %s", shown, why);
 }
 
 static int hexdigit(int c)

@@ -81,12 +81,12 @@ check "health exits 0" "$SYLVA" health
 check "health --json is JSON naming the server" \
     test "$(json_get "$T/health.json" 'd["server"]')" = "$SYLVA_SERVER"
 "$SYLVA" health --server http://127.0.0.1:1 --retries 0 >"$T/down.out" 2>"$T/down.err"
-check "health against a closed port exits 3" test $? -eq 3
+check "health against a closed port exits 6 (service)" test $? -eq 6
 check "  with one line on stderr" test "$(wc -l <"$T/down.err")" -eq 1
 # without --retries too: a probe tries each server once and does not wait
 # (it sat 24 s in silence before issue 23); 10 s is a hang guard, not a speed bound
 timeout 10 "$SYLVA" health --server http://127.0.0.1:1,http://127.0.0.1:2 >/dev/null 2>"$T/down2.err"
-check "health with no server up exits 3 at once (no retry rounds)" test $? -eq 3
+check "health with no server up exits 6 at once (no retry rounds)" test $? -eq 6
 check "  having tried both servers" grep -q "127.0.0.1:2" "$T/down2.err"
 # other commands say why they wait, unless --quiet
 "$SYLVA" status 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef \

@@ -25,6 +25,15 @@ for f in bin/sylva bin/sylvad bin/sylva-bake lib/sylva/libsvimage.so include/syl
          share/man/man1/sylva-bake.1; do
     [ -e "$P/$f" ] && ok "installed $f" || bad "installed $f"
 done
+# the guides the --help texts point to, where they say
+for f in "$root"/docs/*.md "$root"/docs/methods/*.md; do
+    rel_doc=${f#"$root"/docs/}
+    [ -f "$P/share/doc/sylva/$rel_doc" ] || bad "installed share/doc/sylva/$rel_doc"
+done
+for prog in sylva sylvad sylva-bake; do
+    "$P/bin/$prog" --help 2>&1 | grep -q "/usr/local/share/doc/sylva" &&
+        ok "$prog --help names the installed guides" || bad "$prog --help names no installed guide"
+done
 ver=$(sed -n 's/^#define SYLVA_VERSION "\(.*\)"/\1/p' "$root/client/sylva.h")
 check "libsylva.so.0 is the soname" "libsylva.so.0" \
     "$(objdump -p "$P/lib/libsylva.so" | awk '/SONAME/ {print $2}')"

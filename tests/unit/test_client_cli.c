@@ -11,6 +11,8 @@
 #include <string.h>
 
 #include "cli.h"
+#include "companions.h"
+#include "summary_table.h"
 
 #define ARGV(...) ((char *[]){"sylva", __VA_ARGS__, NULL})
 #define ARGC(...) ((int)(sizeof((char *[]){"sylva", __VA_ARGS__}) / sizeof(char *)))
@@ -349,7 +351,7 @@ static void summary_falls_back_to_the_job_times_and_survives_missing_files(void 
 }
 
 /* Issue 19: an unmet target is in the summary (report.json's, else the
- * status document's), printed with its reason, and gives exit 6. */
+ * status document's), printed with its reason, and gives exit 3. */
 static void summary_carries_an_unmet_target_and_its_reason(void **state)
 {
     (void)state;
@@ -421,7 +423,9 @@ static void exit_codes_separate_input_service_integrity_and_cancel(void **state)
 static void batch_exit_puts_failures_before_an_unmet_target(void **state)
 {
     (void)state;
-    assert_int_equal(SYLVA_EXIT_TARGET, 6);
+    assert_int_equal(SYLVA_EXIT_TARGET, 3);
+    assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_SERVICE),
+                     SYLVA_EXIT_SERVICE);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_TARGET), SYLVA_EXIT_TARGET);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_OK), SYLVA_EXIT_TARGET);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_TARGET, SYLVA_EXIT_FAILED), SYLVA_EXIT_FAILED);
@@ -430,6 +434,103 @@ static void batch_exit_puts_failures_before_an_unmet_target(void **state)
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_FAILED, SYLVA_EXIT_CANCELLED),
                      SYLVA_EXIT_CANCELLED);
     assert_int_equal(sylva_cli_worse_exit(SYLVA_EXIT_OK, SYLVA_EXIT_OK), SYLVA_EXIT_OK);
+}
+
+/* docs/client.md's exit table: the numbers sylva-bake uses too. */
+static void exit_table_is_the_one_both_tools_share(void **state)
+{
+    (void)state;
+    assert_int_equal(SYLVA_EXIT_OK, 0);
+    assert_int_equal(SYLVA_EXIT_FAILED, 1);
+    assert_int_equal(SYLVA_EXIT_USAGE, 2);
+    assert_int_equal(SYLVA_EXIT_TARGET, 3);
+    assert_int_equal(SYLVA_EXIT_INTEGRITY, 4);
+    assert_int_equal(SYLVA_EXIT_CANCELLED, 5);
+    assert_int_equal(SYLVA_EXIT_SERVICE, 6);
+    assert_int_equal(sylva_cli_exit_code(SYLVA_ERR_IO), SYLVA_EXIT_FAILED);
+    assert_int_equal(sylva_cli_exit_code(SYLVA_ERR_TIMEOUT), SYLVA_EXIT_SERVICE);
+}
+
+/* --units, --up, -o, -q and -v: the flags sylva-bake bake takes too. */
+static void shared_flags_become_sets_and_short_options(void **state)
+{
+    (void)state;
+    char *argv[] = {"sylva", "bake", "t.obj", "-o", "out", "--units", "cm", "--up=Z",
+                    "-q", "-v", "--set", "billboard_cloud.lods=[20]", NULL};
+    sylva_cli cli;
+    char err[256];
+    assert_int_equal(sylva_cli_parse(12, argv, NULL, NULL, &cli, err, sizeof err), SYLVA_EXIT_OK);
+    assert_string_equal(cli.out, "out");
+    assert_true(cli.quiet && cli.verbose);
+    assert_int_equal(cli.progress, SYLVA_PROGRESS_NONE);
+    char *spec = NULL;
+    size_t len = 0;
+    assert_int_equal(sylva_cli_build_spec(NULL, 0, NULL, cli.sets, cli.set_count, &spec, &len, err,
+                                          sizeof err),
+                     SYLVA_EXIT_OK);
+    assert_string_equal(spec, "{\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
+                              "\"billboard_cloud\":{\"lods\":[20]}}");
+    free(spec);
+    sylva_cli_free(&cli);
+    char *bad[] = {"sylva", "bake", "t.obj", "-o", "out", "--up", "X", NULL};
+    assert_int_equal(sylva_cli_parse(7, bad, NULL, NULL, &cli, err, sizeof err), SYLVA_EXIT_USAGE);
+    assert_non_null(strstr(err, "--up expects Y, Z or auto"));
+    sylva_cli_free(&cli);
+}
+
+typedef struct refs {
+    char list[512];
+} refs;
+
+static void collect(void *user, const char *ref)
+{
+    refs *r = user;
+    strcat(r->list, ref);
+    strcat(r->list, "|");
+}
+
+/* The references companions.h finds, and the ones it will not follow. */
+static void references_are_found_and_unsafe_ones_named(void **state)
+{
+    (void)state;
+    refs r = {""};
+    const char obj[] = "# x\nmtllib tree.mtl\r\nv 0 0 0\n  mtllib sub/more.mtl  \n";
+    sylva_refs_scan("t.obj", (const unsigned char *)obj, sizeof obj - 1, collect, &r);
+    assert_string_equal(r.list, "tree.mtl|sub/more.mtl|");
+    r.list[0] = 0;
+    const char mtl[] = "newmtl a\nmap_Kd -s 1 1 1 leaf.png\nmap_d  alpha.png\nKd 1 1 1\n";
+    sylva_refs_scan("t.mtl", (const unsigned char *)mtl, sizeof mtl - 1, collect, &r);
+    assert_string_equal(r.list, "leaf.png|alpha.png|");
+    r.list[0] = 0;
+    const char gltf[] = "{\"buffers\":[{\"uri\":\"t.bin\"},{\"uri\":\"data:application/"
+                        "octet-stream;base64,AA==\"}],\"images\":[{\"uri\":\"my%20leaf.png\"}]}";
+    sylva_refs_scan("t.gltf", (const unsigned char *)gltf, sizeof gltf - 1, collect, &r);
+    assert_string_equal(r.list, "t.bin|my leaf.png|");
+    assert_null(sylva_ref_unsafe("leaf.png"));
+    assert_null(sylva_ref_unsafe("textures/leaf.png"));
+    assert_non_null(sylva_ref_unsafe("/etc/passwd"));
+    assert_non_null(sylva_ref_unsafe("../x.png"));
+    assert_non_null(sylva_ref_unsafe("a\\..\\x.png"));
+    assert_non_null(sylva_ref_unsafe("file:x.png"));
+    assert_non_null(sylva_ref_unsafe("C:x.png"));
+    assert_non_null(sylva_ref_unsafe(""));
+}
+
+/* The summary table: triangles of a mesh level, IoU at 64 px truncated. */
+static void summary_table_shows_triangles_and_iou_at_64_truncated(void **state)
+{
+    (void)state;
+    cJSON *rep = cJSON_Parse("{\"lods\":[{\"name\":\"full\",\"file\":\"lod0_full.glb\","
+                             "\"triangles\":3616,\"texels\":0,\"switch_pixels\":1080.4,"
+                             "\"accuracy\":[{\"pixels\":64,\"iou_mean\":0.98769}]}]}");
+    char buf[1024] = "";
+    FILE *f = fmemopen(buf, sizeof buf, "w");
+    assert_int_equal(sylva_summary_table(rep, NULL, f), 1);
+    fclose(f);
+    assert_non_null(strstr(buf, "level"));
+    assert_non_null(strstr(buf, "full                   3616          0       1080   0.987  "
+                                "lod0_full.glb"));
+    cJSON_Delete(rep);
 }
 
 int main(void)
@@ -454,6 +555,10 @@ int main(void)
         cmocka_unit_test(exit_codes_separate_input_service_integrity_and_cancel),
         cmocka_unit_test(summary_carries_an_unmet_target_and_its_reason),
         cmocka_unit_test(batch_exit_puts_failures_before_an_unmet_target),
+        cmocka_unit_test(exit_table_is_the_one_both_tools_share),
+        cmocka_unit_test(shared_flags_become_sets_and_short_options),
+        cmocka_unit_test(references_are_found_and_unsafe_ones_named),
+        cmocka_unit_test(summary_table_shows_triangles_and_iou_at_64_truncated),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
