@@ -54,6 +54,14 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double alpha_threshold, uint8_t *dst);
 
+/* The same on RGBA16 samples into RGBA16 texels (linear colour: the bake's
+ * renders, render.h's `linear`): opaque is 65535, coverage alpha the 8-bit
+ * value × 257. The median commutes with the sRGB transfer function, so
+ * encoding the result equals the median of encoded samples, without their
+ * 8-bit rounding before the choice. */
+void sv_downsample_median16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
+                            double alpha_threshold, uint16_t *dst);
+
 /* The same for one float channel (e.g. depth) where a finite value is covered:
  * the median of the finite samples, or INFINITY below the threshold. */
 void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s,
@@ -65,6 +73,9 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
  * all valued texels, so mipmaps never bleed black. Only the first
  * fill_channels channels are written (alpha is left untouched). mask has
  * w*h bytes, nonzero = has a value; it is not modified. img: 8 or 16 bits.
+ * With 4 channels and fill_channels 3 (RGBA colour) the means weigh each
+ * texel of the mask by its alpha (texels filled by earlier passes weigh 1):
+ * pass linear colour, never sRGB bytes (image.h), for a premultiplied mean.
  * SV_ERR_NOMEM on allocation failure (img unchanged). */
 sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
                     sv_error *err);
