@@ -54,13 +54,16 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double alpha_threshold, uint8_t *dst);
 
-/* The same on RGBA16 samples into RGBA16 texels (linear colour: the bake's
- * renders, render.h's `linear`): opaque is 65535, coverage alpha the 8-bit
- * value × 257. The median commutes with the sRGB transfer function, so
- * encoding the result equals the median of encoded samples, without their
- * 8-bit rounding before the choice. */
-void sv_downsample_median16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
-                            double alpha_threshold, uint16_t *dst);
+/* Downsamples linear RGBA16 samples (render.h's `linear` colour; alpha 0 =
+ * empty) into w × h RGBA16 texels: the same coverage test and alpha as
+ * sv_downsample_median (opaque 65535; coverage alpha the 8-bit value × 257),
+ * but each colour channel is the rounded mean of the covered samples — a
+ * box filter of linear light over the covered samples (the colour
+ * premultiplied by their binary coverage, divided by it again). A median
+ * of linear colour is biased dark: texture values are skewed towards dark
+ * in linear, and even counts take the lower median. */
+void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
+                          double alpha_threshold, uint16_t *dst);
 
 /* The same for one float channel (e.g. depth) where a finite value is covered:
  * the median of the finite samples, or INFINITY below the threshold. */

@@ -199,7 +199,6 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
         return a[k];                                                                         \
     }
 SV_DEFINE_SELECT(select_u8, uint8_t)
-SV_DEFINE_SELECT(select_u16, uint16_t)
 SV_DEFINE_SELECT(select_f32, float)
 #undef SV_DEFINE_SELECT
 
@@ -210,59 +209,87 @@ static uint32_t needed(double thr, uint32_t s)
     return n < 1 ? 1 : (uint32_t)n;
 }
 
-/* The median filter on RGBA samples of type T whose full alpha is MAXV; one
- * body for 8 and 16 bits. Coverage alpha is rounded to 8 bits and scaled to
- * T (× 257 for 16 bits), so both give the same alpha. */
-#define SV_DEFINE_MEDIAN(name, T, MAXV, SELECT)                                              \
-    void name(const T *src, uint32_t w, uint32_t h, uint32_t s, double thr, T *dst)          \
-    {                                                                                        \
-        bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */    \
-        uint32_t need = needed(thr, s);                                                      \
-        size_t sw = (size_t)w * s;                                                           \
-        T ch[4][256];                                                                        \
-        T(*buf)[256] = ch;                                                                   \
-        T *big = NULL;                                                                       \
-        if ((size_t)s * s > 256) {                                                           \
-            big = malloc(4 * (size_t)s * s * sizeof *big);                                   \
-            if (!big) { /* cannot filter: leave everything empty (callers cap s at 16) */    \
-                memset(dst, 0, (size_t)w *h * 4 * sizeof *dst);                              \
-                return;                                                                      \
-            }                                                                                \
-        }                                                                                    \
-        for (uint32_t ty = 0; ty < h; ty++)                                                  \
-            for (uint32_t tx = 0; tx < w; tx++) {                                            \
-                uint32_t c = 0;                                                              \
-                for (uint32_t y = 0; y < s; y++) {                                           \
-                    const T *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4; \
-                    for (uint32_t x = 0; x < s; x++) {                                       \
-                        const T *p = row + 4 * (size_t)x;                                    \
-                        if (p[3] == 0) continue;                                             \
-                        for (int k = 0; k < 4; k++) {                                        \
-                            if (big) big[(size_t)k * s * s + c] = p[k];                      \
-                            else buf[k][c] = p[k];                                           \
-                        }                                                                    \
-                        c++;                                                                 \
-                    }                                                                        \
-                }                                                                            \
-                T *o = dst + ((size_t)ty * w + tx) * 4;                                      \
-                if (c < need) {                                                              \
-                    o[0] = o[1] = o[2] = o[3] = 0;                                           \
-                    continue;                                                                \
-                }                                                                            \
-                for (int k = 0; k < 3; k++)                                                  \
-                    o[k] = SELECT(big ? big + (size_t)k * s * s : buf[k], c, (c - 1) / 2);   \
-                if (cover) {                                                                 \
-                    uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;                       \
-                    o[3] = (T)((a < 1 ? 1 : a) * (MAXV / 255u));                             \
-                } else {                                                                     \
-                    o[3] = (T)MAXV;                                                          \
-                }                                                                            \
-            }                                                                                \
-        free(big);                                                                           \
+void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                          uint8_t *dst)
+{
+    bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
+    uint32_t need = needed(thr, s);
+    size_t sw = (size_t)w * s;
+    uint8_t ch[4][256];
+    uint8_t(*buf)[256] = ch;
+    uint8_t *big = NULL;
+    if ((size_t)s * s > 256) {
+        big = malloc(4 * (size_t)s * s);
+        if (!big) { /* cannot filter: leave everything empty (callers cap s at 16) */
+            memset(dst, 0, (size_t)w * h * 4);
+            return;
+        }
     }
-SV_DEFINE_MEDIAN(sv_downsample_median, uint8_t, 255u, select_u8)
-SV_DEFINE_MEDIAN(sv_downsample_median16, uint16_t, 65535u, select_u16)
-#undef SV_DEFINE_MEDIAN
+    for (uint32_t ty = 0; ty < h; ty++)
+        for (uint32_t tx = 0; tx < w; tx++) {
+            uint32_t c = 0;
+            for (uint32_t y = 0; y < s; y++) {
+                const uint8_t *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4;
+                for (uint32_t x = 0; x < s; x++) {
+                    const uint8_t *p = row + 4 * (size_t)x;
+                    if (p[3] == 0) continue;
+                    for (int k = 0; k < 4; k++) {
+                        if (big) big[(size_t)k * s * s + c] = p[k];
+                        else buf[k][c] = p[k];
+                    }
+                    c++;
+                }
+            }
+            uint8_t *o = dst + ((size_t)ty * w + tx) * 4;
+            if (c < need) {
+                o[0] = o[1] = o[2] = o[3] = 0;
+                continue;
+            }
+            for (int k = 0; k < 3; k++)
+                o[k] = select_u8(big ? big + (size_t)k * s * s : buf[k], c, (c - 1) / 2);
+            if (cover) {
+                uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;
+                o[3] = (uint8_t)(a < 1 ? 1 : a);
+            } else {
+                o[3] = 255;
+            }
+        }
+    free(big);
+}
+
+void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                          uint16_t *dst)
+{
+    bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
+    uint32_t need = needed(thr, s);
+    size_t sw = (size_t)w * s;
+    for (uint32_t ty = 0; ty < h; ty++)
+        for (uint32_t tx = 0; tx < w; tx++) {
+            uint32_t c = 0;
+            uint64_t sum[3] = {0, 0, 0};
+            for (uint32_t y = 0; y < s; y++) {
+                const uint16_t *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4;
+                for (uint32_t x = 0; x < s; x++) {
+                    const uint16_t *p = row + 4 * (size_t)x;
+                    if (p[3] == 0) continue;
+                    for (int k = 0; k < 3; k++) sum[k] += p[k];
+                    c++;
+                }
+            }
+            uint16_t *o = dst + ((size_t)ty * w + tx) * 4;
+            if (c < need) {
+                o[0] = o[1] = o[2] = o[3] = 0;
+                continue;
+            }
+            for (int k = 0; k < 3; k++) o[k] = (uint16_t)((sum[k] + c / 2) / c);
+            if (cover) {
+                uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;
+                o[3] = (uint16_t)((a < 1 ? 1 : a) * 257u);
+            } else {
+                o[3] = 65535u;
+            }
+        }
+}
 
 void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s, double thr,
                               float *dst)

@@ -4,7 +4,7 @@
  * rendering of landscapes using billboard clouds"), §3.3.7 "Texture generation":
  * every face valid for a plane (not only the faces it simplifies) is rendered
  * orthographically onto it, supersampled so that each small leaf polygon covers
- * at least one sample, then downsampled with a rectangular median filter and an
+ * at least one sample, then downsampled with a rectangular filter and an
  * alpha threshold (default 0.3) so alpha is binary and needs no depth sorting.
  * §3.3.9 (dynamic lighting): normals are projected as well as colours (normal
  * map in the quad's tangent frame). Colour is dilated into empty texels so
@@ -18,9 +18,11 @@
  *     texel blocks, so memory stays bounded and the result equals one big render.
  *   - Colour is baked in linear, as glTF defines it (image.h): renders come
  *     back as linear RGBA16 (the source's base colour factor × its decoded
- *     texels), the median filter and the dilation work on a 16-bit linear
- *     atlas, and the atlas is encoded to 8-bit sRGB once at the end. The
- *     atlas material's factor is 1: the source's factors are in the texels.
+ *     texels); a texel's colour is the mean of its covered samples (a box
+ *     filter of linear light: the paper's per-channel median darkens, see
+ *     atlas.h), the dilation works on a 16-bit linear atlas, and the atlas
+ *     is encoded to 8-bit sRGB once at the end. Normals keep the median.
+ *     The atlas material's factor is 1: the source's factors are in the texels.
  *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
  *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
  *     from each; a texel's surface point is visible from a direction when it is
@@ -331,7 +333,7 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img, zs,
                            err);
             if (st != SV_OK) goto out;
-            sv_downsample_median16(img.data, tw, th, s, b->thr, tex16);
+            sv_downsample_mean16(img.data, tw, th, s, b->thr, tex16);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
             for (uint32_t y = 0; y < th; y++)
