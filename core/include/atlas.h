@@ -55,15 +55,17 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
                           double alpha_threshold, uint8_t *dst);
 
 /* Downsamples linear RGBA16 samples (render.h's `linear` colour; alpha 0 =
- * empty) into w × h RGBA16 texels: the same coverage test and alpha as
- * sv_downsample_median (opaque 65535; coverage alpha the 8-bit value × 257),
- * but each colour channel is the rounded mean of the covered samples — a
- * box filter of linear light over the covered samples (the colour
- * premultiplied by their binary coverage, divided by it again). A median
- * of linear colour is biased dark: texture values are skewed towards dark
- * in linear, and even counts take the lower median. */
-void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
-                          double alpha_threshold, uint16_t *dst);
+ * empty) into w × h RGBA16 texels with the same coverage test and alpha as
+ * sv_downsample_median (opaque 65535; coverage alpha the 8-bit value × 257).
+ * Colour: the per-channel median of the covered samples (the paper's filter:
+ * a texel shows a colour its samples have, not a blur of them), scaled by one
+ * factor so that its Rec. 709 luminance is the mean luminance of the covered
+ * samples (light is conserved: the median alone of linear colour is biased
+ * dark, texture values skewing dark in linear light and even counts taking
+ * the lower median). A median of luminance 0 gives the plain mean. Results
+ * are clamped to 65535. Deterministic. */
+void sv_downsample_colour16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
+                            double alpha_threshold, uint16_t *dst);
 
 /* The same for one float channel (e.g. depth) where a finite value is covered:
  * the median of the finite samples, or INFINITY below the threshold. */

@@ -3,8 +3,9 @@
  *
  * For each quad: render the faces valid for it orthographically along -normal,
  * supersampled so the smallest leaf covers at least one sample (capped), then
- * downsample with an alpha threshold (binary alpha) — colour the mean of the
- * covered samples in linear light, normals their per-channel median — and
+ * downsample with an alpha threshold (binary alpha) — colour the per-channel
+ * median of the covered samples scaled to their mean luminance in linear
+ * light, normals the per-channel median — and
  * dilate colour into transparent texels so mipmaps do not bleed. The albedo
  * atlas is glTF base colour (sRGB-encoded, factor 1): the source's linear
  * factor × its decoded texels.

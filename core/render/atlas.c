@@ -200,6 +200,7 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
     }
 SV_DEFINE_SELECT(select_u8, uint8_t)
 SV_DEFINE_SELECT(select_f32, float)
+SV_DEFINE_SELECT(select_u16, uint16_t)
 #undef SV_DEFINE_SELECT
 
 /* Covered samples needed for an opaque texel: ceil(threshold · s²), at least 1. */
@@ -257,22 +258,31 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
     free(big);
 }
 
-void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
-                          uint16_t *dst)
+void sv_downsample_colour16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                            uint16_t *dst)
 {
+    static const double rec709[3] = {0.2126, 0.7152, 0.0722};
     bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
     uint32_t need = needed(thr, s);
     size_t sw = (size_t)w * s;
+    uint16_t *buf = malloc(3 * (size_t)s * s * sizeof *buf);
+    if (!buf) { /* cannot filter: leave everything empty (callers cap s at 16) */
+        memset(dst, 0, (size_t)w * h * 4 * sizeof *dst);
+        return;
+    }
     for (uint32_t ty = 0; ty < h; ty++)
         for (uint32_t tx = 0; tx < w; tx++) {
             uint32_t c = 0;
-            uint64_t sum[3] = {0, 0, 0};
+            double sum[3] = {0, 0, 0};
             for (uint32_t y = 0; y < s; y++) {
                 const uint16_t *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4;
                 for (uint32_t x = 0; x < s; x++) {
                     const uint16_t *p = row + 4 * (size_t)x;
                     if (p[3] == 0) continue;
-                    for (int k = 0; k < 3; k++) sum[k] += p[k];
+                    for (int k = 0; k < 3; k++) {
+                        buf[(size_t)k * s * s + c] = p[k];
+                        sum[k] += p[k];
+                    }
                     c++;
                 }
             }
@@ -281,7 +291,16 @@ void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t 
                 o[0] = o[1] = o[2] = o[3] = 0;
                 continue;
             }
-            for (int k = 0; k < 3; k++) o[k] = (uint16_t)((sum[k] + c / 2) / c);
+            double med[3], y_med = 0, y_mean = 0;
+            for (int k = 0; k < 3; k++) {
+                med[k] = select_u16(buf + (size_t)k * s * s, c, (c - 1) / 2);
+                y_med += rec709[k] * med[k];
+                y_mean += rec709[k] * sum[k] / c;
+            }
+            for (int k = 0; k < 3; k++) {
+                double v = y_med > 0 ? med[k] * (y_mean / y_med) : sum[k] / c;
+                o[k] = (uint16_t)fmin(65535.0, floor(v + 0.5));
+            }
             if (cover) {
                 uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;
                 o[3] = (uint16_t)((a < 1 ? 1 : a) * 257u);
@@ -289,6 +308,7 @@ void sv_downsample_mean16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t 
                 o[3] = 65535u;
             }
         }
+    free(buf);
 }
 
 void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s, double thr,

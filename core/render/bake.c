@@ -18,8 +18,8 @@
  *     texel blocks, so memory stays bounded and the result equals one big render.
  *   - Colour is baked in linear, as glTF defines it (image.h): renders come
  *     back as linear RGBA16 (the source's base colour factor × its decoded
- *     texels); a texel's colour is the mean of its covered samples (a box
- *     filter of linear light: the paper's per-channel median darkens, see
+ *     texels); a texel's colour is the median of its covered samples scaled
+ *     to their mean luminance (the median alone darkens in linear light, see
  *     atlas.h), the dilation works on a 16-bit linear atlas, and the atlas
  *     is encoded to 8-bit sRGB once at the end. Normals keep the median.
  *     The atlas material's factor is 1: the source's factors are in the texels.
@@ -333,7 +333,7 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img, zs,
                            err);
             if (st != SV_OK) goto out;
-            sv_downsample_mean16(img.data, tw, th, s, b->thr, tex16);
+            sv_downsample_colour16(img.data, tw, th, s, b->thr, tex16);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
             for (uint32_t y = 0; y < th; y++)

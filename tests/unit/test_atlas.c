@@ -147,10 +147,16 @@ static void downsampler_gives_binary_alpha_and_thresholded_coverage(void **state
     assert_int_equal(dst[7], 255);
 }
 
-/* The colour downsampler of linear RGBA16: the mean of the covered samples
- * (light adds up; a median of skewed linear values darkens), the same
- * threshold as the median filter, and coverage alpha as 8-bit × 257. */
-static void linear_downsampler_averages_covered_samples(void **state)
+/* The colour downsampler of linear RGBA16: each channel the median of the
+ * covered samples, scaled to their mean luminance (one bright sample among
+ * dark ones lifts the texel's light but not its hue), the same threshold as
+ * the median filter, and coverage alpha as 8-bit × 257. */
+static double y709(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
+static void linear_downsampler_keeps_the_median_hue_and_the_mean_light(void **state)
 {
     (void)state;
     enum { S = 4, W = 3 };
@@ -167,19 +173,30 @@ static void linear_downsampler_averages_covered_samples(void **state)
             p[3] = 65535;
         }
     uint16_t dst[W * 4];
-    sv_downsample_mean16(src, W, 1, S, 0.3, dst);
+    sv_downsample_colour16(src, W, 1, S, 0.3, dst);
     assert_int_equal(dst[3], 0); /* 4/16 < 0.3 */
     assert_int_equal(dst[0], 0);
     assert_int_equal(dst[7], 65535);
-    assert_int_equal(dst[4], 12800); /* (60000 + 4·1000) / 5: the bright one counts */
-    assert_int_equal(dst[5], 300);   /* mean of 100..500 */
-    assert_int_equal(dst[6], 7);
     assert_int_equal(dst[11], 65535);
-    assert_int_equal(dst[9], 850);              /* mean of 100..1600 */
-    sv_downsample_mean16(src, W, 1, S, 0, dst); /* coverage alpha */
-    assert_int_equal(dst[3], 64 * 257);         /* 4/16 of 255, rounded: 64 */
+    /* texel 1: medians 1000, 300, 7; mean luminance of the 5 samples */
+    double want = y709((60000 + 4 * 1000) / 5.0, 300, 7), k1 = want / y709(1000, 300, 7);
+    assert_int_equal(dst[4], (int)lround(1000 * k1));
+    assert_int_equal(dst[5], (int)lround(300 * k1));
+    assert_int_equal(dst[6], (int)lround(7 * k1));
+    assert_true(fabs(y709(dst[4], dst[5], dst[6]) - want) < 1.0);
+    /* texel 2: 16 samples, lower medians 1000 and 800 */
+    double want2 = y709((60000 + 15 * 1000) / 16.0, 850, 7), k2 = want2 / y709(1000, 800, 7);
+    assert_int_equal(dst[8], (int)lround(1000 * k2));
+    assert_int_equal(dst[9], (int)lround(800 * k2));
+    sv_downsample_colour16(src, W, 1, S, 0, dst); /* coverage alpha */
+    assert_int_equal(dst[3], 64 * 257);           /* 4/16 of 255, rounded: 64 */
     assert_int_equal(dst[7], 80 * 257);
     assert_int_equal(dst[11], 65535);
+    /* black samples: luminance 0 gives the mean, 0 */
+    memset(src, 0, sizeof src);
+    for (uint32_t i = 0; i < S * S * W; i++) src[4 * i + 3] = 65535;
+    sv_downsample_colour16(src, W, 1, S, 0.3, dst);
+    for (int t = 0; t < W; t++) assert_int_equal(dst[4 * t], 0);
 }
 
 /* Dilating RGBA colour takes the alpha-weighted (premultiplied) mean: a
@@ -305,7 +322,7 @@ int main(void)
         cmocka_unit_test(texel_choice_fails_when_not_even_single_texels_fit),
         cmocka_unit_test(downsampler_gives_binary_alpha_and_thresholded_coverage),
         cmocka_unit_test(downsampler_median_matches_sorting_on_random_samples),
-        cmocka_unit_test(linear_downsampler_averages_covered_samples),
+        cmocka_unit_test(linear_downsampler_keeps_the_median_hue_and_the_mean_light),
         cmocka_unit_test(dilation_of_rgba_colour_weighs_neighbours_by_alpha),
         cmocka_unit_test(float_downsampler_takes_the_median_of_covered_depths),
         cmocka_unit_test(dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha),
