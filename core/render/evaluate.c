@@ -1046,6 +1046,7 @@ sv_status sv_eval_identity(const sv_evaluator *e, sv_eval_result *out, sv_error 
     for (uint32_t s = 0; s < e->size_count; s++) {
         out->sizes[s].pixels = e->sizes[s];
         out->sizes[s].mean = out->sizes[s].worst = same;
+        out->sizes[s].lum_ratio = 1.0;
     }
     return SV_OK;
 }

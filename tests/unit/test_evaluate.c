@@ -536,10 +536,14 @@ static void halved_factors_give_a_lum_ratio_of_one_half(void **state)
     sv_gpu_mesh *g = upload(r, m), *gd = upload(r, dark);
     sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_ORBIT, 4);
     sv_eval_result same = run(e, g), half = run(e, gd);
+    sv_eval_result id;
+    assert_int_equal(sv_eval_identity(e, &id, NULL), SV_OK); /* the original's own level */
     for (uint32_t s = 0; s < same.size_count; s++) {
         assert_float_equal(same.sizes[s].lum_ratio, 1.0, 1e-12);
         assert_float_equal(half.sizes[s].lum_ratio, 0.5, 0.02);
+        assert_float_equal(id.sizes[s].lum_ratio, 1.0, 0);
     }
+    sv_eval_result_free(&id);
     sv_eval_result_free(&same);
     sv_eval_result_free(&half);
     sv_evaluator_destroy(e);
