@@ -1,6 +1,8 @@
-/* image.c — allocation and box-filter reduction of in-memory images (the
- * decoders and encoders live in image_oiio.cpp). */
+/* image.c — allocation and box-filter reduction of in-memory images, and
+ * the sRGB transfer functions (the decoders and encoders live in
+ * image_oiio.cpp). */
 #include "image.h"
+#include "srgb_tables.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -71,9 +73,42 @@ size_t sv_image_stride(const sv_image *img)
     return (size_t)img->width * img->channels * (img->bits / 8);
 }
 
+double sv_srgb_to_linear(double c)
+{
+    if (!(c > 0)) return 0;
+    if (c >= 1) return 1;
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+double sv_linear_to_srgb(double l)
+{
+    if (!(l > 0)) return 0;
+    if (l >= 1) return 1;
+    return l <= 0.0031308 ? 12.92 * l : 1.055 * pow(l, 1.0 / 2.4) - 0.055;
+}
+
+double sv_srgb_decode8(uint8_t code)
+{
+    return SRGB_DECODE[code];
+}
+
+uint8_t sv_srgb_encode8(double l)
+{
+    if (!(l > 0)) return 0;
+    /* the number of boundaries at or below l (binary search, 8 steps) */
+    uint32_t lo = 0, hi = 255;
+    while (lo < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (SRGB_MID[mid] <= l) lo = mid + 1;
+        else hi = mid;
+    }
+    return (uint8_t)lo;
+}
+
 /* One 2:1 reduction (a side of 1 stays 1): each output texel is the mean of
  * the up to 2x2 input texels it covers; with 4 channels the colour is
- * weighted by alpha, so transparent texels do not darken the edges. */
+ * weighted by alpha, so transparent texels do not darken the edges. 8-bit
+ * RGBA colour is averaged in linear (image.h). */
 static sv_status halve(sv_image *img, sv_error *err)
 {
     uint32_t w = img->width > 1 ? (img->width + 1) / 2 : 1;
@@ -82,7 +117,7 @@ static sv_status halve(sv_image *img, sv_error *err)
     sv_status st = sv_image_alloc(&out, w, h, img->channels, img->bits, err);
     if (st != SV_OK) return st;
     uint32_t c = img->channels;
-    bool wide = img->bits == 16, alpha = c == 4;
+    bool wide = img->bits == 16, alpha = c == 4, srgb = alpha && !wide;
     double maxv = wide ? 65535.0 : 255.0;
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++) {
@@ -96,6 +131,8 @@ static sv_status halve(sv_image *img, sv_error *err)
                     for (uint32_t k = 0; k < c; k++)
                         v[k] = wide ? ((const uint16_t *)img->data)[o + k]
                                     : ((const uint8_t *)img->data)[o + k];
+                    for (uint32_t k = 0; srgb && k < 3; k++)
+                        v[k] = sv_srgb_decode8(((const uint8_t *)img->data)[o + k]);
                     double a = alpha ? v[3] / maxv : 1.0;
                     for (uint32_t k = 0; k < c; k++) sum[k] += (alpha && k < 3) ? v[k] * a : v[k];
                     wsum += a;
@@ -104,6 +141,10 @@ static sv_status halve(sv_image *img, sv_error *err)
             size_t o = ((size_t)y * w + x) * c;
             for (uint32_t k = 0; k < c; k++) {
                 double v = (alpha && k < 3) ? (wsum > 0 ? sum[k] / wsum : 0) : sum[k] / n;
+                if (srgb && k < 3) {
+                    ((uint8_t *)out.data)[o + k] = sv_srgb_encode8(v);
+                    continue;
+                }
                 v = floor(v + 0.5);
                 if (wide) ((uint16_t *)out.data)[o + k] = (uint16_t)fmin(v, maxv);
                 else ((uint8_t *)out.data)[o + k] = (uint8_t)fmin(v, maxv);

@@ -54,6 +54,19 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
 void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s,
                           double alpha_threshold, uint8_t *dst);
 
+/* Downsamples linear RGBA16 samples (render.h's `linear` colour; alpha 0 =
+ * empty) into w × h RGBA16 texels with the same coverage test and alpha as
+ * sv_downsample_median (opaque 65535; coverage alpha the 8-bit value × 257).
+ * Colour: the per-channel median of the covered samples (the paper's filter:
+ * a texel shows a colour its samples have, not a blur of them), scaled by one
+ * factor so that its Rec. 709 luminance is the mean luminance of the covered
+ * samples (light is conserved: the median alone of linear colour is biased
+ * dark, texture values skewing dark in linear light and even counts taking
+ * the lower median). A median of luminance 0 gives the plain mean. Results
+ * are clamped to 65535. Deterministic. */
+void sv_downsample_colour16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s,
+                            double alpha_threshold, uint16_t *dst);
+
 /* The same for one float channel (e.g. depth) where a finite value is covered:
  * the median of the finite samples, or INFINITY below the threshold. */
 void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s,
@@ -65,6 +78,9 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
  * all valued texels, so mipmaps never bleed black. Only the first
  * fill_channels channels are written (alpha is left untouched). mask has
  * w*h bytes, nonzero = has a value; it is not modified. img: 8 or 16 bits.
+ * With 4 channels and fill_channels 3 (RGBA colour) the means weigh each
+ * texel of the mask by its alpha (texels filled by earlier passes weigh 1):
+ * pass linear colour, never sRGB bytes (image.h), for a premultiplied mean.
  * SV_ERR_NOMEM on allocation failure (img unchanged). */
 sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
                     sv_error *err);

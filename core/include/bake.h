@@ -3,8 +3,12 @@
  *
  * For each quad: render the faces valid for it orthographically along -normal,
  * supersampled so the smallest leaf covers at least one sample (capped), then
- * downsample with a rectangular median filter and an alpha threshold (binary
- * alpha), and dilate colour into transparent texels so mipmaps do not bleed.
+ * downsample with an alpha threshold (binary alpha) — colour the per-channel
+ * median of the covered samples scaled to their mean luminance in linear
+ * light, normals the per-channel median — and
+ * dilate colour into transparent texels so mipmaps do not bleed. The albedo
+ * atlas is glTF base colour (sRGB-encoded, factor 1): the source's linear
+ * factor × its decoded texels.
  * One texel density (world units per texel) for all quads of a LOD, chosen so
  * the atlas fits max_atlas; power-of-two atlas sizes; padding between charts.
  */
@@ -43,7 +47,7 @@ typedef struct sv_baked_lod {
                                  own materials. Images: the atlases and kept textures. */
     uint32_t quad_count;  /* quad i is triangles 2i and 2i+1 of mesh */
     float *uv_rects;      /* 4 per quad: u0, v0, u1, v1 in atlas UV (glTF: v down) */
-    sv_image albedo;      /* RGBA8 atlas, binary alpha */
+    sv_image albedo;      /* RGBA8 atlas, sRGB-encoded colour, binary alpha */
     sv_image normal;      /* RGB8 tangent-space normal atlas (data NULL when not baked) */
     sv_image ao;          /* 8-bit AO atlas, 1 channel, 255 = open sky: fraction of 12 fixed
                                  upper-hemisphere directions from which the texel's surface

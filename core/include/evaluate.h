@@ -17,6 +17,13 @@
  *                 difference of premultiplied r,g,b, in [0,1]
  *   depth_error = Σ min(a,b)·|za − zb| / Σ min(a,b), divided by radius
  *                 (0 when the coverages do not intersect)
+ * and per size over all views (sveval's brightness figure):
+ *   lum_ratio   = Σ min(a,b)·Y(result) / Σ min(a,b)·Y(original), Y the Rec. 709
+ *                 luminance of the pixel's straight colour decoded from sRGB
+ *                 (1 when no pixel overlaps).
+ * Colour is what a glTF engine shows (render.h): the linear factor × the
+ * texel decoded from sRGB, encoded to sRGB, as ../shared/tools/sveval's
+ * default colour; the box filter then averages the encoded values.
  * Point-sampled IoU at a high resolution punishes a leaf moved by a fraction of
  * its width as hard as a missing leaf; the box filter does not (issue 3).
  *
@@ -54,6 +61,7 @@ typedef struct sv_eval_size {
     uint32_t pixels;       /* screen size (sphere diameter in pixels) */
     sv_eval_metrics mean;  /* mean over views */
     sv_eval_metrics worst; /* lowest iou, highest errors over views (each on its own) */
+    double lum_ratio;      /* over all views (see top): < 1 the result is darker */
 } sv_eval_size;
 
 typedef struct sv_eval_result {

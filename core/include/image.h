@@ -7,6 +7,12 @@
  *
  * Pixels are stored row-major, top row first, interleaved channels, with either
  * 8 bits (uint8) or 16 bits (uint16, native endian) per channel.
+ *
+ * Colour, as glTF defines it: an 8-bit RGBA image is a base-colour texture,
+ * its R, G, B sRGB-encoded and its alpha linear (straight, not premultiplied).
+ * Whatever filters or averages colour decodes it to linear first and encodes
+ * the result once (sv_srgb_decode8, sv_srgb_encode8). Other images (normal
+ * maps RGB8, AO and depth maps with one channel, 16-bit images) are linear data.
  */
 #ifndef SV_IMAGE_H
 #define SV_IMAGE_H
@@ -46,8 +52,27 @@ size_t sv_image_stride(const sv_image *img);
 
 /* Halves img (2x2 box filter; colour weighted by alpha with 4 channels) until
  * neither side exceeds max_side; max_side 0 or a smaller image: unchanged.
+ * An 8-bit RGBA image is sRGB colour (see top): its colour is averaged in
+ * linear and encoded again; other images are averaged as stored.
  * Deterministic. On failure img is left as it was. */
 sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
+
+/* The exact sRGB EOTF (IEC 61966-2-1): c/12.92 up to 0.04045, else
+ * ((c + 0.055)/1.055)^2.4, for c in [0, 1] (clamped). */
+double sv_srgb_to_linear(double c);
+
+/* The exact inverse (OETF): 12.92 l up to 0.0031308, else
+ * 1.055 l^(1/2.4) − 0.055, for l in [0, 1] (clamped; NaN gives 0). */
+double sv_linear_to_srgb(double l);
+
+/* The linear value of an 8-bit sRGB code (a table: exactly
+ * sv_srgb_to_linear(code / 255)). */
+double sv_srgb_decode8(uint8_t code);
+
+/* The 8-bit sRGB code of linear l: round(255 · sv_linear_to_srgb(l)), found
+ * in a table of the code boundaries (no pow); l clamped to [0, 1], NaN → 0.
+ * sv_srgb_encode8(sv_srgb_decode8(c)) == c for every c. */
+uint8_t sv_srgb_encode8(double l);
 
 /* Loads the decoding plugin now if it is not loaded yet (thread-safe, once;
  * the decoders call it). For a process about to enter the seccomp sandbox or

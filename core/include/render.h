@@ -5,7 +5,9 @@
  * replace that one file. Contexts are created in the process that bakes (the
  * sylva-bake worker), never in the daemon.
  *
- * Rendering is faithful to the source material: base colour × texture, alpha
+ * Rendering is faithful to the source material: base colour × texture as
+ * glTF defines them (the factor linear, an 8-bit texture sRGB-encoded and
+ * decoded before filtering; image.h), multiplied in linear, alpha
  * MASK cutoff honoured (BLEND is rendered as MASK with cutoff 0.5: baked
  * textures must have binary alpha), two-sided, depth tested. Output is
  * deterministic (fixed rasteriser thread count, cleared buffers).
@@ -29,7 +31,7 @@ typedef struct sv_camera {
 } sv_camera;
 
 typedef enum sv_shade {
-    SV_SHADE_ALBEDO = 0, /* RGBA = base colour × texture, unlit */
+    SV_SHADE_ALBEDO = 0, /* RGBA = base colour × texture, unlit (linear product) */
     SV_SHADE_NORMAL,     /* RGB = 0.5 + 0.5 n in camera frame (x=right, y=up, z=toward camera),
                              n facing the camera for two-sided faces; A = coverage */
     SV_SHADE_LIT,        /* albedo × (ambient + diffuse) from `light_dir` (static lighting) */
@@ -46,6 +48,10 @@ typedef struct sv_render_options {
     sv_shade shade;
     double light_dir[3]; /* SV_SHADE_LIT: unit direction towards the light, world space */
     double ambient;      /* SV_SHADE_LIT: ambient term, default 0 means 0.35 */
+    bool linear;         /* SV_SHADE_ALBEDO and SV_SHADE_LIT: colour is RGBA16 with linear
+                            R, G, B (for code that filters or accumulates colour); false:
+                            RGBA8 with R, G, B sRGB-encoded (exact OETF), the colour a
+                            glTF viewer shows. The other shades always give RGBA8. */
 } sv_render_options;
 
 typedef struct sv_renderer sv_renderer;
@@ -67,8 +73,8 @@ void sv_gpu_mesh_free(sv_gpu_mesh *g);
 
 /* Draws triangles `tris[0..tri_count)` of the uploaded mesh (all triangles when
  * tris is NULL) into a width × height target cleared to transparent black.
- * color (may be NULL) receives RGBA8 (allocated by the call; caller frees with
- * sv_image_free). depth (may be NULL) receives width*height floats: distance
+ * color (may be NULL) receives RGBA8, or RGBA16 when opt->linear asks for it
+ * (allocated by the call; caller frees with sv_image_free). depth (may be NULL) receives width*height floats: distance
  * along forward from the camera origin plane, or INFINITY where nothing was drawn. */
 sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, uint32_t tri_count,
                     const sv_camera *cam, const sv_render_options *opt, uint32_t width,

@@ -229,6 +229,7 @@ cJSON *svp_accuracy_json(const sv_eval_result *e)
         cJSON_AddNumberToObject(o, "color_error_worst", z->worst.color_error);
         cJSON_AddNumberToObject(o, "depth_error_mean", z->mean.depth_error);
         cJSON_AddNumberToObject(o, "depth_error_worst", z->worst.depth_error);
+        cJSON_AddNumberToObject(o, "lum_ratio", z->lum_ratio);
         cJSON_AddItemToArray(a, o);
     }
     return a;

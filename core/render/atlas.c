@@ -200,6 +200,7 @@ sv_status sv_atlas_choose_texel(const double *half, uint32_t n, uint32_t padding
     }
 SV_DEFINE_SELECT(select_u8, uint8_t)
 SV_DEFINE_SELECT(select_f32, float)
+SV_DEFINE_SELECT(select_u16, uint16_t)
 #undef SV_DEFINE_SELECT
 
 /* Covered samples needed for an opaque texel: ceil(threshold · s²), at least 1. */
@@ -257,6 +258,59 @@ void sv_downsample_median(const uint8_t *src, uint32_t w, uint32_t h, uint32_t s
     free(big);
 }
 
+void sv_downsample_colour16(const uint16_t *src, uint32_t w, uint32_t h, uint32_t s, double thr,
+                            uint16_t *dst)
+{
+    static const double rec709[3] = {0.2126, 0.7152, 0.0722};
+    bool cover = !(thr > 0); /* coverage alpha: any covered sample keeps the texel */
+    uint32_t need = needed(thr, s);
+    size_t sw = (size_t)w * s;
+    uint16_t *buf = malloc(3 * (size_t)s * s * sizeof *buf);
+    if (!buf) { /* cannot filter: leave everything empty (callers cap s at 16) */
+        memset(dst, 0, (size_t)w * h * 4 * sizeof *dst);
+        return;
+    }
+    for (uint32_t ty = 0; ty < h; ty++)
+        for (uint32_t tx = 0; tx < w; tx++) {
+            uint32_t c = 0;
+            double sum[3] = {0, 0, 0};
+            for (uint32_t y = 0; y < s; y++) {
+                const uint16_t *row = src + ((size_t)ty * s + y) * sw * 4 + (size_t)tx * s * 4;
+                for (uint32_t x = 0; x < s; x++) {
+                    const uint16_t *p = row + 4 * (size_t)x;
+                    if (p[3] == 0) continue;
+                    for (int k = 0; k < 3; k++) {
+                        buf[(size_t)k * s * s + c] = p[k];
+                        sum[k] += p[k];
+                    }
+                    c++;
+                }
+            }
+            uint16_t *o = dst + ((size_t)ty * w + tx) * 4;
+            if (c < need) {
+                o[0] = o[1] = o[2] = o[3] = 0;
+                continue;
+            }
+            double med[3], y_med = 0, y_mean = 0;
+            for (int k = 0; k < 3; k++) {
+                med[k] = select_u16(buf + (size_t)k * s * s, c, (c - 1) / 2);
+                y_med += rec709[k] * med[k];
+                y_mean += rec709[k] * sum[k] / c;
+            }
+            for (int k = 0; k < 3; k++) {
+                double v = y_med > 0 ? med[k] * (y_mean / y_med) : sum[k] / c;
+                o[k] = (uint16_t)fmin(65535.0, floor(v + 0.5));
+            }
+            if (cover) {
+                uint32_t ss = s * s, a = (255u * c + ss / 2) / ss;
+                o[3] = (uint16_t)((a < 1 ? 1 : a) * 257u);
+            } else {
+                o[3] = 65535u;
+            }
+        }
+    free(buf);
+}
+
 void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t s, double thr,
                               float *dst)
 {
@@ -294,6 +348,11 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
         return sv_fail(err, SV_ERR_NOMEM, "dilate: out of memory for %ux%u", w, h);
     }
     bool wide = img->bits == 16;
+    /* RGBA colour: a valued texel of the mask weighs its alpha (premultiplied
+     * mean, so a barely covered texel does not tint its neighbours as much as
+     * a covered one); texels filled by dilation weigh 1 */
+    bool weigh = nc == 4 && fill_channels == 3;
+    double amax = wide ? 65535.0 : 255.0;
     uint8_t *p8 = img->data;
     uint16_t *p16 = img->data;
 #define GET(i, k) (wide ? (uint32_t)p16[(i)*nc + (k)] : (uint32_t)p8[(i)*nc + (k)])
@@ -310,6 +369,7 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
                 size_t i = (size_t)y * w + x;
                 if (known[i]) continue;
                 uint32_t sum[4] = {0, 0, 0, 0}, cnt = 0;
+                double wsum[3] = {0, 0, 0}, wt = 0;
                 for (int dy = -1; dy <= 1; dy++)
                     for (int dx = -1; dx <= 1; dx++) {
                         int64_t yy = (int64_t)y + dy, xx = (int64_t)x + dx;
@@ -319,10 +379,16 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
                         if (known[j] != 1) continue;
                         for (uint32_t k = 0; k < fill_channels; k++) sum[k] += GET(j, k);
                         cnt++;
+                        if (weigh) {
+                            double a = mask[j] ? GET(j, 3) / amax : 1.0;
+                            for (uint32_t k = 0; k < 3; k++) wsum[k] += a * GET(j, k);
+                            wt += a;
+                        }
                     }
                 if (!cnt) continue;
                 for (uint32_t k = 0; k < fill_channels; k++)
-                    vals[4 * nf + k] = (sum[k] + cnt / 2) / cnt;
+                    vals[4 * nf + k] = weigh ? (wt > 0 ? (uint32_t)floor(wsum[k] / wt + 0.5) : 0)
+                                             : (sum[k] + cnt / 2) / cnt;
                 fresh[nf++] = (uint32_t)i;
             }
         if (nf == 0) break;
@@ -335,15 +401,24 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
     }
     /* Far texels: the mean of every valued texel (so low mip levels keep the hue). */
     uint64_t total[4] = {0, 0, 0, 0}, cnt = 0;
+    double wtotal[3] = {0, 0, 0}, wt = 0;
     for (size_t i = 0; i < npx; i++)
         if (known[i]) {
             for (uint32_t k = 0; k < fill_channels; k++) total[k] += GET(i, k);
             cnt++;
+            if (weigh) {
+                double a = mask[i] ? GET(i, 3) / amax : 1.0;
+                for (uint32_t k = 0; k < 3; k++) wtotal[k] += a * GET(i, k);
+                wt += a;
+            }
         }
     if (cnt && cnt < npx)
         for (size_t i = 0; i < npx; i++)
             if (!known[i])
-                for (uint32_t k = 0; k < fill_channels; k++) PUT(i, k, (total[k] + cnt / 2) / cnt);
+                for (uint32_t k = 0; k < fill_channels; k++)
+                    PUT(i, k,
+                        weigh ? (wt > 0 ? (uint32_t)floor(wtotal[k] / wt + 0.5) : 0)
+                              : (total[k] + cnt / 2) / cnt);
 #undef GET
 #undef PUT
     free(known);

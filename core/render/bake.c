@@ -4,7 +4,7 @@
  * rendering of landscapes using billboard clouds"), §3.3.7 "Texture generation":
  * every face valid for a plane (not only the faces it simplifies) is rendered
  * orthographically onto it, supersampled so that each small leaf polygon covers
- * at least one sample, then downsampled with a rectangular median filter and an
+ * at least one sample, then downsampled with a rectangular filter and an
  * alpha threshold (default 0.3) so alpha is binary and needs no depth sorting.
  * §3.3.9 (dynamic lighting): normals are projected as well as colours (normal
  * map in the quad's tangent frame). Colour is dilated into empty texels so
@@ -16,6 +16,13 @@
  *     to [1, max_supersample] and at most 16 and the renderer's max size.
  *   - Charts larger than 2048 samples on a side are rendered in tiles aligned to
  *     texel blocks, so memory stays bounded and the result equals one big render.
+ *   - Colour is baked in linear, as glTF defines it (image.h): renders come
+ *     back as linear RGBA16 (the source's base colour factor × its decoded
+ *     texels); a texel's colour is the median of its covered samples scaled
+ *     to their mean luminance (the median alone darkens in linear light, see
+ *     atlas.h), the dilation works on a 16-bit linear atlas, and the atlas
+ *     is encoded to 8-bit sRGB once at the end. Normals keep the median.
+ *     The atlas material's factor is 1: the source's factors are in the texels.
  *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
  *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
  *     from each; a texel's surface point is visible from a direction when it is
@@ -291,6 +298,7 @@ typedef struct bake_ctx {
     double thr;
     uint32_t aw, ah; /* atlas size */
     uint8_t *mask;   /* aw*ah: texel opaque */
+    uint16_t *lin;   /* aw*ah RGBA16: the albedo atlas in linear colour */
     sv_baked_lod *out;
     const ao_views *ao;
     uint32_t ao_res;
@@ -305,13 +313,14 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
     uint32_t w = ch->w, h = ch->h;
     sv_status st = SV_OK;
     uint8_t *tex = malloc((size_t)tile * tile * 4);
+    uint16_t *tex16 = malloc((size_t)tile * tile * 4 * sizeof *tex16);
     float *zs = malloc((size_t)tile * s * tile * s * sizeof(float));
     float *zt = malloc((size_t)tile * tile * sizeof(float));
-    if (!tex || !zs || !zt) {
+    if (!tex || !tex16 || !zs || !zt) {
         st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s, tile * s);
         goto out;
     }
-    sv_render_options ro = {.shade = b->opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO};
+    sv_render_options ro = {.shade = b->opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO, .linear = true};
     memcpy(ro.light_dir, b->opt->light_dir, sizeof ro.light_dir);
     sv_render_options rn = {.shade = SV_SHADE_NORMAL};
     double tu = 2 * q->half_u / w, tv = 2 * q->half_v / h;
@@ -324,15 +333,14 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             st = sv_render(b->r, b->g, job->tris, job->count, &cam, &ro, tw * s, th * s, &img, zs,
                            err);
             if (st != SV_OK) goto out;
-            sv_downsample_median(img.data, tw, th, s, b->thr, tex);
+            sv_downsample_colour16(img.data, tw, th, s, b->thr, tex16);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
-            uint8_t *alb = b->out->albedo.data;
             for (uint32_t y = 0; y < th; y++)
                 for (uint32_t x = 0; x < tw; x++) {
                     size_t ai = (size_t)(ch->y + y0 + y) * b->aw + ch->x + x0 + x;
-                    const uint8_t *t = tex + 4 * ((size_t)y * tw + x);
-                    memcpy(alb + 4 * ai, t, 4);
+                    const uint16_t *t = tex16 + 4 * ((size_t)y * tw + x);
+                    memcpy(b->lin + 4 * ai, t, 4 * sizeof *t);
                     b->mask[ai] = t[3] != 0;
                     if (!t[3]) continue;
                     float dist = zt[(size_t)y * tw + x];
@@ -368,9 +376,23 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
         }
 out:
     free(tex);
+    free(tex16);
     free(zs);
     free(zt);
     return st;
+}
+
+/* The 8-bit atlas of the linear one (same size): R, G, B encoded with the
+ * sRGB OETF, alpha rounded to 8 bits. */
+static void encode_atlas(const sv_image *lin, sv_image *atlas)
+{
+    const uint16_t *src = lin->data;
+    uint8_t *dst = atlas->data;
+    size_t n = (size_t)lin->width * lin->height * 4;
+    for (size_t i = 0; i < n; i += 4) {
+        for (int k = 0; k < 3; k++) dst[i + k] = sv_srgb_encode8(src[i + k] / 65535.0);
+        dst[i + 3] = (uint8_t)((src[i + 3] * 255u + 32767u) / 65535u);
+    }
 }
 
 /* The stand-in mesh: 4 vertices and 2 triangles per quad with the atlas
@@ -472,6 +494,7 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     double *half = sv_calloc(n ? 2 * (size_t)n : 1, sizeof *half);
     out->uv_rects = sv_calloc(n ? 4 * (size_t)n : 1, sizeof *out->uv_rects);
     uint8_t *mask = NULL;
+    sv_image lin = {0};
     ao_views ao;
     bool have_ao = false;
     if (!jobs || !charts || !half || !out->uv_rects) {
@@ -545,6 +568,7 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
             (opt.ao_map && (st = sv_image_alloc(&out->ao, aw, ah, 1, 8, err)) != SV_OK) ||
             (opt.depth_map && (st = sv_image_alloc(&out->depth, aw, ah, 1, 16, err)) != SV_OK))
             goto out;
+        if ((st = sv_image_alloc(&lin, aw, ah, 4, 16, err)) != SV_OK) goto out;
         mask = sv_calloc((size_t)aw * ah, 1);
         if (!mask) {
             st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u mask", aw, ah);
@@ -562,17 +586,19 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                       aw,
                       ah,
                       mask,
+                      lin.data,
                       out,
                       have_ao ? &ao : NULL,
                       SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r)};
         for (uint32_t i = 0; i < n; i++)
             if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK) goto out;
         /* Dilation: colour (not alpha) grows into empty texels of every map. */
-        if ((st = sv_dilate(&out->albedo, mask, 3, opt.dilate, err)) != SV_OK ||
+        if ((st = sv_dilate(&lin, mask, 3, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->normal, mask, 3, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->ao, mask, 1, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->depth, mask, 1, opt.dilate, err)) != SV_OK)
             goto out;
+        encode_atlas(&lin, &out->albedo);
     }
     st = build_mesh(lod, keep, opt.lit, out, err);
 out:
@@ -582,6 +608,7 @@ out:
     free(charts);
     free(half);
     free(mask);
+    sv_image_free(&lin);
     if (st != SV_OK) {
         sv_baked_lod_free(out);
         return st;

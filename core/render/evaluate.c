@@ -10,6 +10,7 @@
  * elevation band, uniform in sin(elevation) (equal area per view).
  */
 #include "evaluate.h"
+#include "image.h"
 #include "vec3.h"
 
 #include <math.h>
@@ -415,14 +416,26 @@ void sv_eval_image_accumulate(sv_eval_image *dst, const sv_eval_image *src, doub
 /* The running sums of sv_eval_compare. */
 typedef struct compare_sums {
     double smin, smax, cerr, dsum;
+    double lum_a, lum_b; /* Σ min(a,b)·Y of each (evaluate.h) */
     size_t covered;
 } compare_sums;
+
+/* Rec. 709 luminance of pixel i's straight colour (premultiplied ÷ coverage),
+ * decoded from sRGB. */
+static double luminance(const sv_eval_image *img, size_t i, double cov)
+{
+    static const double w[3] = {0.2126, 0.7152, 0.0722};
+    double y = 0;
+    for (int k = 0; k < 3; k++) y += w[k] * sv_srgb_to_linear(img->color[3 * i + k] / cov);
+    return y;
+}
 
 /* Adds the pixels of rows [y0, y1), columns [x0, x1) to the sums, row by row. */
 static void compare_rect(const sv_eval_image *a, const sv_eval_image *b, compare_sums *cs,
                          uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
 {
     double smin = cs->smin, smax = cs->smax, cerr = cs->cerr, dsum = cs->dsum;
+    double lum_a = cs->lum_a, lum_b = cs->lum_b;
     size_t covered = cs->covered;
     for (uint32_t y = y0; y < y1; y++) {
         size_t row = (size_t)y * a->width;
@@ -441,10 +454,13 @@ static void compare_rect(const sv_eval_image *a, const sv_eval_image *b, compare
             if (lo > 0) {
                 double za = a->depth[i] / ca, zb = b->depth[i] / cb;
                 dsum += lo * fabs(za - zb);
+                lum_a += lo * luminance(a, i, ca);
+                lum_b += lo * luminance(b, i, cb);
             }
         }
     }
     cs->smin = smin, cs->smax = smax, cs->cerr = cerr, cs->dsum = dsum;
+    cs->lum_a = lum_a, cs->lum_b = lum_b;
     cs->covered = covered;
 }
 
@@ -907,6 +923,7 @@ static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
         out->sizes[s].worst = (sv_eval_metrics){INFINITY, -INFINITY, -INFINITY};
     }
     uint32_t *span = e->span, *both = e->tile ? e->span + 4 * (size_t)e->tiles : NULL;
+    double lum[SV_EVAL_MAX_SIZES][2] = {{0}};
     for (uint32_t v = 0; v < e->view_count; v++) {
         st = draw ? render_view_by(e, NULL, NULL, 0, draw, user, v, acc, span, err)
                   : render_result(e, result, fn, user, v, acc, span, err);
@@ -925,6 +942,8 @@ static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
                                  both[e->tiles + t] * ts);
             sv_eval_metrics m = compare_metrics(&cs, e->radius);
             out->per_view[(size_t)v * e->size_count + s] = m;
+            lum[s][0] += cs.lum_a;
+            lum[s][1] += cs.lum_b;
             sv_eval_size *z = &out->sizes[s];
             z->mean.iou += m.iou / e->view_count;
             z->mean.color_error += m.color_error / e->view_count;
@@ -934,6 +953,8 @@ static sv_status evaluate_any(sv_evaluator *e, const sv_gpu_mesh *result, sv_eva
             z->worst.depth_error = fmax(z->worst.depth_error, m.depth_error);
         }
     }
+    for (uint32_t s = 0; s < e->size_count; s++)
+        out->sizes[s].lum_ratio = lum[s][0] > 0 ? lum[s][1] / lum[s][0] : 1.0;
     out->seconds = sv_now() - t0;
 out:
     for (uint32_t s = 0; s < SV_EVAL_MAX_SIZES; s++) sv_eval_image_free(&acc[s]);
@@ -1025,6 +1046,7 @@ sv_status sv_eval_identity(const sv_evaluator *e, sv_eval_result *out, sv_error 
     for (uint32_t s = 0; s < e->size_count; s++) {
         out->sizes[s].pixels = e->sizes[s];
         out->sizes[s].mean = out->sizes[s].worst = same;
+        out->sizes[s].lum_ratio = 1.0;
     }
     return SV_OK;
 }

@@ -4,17 +4,24 @@
  * Choices, stated once:
  *   - Context: OSMesaCreateContextAttribs, compatibility profile 3.0 (GLSL 1.30),
  *     made current on a tiny 4×4 buffer; all drawing goes to one framebuffer
- *     object (RGBA8 colour + 32-bit float depth) that grows to the largest size
- *     asked for, never beyond max_size.
+ *     object (32-bit float depth; colour RGBA16 for the colour shades, RGBA8
+ *     for normals and SV_SHADE_ALPHA_MAX, attached per draw) that grows to the
+ *     largest size asked for, never beyond max_size.
  *   - Determinism: LP_NUM_THREADS is forced to "2" and GALLIUM_DRIVER to
  *     "llvmpipe" (setenv, before every context creation; the values never
  *     change). llvmpipe bins per tile and shades each tile in one thread, so the
  *     output does not depend on scheduling; tests render twice and compare bytes.
  *   - Textures: uploaded once per sv_gpu_mesh, GL_LINEAR without mipmaps,
- *     GL_REPEAT (glTF's default sampler). Bakes render supersampled, so linear
+ *     GL_REPEAT (glTF's default sampler). 8-bit images are sRGB colour
+ *     (image.h): stored as GL_SRGB8(_ALPHA8), so the sampler decodes each
+ *     texel to linear before filtering, as a glTF engine does; 16-bit images
+ *     are taken as linear. Bakes render supersampled, so linear
  *     filtering at the source resolution is the faithful choice; mipmaps would
  *     average alpha and erode alpha-tested leaves.
- *   - Materials: colour = base_color × texture; MASK discards alpha < cutoff,
+ *   - Materials: colour = base_color × texture, both linear (glTF's
+ *     baseColorFactor and the decoded texel), rendered into 16 bits per
+ *     channel and read back linear (sv_render_options.linear) or encoded
+ *     with the exact sRGB OETF into RGBA8; MASK discards alpha < cutoff,
  *     BLEND is MASK with cutoff 0.5, OPAQUE ignores alpha. Every fragment that is
  *     drawn writes alpha 1, so the output alpha is coverage (binary).
  *   - Two-sided: no culling; the shading normal is flipped on back faces
@@ -51,7 +58,7 @@ struct sv_renderer {
         GLint u_mvp, u_ncam, u_base, u_has_tex, u_cutoff, u_shade, u_light, u_ambient, u_tex;
         bool normals; /* reads a_nrm */
     } full, albedo;
-    GLuint fbo, rb_color, rb_depth;
+    GLuint fbo, rb_color, rb_color16, rb_depth;
     uint32_t fb_w, fb_h; /* allocated size of the renderbuffers */
     GLuint ibo;          /* per-call index buffer (subset draws) */
     bool pack_invert;    /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
@@ -267,6 +274,7 @@ sv_status sv_renderer_create(uint32_t max_size, sv_renderer **out, sv_error *err
     }
     glGenFramebuffers(1, &r->fbo);
     glGenRenderbuffers(1, &r->rb_color);
+    glGenRenderbuffers(1, &r->rb_color16);
     glGenRenderbuffers(1, &r->rb_depth);
     glGenBuffers(1, &r->ibo);
     glDisable(GL_CULL_FACE);
@@ -309,6 +317,7 @@ void sv_renderer_destroy(sv_renderer *r)
         if (r->albedo.id) glDeleteProgram(r->albedo.id);
         if (r->fbo) glDeleteFramebuffers(1, &r->fbo);
         if (r->rb_color) glDeleteRenderbuffers(1, &r->rb_color);
+        if (r->rb_color16) glDeleteRenderbuffers(1, &r->rb_color16);
         if (r->rb_depth) glDeleteRenderbuffers(1, &r->rb_depth);
         if (r->ibo) glDeleteBuffers(1, &r->ibo);
         for (uint32_t i = 0; i < r->tex_count; i++) glDeleteTextures(1, &r->tex_cache[i].tex);
@@ -337,8 +346,9 @@ static GLuint upload_texture_gl(const sv_image *img)
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
     /* Row 0 of sv_image is the top row and glTF's v=0 is the top: uploading
      * top-row-first makes texture t = glTF v with no flip. */
-    glTexImage2D(GL_TEXTURE_2D, 0, img->channels == 3 ? GL_RGB8 : GL_RGBA8, (GLsizei)img->width,
-                 (GLsizei)img->height, 0, fmt,
+    GLint internal = img->channels == 3 ? GL_RGB8 : GL_RGBA8;
+    if (img->bits == 8) internal = img->channels == 3 ? GL_SRGB8 : GL_SRGB8_ALPHA8;
+    glTexImage2D(GL_TEXTURE_2D, 0, internal, (GLsizei)img->width, (GLsizei)img->height, 0, fmt,
                  img->bits == 8 ? GL_UNSIGNED_BYTE : GL_UNSIGNED_SHORT, img->data);
     return t;
 }
@@ -475,11 +485,17 @@ static sv_status ensure_fbo(sv_renderer *r, uint32_t w, uint32_t h, sv_error *er
     glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
     glBindRenderbuffer(GL_RENDERBUFFER, r->rb_color);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, (GLsizei)nw, (GLsizei)nh);
+    glBindRenderbuffer(GL_RENDERBUFFER, r->rb_color16);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA16, (GLsizei)nw, (GLsizei)nh);
     glBindRenderbuffer(GL_RENDERBUFFER, r->rb_depth);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)nw, (GLsizei)nh);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r->rb_color);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, r->rb_depth);
-    GLenum fs = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    GLenum fs = GL_FRAMEBUFFER_COMPLETE;
+    for (int k = 0; k < 2 && fs == GL_FRAMEBUFFER_COMPLETE; k++) {
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                  k ? r->rb_color : r->rb_color16);
+        fs = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    }
     if (fs != GL_FRAMEBUFFER_COMPLETE) {
         r->fb_w = r->fb_h = 0;
         return sv_fail(err, SV_ERR_RENDER, "render: framebuffer %ux%u incomplete (0x%x)", nw, nh,
@@ -513,6 +529,40 @@ static void group_by_material(const sv_mesh *m, const uint32_t *tris, uint32_t n
         uint32_t at = fill[mat]++;
         memcpy(idx + 3 * (size_t)at, m->indices + 3 * (size_t)t, 3 * sizeof(uint32_t));
     }
+}
+
+/* Reads the RGBA16 colour buffer into *color (allocated here, row 0 at the
+ * top): RGBA16 as stored when linear, else RGBA8 with R, G, B encoded by
+ * the sRGB OETF and alpha rounded to 8 bits. */
+static sv_status read_color16(sv_renderer *r, uint32_t width, uint32_t height, bool linear,
+                              sv_image *color, sv_error *err)
+{
+    size_t npx = (size_t)width * height;
+    uint16_t *px = malloc(npx * 4 * sizeof *px);
+    if (!px)
+        return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for a %ux%u read-back", width,
+                       height);
+    glReadPixels(0, 0, (GLsizei)width, (GLsizei)height, GL_RGBA, GL_UNSIGNED_SHORT, px);
+    sv_status st = sv_image_alloc(color, width, height, 4, linear ? 16 : 8, err);
+    if (st != SV_OK) {
+        free(px);
+        return st;
+    }
+    size_t row = (size_t)width * 4;
+    for (uint32_t y = 0; y < height; y++) {
+        const uint16_t *src = px + (size_t)(r->pack_invert ? y : height - 1 - y) * row;
+        if (linear) {
+            memcpy((uint16_t *)color->data + (size_t)y * row, src, row * sizeof *src);
+            continue;
+        }
+        uint8_t *dst = (uint8_t *)color->data + (size_t)y * row;
+        for (size_t i = 0; i < row; i += 4) {
+            for (int k = 0; k < 3; k++) dst[i + k] = sv_srgb_encode8(src[i + k] / 65535.0);
+            dst[i + 3] = (uint8_t)((src[i + 3] * 255u + 32767u) / 65535u);
+        }
+    }
+    free(px);
+    return SV_OK;
 }
 
 sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, uint32_t tri_count,
@@ -581,7 +631,11 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
     light[1] = (GLfloat)(L[0] * U[0] + L[1] * U[1] + L[2] * U[2]);
     light[2] = (GLfloat)(L[0] * B[0] + L[1] * B[1] + L[2] * B[2]);
 
+    /* colour shades in 16 bits (linear, encoded on read-back), the others as before */
+    bool wide = opt->shade == SV_SHADE_ALBEDO || opt->shade == SV_SHADE_LIT;
     glBindFramebuffer(GL_FRAMEBUFFER, r->fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                              wide ? r->rb_color16 : r->rb_color);
     glViewport(0, 0, (GLsizei)width, (GLsizei)height);
     glEnable(GL_SCISSOR_TEST);
     glScissor(0, 0, (GLsizei)width, (GLsizei)height);
@@ -672,7 +726,10 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
     if (st != SV_OK) return st;
 
     size_t npx = (size_t)width * height; /* both <= max_size <= 16384: no overflow */
-    if (color) {
+    if (color && wide) {
+        st = read_color16(r, width, height, opt->linear, color, err);
+        if (st != SV_OK) return st;
+    } else if (color) {
         st = sv_image_alloc(color, width, height, 4, 8, err);
         if (st != SV_OK) return st;
         uint8_t *px = color->data;

@@ -147,6 +147,75 @@ static void downsampler_gives_binary_alpha_and_thresholded_coverage(void **state
     assert_int_equal(dst[7], 255);
 }
 
+/* The colour downsampler of linear RGBA16: each channel the median of the
+ * covered samples, scaled to their mean luminance (one bright sample among
+ * dark ones lifts the texel's light but not its hue), the same threshold as
+ * the median filter, and coverage alpha as 8-bit × 257. */
+static double y709(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
+static void linear_downsampler_keeps_the_median_hue_and_the_mean_light(void **state)
+{
+    (void)state;
+    enum { S = 4, W = 3 };
+    uint16_t src[S * S * W * 4];
+    memset(src, 0, sizeof src);
+    const uint32_t cover[W] = {4, 5, 16};
+    for (uint32_t t = 0; t < W; t++)
+        for (uint32_t k = 0; k < cover[t]; k++) {
+            uint32_t x = t * S + k % S, y = k / S;
+            uint16_t *p = src + 4 * (y * S * W + x);
+            p[0] = (uint16_t)(k == 0 ? 60000 : 1000); /* one bright sample */
+            p[1] = (uint16_t)(100 * (k + 1));
+            p[2] = 7;
+            p[3] = 65535;
+        }
+    uint16_t dst[W * 4];
+    sv_downsample_colour16(src, W, 1, S, 0.3, dst);
+    assert_int_equal(dst[3], 0); /* 4/16 < 0.3 */
+    assert_int_equal(dst[0], 0);
+    assert_int_equal(dst[7], 65535);
+    assert_int_equal(dst[11], 65535);
+    /* texel 1: medians 1000, 300, 7; mean luminance of the 5 samples */
+    double want = y709((60000 + 4 * 1000) / 5.0, 300, 7), k1 = want / y709(1000, 300, 7);
+    assert_int_equal(dst[4], (int)lround(1000 * k1));
+    assert_int_equal(dst[5], (int)lround(300 * k1));
+    assert_int_equal(dst[6], (int)lround(7 * k1));
+    assert_true(fabs(y709(dst[4], dst[5], dst[6]) - want) < 1.0);
+    /* texel 2: 16 samples, lower medians 1000 and 800 */
+    double want2 = y709((60000 + 15 * 1000) / 16.0, 850, 7), k2 = want2 / y709(1000, 800, 7);
+    assert_int_equal(dst[8], (int)lround(1000 * k2));
+    assert_int_equal(dst[9], (int)lround(800 * k2));
+    sv_downsample_colour16(src, W, 1, S, 0, dst); /* coverage alpha */
+    assert_int_equal(dst[3], 64 * 257);           /* 4/16 of 255, rounded: 64 */
+    assert_int_equal(dst[7], 80 * 257);
+    assert_int_equal(dst[11], 65535);
+    /* black samples: luminance 0 gives the mean, 0 */
+    memset(src, 0, sizeof src);
+    for (uint32_t i = 0; i < S * S * W; i++) src[4 * i + 3] = 65535;
+    sv_downsample_colour16(src, W, 1, S, 0.3, dst);
+    for (int t = 0; t < W; t++) assert_int_equal(dst[4 * t], 0);
+}
+
+/* Dilating RGBA colour takes the alpha-weighted (premultiplied) mean: a
+ * texel a third covered pulls a third as hard as a covered one. */
+static void dilation_of_rgba_colour_weighs_neighbours_by_alpha(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 3, 1, 4, 16, NULL), SV_OK);
+    uint16_t *p = img.data;
+    const uint16_t px[12] = {1000, 1000, 1000, 65535, 0, 0, 0, 0, 4000, 4000, 4000, 21845};
+    memcpy(p, px, sizeof px);
+    const uint8_t mask[3] = {1, 0, 1};
+    assert_int_equal(sv_dilate(&img, mask, 3, 1, NULL), SV_OK);
+    for (int k = 0; k < 3; k++) assert_int_equal(p[4 + k], 1750); /* not the plain 2500 */
+    assert_int_equal(p[7], 0);                                    /* alpha untouched */
+    sv_image_free(&img);
+}
+
 static int cmp_u8(const void *a, const void *b)
 {
     return (int)*(const uint8_t *)a - (int)*(const uint8_t *)b;
@@ -253,6 +322,8 @@ int main(void)
         cmocka_unit_test(texel_choice_fails_when_not_even_single_texels_fit),
         cmocka_unit_test(downsampler_gives_binary_alpha_and_thresholded_coverage),
         cmocka_unit_test(downsampler_median_matches_sorting_on_random_samples),
+        cmocka_unit_test(linear_downsampler_keeps_the_median_hue_and_the_mean_light),
+        cmocka_unit_test(dilation_of_rgba_colour_weighs_neighbours_by_alpha),
         cmocka_unit_test(float_downsampler_takes_the_median_of_covered_depths),
         cmocka_unit_test(dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha),
         cmocka_unit_test(dilation_reaches_as_many_texels_as_passes),

@@ -153,6 +153,42 @@ static void baked_albedo_matches_the_source_texture_where_covered(void **state)
     scene_free(&s);
 }
 
+/* The atlas holds the colour a glTF engine draws for the source: its linear
+ * factor × its decoded texel, encoded to sRGB once. A 50 % grey texel (128)
+ * under factor 0.5 bakes to 92, not the byte product 64, and the atlas
+ * material's own factor is 1. */
+static void baked_colour_is_the_linear_factor_times_the_decoded_texel(void **state)
+{
+    (void)state;
+    rect leaf = {-1, 1, -1, 1, 0, 0};
+    scene s = make_scene(&leaf, 1);
+    sv_gpu_mesh_free(s.g);
+    uint8_t *px = s.m->images[0].data;
+    for (uint32_t i = 0; i < 64 * 64; i++) {
+        memset(px + 4 * i, 128, 3);
+        px[4 * i + 3] = 255;
+    }
+    for (int k = 0; k < 3; k++) s.m->materials[0].base_color[k] = 0.5f;
+    assert_int_equal(sv_gpu_mesh_upload(s.r, s.m, &s.g, NULL), SV_OK);
+    sv_quad q;
+    sv_lod_plan lod = one_quad(&q, 0.1);
+    sv_bake_options o;
+    bake_options(&o);
+    sv_baked_lod b;
+    assert_int_equal(sv_bake_lod(s.r, s.g, s.m, &lod, NULL, &o, &b, NULL), SV_OK);
+    uint8_t want = sv_srgb_encode8(0.5 * sv_srgb_decode8(128));
+    for (uint32_t y = 1; y < 63; y += 7)
+        for (uint32_t x = 1; x < 63; x += 7) {
+            const uint8_t *got = chart_texel(&b, &b.albedo, 0, x, y);
+            assert_int_equal(got[3], 255);
+            for (int k = 0; k < 3; k++) assert_in_range(got[k], want - 1, want + 1);
+        }
+    const sv_material *mat = &b.mesh->materials[0];
+    for (int k = 0; k < 4; k++) assert_true(mat->base_color[k] == 1.0f);
+    sv_baked_lod_free(&b);
+    scene_free(&s);
+}
+
 static void transparent_texels_get_dilated_leaf_colour(void **state)
 {
     (void)state;
@@ -545,6 +581,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(baked_albedo_matches_the_source_texture_where_covered),
+        cmocka_unit_test(baked_colour_is_the_linear_factor_times_the_decoded_texel),
         cmocka_unit_test(transparent_texels_get_dilated_leaf_colour),
         cmocka_unit_test(face_outside_the_slab_is_not_baked),
         cmocka_unit_test(clip_mode_keeps_only_the_part_of_a_face_inside_the_slab),

@@ -523,6 +523,36 @@ static void original_against_itself_scores_iou_1_and_zero_error_at_every_size(vo
     sv_mesh_destroy(m);
 }
 
+/* lum_ratio is sveval's brightness figure: 1 for the original itself; the
+ * same mesh with every linear factor halved shows half the light where both
+ * cover (the evaluator sees sRGB bytes and decodes them, so not exactly). */
+static void halved_factors_give_a_lum_ratio_of_one_half(void **state)
+{
+    sv_renderer *r = need_renderer(state);
+    const double zero[3] = {0, 0, 0};
+    sv_mesh *m = tree_mesh(2000, zero), *dark = tree_mesh(2000, zero);
+    for (uint32_t k = 0; k < dark->material_count; k++)
+        for (int c = 0; c < 3; c++) dark->materials[k].base_color[c] *= 0.5f;
+    sv_gpu_mesh *g = upload(r, m), *gd = upload(r, dark);
+    sv_evaluator *e = evaluator(r, m, g, SV_VIEWER_ORBIT, 4);
+    sv_eval_result same = run(e, g), half = run(e, gd);
+    sv_eval_result id;
+    assert_int_equal(sv_eval_identity(e, &id, NULL), SV_OK); /* the original's own level */
+    for (uint32_t s = 0; s < same.size_count; s++) {
+        assert_float_equal(same.sizes[s].lum_ratio, 1.0, 1e-12);
+        assert_float_equal(half.sizes[s].lum_ratio, 0.5, 0.02);
+        assert_float_equal(id.sizes[s].lum_ratio, 1.0, 0);
+    }
+    sv_eval_result_free(&id);
+    sv_eval_result_free(&same);
+    sv_eval_result_free(&half);
+    sv_evaluator_destroy(e);
+    sv_gpu_mesh_free(g);
+    sv_gpu_mesh_free(gd);
+    sv_mesh_destroy(m);
+    sv_mesh_destroy(dark);
+}
+
 static void result_moved_away_scores_a_clearly_worse_iou(void **state)
 {
     sv_renderer *r = need_renderer(state);
@@ -1104,6 +1134,7 @@ int main(void)
         cmocka_unit_test(max_pixels_interpolates_where_the_curve_crosses_the_tolerance),
         cmocka_unit_test(scaled_max_pixels_keeps_the_error_band_in_pixels),
         cmocka_unit_test(original_against_itself_scores_iou_1_and_zero_error_at_every_size),
+        cmocka_unit_test(halved_factors_give_a_lum_ratio_of_one_half),
         cmocka_unit_test(result_moved_away_scores_a_clearly_worse_iou),
         cmocka_unit_test(a_size_dividing_no_larger_one_is_measured_too),
         cmocka_unit_test(cutoff_sweep_equals_evaluating_each_cutoff),

@@ -7,6 +7,7 @@
 #include <cmocka.h>
 #include "test_skip.h"
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -586,11 +587,51 @@ static void reduce_halves_with_an_alpha_weighted_box_filter(void **state)
     sv_image_free(&img);
 }
 
+/* The sRGB transfer functions: exact at the ends and the knee, the table
+ * agrees with the formula, and encode8 inverts decode8 on every code. */
+static void srgb_codes_round_trip_and_match_the_formula(void **state)
+{
+    (void)state;
+    assert_true(sv_srgb_to_linear(0) == 0 && sv_srgb_to_linear(1) == 1);
+    assert_true(fabs(sv_srgb_to_linear(0.5) - 0.21404114) < 1e-7);
+    assert_true(fabs(sv_linear_to_srgb(sv_srgb_to_linear(0.3)) - 0.3) < 1e-12);
+    for (int c = 0; c < 256; c++) {
+        assert_true(fabs(sv_srgb_decode8((uint8_t)c) - sv_srgb_to_linear(c / 255.0)) < 1e-15);
+        assert_int_equal(sv_srgb_encode8(sv_srgb_decode8((uint8_t)c)), c);
+    }
+    for (double l = 0; l <= 1.0; l += 1.0 / 4097)
+        assert_int_equal(sv_srgb_encode8(l), (int)lround(255.0 * sv_linear_to_srgb(l)));
+    assert_int_equal(sv_srgb_encode8(-1), 0);
+    assert_int_equal(sv_srgb_encode8(2), 255);
+    assert_int_equal(sv_srgb_encode8(NAN), 0);
+}
+
+/* Halving RGBA8 colour averages light, not bytes: black beside white is
+ * linear 0.5, sRGB 188 (the byte mean 128 would be linear 0.22). */
+static void reduce_averages_rgba8_colour_in_linear(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 2, 2, 4, 8, NULL), SV_OK);
+    uint8_t *px = img.data;
+    for (int i = 0; i < 4; i++) {
+        memset(px + 4 * i, i % 2 ? 255 : 0, 3);
+        px[4 * i + 3] = 255;
+    }
+    assert_int_equal(sv_image_reduce(&img, 1, NULL), SV_OK);
+    px = img.data;
+    for (int k = 0; k < 3; k++) assert_int_equal(px[k], 188);
+    assert_int_equal(px[3], 255);
+    sv_image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(png_and_jpeg_decode_without_the_plugin), /* first: nothing loaded it */
         cmocka_unit_test(alloc_sizes_the_buffer_and_free_zeroes_the_struct),
+        cmocka_unit_test(srgb_codes_round_trip_and_match_the_formula),
+        cmocka_unit_test(reduce_averages_rgba8_colour_in_linear),
         cmocka_unit_test(alloc_refuses_overflow_and_bad_formats),
         cmocka_unit_test(png_round_trip_keeps_rgba8_exactly_with_straight_alpha),
         cmocka_unit_test(png_encoding_is_deterministic_and_write_matches_encode),

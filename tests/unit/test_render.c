@@ -273,6 +273,47 @@ static void subset_draws_only_the_listed_triangles(void **state)
     sv_mesh_destroy(m);
 }
 
+/* glTF's colour: the texture is sRGB-encoded and decoded before the linear
+ * factor multiplies it. A 50 % grey texel (128, linear 0.216) under factor
+ * 0.5 is linear 0.108, shown as sRGB 92; multiplying the bytes would give 64.
+ * linear = true gives the product itself in 16 bits. */
+static void texture_is_decoded_from_srgb_before_the_factor_multiplies(void **state)
+{
+    (void)state;
+    sv_mesh *m = quad_mesh(0, 0);
+    free(m->images);
+    m->image_count = 1;
+    m->images = calloc(1, sizeof *m->images);
+    assert_int_equal(sv_image_alloc(&m->images[0], 4, 4, 4, 8, NULL), SV_OK);
+    memset(m->images[0].data, 128, 4 * 4 * 4);
+    for (int i = 0; i < 16; i++) ((uint8_t *)m->images[0].data)[4 * i + 3] = 255;
+    m->materials[0].base_texture = 0;
+    for (int k = 0; k < 3; k++) m->materials[0].base_color[k] = 0.5f;
+    sv_renderer *r = make_renderer();
+    sv_gpu_mesh *g = NULL;
+    assert_int_equal(sv_gpu_mesh_upload(r, m, &g, NULL), SV_OK);
+    sv_camera cam = front_camera();
+    sv_image img;
+    assert_int_equal(sv_render(r, g, NULL, 0, &cam, NULL, 16, 16, &img, NULL, NULL), SV_OK);
+    const uint8_t *p = (const uint8_t *)img.data + 4 * (8 * 16 + 8);
+    uint8_t want = sv_srgb_encode8(0.5 * sv_srgb_decode8(128));
+    assert_int_equal(want, 92);
+    for (int k = 0; k < 3; k++) assert_in_range(p[k], want - 1, want + 1);
+    assert_int_equal(p[3], 255);
+    sv_image_free(&img);
+    sv_render_options lin = {.shade = SV_SHADE_ALBEDO, .linear = true};
+    assert_int_equal(sv_render(r, g, NULL, 0, &cam, &lin, 16, 16, &img, NULL, NULL), SV_OK);
+    assert_int_equal(img.bits, 16);
+    const uint16_t *q = (const uint16_t *)img.data + 4 * (8 * 16 + 8);
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(q[k] / 65535.0 - 0.5 * sv_srgb_decode8(128)) < 2e-3);
+    assert_int_equal(q[3], 65535);
+    sv_image_free(&img);
+    sv_gpu_mesh_free(g);
+    sv_renderer_destroy(r);
+    sv_mesh_destroy(m);
+}
+
 static void lit_shading_darkens_faces_turned_from_the_light(void **state)
 {
     (void)state;
@@ -287,8 +328,10 @@ static void lit_shading_darkens_faces_turned_from_the_light(void **state)
     assert_int_equal(sv_render(r, g, NULL, 0, &cam, &toward, 8, 8, &a, NULL, NULL), SV_OK);
     assert_int_equal(sv_render(r, g, NULL, 0, &cam, &grazing, 8, 8, &b, NULL, NULL), SV_OK);
     const uint8_t *pa = a.data, *pb = b.data;
-    assert_int_equal(pa[0], 255);   /* white × (0.35 + 0.65·1) */
-    assert_in_range(pb[0], 88, 91); /* white × 0.35 (ambient only) */
+    assert_int_equal(pa[0], 255); /* white × (0.35 + 0.65·1) */
+    /* white × 0.35 (ambient only), lit in linear and shown sRGB-encoded:
+     * 255 · OETF(0.35) = 160.9 (89 was the byte-space 0.35 · 255) */
+    assert_in_range(pb[0], 159, 162);
     sv_image_free(&a);
     sv_image_free(&b);
     sv_gpu_mesh_free(g);
@@ -406,6 +449,7 @@ int main(void)
         cmocka_unit_test(depth_is_linear_distance_along_forward),
         cmocka_unit_test(near_and_far_planes_clip_geometry),
         cmocka_unit_test(subset_draws_only_the_listed_triangles),
+        cmocka_unit_test(texture_is_decoded_from_srgb_before_the_factor_multiplies),
         cmocka_unit_test(lit_shading_darkens_faces_turned_from_the_light),
         cmocka_unit_test(render_is_byte_identical_across_runs_and_renderers),
         cmocka_unit_test(large_targets_render_through_framebuffer_objects),

@@ -202,8 +202,9 @@ static void bilinear_at(uint32_t W, uint32_t F, uint32_t i, uint32_t j, double s
     b->w[2] = (1 - fx) * fy, b->w[3] = fx * fy;
 }
 
-/* Bilinear sample of frame (i, j) at (s, t): straight colour, alpha and
- * depth each interpolated on their own. Returns alpha in [0,1]; prem[3]
+/* Bilinear sample of frame (i, j) at (s, t): straight colour (decoded from
+ * sRGB before filtering, as a glTF engine samples it), alpha and depth each
+ * interpolated on their own. Returns alpha in [0,1]; prem[3]
  * receives the interpolated colour × that alpha, *depth the interpolated
  * depth value (0.5 without a depth map). */
 static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j, double s,
@@ -217,7 +218,7 @@ static double sample_frame(const sv_image *a, uint32_t F, uint32_t i, uint32_t j
     for (int k = 0; k < 4; k++) {
         const uint8_t *p = px + 4 * b.at[k];
         alpha += p[3] / 255.0 * b.w[k];
-        for (int m = 0; m < 3; m++) c[m] += p[m] / 255.0 * b.w[k];
+        for (int m = 0; m < 3; m++) c[m] += sv_srgb_decode8(p[m]) * b.w[k];
         if (dp) dep += dp[b.at[k]] / 65535.0 * b.w[k];
     }
     for (int m = 0; m < 3; m++) prem[m] = c[m] * alpha;
@@ -303,8 +304,7 @@ static void render_rows(const render_job *J)
             size_t oi = (size_t)y * w + x;
             if (a >= cut) {
                 for (int m = 0; m < 3; m++) {
-                    double v = prem[m] / a;
-                    out[4 * oi + m] = (uint8_t)lrint(fmin(1.0, fmax(0.0, v)) * 255.0);
+                    out[4 * oi + m] = sv_srgb_encode8(prem[m] / a);
                 }
                 out[4 * oi + 3] = 255;
                 if (depth) {
@@ -425,7 +425,8 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
     size_t ss = (size_t)src->width * 4, ds = (size_t)W * 4;
     /* 2×2 box within each frame (frames are whole texel blocks at every level):
      * alpha averaged, colour weighted by alpha (straight colour of the covered
-     * texels; the plain mean where all four are empty, which dilation filled) */
+     * texels; the plain mean where all four are empty, which dilation filled),
+     * in linear colour, encoded to sRGB again */
     for (uint32_t y = 0; y < W; y++)
         for (uint32_t x = 0; x < W; x++) {
             double a = 0, c[3] = {0, 0, 0}, cp[3] = {0, 0, 0};
@@ -434,12 +435,13 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
                                    4 * (size_t)(2 * x + (k & 1));
                 a += p[3];
                 for (int m = 0; m < 3; m++) {
-                    c[m] += p[m] * (double)p[3];
-                    cp[m] += p[m];
+                    double v = sv_srgb_decode8(p[m]);
+                    c[m] += v * (double)p[3];
+                    cp[m] += v;
                 }
             }
             uint8_t *o = d + (size_t)y * ds + 4 * (size_t)x;
-            for (int m = 0; m < 3; m++) o[m] = (uint8_t)lrint(a > 0 ? c[m] / a : cp[m] / 4.0);
+            for (int m = 0; m < 3; m++) o[m] = sv_srgb_encode8(a > 0 ? c[m] / a : cp[m] / 4.0);
             o[3] = (uint8_t)lrint(a / 4.0);
         }
     /* alpha scaled per frame so the tested coverage stays level 0's */

@@ -151,8 +151,10 @@ static sv_status draw_frames(const frames_job *J, sv_renderer *ren, const sv_gpu
             break;
         }
         /* box filter ss × ss: alpha = covered fraction, colour = mean of
-         * the covered samples, depth = mean over covered samples */
-        const uint8_t *ip = img.data, *np = nimg.data;
+         * the covered samples in linear (the render is linear RGBA16),
+         * encoded to sRGB once, depth = mean over covered samples */
+        const uint16_t *ip = img.data;
+        const uint8_t *np = nimg.data;
         for (uint32_t y = 0; y < F; y++)
             for (uint32_t x = 0; x < F; x++) {
                 double c[3] = {0, 0, 0}, nn[3] = {0, 0, 0}, dep = 0;
@@ -160,7 +162,7 @@ static sv_status draw_frames(const frames_job *J, sv_renderer *ren, const sv_gpu
                 for (uint32_t sy = 0; sy < ss; sy++)
                     for (uint32_t sx = 0; sx < ss; sx++) {
                         size_t k = (size_t)(y * ss + sy) * B + (x * ss + sx);
-                        if (ip[4 * k + 3] < 128) continue;
+                        if (ip[4 * k + 3] < 32768) continue;
                         cov++;
                         for (int m = 0; m < 3; m++) c[m] += ip[4 * k + m];
                         if (np)
@@ -170,7 +172,7 @@ static sv_status draw_frames(const frames_job *J, sv_renderer *ren, const sv_gpu
                 size_t o = (size_t)(j * F + y) * W + (i * F + x);
                 uint8_t *a = (uint8_t *)out->albedo.data + 4 * o;
                 if (cov) {
-                    for (int m = 0; m < 3; m++) a[m] = (uint8_t)lrint(c[m] / cov);
+                    for (int m = 0; m < 3; m++) a[m] = sv_srgb_encode8(c[m] / cov / 65535.0);
                     a[3] = (uint8_t)lrint(255.0 * cov / (ss * ss));
                 } else {
                     a[0] = a[1] = a[2] = a[3] = 0;
@@ -239,7 +241,7 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
     sv_mesh_bounds(src, mn, mx);
     for (int k = 0; k < 3; k++) reach += 0.25 * (mx[k] - mn[k]) * (mx[k] - mn[k]);
     reach = sqrt(reach) * 1.01 + 1e-6;
-    sv_render_options ro = {.shade = opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO};
+    sv_render_options ro = {.shade = opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO, .linear = true};
     memcpy(ro.light_dir, opt->light_dir, sizeof ro.light_dir);
     if (opt->lit && !(sv_dot3(ro.light_dir, ro.light_dir) > 0)) {
         ro.light_dir[0] = 0.2, ro.light_dir[1] = 0.9, ro.light_dir[2] = 0.4;
