@@ -30,6 +30,9 @@ python3 "$here/target_cost.py"
 python3 "$here/default_chains.py"
 # issue 24: every stochastic level against meshoptimizer at equal triangles (sveval)
 python3 "$here/stochastic_peers.py"
+# issue 40: the held-out set (ez-tree, Sapling, sweethome3d-furniture; tests/bench/heldout.py)
+# beside the shared set: chains, chain rules, levels against sveval, cutoffs, stochastic vs sloppy
+python3 "$here/heldout_figures.py" --shared
 # issue 20 item 5: each method's default against the floor, the one-triangle bake, peak RSS
 python3 "$here/speed.py"
 # issue 20 item 1: daemon jobs per minute with and without the worker pool
