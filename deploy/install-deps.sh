@@ -1,9 +1,10 @@
 #!/bin/sh
-# Installs the Debian packages listed in deploy/apt-packages.txt that are missing.
+# Installs the Debian packages listed in deploy/apt-packages.txt (or in the list
+# file given as $1, e.g. deploy/apt-packages-bench.txt) that are missing.
 # Non-interactive; runs `apt-get update` only when something is missing; uses
 # sudo when not root. Prints what it does.
 set -eu
-list="$(dirname "$0")/apt-packages.txt"
+list="${1:-$(dirname "$0")/apt-packages.txt}"
 missing=""
 for p in $(grep -v '^#' "$list" | grep -v '^[[:space:]]*$'); do
     # node/npm may come from elsewhere (NodeSource bundles npm): a working command counts.
