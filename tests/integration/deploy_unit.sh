@@ -91,7 +91,7 @@ k=0
 while [ ! -s "$T/port" ] && [ $k -lt 100 ] && kill -0 "$DPID" 2>/dev/null; do sleep 0.1; k=$((k + 1)); done
 if [ -s "$T/port" ]; then
     check "installed sylvad runs with the default config" '{"status":"ok"' \
-        "$(curl -s "http://127.0.0.1:$(cat "$T/port")/v1/health" | cut -c1-15)"
+        "$(curl -s "http://127.0.0.1:$(cat "$T/port")/v1/health" | cut -c1-14)"
     kill -TERM "$DPID"; wait "$DPID"; rc=$?; DPID=""
     check "installed sylvad drains and exits 0 on SIGTERM" 0 "$rc"
 else
