@@ -5,6 +5,7 @@
 #include "srgb_tables.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdlib.h>
@@ -103,6 +104,20 @@ uint8_t sv_srgb_encode8(double l)
         else hi = mid;
     }
     return (uint8_t)lo;
+}
+
+static uint8_t encode16[65536];
+static pthread_once_t encode16_once = PTHREAD_ONCE_INIT;
+
+static void encode16_fill(void)
+{
+    for (uint32_t c = 0; c < 65536; c++) encode16[c] = sv_srgb_encode8(c / 65535.0);
+}
+
+const uint8_t *sv_srgb_encode16_table(void)
+{
+    pthread_once(&encode16_once, encode16_fill);
+    return encode16;
 }
 
 /* One 2:1 reduction (a side of 1 stays 1): each output texel is the mean of

@@ -74,6 +74,10 @@ double sv_srgb_decode8(uint8_t code);
  * sv_srgb_encode8(sv_srgb_decode8(c)) == c for every c. */
 uint8_t sv_srgb_encode8(double l);
 
+/* sv_srgb_encode8(c / 65535.0) for every 16-bit linear code c, as a table
+ * of 65536 bytes built once (thread-safe); for reading back 16-bit renders. */
+const uint8_t *sv_srgb_encode16_table(void);
+
 /* Loads the decoding plugin now if it is not loaded yet (thread-safe, once;
  * the decoders call it). For a process about to enter the seccomp sandbox or
  * to fork jobs: dlopen and OIIO's initialisers then run before. SV_ERR_INTERNAL

@@ -35,11 +35,11 @@
 
 typedef struct sv_plan_level {
     /* input */
-    double triangles;            /* cost, first */
-    double texels;               /* cost, then */
-    double own_pixels;           /* largest size at which it meets the tolerance (0: nowhere) */
-    double top_pixels;           /* its measured error holds up to here (INFINITY: any size) */
-    const sv_eval_result *eval;  /* measured error; NULL: draws as the original (error 0) */
+    double triangles;           /* cost, first */
+    double texels;              /* cost, then */
+    double own_pixels;          /* largest size at which it meets the tolerance (0: nowhere) */
+    double top_pixels;          /* its measured error holds up to here (INFINITY: any size) */
+    const sv_eval_result *eval; /* measured error; NULL: draws as the original (error 0) */
 } sv_plan_level;
 
 typedef struct sv_plan_rules {
@@ -55,11 +55,11 @@ typedef struct sv_plan_rules {
 /* Why a level is not kept (sv_plan_out.why). */
 enum {
     SV_PLAN_KEPT = 0,
-    SV_PLAN_FAILS,      /* within the tolerance at no size */
-    SV_PLAN_CHEAPER,    /* wherever it meets the tolerance, a cheaper level does too */
-    SV_PLAN_WORTH,      /* rule 3: a far cheaper level within the slack */
-    SV_PLAN_DENSE,      /* rule 1: too many triangles where it would be drawn */
-    SV_PLAN_ORDER,      /* a later level is already drawn at larger sizes */
+    SV_PLAN_FAILS,       /* within the tolerance at no size */
+    SV_PLAN_CHEAPER,     /* wherever it meets the tolerance, a cheaper level does too */
+    SV_PLAN_WORTH,       /* rule 3: a far cheaper level within the slack */
+    SV_PLAN_DENSE,       /* rule 1: too many triangles where it would be drawn */
+    SV_PLAN_ORDER,       /* a later level is already drawn at larger sizes */
     SV_PLAN_OUT_OF_SCENE /* drawn only above the scene's nearest size */
 };
 

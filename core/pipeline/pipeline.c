@@ -419,10 +419,14 @@ typedef struct eval_call {
 static sv_status eval_one(sv_evaluator *ev, const eval_call *c, sv_eval_result *out, sv_error *err)
 {
     switch (c->kind) {
-    case EC_IDENTITY: return sv_eval_identity(ev, out, err);
-    case EC_DRAWN: return sv_evaluate_drawn(ev, svp_level_draw, c->dc, out, err);
-    case EC_SUBSETS: return sv_evaluate_subsets(ev, c->g, svp_select_subsets, c->vs, out, err);
-    default: return sv_evaluate(ev, c->g, out, err);
+    case EC_IDENTITY:
+        return sv_eval_identity(ev, out, err);
+    case EC_DRAWN:
+        return sv_evaluate_drawn(ev, svp_level_draw, c->dc, out, err);
+    case EC_SUBSETS:
+        return sv_evaluate_subsets(ev, c->g, svp_select_subsets, c->vs, out, err);
+    default:
+        return sv_evaluate(ev, c->g, out, err);
     }
 }
 

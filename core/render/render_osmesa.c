@@ -549,6 +549,7 @@ static sv_status read_color16(sv_renderer *r, uint32_t width, uint32_t height, b
         return st;
     }
     size_t row = (size_t)width * 4;
+    const uint8_t *enc = linear ? NULL : sv_srgb_encode16_table();
     for (uint32_t y = 0; y < height; y++) {
         const uint16_t *src = px + (size_t)(r->pack_invert ? y : height - 1 - y) * row;
         if (linear) {
@@ -557,7 +558,7 @@ static sv_status read_color16(sv_renderer *r, uint32_t width, uint32_t height, b
         }
         uint8_t *dst = (uint8_t *)color->data + (size_t)y * row;
         for (size_t i = 0; i < row; i += 4) {
-            for (int k = 0; k < 3; k++) dst[i + k] = sv_srgb_encode8(src[i + k] / 65535.0);
+            for (int k = 0; k < 3; k++) dst[i + k] = enc[src[i + k]];
             dst[i + 3] = (uint8_t)((src[i + 3] * 255u + 32767u) / 65535u);
         }
     }

@@ -534,6 +534,19 @@ static void garbage_truncated_and_oversized_images_are_refused(void **state)
     free(png);
 }
 
+/* The read-back table is the exact encoder at every 16-bit code, and it is
+ * not the identity (a byte-space copy would fail). */
+static void srgb_table_equals_the_encoder_at_every_16_bit_code(void **state)
+{
+    (void)state;
+    const uint8_t *t = sv_srgb_encode16_table();
+    for (uint32_t c = 0; c < 65536; c++)
+        if (t[c] != sv_srgb_encode8(c / 65535.0)) fail_msg("code %u: %u", c, t[c]);
+    assert_int_equal(t[0], 0);
+    assert_int_equal(t[65535], 255);
+    assert_int_equal(t[65535 / 2], 188); /* linear 0.5 shows as sRGB 188 */
+}
+
 static void encoding_an_empty_image_fails_cleanly(void **state)
 {
     (void)state;
@@ -642,6 +655,7 @@ int main(void)
         cmocka_unit_test(png_of_every_colour_type_and_depth_decodes_as_the_plugin_does),
         cmocka_unit_test(every_texture_of_the_shared_trees_decodes_as_the_plugin_does),
         cmocka_unit_test(garbage_truncated_and_oversized_images_are_refused),
+        cmocka_unit_test(srgb_table_equals_the_encoder_at_every_16_bit_code),
         cmocka_unit_test(encoding_an_empty_image_fails_cleanly),
         cmocka_unit_test(png_memo_encodes_shared_pixels_once_and_gives_the_same_bytes),
         cmocka_unit_test(reduce_halves_with_an_alpha_weighted_box_filter),
