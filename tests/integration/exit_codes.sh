@@ -9,7 +9,7 @@
 #   named as unknown, and no store refuses to start.
 # A small synthetic tree (tests/tools/synth_tree.py) keeps the real bakes quick;
 # the fake worker gives a failed and a cancelled bake.
-# sylva-test: cost=40
+# sylva-test: no-sanitize (exit statuses only: the same C paths run under ASan in client_cli and bake_cli) cost=40
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 SYLVA=$B/sylva

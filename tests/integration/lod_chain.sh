@@ -11,7 +11,7 @@
 # The chain bakes come from the per-pass cache (lib.inc, tree_cache: leaf
 # clusters seen from 2 to 100 bounding radii, so the whole chain is planned),
 # shared with trees_all.sh. Exit 77 (skip) without the data.
-# sylva-test: cost=60
+# sylva-test: cost=140
 set -eu
 . "$(dirname "$0")/lib.inc"
 [ -d "$data" ] || skip "no tree data at $data"
