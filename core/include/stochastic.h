@@ -193,6 +193,8 @@ typedef struct sv_stoch_level {
     uint32_t trunk_triangles;    /* when trunk_in_geometry: the geometry's first triangles */
     uint32_t contrast_materials; /* material copies added for contrast bins */
     uint32_t contrast_capped;    /* leaves whose brightening was capped at factor 1 */
+    double colour_gain;          /* mean luminance factor restoring simplified leaves'
+                                    modelled colour (1: none simplified) */
     uint32_t leaves_simplified;  /* drawn leaves with a simplified shape */
     uint32_t leaves_whole;       /* drawn leaves kept as modelled because their simplified
                                     shape lost coverage (below min_cover) */
@@ -208,9 +210,10 @@ typedef struct sv_stoch_level {
 typedef struct sv_stoch_result {
     sv_stoch_level levels[SV_STOCH_MAX_LEVELS];
     uint32_t level_count;
-    uint32_t *order;      /* N leaf indices */
-    uint32_t leaf_count;  /* N */
-    double mean_color[3]; /* c̄, area-weighted mean leaf colour (0..1) */
+    uint32_t *order;         /* N leaf indices */
+    uint32_t leaf_count;     /* N */
+    double mean_color[3];    /* c̄, area-weighted mean leaf colour (0..1) */
+    uint32_t layered_leaves; /* leaves drawn as a layer of another (an underside) */
     double r;
 } sv_stoch_result;
 

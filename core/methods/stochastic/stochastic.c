@@ -20,6 +20,7 @@
  */
 #include "stochastic.h"
 
+#include "image.h"
 #include "trunk.h"
 #include "vec3.h"
 
@@ -35,6 +36,7 @@
 #define CONTRAST_BINS 64   /* |bin| <= 64: factors 1/16 .. 16 */
 #define SV_STOCH_WHOLE 1e9 /* a min_cover no simplified leaf reaches: every leaf whole */
 #define COST_MARGIN 0.005  /* the score a candidate of many more triangles must gain */
+#define COLOUR_LATTICE 12  /* at most this many colour samples along a triangle side */
 
 /* ---- formulas ------------------------------------------------------------- */
 
@@ -129,8 +131,126 @@ static int keyed_cmp(const void *a, const void *b)
     return x->index < y->index ? -1 : x->index > y->index;
 }
 
-sv_status sv_stochastic_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_order_mode mode,
-                              uint32_t *order, sv_error *err)
+/* Layers of one leaf (ours, docs/methods/stochastic.md "Leaf layers"):
+ * models often draw a leaf as two cards a hair apart, the upper side's
+ * texture on one and the underside's on the other. Dropped one at a time, a
+ * level shows the underside where the model shows the upper side (and the
+ * reverse), so a level's colour drifts however its coverage holds. Two
+ * leaves are layers of one when their centres lie within LAYER_GAP of the
+ * larger radius, their radii and areas within LAYER_SIZE of each other and
+ * their planes parallel (|n·n'| >= LAYER_COS). group[i] receives the lowest
+ * index of leaf i's layers (union–find over such pairs, found through a
+ * hash grid of cell = the median radius); returns how many leaves share
+ * their group with another. */
+#define LAYER_GAP 0.05
+#define LAYER_SIZE 1.25
+#define LAYER_COS 0.9
+
+static uint32_t find_root(uint32_t *g, uint32_t i)
+{
+    while (g[i] != i) i = g[i] = g[g[i]];
+    return i;
+}
+
+static int dbl_cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static bool layers_of_one(const sv_leaf *a, const sv_leaf *b)
+{
+    double rmax = fmax(a->radius, b->radius), rmin = fmin(a->radius, b->radius);
+    double amax = fmax(a->area, b->area), amin = fmin(a->area, b->area);
+    if (!(rmin > 0) || !(amin > 0) || rmax > LAYER_SIZE * rmin || amax > LAYER_SIZE * amin)
+        return false;
+    double d[3] = {a->centre[0] - b->centre[0], a->centre[1] - b->centre[1],
+                   a->centre[2] - b->centre[2]};
+    if (sv_dot3(d, d) > LAYER_GAP * LAYER_GAP * rmax * rmax) return false;
+    return fabs(sv_dot3(a->normal, b->normal)) >= LAYER_COS;
+}
+
+typedef struct cell_key {
+    uint64_t key;
+    uint32_t leaf;
+} cell_key;
+
+static int cell_cmp(const void *a, const void *b)
+{
+    const cell_key *x = a, *y = b;
+    if (x->key != y->key) return x->key < y->key ? -1 : 1;
+    return x->leaf < y->leaf ? -1 : x->leaf > y->leaf;
+}
+
+static uint64_t cell_of(const double c[3], double h, int dx, int dy, int dz)
+{
+    int64_t q[3] = {(int64_t)floor(c[0] / h) + dx, (int64_t)floor(c[1] / h) + dy,
+                    (int64_t)floor(c[2] / h) + dz};
+    uint64_t k = 1469598103934665603ull; /* FNV-1a over the three cell ids */
+    for (int a = 0; a < 3; a++)
+        for (int byte = 0; byte < 8; byte++) {
+            k ^= (uint64_t)(q[a] >> (8 * byte)) & 0xFF;
+            k *= 1099511628211ull;
+        }
+    return k;
+}
+
+static sv_status leaf_layers(const sv_leaves *lv, uint32_t *group, uint32_t *shared, sv_error *err)
+{
+    uint32_t n = lv->count;
+    *shared = 0;
+    for (uint32_t i = 0; i < n; i++) group[i] = i;
+    if (n < 2) return SV_OK;
+    uint32_t *r = sv_calloc(n, sizeof(uint32_t));
+    cell_key *cells = sv_calloc(n, sizeof *cells);
+    double *rad = sv_calloc(n, sizeof(double));
+    if (!r || !cells || !rad) {
+        free(r);
+        free(cells);
+        free(rad);
+        return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for the leaf layers");
+    }
+    for (uint32_t i = 0; i < n; i++) rad[i] = lv->leaves[i].radius;
+    qsort(rad, n, sizeof *rad, dbl_cmp);
+    double h = rad[n / 2]; /* the median radius */
+    free(rad);
+    if (!(h > 0) || !isfinite(h)) h = 1e-6;
+    for (uint32_t i = 0; i < n; i++) {
+        cells[i].key = cell_of(lv->leaves[i].centre, h, 0, 0, 0);
+        cells[i].leaf = i;
+    }
+    qsort(cells, n, sizeof *cells, cell_cmp);
+    for (uint32_t i = 0; i < n; i++) {
+        const sv_leaf *a = &lv->leaves[i];
+        if (LAYER_GAP * a->radius > h) continue; /* a giant: its layers lie beyond one cell */
+        for (int d = 0; d < 27; d++) {
+            uint64_t key = cell_of(a->centre, h, d % 3 - 1, d / 3 % 3 - 1, d / 9 - 1);
+            size_t lo = 0, hi = n; /* first entry of the cell */
+            while (lo < hi) {
+                size_t mid = (lo + hi) / 2;
+                if (cells[mid].key < key) lo = mid + 1;
+                else hi = mid;
+            }
+            for (size_t k = lo; k < n && cells[k].key == key; k++) {
+                uint32_t j = cells[k].leaf;
+                if (j <= i || !layers_of_one(a, &lv->leaves[j])) continue;
+                uint32_t x = find_root(group, i), y = find_root(group, j);
+                if (x != y) group[x > y ? x : y] = x < y ? x : y;
+            }
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) group[i] = find_root(group, i);
+    memset(r, 0, n * sizeof *r);
+    for (uint32_t i = 0; i < n; i++) r[group[i]]++;
+    for (uint32_t i = 0; i < n; i++) *shared += r[group[i]] > 1;
+    free(r);
+    free(cells);
+    return SV_OK;
+}
+
+/* The leaves in a seeded order of their own (random or area-keyed). */
+static sv_status base_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_order_mode mode,
+                            uint32_t *order, sv_error *err)
 {
     uint32_t n = leaves ? leaves->count : 0;
     uint64_t s = seed ^ 0x5354434853494D50ull; /* a stream of its own for this method */
@@ -157,6 +277,40 @@ sv_status sv_stochastic_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_o
         order[j] = t;
     }
     return SV_OK;
+}
+
+sv_status sv_stochastic_order(const sv_leaves *leaves, uint64_t seed, sv_stoch_order_mode mode,
+                              uint32_t *order, sv_error *err)
+{
+    uint32_t n = leaves ? leaves->count : 0;
+    sv_status st = base_order(leaves, seed, mode, order, err);
+    if (st || n < 2) return st;
+    uint32_t *group = sv_calloc(n, sizeof(uint32_t)), *out = sv_calloc(n, sizeof(uint32_t));
+    uint32_t *next = sv_calloc(n, sizeof(uint32_t)), shared = 0;
+    if (!group || !out || !next) st = sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory");
+    if (!st) st = leaf_layers(leaves, group, &shared, err);
+    if (!st && shared) {
+        /* each group's leaves follow its first in the order, in index order:
+         * next[] links a group's members from its root */
+        for (uint32_t i = 0; i < n; i++) next[i] = UINT32_MAX;
+        for (uint32_t i = n; i-- > 0;)
+            if (group[i] != i) {
+                next[i] = next[group[i]];
+                next[group[i]] = i;
+            }
+        uint32_t k = 0;
+        for (uint32_t o = 0; o < n; o++) {
+            uint32_t g = group[order[o]];
+            if (g == UINT32_MAX) continue;
+            for (uint32_t i = g; i != UINT32_MAX; i = next[i]) out[k++] = i;
+            for (uint32_t i = g; i != UINT32_MAX; i = next[i]) group[i] = UINT32_MAX;
+        }
+        memcpy(order, out, (size_t)n * sizeof *order);
+    }
+    free(group);
+    free(out);
+    free(next);
+    return st;
 }
 
 /* 1 − (1 − r)^k without cancellation. */
@@ -375,62 +529,98 @@ static double luminance(const double c[3])
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
 }
 
-/* Colour and alpha of material m at uv (nearest texel, repeat wrap). */
+/* Colour and alpha of material m at uv as glTF defines them (nearest texel,
+ * repeat wrap): the texel's colour decoded from sRGB to linear (a 16-bit
+ * image is linear already) times the linear factor; alpha straight. */
 static void sample(const sv_mesh *mesh, uint32_t m, float u, float v, double rgb[3], double *a)
 {
     const sv_material *mt = &mesh->materials[m];
     double t[4] = {1, 1, 1, 1};
     if (mt->base_texture >= 0 && (uint32_t)mt->base_texture < mesh->image_count) {
         const sv_image *im = &mesh->images[mt->base_texture];
-        if (im->data && im->bits == 8 && im->width && im->height && im->channels >= 1) {
+        if (im->data && (im->bits == 8 || im->bits == 16) && im->width && im->height &&
+            im->channels >= 1) {
             double fu = u - floor(u), fv = v - floor(v);
             uint32_t x = (uint32_t)(fu * im->width), y = (uint32_t)(fv * im->height);
             if (x >= im->width) x = im->width - 1;
             if (y >= im->height) y = im->height - 1;
-            const uint8_t *p = (const uint8_t *)im->data +
-                               ((size_t)y * im->width + x) * im->channels;
-            for (uint32_t c = 0; c < 3; c++) t[c] = p[c < im->channels ? c : 0] / 255.0;
-            t[3] = im->channels == 4 ? p[3] / 255.0 : im->channels == 2 ? p[1] / 255.0 : 1.0;
+            size_t at = ((size_t)y * im->width + x) * im->channels;
+            uint32_t ch = im->channels, ca = ch == 4 ? 3 : ch == 2 ? 1 : UINT32_MAX;
+            for (uint32_t c = 0; c < 3; c++) {
+                uint32_t k = ch >= 3 ? c : 0;
+                t[c] = im->bits == 8 ? sv_srgb_decode8(((const uint8_t *)im->data)[at + k])
+                                     : ((const uint16_t *)im->data)[at + k] / 65535.0;
+            }
+            if (ca != UINT32_MAX)
+                t[3] = im->bits == 8 ? ((const uint8_t *)im->data)[at + ca] / 255.0
+                                     : ((const uint16_t *)im->data)[at + ca] / 65535.0;
         }
     }
     for (int c = 0; c < 3; c++) rgb[c] = t[c] * mt->base_color[c];
     *a = t[3] * mt->base_color[3];
 }
 
-/* Mean colour of every leaf (alpha- and area-weighted samples at the corners
- * and centroid of each triangle); leaves with no opaque sample get their
- * material's base colour. */
+/* How much a renderer draws of a sample of alpha a in material m: all of
+ * it when opaque, the alpha test's 0 or 1 when masked, a when blended. */
+static double drawn(const sv_material *mt, double a)
+{
+    if (mt->alpha_mode == SV_ALPHA_OPAQUE) return 1.0;
+    if (mt->alpha_mode == SV_ALPHA_MASK) return a >= mt->alpha_cutoff ? 1.0 : 0.0;
+    return a;
+}
+
+static double tri_area_v(const sv_mesh *m, const uint32_t *ix);
+
+/* Adds triangle ix (source vertex ids) of material m to a colour sum: the
+ * linear colour (sample) at the centroids of the n² sub-triangles of a
+ * lattice of n per side (n from the texels the triangle spans: about one
+ * sample per 16, 2..COLOUR_LATTICE per side), each weighted by its share of
+ * the triangle's area and by how much of it is drawn. */
+static void tri_colour(const sv_mesh *mesh, const uint32_t *ix, uint32_t m, double acc[3],
+                       double *w)
+{
+    const sv_material *mt = &mesh->materials[m];
+    const float *t0 = &mesh->uvs[2 * (size_t)ix[0]], *t1 = &mesh->uvs[2 * (size_t)ix[1]],
+                *t2 = &mesh->uvs[2 * (size_t)ix[2]];
+    int n = 2;
+    if (mt->base_texture >= 0 && (uint32_t)mt->base_texture < mesh->image_count) {
+        const sv_image *im = &mesh->images[mt->base_texture];
+        double uv_area = 0.5 * fabs((double)(t1[0] - t0[0]) * (t2[1] - t0[1]) -
+                                    (double)(t2[0] - t0[0]) * (t1[1] - t0[1]));
+        double texels = uv_area * im->width * (double)im->height;
+        double side = ceil(sqrt(texels / 16.0));
+        n = side > COLOUR_LATTICE ? COLOUR_LATTICE : side < 2 ? 2 : (int)side;
+    }
+    double area = tri_area_v(mesh, ix);
+    double each = (area > 0 ? area : 1e-30) / ((double)n * n);
+    for (int up = 0; up < 2; up++)
+        for (int i = 0; i < n; i++)
+            for (int j = 0; i + j < n - up; j++) {
+                double o = up ? 2.0 / 3.0 : 1.0 / 3.0;
+                double b1 = (i + o) / n, b2 = (j + o) / n, b0 = 1.0 - b1 - b2;
+                float u = (float)(b0 * t0[0] + b1 * t1[0] + b2 * t2[0]);
+                float v = (float)(b0 * t0[1] + b1 * t1[1] + b2 * t2[1]);
+                double rgb[3], a;
+                sample(mesh, m, u, v, rgb, &a);
+                double ww = each * drawn(mt, a);
+                for (int c = 0; c < 3; c++) acc[c] += ww * rgb[c];
+                *w += ww;
+            }
+}
+
+/* Mean linear colour of every leaf as modelled, over what a renderer draws
+ * of it (tri_colour); leaves with nothing drawn get their material's base
+ * colour. */
 static void leaf_colours(const sv_mesh *mesh, const sv_leaves *lv, double *col)
 {
     for (uint32_t i = 0; i < lv->count; i++) {
         const sv_leaf *l = &lv->leaves[i];
         double acc[3] = {0, 0, 0}, w = 0;
-        uint32_t m0 = 0;
         for (uint32_t k = 0; k < l->count; k++) {
             uint32_t t = lv->tris[l->first + k];
-            uint32_t m = mesh->tri_material[t];
-            if (k == 0) m0 = m;
-            double area = sv_tri_area(mesh, t);
-            const uint32_t *ix = &mesh->indices[3 * (size_t)t];
-            float uc = 0, vc = 0;
-            for (int j = 0; j <= 3; j++) {
-                float u, v;
-                if (j < 3) {
-                    u = mesh->uvs[2 * (size_t)ix[j]];
-                    v = mesh->uvs[2 * (size_t)ix[j] + 1];
-                    uc += u / 3;
-                    vc += v / 3;
-                } else {
-                    u = uc;
-                    v = vc;
-                }
-                double rgb[3], a;
-                sample(mesh, m, u, v, rgb, &a);
-                double ww = a * (area > 0 ? area : 1e-30);
-                for (int c = 0; c < 3; c++) acc[c] += ww * rgb[c];
-                w += ww;
-            }
+            tri_colour(mesh, &mesh->indices[3 * (size_t)t], mesh->tri_material[t], acc, &w);
         }
+        uint32_t m0 = l->count ? mesh->tri_material[lv->tris[l->first]] : 0;
         for (int c = 0; c < 3; c++)
             col[3 * (size_t)i + c] = w > 0 ? acc[c] / w : mesh->materials[m0].base_color[c];
     }
@@ -599,6 +789,49 @@ static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, do
     sh->total += got / 3;
 }
 
+/* Leaf i, a further layer of leaf g (leaf_layers), simplified as g was:
+ * each vertex of g's simplified shape replaced by leaf i's vertex nearest
+ * to it (the layers lie a hair apart, so that is its twin, with i's own
+ * UV), with g's area gain. Layers simplified on their own get outlines of
+ * their own, and the underside then shows past the upper side's edge.
+ * Kept as modelled when g is, or when i has several materials. */
+static void shape_follow(const sv_mesh *m, const sv_leaves *lv, uint32_t i, uint32_t g,
+                         leaf_shapes *sh)
+{
+    const sv_leaf *l = &lv->leaves[i];
+    uint32_t m0 = m->tri_material[lv->tris[l->first]];
+    bool one_material = true;
+    for (uint32_t k = 1; k < l->count && one_material; k++)
+        one_material = m->tri_material[lv->tris[l->first + k]] == m0;
+    if (sh->w_first[g] != UINT32_MAX || !one_material || l->count <= sh->s_count[g]) {
+        shape_copy(m, lv, i, sh);
+        return;
+    }
+    sh->s_first[i] = (uint32_t)sh->total;
+    sh->w_first[i] = UINT32_MAX;
+    sh->s_count[i] = sh->s_count[g];
+    sh->s_gain[i] = sh->s_gain[g];
+    for (uint32_t t = 0; t < sh->s_count[g]; t++) {
+        for (int j = 0; j < 3; j++) {
+            uint32_t v = sh->idx[3 * ((size_t)sh->s_first[g] + t) + (size_t)j];
+            const float *p = &m->positions[3 * (size_t)v];
+            uint32_t best = v;
+            double bd = INFINITY;
+            for (uint32_t k = 0; k < l->count; k++) {
+                const uint32_t *ix = &m->indices[3 * (size_t)lv->tris[l->first + k]];
+                for (int c = 0; c < 3; c++) {
+                    const float *q = &m->positions[3 * (size_t)ix[c]];
+                    double dx = (double)q[0] - p[0], dy = (double)q[1] - p[1],
+                           dz = (double)q[2] - p[2], d = dx * dx + dy * dy + dz * dz;
+                    if (d < bd || (d == bd && ix[c] < best)) bd = d, best = ix[c];
+                }
+            }
+            sh->idx[3 * sh->total + (size_t)j] = best;
+        }
+        sh->mat[sh->total++] = m0;
+    }
+}
+
 #define COVER_GRID 24 /* at most this many pixels across a leaf's silhouette raster */
 #define COVER_SUB 4   /* samples across a pixel of it */
 #define COVER_FINE (COVER_GRID * COVER_SUB)
@@ -738,8 +971,8 @@ static void leaf_shapes_select(const sv_leaves *lv, leaf_shapes *sh, double min_
 /* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
  * with its coverage ratio; drawn simplified where that ratio reaches
  * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). */
-static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double error,
-                                   leaf_shapes *sh, sv_error *err)
+static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const uint32_t *group,
+                                   double error, leaf_shapes *sh, sv_error *err)
 {
     memset(sh, 0, sizeof *sh);
     uint32_t N = lv->count, most = 1;
@@ -775,7 +1008,10 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double
         leaf_shapes_free(sh);
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
-        for (uint32_t i = 0; i < N; i++) shape_simplify(m, lv, i, error, &x, sh);
+        for (uint32_t i = 0; i < N; i++) {
+            if (group && group[i] != i) shape_follow(m, lv, i, group[i], sh);
+            else shape_simplify(m, lv, i, error, &x, sh);
+        }
         for (uint32_t i = 0; i < N; i++) {
             const sv_leaf *l = &lv->leaves[i];
             if (sh->w_first[i] != UINT32_MAX) continue; /* kept as modelled */
@@ -787,6 +1023,9 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, double
             }
         }
         for (uint32_t i = 0; i < N; i++) sh->cover[i] = (float)leaf_cover(m, lv, i, error, sh);
+        /* a leaf's layers are drawn simplified or whole together */
+        for (uint32_t i = 0; group && i < N; i++)
+            if (group[i] != i) sh->cover[i] = sh->cover[group[i]];
         leaf_shapes_select(lv, sh, SV_STOCH_MIN_COVER);
     }
     free(x.stamp);
@@ -817,6 +1056,45 @@ typedef struct build_ctx {
     double min_cover;  /* the shapes' selection (leaf_shapes_select) */
 } build_ctx;
 
+/* The level's colour gains: a simplified leaf shows other texels than its
+ * modelled one (a cut-out card's outline moves over its texture's
+ * background, a leaf of 16 triangles reduced to 4 loses its highlights), so
+ * each material's drawn leaves among the level's first n get one factor,
+ * gain[m] = Σ area·Y(modelled) / Σ area·Y(shape drawn), Y the linear
+ * luminance over what a renderer draws (tri_colour): the level's leaves
+ * keep their modelled mean luminance (ours, docs/methods/stochastic.md
+ * "Leaf colour"). gain (3 × material_count, zeroed) holds the factors
+ * first; 1 where no leaf of a material changed shape. Returns the
+ * area-weighted mean factor over the simplified leaves (1 if none). */
+static double colour_gains(const build_ctx *b, uint32_t n, double *gain)
+{
+    const sv_mesh *m = b->mesh;
+    const leaf_shapes *sh = b->shapes;
+    const uint32_t M = m->material_count;
+    double *want = gain + M, *got = gain + 2 * (size_t)M;
+    for (uint32_t k = 0; k < n; k++) {
+        uint32_t li = b->order[k];
+        if (sh->first[li] == sh->w_first[li]) continue; /* drawn as modelled */
+        double acc[3] = {0, 0, 0}, w = 0;
+        for (uint32_t t = 0; t < sh->count[li]; t++) {
+            size_t tt = (size_t)sh->first[li] + t;
+            tri_colour(m, &sh->idx[3 * tt], sh->mat[tt], acc, &w);
+        }
+        if (!(w > 0)) continue;
+        double a = b->lv->leaves[li].area > 0 ? b->lv->leaves[li].area : 0;
+        uint32_t mt = sh->mat[sh->first[li]];
+        want[mt] += a * luminance(&b->colour[3 * (size_t)li]);
+        got[mt] += a * (0.2126 * acc[0] + 0.7152 * acc[1] + 0.0722 * acc[2]) / w;
+    }
+    double sw = 0, sg = 0;
+    for (uint32_t i = 0; i < M; i++) {
+        gain[i] = want[i] > 0 && got[i] > 0 ? want[i] / got[i] : 1.0;
+        sw += want[i];
+        sg += got[i];
+    }
+    return sw > 0 && sg > 0 ? sw / sg : 1.0;
+}
+
 static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, double r, double lambda,
                              double leaf_budget, double gamma, sv_stoch_level *L, sv_error *err)
 {
@@ -846,8 +1124,12 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     L->contrast_alpha = s->contrast_preservation ? sqrt(mu) : 1.0;
     sv_stochastic_fade(mu, s->fade, &L->fade_lo, &L->fade_hi);
 
-    /* Contrast bins: each leaf's luminance factor, quantised. */
+    /* Contrast bins: each leaf's luminance factor (its material's colour
+     * gain times its contrast term), quantised. */
     const uint32_t nb = 2 * CONTRAST_BINS + 1, M = src->material_count;
+    double *gain = sv_calloc(M ? M : 1, 3 * sizeof(double));
+    if (!gain) return sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for level %g", lambda);
+    L->colour_gain = colour_gains(b, n, gain);
     size_t mm;
     if (!sv_mul_size(M, nb, &mm))
         return sv_fail(err, SV_ERR_NOMEM, "stochastic: too many materials");
@@ -855,24 +1137,25 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     uint32_t copies = 0;
     for (uint32_t k = 0; k < n; k++) {
         int bin = 0;
+        uint32_t li = b->order[k];
+        double f = gain[sh->mat[sh->first[li]]];
         if (s->contrast_preservation && mu < 1) {
-            double y = luminance(&b->colour[3 * (size_t)b->order[k]]);
+            double y = luminance(&b->colour[3 * (size_t)li]);
             double y2 = sv_stochastic_contrast(y, b->mean_y, mu);
-            if (y > 1e-6 && y2 > 1e-6) {
-                double q = round(CONTRAST_STEPS * log2(y2 / y));
-                bin = q > CONTRAST_BINS    ? CONTRAST_BINS
-                      : q < -CONTRAST_BINS ? -CONTRAST_BINS
-                                           : (int)q;
-            }
+            if (y > 1e-6 && y2 > 1e-6) f *= y2 / y;
+        }
+        if (f > 0 && isfinite(f)) {
+            double q = round(CONTRAST_STEPS * log2(f));
+            bin = q > CONTRAST_BINS ? CONTRAST_BINS : q < -CONTRAST_BINS ? -CONTRAST_BINS : (int)q;
         }
         b->leaf_bin[k] = bin;
-        uint32_t li = b->order[k];
         for (uint32_t t = 0; t < sh->count[li]; t++) {
             uint32_t m = sh->mat[sh->first[li] + t];
             int32_t *slot = &b->matmap[(size_t)m * nb + (size_t)(bin + CONTRAST_BINS)];
             if (*slot < 0) *slot = bin == 0 ? (int32_t)m : (int32_t)(M + copies++);
         }
     }
+    free(gain);
     /* Vertices: every leaf gets its own copies (scaled about its own centre). */
     uint64_t nv = 0, nt = 0;
     for (uint32_t v = 0; v < src->vertex_count; v++) b->stamp[v] = 0;
@@ -1120,19 +1403,21 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     b.min_cover = SV_STOCH_MIN_COVER;
     uint32_t N = lv->count;
     double *colour = sv_calloc(N, 3 * sizeof(double));
+    uint32_t *layer = sv_calloc(N, sizeof(uint32_t));
     out->order = sv_calloc(N, sizeof(uint32_t));
     b.stamp = sv_calloc(mesh->vertex_count ? mesh->vertex_count : 1, sizeof(uint32_t));
     b.local = sv_calloc(mesh->vertex_count ? mesh->vertex_count : 1, sizeof(uint32_t));
     b.leaf_bin = sv_calloc(N, sizeof(int32_t));
     b.matmap = sv_calloc((size_t)(mesh->material_count ? mesh->material_count : 1),
                          (2 * CONTRAST_BINS + 1) * sizeof(int32_t));
-    if (!colour || !out->order || !b.stamp || !b.local || !b.leaf_bin || !b.matmap) {
+    if (!colour || !layer || !out->order || !b.stamp || !b.local || !b.leaf_bin || !b.matmap) {
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory");
         goto out;
     }
     out->leaf_count = N;
     out->r = r;
     if ((st = sv_stochastic_order(lv, in->seed, s->order, out->order, err))) goto out;
+    if ((st = leaf_layers(lv, layer, &out->layered_leaves, err))) goto out;
     leaf_colours(mesh, lv, colour);
     double wsum = 0;
     for (uint32_t i = 0; i < N; i++) {
@@ -1156,7 +1441,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
         sv_stoch_level *L = &out->levels[i];
         bool trunk_first = e > 0 && in->cls && in->cls->tri_part;
         leaf_shapes sh;
-        if ((st = leaf_shapes_build(mesh, lv, e, &sh, err))) goto out;
+        if ((st = leaf_shapes_build(mesh, lv, layer, e, &sh, err))) goto out;
         b.shapes = &sh;
         if (!trunk_first) {
             L->leaf_error = e;
@@ -1243,6 +1528,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     }
 out:
     free(colour);
+    free(layer);
     free(b.stamp);
     free(b.local);
     free(b.leaf_bin);
@@ -1358,6 +1644,8 @@ void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_se
     cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
     cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
     cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
+    cJSON_AddNumberToObject(o, "colour_gain", L->colour_gain);
+    cJSON_AddNumberToObject(o, "layered_leaves", res->layered_leaves);
     cJSON_AddNumberToObject(o, "leaves_simplified", L->leaves_simplified);
     cJSON_AddNumberToObject(o, "leaves_whole", L->leaves_whole);
     if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
