@@ -516,6 +516,65 @@ static void no_drawn_leaf_is_a_sliver(void **state)
     toy_free(&t);
 }
 
+/* A leaf modelled as two cards a hair apart (upper side, underside) is one
+ * leaf to the method: its layers come next to each other in the order, so a
+ * level draws both or neither, and they are simplified to one outline with
+ * one gain, so neither shows past the other's edge. Leaves a metre apart are
+ * not layers. */
+static void a_leafs_layers_go_and_simplify_together(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_twigs(&t, 100);
+    sv_mesh *m = t.mesh;
+    for (uint32_t i = 1; i < 100; i += 2) { /* leaf i: leaf i − 1 raised 2 mm */
+        for (uint32_t v = 0; v < 18; v++)
+            for (int a = 0; a < 3; a++)
+                m->positions[3 * (size_t)(18 * i + v) + (size_t)a] =
+                    m->positions[3 * (size_t)(18 * (i - 1) + v) + (size_t)a] +
+                    (a == 2 ? 0.002f : 0.0f);
+        sv_leaf *l = &t.leaves.leaves[i];
+        memcpy(l->centre, t.leaves.leaves[i - 1].centre, sizeof l->centre);
+        l->centre[2] += 0.002;
+    }
+    uint32_t o[100], at[100];
+    assert_int_equal(sv_stochastic_order(&t.leaves, 7, SV_STOCH_ORDER_RANDOM, o, NULL), SV_OK);
+    for (uint32_t k = 0; k < 100; k++) at[o[k]] = k;
+    for (uint32_t i = 0; i < 100; i += 2) assert_int_equal(abs((int)at[i] - (int)at[i + 1]), 1);
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [0.5, 0.25, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    sv_stoch_result a;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
+    assert_int_equal(a.layered_leaves, 100);
+    uint32_t simplified = 0, dropped = 0;
+    double area[100];
+    for (uint32_t k = 0; k < a.level_count; k++) {
+        const sv_stoch_level *L = &a.levels[k];
+        simplified += L->leaves_simplified;
+        dropped += L->leaves < 100;
+        print_message("level %g: %u leaves, %u simplified\n", L->lambda, L->leaves,
+                      L->leaves_simplified);
+        level_leaf_areas(&a, L, area);
+        for (uint32_t i = 0; i < 100; i += 2) {
+            assert_true((area[i] > 0) == (area[i + 1] > 0));
+            if (fabs(area[i] - area[i + 1]) > 1e-4 * area[i])
+                fail_msg("level %g: leaf %u drawn at %g, its layer at %g", L->lambda, i, area[i],
+                         area[i + 1]);
+        }
+    }
+    assert_true(simplified > 0 && dropped > 0);
+    sv_stoch_result_free(&a);
+    toy_free(&t);
+    toy_make_twigs(&t, 100);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
+    assert_int_equal(a.layered_leaves, 0);
+    sv_stoch_result_free(&a);
+    toy_free(&t);
+}
+
 /* Fewer triangles score higher: the opposite of every real tree. */
 static sv_status score_fewer_triangles(void *user, const sv_mesh *g, double *score, sv_error *err)
 {
@@ -915,6 +974,7 @@ int main(void)
         cmocka_unit_test(every_prefix_is_a_valid_mesh_with_leaves_scaled_about_their_centres),
         cmocka_unit_test(simplified_leaves_fit_more_of_the_tree_in_the_budget),
         cmocka_unit_test(no_drawn_leaf_is_a_sliver),
+        cmocka_unit_test(a_leafs_layers_go_and_simplify_together),
         cmocka_unit_test(a_level_never_scores_below_a_coarser_one),
         cmocka_unit_test(level_error_is_a_pixel_at_the_level_distance),
         cmocka_unit_test(the_trunk_is_built_first_and_the_leaves_get_the_rest),

@@ -1048,6 +1048,7 @@ typedef struct build_ctx {
     const uint32_t *order;
     const leaf_shapes *shapes; /* the level's leaf triangles */
     const double *colour;      /* 3 per leaf */
+    const uint32_t *layer;     /* per leaf: its group of layers (leaf_layers), or NULL */
     double mean_y;
     uint32_t *stamp;   /* per source vertex: leaf position + 1 last seen */
     uint32_t *local;   /* per source vertex: index in the level's mesh */
@@ -1115,6 +1116,8 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     while (fit < N && (double)(used + sh->count[b->order[fit]]) <= budget)
         used += sh->count[b->order[fit++]];
     if (fit > n) n = fit;
+    /* a leaf's layers are kept or dropped together */
+    while (b->layer && n > 0 && n < N && b->layer[b->order[n]] == b->layer[b->order[n - 1]]) n++;
     double mu = N ? (double)n / N : 1.0;
     if (n >= N) mu = 1.0;
     L->lambda = lambda;
@@ -1418,6 +1421,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
     out->r = r;
     if ((st = sv_stochastic_order(lv, in->seed, s->order, out->order, err))) goto out;
     if ((st = leaf_layers(lv, layer, &out->layered_leaves, err))) goto out;
+    b.layer = layer;
     leaf_colours(mesh, lv, colour);
     double wsum = 0;
     for (uint32_t i = 0; i < N; i++) {
