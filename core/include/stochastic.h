@@ -174,36 +174,39 @@ double sv_stochastic_level_error(const sv_stochastic_settings *s, const sv_scene
                                  double radius, double lambda);
 
 typedef struct sv_stoch_level {
-    double lambda;               /* the level: its foliage triangles are about λ of the tree's */
-    double leaf_fraction;        /* μ = leaves / N: λ, or more when simplified leaves fit more */
-    double leaf_error;           /* metres each kept leaf's outline may move (0 = as modelled) */
-    uint64_t leaf_triangles;     /* foliage triangles drawn */
-    double area_scale;           /* s(r, μ) (1 when area preservation is off) */
-    double area_gamma;           /* leaves scaled by (s × gain)^(γ/2): 1 (the paper) unless the
+    double lambda;                /* the level: its foliage triangles are about λ of the tree's */
+    double leaf_fraction;         /* μ = leaves / N: λ, or more when simplified leaves fit more */
+    double leaf_error;            /* metres each kept leaf's outline may move (0 = as modelled) */
+    uint64_t leaf_triangles;      /* foliage triangles drawn */
+    double area_scale;            /* s(r, μ) (1 when area preservation is off) */
+    double area_gamma;            /* leaves scaled by (s × gain)^(γ/2): 1 (the paper) unless the
                                   scorer found 0.85 or 0.7 closer to the original */
-    double contrast_alpha;       /* √μ (1 when contrast preservation is off) */
-    uint32_t leaves;             /* ⌈μN⌉ */
-    double fade_lo, fade_hi;     /* sv_stochastic_fade at μ */
-    sv_mesh *geometry;           /* the drawn leaves (owned until moved out) */
-    float *leaf_centre;          /* 3 per geometry vertex: its leaf's centre */
-    float *leaf_order;           /* 1 per geometry vertex: (order position + 0.5) / N */
-    bool trunk_in_geometry;      /* the trunk was built first and leads the geometry */
-    double trunk_error;          /* when trunk_in_geometry: the bound its trunk was built to (m) */
-    uint32_t trunk_vertices;     /* when trunk_in_geometry: the geometry's first vertices */
-    uint32_t trunk_triangles;    /* when trunk_in_geometry: the geometry's first triangles */
-    uint32_t contrast_materials; /* material copies added for contrast bins */
-    uint32_t contrast_capped;    /* leaves whose brightening was capped at factor 1 */
-    double colour_gain;          /* mean luminance factor restoring simplified leaves'
+    double contrast_alpha;        /* √μ (1 when contrast preservation is off) */
+    uint32_t leaves;              /* ⌈μN⌉ */
+    double fade_lo, fade_hi;      /* sv_stochastic_fade at μ */
+    sv_mesh *geometry;            /* the drawn leaves (owned until moved out) */
+    float *leaf_centre;           /* 3 per geometry vertex: its leaf's centre */
+    float *leaf_order;            /* 1 per geometry vertex: (order position + 0.5) / N */
+    bool trunk_in_geometry;       /* the trunk was built first and leads the geometry */
+    double trunk_error;           /* when trunk_in_geometry: the bound its trunk was built to (m) */
+    uint32_t trunk_vertices;      /* when trunk_in_geometry: the geometry's first vertices */
+    uint32_t trunk_triangles;     /* when trunk_in_geometry: the geometry's first triangles */
+    uint32_t contrast_materials;  /* material copies added for contrast bins */
+    uint32_t contrast_capped;     /* leaves whose brightening was capped (factor 1 on an
+                                    untextured material, 4 on a brightened texture) */
+    uint32_t brightened_textures; /* images added: a texture brightened for leaves whose
+                                     factor would pass 1 */
+    double colour_gain;           /* mean luminance factor restoring simplified leaves'
                                     modelled colour (1: none simplified) */
-    uint32_t leaves_simplified;  /* drawn leaves with a simplified shape */
-    uint32_t leaves_whole;       /* drawn leaves kept as modelled because their simplified
+    uint32_t leaves_simplified;   /* drawn leaves with a simplified shape */
+    uint32_t leaves_whole;        /* drawn leaves kept as modelled because their simplified
                                     shape lost coverage (below min_cover) */
-    double min_cover;            /* the coverage ratio a simplified leaf needed (>= 1e9: every
+    double min_cover;             /* the coverage ratio a simplified leaf needed (>= 1e9: every
                                     leaf whole, the paper's rule) */
-    double leaf_cover_min;       /* the least coverage ratio among drawn simplified leaves
+    double leaf_cover_min;        /* the least coverage ratio among drawn simplified leaves
                                     (1 when none) */
-    double score;                /* the scorer's figure of the kept candidate (NAN unscored) */
-    int same_as;                 /* >= 0: a copy of that coarser level, which scored higher
+    double score;                 /* the scorer's figure of the kept candidate (NAN unscored) */
+    int same_as;                  /* >= 0: a copy of that coarser level, which scored higher
                                     than every candidate of this one; -1 otherwise */
 } sv_stoch_level;
 

@@ -152,10 +152,12 @@ typedef struct toy {
  * index use material 1 (dark), even material 0 (bright); untextured. */
 /* What both toys share: the mesh and the leaf arrays for n leaves of k
  * triangles each (leaf i owns triangles k·i .. k·i + k − 1, all foliage). */
+static uint32_t toy_images; /* images the next toy's mesh has room for */
+
 static sv_mesh *toy_alloc(toy *t, uint32_t vertices, uint32_t n, uint32_t k, uint32_t materials)
 {
     memset(t, 0, sizeof *t);
-    t->mesh = sv_mesh_create(vertices, k * n, materials, 0);
+    t->mesh = sv_mesh_create(vertices, k * n, materials, toy_images);
     assert_non_null(t->mesh);
     t->cls.tri_part = calloc(k * n, 1);
     t->leaves.leaves = calloc(n, sizeof(sv_leaf));
@@ -766,6 +768,54 @@ static void contrast_bins_pull_leaf_luminance_towards_the_mean(void **state)
     toy_free(&t);
 }
 
+/* A leaf whose factor would pass 1 (glTF keeps baseColorFactor in [0, 1])
+ * draws a copy of its texture brightened in linear light, so it still gets
+ * the luminance it needs: here a dark textured material (factor 1, texel 0.2
+ * linear) is pulled to the mean by contrast preservation. */
+static void a_factor_past_one_brightens_a_copy_of_the_texture(void **state)
+{
+    (void)state;
+    toy t;
+    toy_images = 1;
+    toy_make(&t, 100);
+    toy_images = 0;
+    sv_image *im = &t.mesh->images[0];
+    assert_int_equal(sv_image_alloc(im, 1, 1, 3, 8, NULL), SV_OK);
+    uint8_t code = sv_srgb_encode8(0.2);
+    memset(im->data, code, 3);
+    double y1 = sv_srgb_decode8(code);
+    for (int c = 0; c < 3; c++) t.mesh->materials[1].base_color[c] = 1.0f;
+    t.mesh->materials[1].base_texture = 0;
+    sv_stochastic_settings s;
+    assert_int_equal(sv_stochastic_parse(NULL, &s, NULL), SV_OK);
+    sv_stoch_result res;
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &res, NULL), SV_OK);
+    double mean = 0.5 * (0.8 + y1);
+    const sv_stoch_level *L = &res.levels[2]; /* λ = 0.25 */
+    assert_true(L->brightened_textures >= 1);
+    assert_int_equal(L->contrast_capped, 0);
+    const sv_mesh *g = L->geometry;
+    uint32_t bright = 0;
+    for (uint32_t i = 0; i < g->triangle_count; i++) {
+        const sv_material *m = &g->materials[g->tri_material[i]];
+        double y = lum(m->base_color);
+        assert_true(y <= 1.0 + 1e-6);
+        if (m->base_texture >= 0) {
+            const uint8_t *px = g->images[m->base_texture].data;
+            y *= sv_srgb_decode8(px[0]);
+            bright += m->base_texture >= 1;
+        }
+        uint32_t src = i / 2 < L->leaves ? res.order[i / 2] % 2 : 0;
+        double want = sv_stochastic_contrast(src ? y1 : 0.8, mean, 0.25);
+        /* quantised in steps of 2^(1/16), and an 8-bit texel */
+        if (fabs(log2(y / want)) > 1.0 / 32 + 0.02)
+            fail_msg("triangle %u: luminance %.4f, wanted %.4f", i, y, want);
+    }
+    assert_true(bright > 0);
+    sv_stoch_result_free(&res);
+    toy_free(&t);
+}
+
 static void settings_are_strict_and_the_method_needs_r(void **state)
 {
     (void)state;
@@ -980,6 +1030,7 @@ int main(void)
         cmocka_unit_test(the_trunk_is_built_first_and_the_leaves_get_the_rest),
         cmocka_unit_test(a_scorer_chooses_the_area_scaling),
         cmocka_unit_test(contrast_bins_pull_leaf_luminance_towards_the_mean),
+        cmocka_unit_test(a_factor_past_one_brightens_a_copy_of_the_texture),
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
         cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
     };

@@ -1042,6 +1042,63 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
 
 /* ---- building a level --------------------------------------------------- */
 
+/* A base-colour texture brightened for the leaves whose factor would pass
+ * 1 (glTF keeps baseColorFactor in [0, 1]): image `image` of the source,
+ * its colour times 2^(step/BRIGHT_STEPS) in linear light, clamped at 1. */
+#define BRIGHT_STEPS 4 /* steps per octave */
+#define BRIGHT_TOP 8   /* at most two octaves brighter */
+#define BRIGHT_MAX 16  /* distinct brightened textures per bake */
+typedef struct bright_img {
+    uint32_t image;
+    int step;
+    sv_image img;
+} bright_img;
+
+/* The brightening step a factor f on a material of largest channel mx
+ * needs (0: none; f·mx ≤ 1), at most BRIGHT_TOP. */
+static int bright_step(double f, double mx)
+{
+    if (!(f * mx > 1.0)) return 0;
+    double q = ceil(BRIGHT_STEPS * log2(f * mx) - 1e-9);
+    return q > BRIGHT_TOP ? BRIGHT_TOP : q < 1 ? 1 : (int)q;
+}
+
+/* out (overwritten) shares the pixels of image `image` brightened by
+ * `step`, made on first use and kept in bright[] until the build ends. */
+static sv_status brightened(bright_img *bright, uint32_t *count, const sv_image *src,
+                            uint32_t image, int step, sv_image *out, sv_error *err)
+{
+    for (uint32_t i = 0; i < *count; i++)
+        if (bright[i].image == image && bright[i].step == step)
+            return sv_image_copy(&bright[i].img, out, err);
+    if (*count >= BRIGHT_MAX)
+        return sv_fail(err, SV_ERR_LIMIT, "stochastic: too many brightened textures");
+    bright_img *b = &bright[*count];
+    sv_status st = sv_image_alloc(&b->img, src->width, src->height, src->channels, src->bits, err);
+    if (st) return st;
+    double k = exp2((double)step / BRIGHT_STEPS);
+    size_t n = (size_t)src->width * src->height;
+    uint32_t ch = src->channels, colour = ch >= 3 ? 3 : ch == 2 ? 1 : ch;
+    for (size_t p = 0; p < n; p++)
+        for (uint32_t c = 0; c < ch; c++) {
+            size_t at = p * ch + c;
+            if (src->bits == 8) {
+                uint8_t v = ((const uint8_t *)src->data)[at];
+                ((uint8_t *)b->img.data)[at] = c < colour ? sv_srgb_encode8(
+                                                                fmin(1.0, sv_srgb_decode8(v) * k))
+                                                          : v;
+            } else {
+                uint16_t v = ((const uint16_t *)src->data)[at];
+                ((uint16_t *)b->img.data)[at] = c < colour ? (uint16_t)lround(fmin(65535.0, v * k))
+                                                           : v;
+            }
+        }
+    b->image = image;
+    b->step = step;
+    (*count)++;
+    return sv_image_copy(&b->img, out, err);
+}
+
 typedef struct build_ctx {
     const sv_mesh *mesh;
     const sv_leaves *lv;
@@ -1050,6 +1107,8 @@ typedef struct build_ctx {
     const double *colour;      /* 3 per leaf */
     const uint32_t *layer;     /* per leaf: its group of layers (leaf_layers), or NULL */
     double mean_y;
+    bright_img bright[BRIGHT_MAX]; /* brightened textures, shared by the levels */
+    uint32_t bright_count;
     uint32_t *stamp;   /* per source vertex: leaf position + 1 last seen */
     uint32_t *local;   /* per source vertex: index in the level's mesh */
     int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
@@ -1187,7 +1246,28 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
     }
     if (nv > UINT32_MAX || nt > UINT32_MAX || (uint64_t)M + copies > UINT32_MAX)
         return sv_fail(err, SV_ERR_LIMIT, "stochastic: level %g is too large", lambda);
-    sv_mesh *g = sv_mesh_create((uint32_t)nv, (uint32_t)nt, M + copies, src->image_count);
+    /* the brightened textures this level draws, appended to its images */
+    uint32_t extra = 0;
+    int32_t extra_at[BRIGHT_MAX]; /* image, then step, of each */
+    int extra_step[BRIGHT_MAX];
+    for (uint32_t m = 0; m < M; m++) {
+        const sv_material *mt = &src->materials[m];
+        if (mt->base_texture < 0 || (uint32_t)mt->base_texture >= src->image_count) continue;
+        double mx = fmax(mt->base_color[0], fmax(mt->base_color[1], mt->base_color[2]));
+        for (uint32_t bi = 0; bi < nb; bi++) {
+            if (b->matmap[(size_t)m * nb + bi] < 0) continue;
+            int step = bright_step(exp2(((double)bi - CONTRAST_BINS) / CONTRAST_STEPS), mx);
+            bool have = step == 0;
+            for (uint32_t e = 0; e < extra && !have; e++)
+                have = extra_at[e] == mt->base_texture && extra_step[e] == step;
+            if (have) continue;
+            if (extra == BRIGHT_MAX)
+                return sv_fail(err, SV_ERR_LIMIT, "stochastic: too many brightened textures");
+            extra_at[extra] = mt->base_texture;
+            extra_step[extra++] = step;
+        }
+    }
+    sv_mesh *g = sv_mesh_create((uint32_t)nv, (uint32_t)nt, M + copies, src->image_count + extra);
     L->leaf_centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
     L->leaf_order = sv_calloc(nv ? nv : 1, sizeof(float));
     if (!g || !L->leaf_centre || !L->leaf_order) {
@@ -1199,6 +1279,13 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
         sv_status st = sv_image_copy(&src->images[i], &g->images[i], err);
         if (st) return st;
     }
+    for (uint32_t e = 0; e < extra; e++) {
+        sv_status st = brightened(b->bright, &b->bright_count, &src->images[extra_at[e]],
+                                  (uint32_t)extra_at[e], extra_step[e],
+                                  &g->images[src->image_count + e], err);
+        if (st) return st;
+    }
+    L->brightened_textures = extra;
     memcpy(g->materials, src->materials, (size_t)M * sizeof *g->materials);
     for (uint32_t m = 0; m < M; m++)
         for (uint32_t bi = 0; bi < nb; bi++) {
@@ -1209,6 +1296,15 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
             *c = src->materials[m];
             double f = exp2((double)bin / CONTRAST_STEPS);
             double mx = fmax(c->base_color[0], fmax(c->base_color[1], c->base_color[2]));
+            int step = c->base_texture >= 0 && (uint32_t)c->base_texture < src->image_count
+                           ? bright_step(f, mx)
+                           : 0;
+            for (uint32_t e = 0; step && e < extra; e++)
+                if (extra_at[e] == c->base_texture && extra_step[e] == step) {
+                    c->base_texture = (int32_t)(src->image_count + e);
+                    c->texture_uri[0] = 0;                  /* not the source's pixels */
+                    f /= exp2((double)step / BRIGHT_STEPS); /* the texture took that much */
+                }
             if (mx > 0 && f * mx > 1.0) f = 1.0 / mx; /* glTF factors stay in [0, 1] */
             for (int ch = 0; ch < 3; ch++) c->base_color[ch] = (float)(c->base_color[ch] * f);
             char name[128];
@@ -1230,7 +1326,11 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
             uint32_t m = sh->mat[sh->first[li]];
             const float *bc = src->materials[m].base_color;
             double mx = fmax(bc[0], fmax(bc[1], bc[2]));
-            if (mx * exp2((double)bin / CONTRAST_STEPS) > 1.0) L->contrast_capped++;
+            bool textured = src->materials[m].base_texture >= 0 &&
+                            (uint32_t)src->materials[m].base_texture < src->image_count;
+            double need = mx * exp2((double)bin / CONTRAST_STEPS);
+            if (need > (textured ? exp2((double)BRIGHT_TOP / BRIGHT_STEPS) : 1.0))
+                L->contrast_capped++;
         }
         for (uint32_t t = 0; t < sh->count[li]; t++) {
             size_t st_ = (size_t)sh->first[li] + t;
@@ -1533,6 +1633,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
 out:
     free(colour);
     free(layer);
+    for (uint32_t i = 0; i < b.bright_count; i++) sv_image_free(&b.bright[i].img);
     free(b.stamp);
     free(b.local);
     free(b.leaf_bin);
@@ -1650,6 +1751,7 @@ void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_se
     cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
     cJSON_AddNumberToObject(o, "colour_gain", L->colour_gain);
     cJSON_AddNumberToObject(o, "layered_leaves", res->layered_leaves);
+    cJSON_AddNumberToObject(o, "brightened_textures", L->brightened_textures);
     cJSON_AddNumberToObject(o, "leaves_simplified", L->leaves_simplified);
     cJSON_AddNumberToObject(o, "leaves_whole", L->leaves_whole);
     if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
