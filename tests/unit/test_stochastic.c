@@ -518,27 +518,32 @@ static void no_drawn_leaf_is_a_sliver(void **state)
     toy_free(&t);
 }
 
+/* Leaf i of the twig toy moved onto leaf i − 1 (odd i), offset by d. */
+static void toy_twin_leaves(toy *t, const double d[3])
+{
+    sv_mesh *m = t->mesh;
+    for (uint32_t i = 1; i < 100; i += 2) {
+        for (uint32_t v = 0; v < 18; v++)
+            for (int a = 0; a < 3; a++)
+                m->positions[3 * (size_t)(18 * i + v) + (size_t)a] =
+                    m->positions[3 * (size_t)(18 * (i - 1) + v) + (size_t)a] + (float)d[a];
+        sv_leaf *l = &t->leaves.leaves[i];
+        for (int a = 0; a < 3; a++) l->centre[a] = t->leaves.leaves[i - 1].centre[a] + d[a];
+    }
+}
+
 /* A leaf modelled as two cards a hair apart (upper side, underside) is one
  * leaf to the method: its layers come next to each other in the order, so a
  * level draws both or neither, and they are simplified to one outline with
- * one gain, so neither shows past the other's edge. Leaves a metre apart are
- * not layers. */
+ * one gain, so neither shows past the other's edge. Leaves a metre apart,
+ * or side by side less than their width apart (a frond's leaflets), are not
+ * layers. */
 static void a_leafs_layers_go_and_simplify_together(void **state)
 {
     (void)state;
     toy t;
     toy_make_twigs(&t, 100);
-    sv_mesh *m = t.mesh;
-    for (uint32_t i = 1; i < 100; i += 2) { /* leaf i: leaf i − 1 raised 2 mm */
-        for (uint32_t v = 0; v < 18; v++)
-            for (int a = 0; a < 3; a++)
-                m->positions[3 * (size_t)(18 * i + v) + (size_t)a] =
-                    m->positions[3 * (size_t)(18 * (i - 1) + v) + (size_t)a] +
-                    (a == 2 ? 0.002f : 0.0f);
-        sv_leaf *l = &t.leaves.leaves[i];
-        memcpy(l->centre, t.leaves.leaves[i - 1].centre, sizeof l->centre);
-        l->centre[2] += 0.002;
-    }
+    toy_twin_leaves(&t, (const double[3]){0, 0, 0.0005}); /* a twig 12 mm wide */
     uint32_t o[100], at[100];
     assert_int_equal(sv_stochastic_order(&t.leaves, 7, SV_STOCH_ORDER_RANDOM, o, NULL), SV_OK);
     for (uint32_t k = 0; k < 100; k++) at[o[k]] = k;
@@ -571,6 +576,12 @@ static void a_leafs_layers_go_and_simplify_together(void **state)
     sv_stoch_result_free(&a);
     toy_free(&t);
     toy_make_twigs(&t, 100);
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
+    assert_int_equal(a.layered_leaves, 0);
+    sv_stoch_result_free(&a);
+    toy_free(&t);
+    toy_make_twigs(&t, 100);
+    toy_twin_leaves(&t, (const double[3]){0, 0.01, 0});
     assert_int_equal(sv_stochastic_build(&t.in, &s, 0.01, NULL, &a, &err), SV_OK);
     assert_int_equal(a.layered_leaves, 0);
     sv_stoch_result_free(&a);

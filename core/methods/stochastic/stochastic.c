@@ -137,12 +137,12 @@ static int keyed_cmp(const void *a, const void *b)
  * level shows the underside where the model shows the upper side (and the
  * reverse), so a level's colour drifts however its coverage holds. Two
  * leaves are layers of one when their centres lie within LAYER_GAP of the
- * larger radius, their radii and areas within LAYER_SIZE of each other and
- * their planes parallel (|n·n'| >= LAYER_COS). group[i] receives the lowest
+ * leaf's width (area over twice the larger radius), their radii and areas
+ * within LAYER_SIZE of each other and their planes parallel (|n·n'| >= LAYER_COS). group[i] receives the lowest
  * index of leaf i's layers (union–find over such pairs, found through a
  * hash grid of cell = the median radius); returns how many leaves share
  * their group with another. */
-#define LAYER_GAP 0.05
+#define LAYER_GAP 0.1
 #define LAYER_SIZE 1.25
 #define LAYER_COS 0.9
 
@@ -166,7 +166,10 @@ static bool layers_of_one(const sv_leaf *a, const sv_leaf *b)
         return false;
     double d[3] = {a->centre[0] - b->centre[0], a->centre[1] - b->centre[1],
                    a->centre[2] - b->centre[2]};
-    if (sv_dot3(d, d) > LAYER_GAP * LAYER_GAP * rmax * rmax) return false;
+    /* within a fraction of the leaf's width (area / length), not of its
+     * length: a frond's neighbouring leaflets lie a width apart */
+    double width = fmin(rmax, amin / (2.0 * rmax));
+    if (sv_dot3(d, d) > LAYER_GAP * LAYER_GAP * width * width) return false;
     return fabs(sv_dot3(a->normal, b->normal)) >= LAYER_COS;
 }
 
