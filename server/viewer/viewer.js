@@ -6,6 +6,11 @@
 // compares) with three.js: mesh levels from their lod<i>_<name>.glb, slicing
 // levels through slicing.*.glsl, octahedral levels through octahedral.*.glsl,
 // and (on request) stochastic levels as the full mesh through stochastic.*.glsl.
+// One colour pipeline for every panel, glTF's: base-colour textures are sRGB
+// (decoded by the sampler before filtering), factors linear, the output
+// encoded to sRGB once (three.js's own materials; our shaders with
+// SV_SRGB_OUTPUT); alpha modes as GLTFLoader sets them (BLEND blends, MASK
+// tests its cutoff).
 //
 // Test mode (tests/integration/viewer_page.sh): ?test=1&lod=NAME|original
 // &dir=X,Y,Z&size=S draws that one level into an S x S canvas, orthographic,
@@ -104,11 +109,16 @@ function dirFromAngles(azDeg, elDeg) {
 // ---- materials ----------------------------------------------------------
 
 // the evaluator compares unlit albedo: every material becomes a
-// MeshBasicMaterial with the same texture, colour, cutoff and sides, and
-// textures are sampled as sylva's renderer samples them, bilinear without
-// mipmaps (core/render/render_osmesa.c: mipmaps average alpha and erode
-// alpha-tested leaves; each level's atlas is sized for where it is drawn)
-function toUnlit(root, original) {
+// MeshBasicMaterial with the same texture (its colour space as the loader set
+// it: sRGB for a base colour), colour (linear), alpha mode (GLTFLoader's
+// transparent, depthWrite, opacity and alphaTest: BLEND blends, MASK tests
+// its cutoff) and sides, and textures are sampled as sylva's renderer samples
+// them, bilinear without mipmaps (core/render/render_osmesa.c: mipmaps
+// average alpha and erode alpha-tested leaves; each level's atlas is sized
+// for where it is drawn). `objRules`: the original is not glTF, and gets
+// sylva's import rules instead (docs/design.md): a texture means alpha MASK
+// with cutoff 0.5 (opaque textures pass the test anyway), double-sided.
+function toUnlit(root, objRules) {
     root.traverse((o) => {
         if (!o.isMesh && !o.isPoints) return;
         const conv = (m) => {
@@ -117,6 +127,9 @@ function toUnlit(root, original) {
                 map: m.map || null,
                 color: m.color ? m.color.clone() : 0xffffff,
                 alphaTest: m.alphaTest || 0,
+                transparent: !!m.transparent,
+                opacity: m.opacity ?? 1,
+                depthWrite: m.depthWrite ?? true,
                 side: m.side,
                 vertexColors: !!m.vertexColors,
             });
@@ -125,14 +138,12 @@ function toUnlit(root, original) {
                 b.map.minFilter = THREE.LinearFilter;
                 b.map.needsUpdate = true;
             }
-            if (original) {
-                // sylva's import: a texture with alpha means alpha MASK with
-                // cutoff 0.5, and masked materials are double-sided
-                // (docs/design.md); opaque textures pass the test anyway
-                if (b.map) b.alphaTest = Math.max(b.alphaTest, 0.5);
-                b.side = THREE.DoubleSide;
+            if (objRules && b.map) {
+                b.alphaTest = Math.max(b.alphaTest, 0.5);
                 b.transparent = false;
+                b.depthWrite = true;
             }
+            if (objRules) b.side = THREE.DoubleSide;
             b.name = m.name;
             return b;
         };
@@ -148,21 +159,25 @@ async function loadShaders() {
         shaderText[n] = await getText(new URL(n + '.glsl', viewerBase).href);
     }));
 }
+// our shaders work in linear colour and, like three.js's own materials
+// drawing to the canvas, encode their output to sRGB (SV_SRGB_OUTPUT)
 function rawMaterial(name, defines, uniforms, extra) {
     return new THREE.RawShaderMaterial(Object.assign({
         glslVersion: THREE.GLSL3,
         vertexShader: shaderText[name + '.vert'],
         fragmentShader: shaderText[name + '.frag'],
-        defines: defines || {},
+        defines: Object.assign({ SV_SRGB_OUTPUT: '' }, defines || {}),
         uniforms,
         side: THREE.DoubleSide,
     }, extra || {}));
 }
 
-// a texture sampled by our own shaders: raw bytes (no sRGB decode, as the
-// evaluator compares bytes), row 0 at v = 0, no mipmaps
-function rawTexture(tex) {
-    tex.colorSpace = THREE.NoColorSpace;
+// a texture sampled by our own shaders: colour (srgb true) decoded from sRGB
+// by the sampler before filtering, as glTF defines base colour and sylva's
+// renderer and evaluator sample it; data (normals, depth) as stored; row 0
+// at v = 0, no mipmaps
+function shaderTexture(tex, srgb) {
+    tex.colorSpace = srgb ? THREE.SRGBColorSpace : THREE.NoColorSpace;
     tex.flipY = false;
     tex.generateMipmaps = false;
     tex.minFilter = THREE.LinearFilter;
@@ -180,7 +195,7 @@ const texLoader = new THREE.TextureLoader();
 // An octahedral level: one quad whose vertex shader turns it to the viewer.
 async function makeImpostor(entry, light) {
     const mips = entry.mips && entry.mips.length ? entry.mips : [entry.maps.albedo];
-    const albedo = await Promise.all(mips.map((m) => texLoader.loadAsync(art(m)).then(rawTexture)));
+    const albedo = await Promise.all(mips.map((m) => texLoader.loadAsync(art(m)).then((t) => shaderTexture(t, true))));
     const defines = {};
     const uniforms = {
         uOrtho: { value: true },
@@ -197,7 +212,7 @@ async function makeImpostor(entry, light) {
     };
     if (light && entry.maps.normal) {
         defines.SV_OCTA_NORMAL = '';
-        uniforms.uNormal = { value: rawTexture(await texLoader.loadAsync(art(entry.maps.normal))) };
+        uniforms.uNormal = { value: shaderTexture(await texLoader.loadAsync(art(entry.maps.normal)), false) };
         uniforms.uLightDir = { value: new V3(0.4, 0.8, 0.45).normalize() };
         uniforms.uAmbient = { value: 0.35 };
     }
@@ -262,7 +277,7 @@ function makeSlicing(root, planesLod, sphere) {
     }
     geo.setAttribute('slicing', new THREE.Float32BufferAttribute(group, 1));
     const map = atlasMesh.material.map;
-    if (map) rawTexture(map);
+    if (map) shaderTexture(map, true);
     const uniforms = {
         uOrtho: { value: true },
         uCentre: { value: sphere.centre.clone() },
@@ -319,13 +334,14 @@ async function loadGray16(url) {
     }
     // PNG is big-endian: each sample is already (high, low)
     const tex = new THREE.DataTexture(out, w, h, THREE.RGFormat, THREE.UnsignedByteType);
-    return rawTexture(tex);
+    return shaderTexture(tex, false);
 }
 
 let white = null;
 function whiteTexture() {
     if (!white) {
         white = new THREE.DataTexture(new Uint8Array([255, 255, 255, 255]), 1, 1);
+        white.colorSpace = THREE.SRGBColorSpace;
         white.needsUpdate = true;
     }
     return white;
@@ -342,7 +358,7 @@ function makeStochasticFade(fullScene, report) {
         const order = o.geometry.attributes._leaf_order.array;
         if (!order.some((x) => x > 0)) return; // trunk: its own material
         const m = o.material;
-        const map = m.map ? rawTexture(m.map.clone()) : whiteTexture();
+        const map = m.map ? shaderTexture(m.map.clone(), true) : whiteTexture();
         const u = {
             uMu: { value: 1 }, uFade: { value: extras ? extras.fade_radius : 0.1 },
             uAreaScale: { value: 1 }, uAreaGamma: { value: extras ? extras.area_gamma : 1 },
@@ -398,6 +414,12 @@ async function loadOriginal(report) {
             const mtl = new MTLLoader(manager).setResourcePath(inputsBase)
                 .parse(await getText(inputsBase + encodeURIComponent(name)), inputsBase);
             mtl.preload();
+            // Kd as sylva reads it: linear, the glTF factor as is
+            // (docs/outputs.md "Colour"); MTLLoader takes it as sRGB
+            for (const [name, info] of Object.entries(mtl.materialsInfo)) {
+                const mat = mtl.materials[name];
+                if (mat && mat.color && Array.isArray(info.kd)) mat.color.setRGB(info.kd[0], info.kd[1], info.kd[2]);
+            }
             loader.setMaterials(mtl);
         }
         obj = loader.parse(text);
@@ -413,7 +435,7 @@ async function loadOriginal(report) {
         throw new Error(`original ${mesh}: no three.js loader for .${ext}`);
     }
     await manager.idle(); // the textures the materials asked for
-    toUnlit(obj, true);
+    toUnlit(obj, !(ext === 'glb' || ext === 'gltf')); // a glTF says its own alpha modes
     // into sylva's frame: the import's unit scale, then Z-up rotated to +Y
     // (sv_mesh_rotate_up: "Z": y' = z, z' = -y; "-Z": y' = -z, z' = y)
     const wrap = new THREE.Group();

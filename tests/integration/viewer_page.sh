@@ -79,5 +79,51 @@ n=$(grep -c "^ok   - .* coverage IoU .* against the evaluator's render" "$T/chec
 check "four views agree with the evaluator's renders (IoU >= 0.95)" 4 "$n"
 [ "$rc" = 0 ] && ok "viewer checks passed in $(( $(date +%s) - t0 )) s" || { bad "viewer checks failed (exit $rc)"; KEEP_T=1; }
 [ -s "$T/shots/view.png" ] && ok "screenshot of the page" || bad "no screenshot"
+
+# The demo oak's GLB, whose leaf cards are alpha BLEND: its full level (the
+# source's materials) and the original drawn as three.js draws BLEND, with
+# transparent pixels inside the crown, covering what the evaluator's render
+# of the full level covers. And the Scopia bush (centimetres; its MTL tints
+# the leaf texture with Kd 0.069 0.237 0.024) baked with the default method
+# and chain: every level file drawn by three.js's own GLTFLoader, unlit, as
+# bright as the full mesh within 7 % (the quad levels bake factor ×
+# texture in linear light, as glTF defines colour).
+OAK=$SYLVA_ROOT/examples/oak_large/oak_large.glb
+BUSH=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/scopia_bush
+printf '%s\n' '{"method":"stochastic","stochastic":{"levels":[1]},"lod":{"chain":false},
+  "import":{"units":0.2},"evaluate":{"views":4,"sizes":[64]}}' > "$T/oak_spec.json"
+printf '%s\n' '{"import":{"units":"cm"},"bake":{"max_atlas":512},"evaluate":{"views":4,"sizes":[128,64,32]}}' > "$T/bush_spec.json"
+t0=$(date +%s)
+bake_key() { # bake_key OUT SPEC FILES...: the key of a bake through sylvad
+    o=$1 sp=$2
+    shift 2
+    "$CLIENT" --server "$URL" --json bake "$@" --spec "$sp" --out "$o" --quiet > "$o.json" 2> "$o.err" \
+        || { bad "sylva bake of $o failed: $(tail -3 "$o.err")"; return 1; }
+    sed -n 's/.*"key":"\([0-9a-f]\{64\}\)".*/\1/p' "$o.json" | head -n 1
+}
+okey=$(bake_key "$T/oak" "$T/oak_spec.json" "$OAK")
+bkey=$(bake_key "$T/bush" "$T/bush_spec.json" "$BUSH/bush.obj" "$BUSH/bush.mtl" "$BUSH/bark.jpg" "$BUSH/leaf.png")
+if [ -n "$okey" ] && [ -n "$bkey" ]; then
+    ok "oak (GLB) and bush ({}) baked through sylvad in $(( $(date +%s) - t0 )) s"
+    "$BAKE" view "$T/oak" --lod full --dir 0.5,0.2,0.84 --size 256 --out "$T/ref_oak_full.png" > "$T/view.log" 2>&1 \
+        || bad "sylva-bake view of the oak failed: $(tail -2 "$T/view.log")"
+    mkdir -p "$T/shots_oak"
+    t0=$(date +%s)
+    node "$VT/viewer_check.mjs" "$URL" "$okey" "$T/shots_oak" \
+        --compare full 0.5,0.2,0.84 256 "$T/ref_oak_full.png" --compare original 0.5,0.2,0.84 256 page:full \
+        --blend full 0.5,0.2,0.84 256 --blend original 0.5,0.2,0.84 256 \
+        --luminance "$bkey" 256 > "$T/check_oak.log" 2>&1
+    rc=$?
+    cat "$T/check_oak.log"
+    n=$(grep -c "^ok   - .* inside the crown transparent" "$T/check_oak.log")
+    check "the oak's BLEND leaves drawn with transparent pixels inside the crown (full level, original)" 2 "$n"
+    n=$(grep -c "^ok   - three.js GLTFLoader, unlit: " "$T/check_oak.log")
+    m=$(sed -n 's/.*"file":[[:space:]]*"lod\([0-9]*\)_.*/\1/p' "$T/bush/report.json" | wc -l)
+    [ "$m" -ge 4 ] && check "every one of the bush's $m level files as bright as its full mesh in three.js (7 %)" "$m" "$n" \
+        || bad "the bush's report.json lists $m level files"
+    [ "$rc" = 0 ] && ok "oak and bush checks passed in $(( $(date +%s) - t0 )) s" || { bad "oak and bush checks failed (exit $rc)"; KEEP_T=1; }
+else
+    bad "no key for the oak or the bush bake"
+fi
 [ "$fails" = 0 ] || echo "screenshots kept in $T/shots"
 finish
