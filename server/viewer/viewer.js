@@ -18,7 +18,8 @@
 // (sv_eval_camera), on a transparent background; &mip=M picks an impostor mip
 // (default 0). window.sylvaViewer reports progress: {ready, error, panels:
 // [{name, covered, pixels}]}; in test mode its draw(NAME, [x,y,z], S, {fade})
-// draws another view on the same page (levels load once).
+// draws another view on the same page (levels load once) and returns its
+// alpha, a PNG and the mean linear luminance of the covered pixels.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
@@ -405,7 +406,10 @@ async function loadOriginal(report) {
     if (ext === 'glb' || ext === 'gltf') {
         obj = (await new GLTFLoader(manager).loadAsync(url)).scene;
     } else if (ext === 'obj') {
-        const text = await getText(url);
+        // without its line elements (`l`): OBJLoader turns an object with
+        // any line into lines only, where sylva's import keeps its faces and
+        // ignores the lines (the Scopia bush's stems)
+        const text = (await getText(url)).replace(/^[ \t]*l[ \t].*$/gm, '');
         const loader = new OBJLoader(manager);
         const libs = [...text.matchAll(/^\s*mtllib\s+(.+?)\s*$/gm)].map((m) => m[1]);
         for (const lib of libs) {
@@ -498,6 +502,25 @@ function draw(canvas, obj, camera, pixelWorld) {
     return covered;
 }
 
+// mean linear luminance (Rec. 709) of the pixels the last draw covered
+// (alpha > 0), from the sRGB bytes the shaders wrote (read from the WebGL
+// buffer: the 2D canvas would divide colour by a MASK texel's alpha)
+const linTable = Array.from({ length: 256 }, (_, i) => {
+    const c = i / 255;
+    return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4);
+});
+function meanLuminance(size) {
+    const gl = renderer.getContext(), px = new Uint8Array(4 * size * size);
+    gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    let sum = 0, n = 0;
+    for (let i = 0; i < px.length; i += 4) {
+        if (px[i + 3] === 0) continue;
+        sum += 0.2126 * linTable[px[i]] + 0.7152 * linTable[px[i + 1]] + 0.0722 * linTable[px[i + 2]];
+        n++;
+    }
+    return n ? sum / n : 0;
+}
+
 // ---- the page -----------------------------------------------------------
 
 async function main() {
@@ -566,7 +589,8 @@ async function main() {
             const alpha = new Array(size * size);
             for (let i = 0; i < alpha.length; i++) alpha[i] = px[4 * i + 3];
             state.panels = [{ name, covered, pixels: size * size }];
-            return { width: size, height: size, covered, alpha, png: canvas.toDataURL('image/png') };
+            return { width: size, height: size, covered, alpha, luminance: meanLuminance(size),
+                png: canvas.toDataURL('image/png') };
         };
         if (params.has('lod')) {
             const dir = (params.get('dir') || '0,0,1').split(',').map(Number);

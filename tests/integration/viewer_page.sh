@@ -87,7 +87,9 @@ check "four views agree with the evaluator's renders (IoU >= 0.95)" 4 "$n"
 # the leaf texture with Kd 0.069 0.237 0.024) baked with the default method
 # and chain: every level file drawn by three.js's own GLTFLoader, unlit, as
 # bright as the full mesh within 7 % (the quad levels bake factor ×
-# texture in linear light, as glTF defines colour).
+# texture in linear light, as glTF defines colour), and the page's own
+# panels of it (the OBJ original with its MTL, three.js's materials, the
+# stochastic fade shader) as bright as its full level.
 OAK=$SYLVA_ROOT/examples/oak_large/oak_large.glb
 BUSH=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/scopia_bush
 printf '%s\n' '{"method":"stochastic","stochastic":{"levels":[1]},"lod":{"chain":false},
@@ -112,11 +114,14 @@ if [ -n "$okey" ] && [ -n "$bkey" ]; then
     node "$VT/viewer_check.mjs" "$URL" "$okey" "$T/shots_oak" \
         --compare full 0.5,0.2,0.84 256 "$T/ref_oak_full.png" --compare original 0.5,0.2,0.84 256 page:full \
         --blend full 0.5,0.2,0.84 256 --blend original 0.5,0.2,0.84 256 \
+        --panels "$bkey" 0.5,0.2,0.84 256 full original stochastic50 stochastic25 lod0 lod1 lod2 crossed 'stochastic50?fade=1' \
         --luminance "$bkey" 256 > "$T/check_oak.log" 2>&1
     rc=$?
     cat "$T/check_oak.log"
     n=$(grep -c "^ok   - .* inside the crown transparent" "$T/check_oak.log")
     check "the oak's BLEND leaves drawn with transparent pixels inside the crown (full level, original)" 2 "$n"
+    n=$(grep -c "^ok   - viewer panel " "$T/check_oak.log")
+    check "the page draws the bush's original, levels and fade as bright as its full level (7 %)" 9 "$n"
     n=$(grep -c "^ok   - three.js GLTFLoader, unlit: " "$T/check_oak.log")
     m=$(sed -n 's/.*"file":[[:space:]]*"lod\([0-9]*\)_.*/\1/p' "$T/bush/report.json" | wc -l)
     [ "$m" -ge 4 ] && check "every one of the bush's $m level files as bright as its full mesh in three.js (7 %)" "$m" "$n" \

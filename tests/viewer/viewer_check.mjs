@@ -27,6 +27,10 @@
 //    (Rec. 709) over covered pixels, summed over the views, must be within
 //    7 % of the first level's (the full mesh): the quad levels look as bright
 //    as the mesh levels in an engine (docs/outputs.md "Colour").
+// 5. --panels KEY2 X,Y,Z SIZE LOD...: the page's test renders of those
+//    panels of bake KEY2 (a level, `original`, LEVEL?fade=1) from one view:
+//    each one's mean linear luminance over its covered pixels within 7 % of
+//    the first's (every panel under one colour pipeline).
 // Prints "ok - ..." / "FAIL - ..." lines; exits 1 on any failure.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -38,7 +42,7 @@ if (!base || !key || !outDir) {
     console.error('usage: viewer_check.mjs BASE_URL KEY OUT_DIR [--compare LOD X,Y,Z SIZE REF.png]...');
     process.exit(2);
 }
-const compares = [], blends = [], lums = [];
+const compares = [], blends = [], lums = [], panelSets = [];
 for (let i = 0; i < rest.length; i++) {
     if (rest[i] === '--compare' && i + 4 < rest.length) {
         compares.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
@@ -46,6 +50,13 @@ for (let i = 0; i < rest.length; i++) {
     } else if (rest[i] === '--blend' && i + 3 < rest.length) {
         blends.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]) });
         i += 3;
+    } else if (rest[i] === '--panels' && i + 4 < rest.length) {
+        const [k, d, sz] = rest.slice(i + 1, i + 4);
+        let j = i + 4;
+        const names = [];
+        while (j < rest.length && !rest[j].startsWith('--')) names.push(rest[j++]);
+        panelSets.push({ key: k, dir: d, size: Number(sz), names });
+        i = j - 1;
     } else if (rest[i] === '--luminance' && i + 2 < rest.length) {
         lums.push({ key: rest[i + 1], size: Number(rest[i + 2]) });
         i += 2;
@@ -266,9 +277,38 @@ try {
         if (f >= 0.15) ok(msg);
         else bad(msg + ', want >= 15 %: leaf cards drawn opaque?');
     }
+    for (const p of panelSets) await checkPanels(p);
     for (const l of lums) await checkLuminance(l.key, l.size);
 } finally {
     await browser.close();
+}
+
+// --panels: the page's test renders of bake key's panels, each as bright
+// as the first (one colour pipeline for the original, three.js's materials
+// and our shaders)
+async function checkPanels({ key, dir, size, names }) {
+    const page = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+    page.on('pageerror', (e) => bad(`panels page: ${e}`));
+    await page.goto(`${base}/v1/bakes/${key}/view?test=1`);
+    if (!(await waitReady(page, 'panels test-mode page'))) return;
+    let ref = null;
+    for (const spec of names) {
+        const [lod, extra] = spec.split('?');
+        let shot;
+        try {
+            shot = await page.evaluate(([l, d, s, f]) => window.sylvaViewer.draw(l, d, s, { fade: f }),
+                [lod, dir.split(',').map(Number), size, /(^|&)fade=1(&|$)/.test(extra || '')]);
+        } catch (e) {
+            bad(`panel ${spec}: ${e.message.split('\n')[0]}`);
+            continue;
+        }
+        if (ref === null) ref = shot.luminance;
+        const ratio = ref > 0 ? shot.luminance / ref : 0;
+        const msg = `viewer panel ${spec} from ${dir}: mean luminance ${shot.luminance.toFixed(4)} over ${shot.covered} px, ${ratio.toFixed(3)} of ${names[0]}'s`;
+        if (shot.covered > 0 && Math.abs(ratio - 1) <= 0.07) ok(msg);
+        else bad(msg + ' (want within 7 %: one colour pipeline)');
+    }
+    await page.close();
 }
 
 // --luminance: three.js's own GLTFLoader on each level file of bake key, in
