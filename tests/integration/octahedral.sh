@@ -5,8 +5,11 @@
 # atlas, its mips (each half the last), the 16-bit depth map and the proxy
 # quad; model.glb passes the Khronos validator; the reported IoU; `sylva-bake
 # view` draws the level and refuses bad arguments; bad settings are refused
-# by the daemon (400) and offline (exit 1) naming the key.
-# sylva-test: cost=14
+# by the daemon (400) and offline (exit 1) naming the key; report.json's
+# effects name the depth map the impostor ships; tests/tools/octa_render.py,
+# a renderer written from docs/runtime.md alone, draws five views as
+# `sylva-bake view` does (a full 5 x 5 impostor for the fold and the poles).
+# sylva-test: cost=18
 . "$(dirname "$0")/daemon_lib.inc"
 . "$(dirname "$0")/lib.inc"
 BAKE=$B/sylva-bake
@@ -107,7 +110,33 @@ printf '{"method": "octahedral", "octahedral": {"proxy_quads": 9}}\n' > "$T/bad.
 "$BAKE" bake "$@" --spec "$T/bad.json" --out "$T/bad" --progress none 2> "$T/err"; rc=$?
 check "proxy_quads 9 refused offline" 1 "$rc"
 contains "naming the key" "octahedral.proxy_quads" "$(cat "$T/err")"
+# report.json's effects say what the outputs hold: no shadows were asked
+# for, yet the impostor ships its depth map (its runtime's parallax)
+python3 - "$T/a/report.json" << 'PY' && ok "report.json: depth_map done, in atlas_hocta6_depth.png" || bad "report.json effects"
+import json, sys
+e = {x["effect"]: x for x in json.load(open(sys.argv[1]))["effects"]}
+assert e["depth_map"]["status"] == "done" and e["depth_map"]["outputs"] == ["atlas_hocta6_depth.png"], e["depth_map"]
+assert e["normal_map"]["status"] == "skipped" and e["normal_map"]["outputs"] == [], e["normal_map"]
+assert e["albedo"]["outputs"] == ["atlas_hocta6_albedo.png"], e["albedo"]
+PY
 case "$B" in *asan*) finish ;; esac
+# docs/runtime.md is enough to write a renderer: tests/tools/octa_render.py,
+# written from it alone, draws what sylva's C runtime (`sylva-bake view`)
+# draws: this hemi impostor between frames (parallax) and below the horizon
+# (the clamp), and a full 5 x 5 one, whose odd grid has frames at the poles
+# (their basis), from above, below the horizon (the fold) and from below
+printf '%s\n' '{"method": "octahedral", "octahedral": {"grid": 5, "hemi": false, "frame_pixels": 32},
+  "lod": {"chain": false}, "evaluate": {"views": 4, "sizes": [64]}}' > "$T/full.json"
+"$BAKE" bake "$@" --spec "$T/full.json" --out "$T/full" --progress none > /dev/null || bad "full 5 x 5 bake failed"
+for v in "a hocta6 0.5,0.2,0.84" "a hocta6 -0.3,-0.5,0.81" "full octa5 0,1,0" "full octa5 -0.3,-0.5,0.81" \
+    "full octa5 0.05,-1,0.02"; do
+    bd=${v%% *} rest=${v#* }
+    lv=${rest%% *} dv=${rest#* }
+    "$BAKE" view "$T/$bd" --lod "$lv" --dir "$dv" --size 48 --out "$T/ref_${lv}_$dv.png" > /dev/null 2>&1 ||
+        { bad "sylva-bake view of $lv from $dv failed"; continue; }
+    out=$(python3 "$SYLVA_ROOT/tests/tools/octa_render.py" "$T/$bd" "$lv" "$dv" 48 "$T/ref_${lv}_$dv.png" 2>&1) &&
+        ok "renderer from the docs: $out" || bad "renderer from the docs: $out"
+done
 # through the daemon and the client
 start_daemon --workers 1 --worker "$BAKE"
 code=$(curl -s -o "$T/body" -w '%{http_code}' -F 'spec={"method":"octahedral","octahedral":{"grid":1}};type=application/json' \
