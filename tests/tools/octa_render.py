@@ -3,17 +3,17 @@
 (tests/integration/octahedral.sh compares it with `sylva-bake view`, sylva's
 own C runtime). Python standard library only (png.py beside it).
 
-    python3 octa_render.py BAKE_DIR LOD X,Y,Z SIZE REF.png [--example]
+    python3 octa_render.py BAKE_DIR LOD SIZE X,Y,Z=REF.png... [--example]
 
 Draws level LOD of BAKE_DIR/impostor.json (albedo level 0 and the depth map)
-from direction X,Y,Z (towards the viewer) into SIZE x SIZE pixels with the
+from each direction X,Y,Z (towards the viewer) into SIZE x SIZE pixels with the
 evaluator's orthographic camera (docs/runtime.md, "The viewer page": the
 sphere report.json evaluation.frame, its diameter tall, up as near +Y as
 possible), one sample per pixel centre, and compares it with REF.png (an
 8-bit RGBA render of the same view): coverage IoU (alpha >= 128) and, over
 pixels both cover, the mean and largest difference of the sRGB bytes.
-Prints them; exits 1 when the IoU is below 0.995 or the mean difference
-above 1 (byte). --example prints the frames, weights and the centre
+Prints them, a line per view; exits 1 when any IoU is below 0.995 or any
+mean difference above 1 (byte). --example prints the frames, weights and the centre
 pixel's texels, as the worked example of docs/runtime.md does.
 """
 import json
@@ -123,11 +123,9 @@ class Frames:
         return out
 
 
-def render(imp, bake_dir, view, size, example=False):
-    N, F, H = imp['grid'], imp['frame_pixels'], imp['half']
-    S = imp.get('elevation_scale', 1.0)
-    hemi, cut = imp['hemi'], imp.get('alpha_cutoff', 0.5)
-    c = imp['centre']
+def load(imp, bake_dir):
+    """the albedo (level 0) and depth atlases of one impostor.json entry"""
+    N, F = imp['grid'], imp['frame_pixels']
     _, _, ch, bits, rows = png.read(os.path.join(bake_dir, imp['maps']['albedo']))
     assert ch == 4 and bits == 8, 'albedo must be RGBA8'
     lin = [srgb_to_linear(b) for b in range(256)]
@@ -137,6 +135,15 @@ def render(imp, bake_dir, view, size, example=False):
         _, _, dch, dbits, drows = png.read(os.path.join(bake_dir, imp['maps']['depth']))
         assert dch == 1 and dbits == 16, 'depth must be 16-bit grey'
         depth = Frames(drows, 1, N, F, [lambda v: v / 65535.0])
+    return albedo, depth
+
+
+def render(imp, maps, bake_dir, view, size, example=False):
+    N, F, H = imp['grid'], imp['frame_pixels'], imp['half']
+    S = imp.get('elevation_scale', 1.0)
+    hemi, cut = imp['hemi'], imp.get('alpha_cutoff', 0.5)
+    c = imp['centre']
+    albedo, depth = maps
     report = json.load(open(os.path.join(bake_dir, 'report.json')))
     fc, r = report['evaluation']['frame']['centre'], report['evaluation']['frame']['radius']
     D = normalize(view)
@@ -192,16 +199,27 @@ def render(imp, bake_dir, view, size, example=False):
 
 
 def main(argv):
-    if len(argv) < 5:
+    example = '--example' in argv
+    argv = [a for a in argv if a != '--example']
+    if len(argv) < 4 or not all('=' in a for a in argv[3:]):
         print(__doc__.split('\n\n')[1], file=sys.stderr)
         return 2
-    bake_dir, lod, view, size, ref_png = argv[0], argv[1], argv[2], int(argv[3]), argv[4]
+    bake_dir, lod, size = argv[0], argv[1], int(argv[2])
     doc = json.load(open(os.path.join(bake_dir, 'impostor.json')))
     imp = [e for e in doc['lods'] if e['lod'] == lod]
     if not imp:
         print('octa_render.py: no level %s in impostor.json' % lod, file=sys.stderr)
         return 2
-    img = render(imp[0], bake_dir, [float(v) for v in view.split(',')], size, '--example' in argv)
+    maps = load(imp[0], bake_dir)
+    status = 0
+    for arg in argv[3:]:
+        view, ref_png = arg.split('=', 1)
+        img = render(imp[0], maps, bake_dir, [float(v) for v in view.split(',')], size, example)
+        status |= compare(img, lod, view, size, ref_png)
+    return status
+
+
+def compare(img, lod, view, size, ref_png):
     w, h, ch, bits, rows = png.read(ref_png)
     assert (w, h, ch, bits) == (size, size, 4, 8), (w, h, ch, bits)
     inter = union = 0

@@ -31,6 +31,7 @@
 //    panels of bake KEY2 (a level, `original`, LEVEL?fade=1) from one view:
 //    each one's mean linear luminance over its covered pixels within 7 % of
 //    the first's (every panel under one colour pipeline).
+// --on KEY2: the --compare and --blend options after it are of bake KEY2.
 // Prints "ok - ..." / "FAIL - ..." lines; exits 1 on any failure.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -43,12 +44,15 @@ if (!base || !key || !outDir) {
     process.exit(2);
 }
 const compares = [], blends = [], lums = [], panelSets = [];
+let onKey = key;
 for (let i = 0; i < rest.length; i++) {
-    if (rest[i] === '--compare' && i + 4 < rest.length) {
-        compares.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
+    if (rest[i] === '--on' && i + 1 < rest.length) {
+        onKey = rest[++i];
+    } else if (rest[i] === '--compare' && i + 4 < rest.length) {
+        compares.push({ key: onKey, lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
         i += 4;
     } else if (rest[i] === '--blend' && i + 3 < rest.length) {
-        blends.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]) });
+        blends.push({ key: onKey, lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]) });
         i += 3;
     } else if (rest[i] === '--panels' && i + 4 < rest.length) {
         const [k, d, sz] = rest.slice(i + 1, i + 4);
@@ -206,24 +210,26 @@ try {
     if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
     else ok('no page error, no failed request');
 
-    // the page's test render of one level, all on one test-mode page (each
-    // level loads once): {width, height, alpha[], png}
-    let testPage = null;
-    const rendered = new Map(); // one render per (spec, dir, size)
-    const testRender = async (spec, dir, size) => {
-        const id = `${spec} ${dir} ${size}`;
-        if (!rendered.has(id)) rendered.set(id, testRenderOnce(spec, dir, size));
+    // the page's test render of one level, all on one test-mode page per
+    // bake (each level loads once): {width, height, alpha[], png, luminance}
+    const testPages = new Map();
+    const rendered = new Map(); // one render per (bake, spec, dir, size)
+    const testRender = async (spec, dir, size, k) => {
+        const id = `${k} ${spec} ${dir} ${size}`;
+        if (!rendered.has(id)) rendered.set(id, testRenderOnce(spec, dir, size, k));
         return rendered.get(id);
     };
-    const testRenderOnce = async (spec, dir, size) => {
+    const testRenderOnce = async (spec, dir, size, k) => {
         // (SPEC: a level, or a level with page parameters: stochastic50?fade=1)
         const [lod, extra] = spec.split('?');
-        if (!testPage) {
-            testPage = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
-            testPage.on('pageerror', (e) => bad(`test page: ${e}`));
-            await testPage.goto(`${base}/v1/bakes/${key}/view?test=1`);
-            if (!(await waitReady(testPage, 'test-mode page'))) return null;
-        }
+        if (!testPages.has(k)) testPages.set(k, (async () => {
+            const p = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+            p.on('pageerror', (e) => bad(`test page: ${e}`));
+            await p.goto(`${base}/v1/bakes/${k}/view?test=1`);
+            return (await waitReady(p, `test-mode page of ${k.slice(0, 8)}`)) ? p : null;
+        })());
+        const testPage = await testPages.get(k);
+        if (!testPage) return null;
         let shot;
         try {
             shot = await testPage.evaluate(([l, d, s, f]) => window.sylvaViewer.draw(l, d, s, { fade: f }),
@@ -232,15 +238,15 @@ try {
             bad(`test view of ${spec} from ${dir}: ${e.message.split('\n')[0]}`);
             return null;
         }
-        fs.writeFileSync(path.join(outDir, `test_${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}_${dir}.png`),
+        fs.writeFileSync(path.join(outDir, `test_${k === key ? '' : k.slice(0, 8) + '_'}${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}_${dir}.png`),
             Buffer.from(shot.png.split(',')[1], 'base64'));
         return shot;
     };
     for (const c of compares) {
-        const shot = await testRender(c.lod, c.dir, c.size);
+        const shot = await testRender(c.lod, c.dir, c.size, c.key);
         if (!shot) continue;
         const fromPage = c.ref.startsWith('page:');
-        const ref = fromPage ? await testRender(c.ref.slice(5), c.dir, c.size) : pngAlpha(c.ref);
+        const ref = fromPage ? await testRender(c.ref.slice(5), c.dir, c.size, c.key) : pngAlpha(c.ref);
         if (!ref) continue;
         if (ref.width !== shot.width || ref.height !== shot.height) {
             bad(`${c.lod}: reference is ${ref.width}x${ref.height}, the page drew ${shot.width}x${shot.height}`);
@@ -260,7 +266,7 @@ try {
         else bad(msg);
     }
     for (const b of blends) {
-        const shot = await testRender(b.lod, b.dir, b.size);
+        const shot = await testRender(b.lod, b.dir, b.size, b.key);
         if (!shot) continue;
         // the crown: each row's pixels from its first to its last covered one
         let inside = 0, clear = 0;
@@ -290,7 +296,7 @@ async function checkPanels({ key, dir, size, names }) {
     const page = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
     page.on('pageerror', (e) => bad(`panels page: ${e}`));
     await page.goto(`${base}/v1/bakes/${key}/view?test=1`);
-    if (!(await waitReady(page, 'panels test-mode page'))) return;
+    if (!(await waitReady(page, `panels test-mode page of ${key.slice(0, 8)}`))) return;
     let ref = null;
     for (const spec of names) {
         const [lod, extra] = spec.split('?');
