@@ -89,7 +89,8 @@ t0=$(date +%s)
 # import's units and up) covers what the full level covers: the full level
 # is the same mesh with its leaves reordered; and the fade shader drawing the
 # full level at the aspen's stochastic50 (mu = 1: every leaf fits the budget
-# once simplified) draws the full level. The oak's full level and original
+# once simplified) draws the full level, and the impostor and slicing
+# shaders draw it as bright as three.js draws the full level. The oak's full level and original
 # drawn as three.js draws BLEND, with transparent pixels inside the crown,
 # covering what the evaluator's render of the full level covers. The bush:
 # the page's own panels of it (the OBJ original with its MTL, three.js's
@@ -100,6 +101,7 @@ t0=$(date +%s)
 node "$VT/viewer_check.mjs" "$URL" "$key" "$T/shots" \
     --compare original 0.5,0.2,0.84 256 page:full \
     --compare 'stochastic50?fade=1' 0.5,0.2,0.84 256 page:full $compare \
+    --panels "$key" 0.5,0.2,0.84 256 full original stochastic50 "$octa" slicing \
     --on "$okey" --compare full 0.5,0.2,0.84 256 "$T/ref_oak_full_0.5,0.2,0.84.png" \
     --compare original 0.5,0.2,0.84 256 page:full \
     --blend full 0.5,0.2,0.84 256 --blend original 0.5,0.2,0.84 256 \
@@ -118,7 +120,7 @@ check "the oak's BLEND leaves drawn with transparent pixels inside the crown (fu
 grep -q "^ok   - full from .* against the evaluator's render (ref_oak_" "$T/check.log" \
     && ok "the oak's full level covers what the evaluator's render covers" || bad "the oak's full level against the evaluator"
 n=$(grep -c "^ok   - viewer panel " "$T/check.log")
-check "the page draws the bush's original, levels and fade as bright as its full level (7 %)" 9 "$n"
+check "the page draws the aspen's and the bush's originals, levels and shaders as bright as their full level (7 %)" 14 "$n"
 n=$(grep -c "^ok   - three.js GLTFLoader, unlit: " "$T/check.log")
 m=$(sed -n 's/.*"file":[[:space:]]*"lod\([0-9]*\)_.*/\1/p' "$T/bush/report.json" | wc -l)
 [ "$m" -ge 4 ] && check "every one of the bush's $m level files as bright as its full mesh in three.js (7 %)" "$m" "$n" \
