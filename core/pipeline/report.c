@@ -177,40 +177,85 @@ static cJSON *chain_json(const run *r, const chain *c)
     return j;
 }
 
-static cJSON *effects_json(const sv_spec *s, const sv_bake_options *bo)
+/* The files of the bake carrying map k (svp_map_names: albedo, normal, ao,
+ * depth): each level's atlas of that kind, as written. */
+static cJSON *map_outputs(const bake_state *b, int k, uint32_t *count)
 {
     cJSON *a = cJSON_CreateArray();
+    *count = 0;
+    for (uint32_t i = 0; i < b->si.lod_count; i++)
+        if (b->lods[i].maps[k][0]) {
+            cJSON_AddItemToArray(a, cJSON_CreateString(b->lods[i].maps[k]));
+            (*count)++;
+        }
+    return a;
+}
+
+/* report.json "effects": each effect the scene can call for, whether the
+ * outputs hold it ("done" when at least one does) and why, and for the maps
+ * the files that carry them ("outputs"). The scene decides the quad levels'
+ * maps; an octahedral level always carries a depth map (its runtime's
+ * parallax reads it), whatever the scene says. */
+static cJSON *effects_json(const sv_spec *s, const bake_state *b)
+{
+    const sv_bake_options *bo = &b->bo;
+    cJSON *a = cJSON_CreateArray();
+    uint32_t n_alb = 0, n_nrm = 0, n_ao = 0, n_dep = 0;
+    cJSON *alb = map_outputs(b, 0, &n_alb), *nrm = map_outputs(b, 1, &n_nrm),
+          *ao = map_outputs(b, 2, &n_ao), *dep = map_outputs(b, 3, &n_dep);
+    cJSON *lit = bo->lit ? cJSON_Duplicate(alb, true) : cJSON_CreateArray();
+    const char *dep_why =
+        bo->depth_map ? (n_dep ? "scene.shadows is true"
+                               : "scene.shadows is true, but no level "
+                                 "here has an atlas to carry one")
+        : n_dep       ? "scene.shadows is false: no quad level has one; every octahedral impostor "
+                        "carries one all the same (its runtime's parallax reads it)"
+                      : "scene.shadows is false";
+    const char *nrm_why =
+        bo->normal_map ? (n_nrm ? "scene.lighting is dynamic"
+                                : "scene.lighting is dynamic, but no level here has an atlas to "
+                                  "carry one (mesh levels keep their own materials)")
+        : bo->lit      ? "scene.lighting is static: no normal map needed"
+                       : "scene.lighting is unlit: no normal map needed";
+    const char *ao_why =
+        bo->ao_map ? (n_ao ? "scene.ambient_occlusion is true"
+                           : "scene.ambient_occlusion is true, but no level here bakes one "
+                             "(mesh and octahedral levels have no AO map)")
+                   : "scene.ambient_occlusion is false";
     struct {
         const char *name;
         bool done;
         const char *why;
+        cJSON *outputs; /* NULL: not a map */
     } e[] = {
-        {"albedo", true, "always baked"},
-        {"lit_albedo", bo->lit,
-         bo->lit ? "scene.lighting is static: light baked into the albedo"
+        {"albedo", true,
+         n_alb ? "always baked (mesh levels keep their own textures)"
+               : "mesh levels only: each keeps its own textures",
+         alb},
+        {"lit_albedo", bo->lit && n_alb,
+         bo->lit ? "scene.lighting is static: light baked into the albedo atlases"
          : bo->normal_map
              ? "scene.lighting is dynamic: the engine lights the normal map"
-             : "scene.lighting is unlit: the albedo keeps the material's own brightness"},
-        {"normal_map", bo->normal_map,
-         bo->normal_map ? "scene.lighting is dynamic"
-         : bo->lit      ? "scene.lighting is static: no normal map needed"
-                        : "scene.lighting is unlit: no normal map needed"},
-        {"ambient_occlusion", bo->ao_map,
-         bo->ao_map ? "scene.ambient_occlusion is true" : "scene.ambient_occlusion is false"},
-        {"depth_map", bo->depth_map,
-         bo->depth_map ? "scene.shadows is true" : "scene.shadows is false"},
+             : "scene.lighting is unlit: the albedo keeps the material's own brightness",
+         lit},
+        {"normal_map", n_nrm > 0, nrm_why, nrm},
+        {"ambient_occlusion", n_ao > 0, ao_why, ao},
+        {"depth_map", n_dep > 0, dep_why, dep},
         {"horizontal_plane_penalty", s->scene.viewer == SV_VIEWER_GROUND,
          s->scene.viewer == SV_VIEWER_GROUND ? "scene.viewer is ground (used by billboard_cloud)"
-                                             : "scene.viewer is not ground"},
+                                             : "scene.viewer is not ground",
+         NULL},
         {"motion_term", s->scene.camera_speed > 0,
          s->scene.camera_speed > 0 ? "scene.camera_speed > 0 (used by stochastic)"
-                                   : "no camera motion in the scene"},
+                                   : "no camera motion in the scene",
+         NULL},
     };
     for (size_t i = 0; i < sizeof e / sizeof e[0]; i++) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "effect", e[i].name);
         cJSON_AddStringToObject(o, "status", e[i].done ? "done" : "skipped");
         cJSON_AddStringToObject(o, "reason", e[i].why);
+        if (e[i].outputs) cJSON_AddItemToObject(o, "outputs", e[i].outputs);
         cJSON_AddItemToArray(a, o);
     }
     return a;
@@ -454,7 +499,7 @@ sv_status svp_write_report(run *r, const bake_state *b, sv_error *err)
                           spec->settings ? cJSON_Duplicate(spec->settings, true)
                                          : cJSON_CreateObject());
     cJSON_AddNumberToObject(mo, "seed", (double)spec->seed);
-    cJSON_AddItemToObject(report, "effects", effects_json(spec, &b->bo));
+    cJSON_AddItemToObject(report, "effects", effects_json(spec, b));
     cJSON_AddItemToObject(report, "scene", scene_json(spec));
     cJSON *rl = cJSON_AddArrayToObject(report, "lods");
     for (uint32_t i = 0; i < b->si.lod_count; i++)

@@ -8,6 +8,11 @@
 //                   meets the surface it stores (SV_OCTA_PARALLAX_STEPS fixed-point
 //                   steps from the frame plane, as sv_octa_render does), and
 //                   gl_FragDepth is the blended surface point's depth
+//   SV_SRGB_OUTPUT  encodes the output to sRGB (drawing straight to an sRGB
+//                   display, as three.js's materials do); without it the
+//                   output is linear, for an engine that encodes later
+// Colour is glTF's: uAlbedo is an sRGB texture (SRGB8_ALPHA8: decoded before
+// filtering), frames are blended in linear colour, as sv_octa_render does.
 // Uniforms and the impostor.json fields they come from: docs/runtime.md.
 precision highp float;
 precision highp int;
@@ -16,8 +21,9 @@ uniform mat4 modelMatrix;
 uniform mat4 viewMatrix;
 uniform mat4 projectionMatrix;
 uniform bool uOrtho;
-uniform sampler2D uAlbedo;      // one image of mips[]: mips[uMip] (mips[0] = maps.albedo), RGBA8,
-                                // straight colour, row 0 = the image's top (flipY off), sampled
+uniform sampler2D uAlbedo;      // one image of mips[]: mips[uMip] (mips[0] = maps.albedo), SRGB8_ALPHA8
+                                // (sRGB colour, linear alpha), straight colour, row 0 = the image's
+                                // top (flipY off), sampled
                                 // bilinear at its level 0 (no mip chain inside the texture:
                                 // frames must not bleed into each other)
 uniform int uGrid;              // grid: N frames per side
@@ -44,6 +50,16 @@ flat in vec3 vViewDir;
 flat in vec3 vCamPos;
 
 out vec4 fragColor;
+
+// linear to sRGB, as three.js encodes its own materials' output
+// (sRGBTransferOETF) when drawing to an sRGB canvas
+vec3 svOutput(vec3 c) {
+#ifdef SV_SRGB_OUTPUT
+    return mix(pow(c, vec3(0.41666)) * 1.055 - vec3(0.055), c * 12.92, vec3(lessThanEqual(c, vec3(0.0031308))));
+#else
+    return c;
+#endif
+}
 
 // uv in [-1,1]^2 of unit direction d (sv_octa_encode)
 vec2 octaEncode(vec3 d) {
@@ -197,5 +213,5 @@ void main() {
     vec4 clip = projectionMatrix * viewMatrix * modelMatrix * vec4(surface, 1.0);
     gl_FragDepth = 0.5 + 0.5 * clip.z / clip.w;
 #endif
-    fragColor = vec4(rgb, 1.0);
+    fragColor = vec4(svOutput(rgb), 1.0);
 }

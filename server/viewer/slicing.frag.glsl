@@ -10,15 +10,27 @@
 //                    weighted sum when the two slicings do not overlap,
 //                    order-dependent where they do
 // Slicings of weight 0 draw nothing; the trunk mesh is drawn as it is.
+// Colour is glTF's: uAlbedo an sRGB texture (decoded by the sampler), the
+// result linear; SV_SRGB_OUTPUT encodes it to sRGB.
 precision highp float;
 
-uniform sampler2D uAlbedo;      // planes.json atlas.albedo (glTF convention: v down, flipY off)
+uniform sampler2D uAlbedo;      // planes.json atlas.albedo, sRGB (SRGB8_ALPHA8; glTF convention: v down, flipY off)
 uniform float uAlphaCutoff;     // the atlas material's alphaCutoff
 
 in vec2 vUv;
 in float vWeight;
 
 out vec4 fragColor;
+
+// linear to sRGB, as three.js encodes its own materials' output
+// (sRGBTransferOETF) when drawing to an sRGB canvas
+vec3 svOutput(vec3 c) {
+#ifdef SV_SRGB_OUTPUT
+    return mix(pow(c, vec3(0.41666)) * 1.055 - vec3(0.055), c * 12.92, vec3(lessThanEqual(c, vec3(0.0031308))));
+#else
+    return c;
+#endif
+}
 
 float bayer4(vec2 p) {
     ivec2 i = ivec2(mod(p, 4.0));
@@ -31,9 +43,9 @@ void main() {
     vec4 c = texture(uAlbedo, vUv);
     if (c.a < uAlphaCutoff) discard;
 #ifdef SV_SLICING_BLEND
-    fragColor = vec4(c.rgb, vWeight);
+    fragColor = vec4(svOutput(c.rgb), vWeight);
 #else
     if (vWeight < 1.0 && vWeight <= bayer4(gl_FragCoord.xy)) discard;
-    fragColor = vec4(c.rgb, 1.0);
+    fragColor = vec4(svOutput(c.rgb), 1.0);
 #endif
 }

@@ -6,6 +6,11 @@
 // compares) with three.js: mesh levels from their lod<i>_<name>.glb, slicing
 // levels through slicing.*.glsl, octahedral levels through octahedral.*.glsl,
 // and (on request) stochastic levels as the full mesh through stochastic.*.glsl.
+// One colour pipeline for every panel, glTF's: base-colour textures are sRGB
+// (decoded by the sampler before filtering), factors linear, the output
+// encoded to sRGB once (three.js's own materials; our shaders with
+// SV_SRGB_OUTPUT); alpha modes as GLTFLoader sets them (BLEND blends, MASK
+// tests its cutoff).
 //
 // Test mode (tests/integration/viewer_page.sh): ?test=1&lod=NAME|original
 // &dir=X,Y,Z&size=S draws that one level into an S x S canvas, orthographic,
@@ -13,7 +18,8 @@
 // (sv_eval_camera), on a transparent background; &mip=M picks an impostor mip
 // (default 0). window.sylvaViewer reports progress: {ready, error, panels:
 // [{name, covered, pixels}]}; in test mode its draw(NAME, [x,y,z], S, {fade})
-// draws another view on the same page (levels load once).
+// draws another view on the same page (levels load once) and returns its
+// alpha, a PNG and the mean linear luminance of the covered pixels.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
@@ -104,11 +110,16 @@ function dirFromAngles(azDeg, elDeg) {
 // ---- materials ----------------------------------------------------------
 
 // the evaluator compares unlit albedo: every material becomes a
-// MeshBasicMaterial with the same texture, colour, cutoff and sides, and
-// textures are sampled as sylva's renderer samples them, bilinear without
-// mipmaps (core/render/render_osmesa.c: mipmaps average alpha and erode
-// alpha-tested leaves; each level's atlas is sized for where it is drawn)
-function toUnlit(root, original) {
+// MeshBasicMaterial with the same texture (its colour space as the loader set
+// it: sRGB for a base colour), colour (linear), alpha mode (GLTFLoader's
+// transparent, depthWrite, opacity and alphaTest: BLEND blends, MASK tests
+// its cutoff) and sides, and textures are sampled as sylva's renderer samples
+// them, bilinear without mipmaps (core/render/render_osmesa.c: mipmaps
+// average alpha and erode alpha-tested leaves; each level's atlas is sized
+// for where it is drawn). `objRules`: the original is not glTF, and gets
+// sylva's import rules instead (docs/design.md): a texture means alpha MASK
+// with cutoff 0.5 (opaque textures pass the test anyway), double-sided.
+function toUnlit(root, objRules) {
     root.traverse((o) => {
         if (!o.isMesh && !o.isPoints) return;
         const conv = (m) => {
@@ -117,6 +128,9 @@ function toUnlit(root, original) {
                 map: m.map || null,
                 color: m.color ? m.color.clone() : 0xffffff,
                 alphaTest: m.alphaTest || 0,
+                transparent: !!m.transparent,
+                opacity: m.opacity ?? 1,
+                depthWrite: m.depthWrite ?? true,
                 side: m.side,
                 vertexColors: !!m.vertexColors,
             });
@@ -125,14 +139,12 @@ function toUnlit(root, original) {
                 b.map.minFilter = THREE.LinearFilter;
                 b.map.needsUpdate = true;
             }
-            if (original) {
-                // sylva's import: a texture with alpha means alpha MASK with
-                // cutoff 0.5, and masked materials are double-sided
-                // (docs/design.md); opaque textures pass the test anyway
-                if (b.map) b.alphaTest = Math.max(b.alphaTest, 0.5);
-                b.side = THREE.DoubleSide;
+            if (objRules && b.map) {
+                b.alphaTest = Math.max(b.alphaTest, 0.5);
                 b.transparent = false;
+                b.depthWrite = true;
             }
+            if (objRules) b.side = THREE.DoubleSide;
             b.name = m.name;
             return b;
         };
@@ -148,21 +160,25 @@ async function loadShaders() {
         shaderText[n] = await getText(new URL(n + '.glsl', viewerBase).href);
     }));
 }
+// our shaders work in linear colour and, like three.js's own materials
+// drawing to the canvas, encode their output to sRGB (SV_SRGB_OUTPUT)
 function rawMaterial(name, defines, uniforms, extra) {
     return new THREE.RawShaderMaterial(Object.assign({
         glslVersion: THREE.GLSL3,
         vertexShader: shaderText[name + '.vert'],
         fragmentShader: shaderText[name + '.frag'],
-        defines: defines || {},
+        defines: Object.assign({ SV_SRGB_OUTPUT: '' }, defines || {}),
         uniforms,
         side: THREE.DoubleSide,
     }, extra || {}));
 }
 
-// a texture sampled by our own shaders: raw bytes (no sRGB decode, as the
-// evaluator compares bytes), row 0 at v = 0, no mipmaps
-function rawTexture(tex) {
-    tex.colorSpace = THREE.NoColorSpace;
+// a texture sampled by our own shaders: colour (srgb true) decoded from sRGB
+// by the sampler before filtering, as glTF defines base colour and sylva's
+// renderer and evaluator sample it; data (normals, depth) as stored; row 0
+// at v = 0, no mipmaps
+function shaderTexture(tex, srgb) {
+    tex.colorSpace = srgb ? THREE.SRGBColorSpace : THREE.NoColorSpace;
     tex.flipY = false;
     tex.generateMipmaps = false;
     tex.minFilter = THREE.LinearFilter;
@@ -180,7 +196,7 @@ const texLoader = new THREE.TextureLoader();
 // An octahedral level: one quad whose vertex shader turns it to the viewer.
 async function makeImpostor(entry, light) {
     const mips = entry.mips && entry.mips.length ? entry.mips : [entry.maps.albedo];
-    const albedo = await Promise.all(mips.map((m) => texLoader.loadAsync(art(m)).then(rawTexture)));
+    const albedo = await Promise.all(mips.map((m) => texLoader.loadAsync(art(m)).then((t) => shaderTexture(t, true))));
     const defines = {};
     const uniforms = {
         uOrtho: { value: true },
@@ -197,7 +213,7 @@ async function makeImpostor(entry, light) {
     };
     if (light && entry.maps.normal) {
         defines.SV_OCTA_NORMAL = '';
-        uniforms.uNormal = { value: rawTexture(await texLoader.loadAsync(art(entry.maps.normal))) };
+        uniforms.uNormal = { value: shaderTexture(await texLoader.loadAsync(art(entry.maps.normal)), false) };
         uniforms.uLightDir = { value: new V3(0.4, 0.8, 0.45).normalize() };
         uniforms.uAmbient = { value: 0.35 };
     }
@@ -262,7 +278,7 @@ function makeSlicing(root, planesLod, sphere) {
     }
     geo.setAttribute('slicing', new THREE.Float32BufferAttribute(group, 1));
     const map = atlasMesh.material.map;
-    if (map) rawTexture(map);
+    if (map) shaderTexture(map, true);
     const uniforms = {
         uOrtho: { value: true },
         uCentre: { value: sphere.centre.clone() },
@@ -319,13 +335,14 @@ async function loadGray16(url) {
     }
     // PNG is big-endian: each sample is already (high, low)
     const tex = new THREE.DataTexture(out, w, h, THREE.RGFormat, THREE.UnsignedByteType);
-    return rawTexture(tex);
+    return shaderTexture(tex, false);
 }
 
 let white = null;
 function whiteTexture() {
     if (!white) {
         white = new THREE.DataTexture(new Uint8Array([255, 255, 255, 255]), 1, 1);
+        white.colorSpace = THREE.SRGBColorSpace;
         white.needsUpdate = true;
     }
     return white;
@@ -342,7 +359,7 @@ function makeStochasticFade(fullScene, report) {
         const order = o.geometry.attributes._leaf_order.array;
         if (!order.some((x) => x > 0)) return; // trunk: its own material
         const m = o.material;
-        const map = m.map ? rawTexture(m.map.clone()) : whiteTexture();
+        const map = m.map ? shaderTexture(m.map.clone(), true) : whiteTexture();
         const u = {
             uMu: { value: 1 }, uFade: { value: extras ? extras.fade_radius : 0.1 },
             uAreaScale: { value: 1 }, uAreaGamma: { value: extras ? extras.area_gamma : 1 },
@@ -389,7 +406,10 @@ async function loadOriginal(report) {
     if (ext === 'glb' || ext === 'gltf') {
         obj = (await new GLTFLoader(manager).loadAsync(url)).scene;
     } else if (ext === 'obj') {
-        const text = await getText(url);
+        // without its line elements (`l`): OBJLoader turns an object with
+        // any line into lines only, where sylva's import keeps its faces and
+        // ignores the lines (the Scopia bush's stems)
+        const text = (await getText(url)).replace(/^[ \t]*l[ \t].*$/gm, '');
         const loader = new OBJLoader(manager);
         const libs = [...text.matchAll(/^\s*mtllib\s+(.+?)\s*$/gm)].map((m) => m[1]);
         for (const lib of libs) {
@@ -398,6 +418,12 @@ async function loadOriginal(report) {
             const mtl = new MTLLoader(manager).setResourcePath(inputsBase)
                 .parse(await getText(inputsBase + encodeURIComponent(name)), inputsBase);
             mtl.preload();
+            // Kd as sylva reads it: linear, the glTF factor as is
+            // (docs/outputs.md "Colour"); MTLLoader takes it as sRGB
+            for (const [name, info] of Object.entries(mtl.materialsInfo)) {
+                const mat = mtl.materials[name];
+                if (mat && mat.color && Array.isArray(info.kd)) mat.color.setRGB(info.kd[0], info.kd[1], info.kd[2]);
+            }
             loader.setMaterials(mtl);
         }
         obj = loader.parse(text);
@@ -413,7 +439,7 @@ async function loadOriginal(report) {
         throw new Error(`original ${mesh}: no three.js loader for .${ext}`);
     }
     await manager.idle(); // the textures the materials asked for
-    toUnlit(obj, true);
+    toUnlit(obj, !(ext === 'glb' || ext === 'gltf')); // a glTF says its own alpha modes
     // into sylva's frame: the import's unit scale, then Z-up rotated to +Y
     // (sv_mesh_rotate_up: "Z": y' = z, z' = -y; "-Z": y' = -z, z' = y)
     const wrap = new THREE.Group();
@@ -474,6 +500,25 @@ function draw(canvas, obj, camera, pixelWorld) {
     let covered = 0;
     for (let i = 3; i < px.length; i += 4) if (px[i] > 0) covered++;
     return covered;
+}
+
+// mean linear luminance (Rec. 709) of the pixels the last draw covered
+// (alpha > 0), from the sRGB bytes the shaders wrote (read from the WebGL
+// buffer: the 2D canvas would divide colour by a MASK texel's alpha)
+const linTable = Array.from({ length: 256 }, (_, i) => {
+    const c = i / 255;
+    return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4);
+});
+function meanLuminance(size) {
+    const gl = renderer.getContext(), px = new Uint8Array(4 * size * size);
+    gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    let sum = 0, n = 0;
+    for (let i = 0; i < px.length; i += 4) {
+        if (px[i + 3] === 0) continue;
+        sum += 0.2126 * linTable[px[i]] + 0.7152 * linTable[px[i + 1]] + 0.0722 * linTable[px[i + 2]];
+        n++;
+    }
+    return n ? sum / n : 0;
 }
 
 // ---- the page -----------------------------------------------------------
@@ -544,7 +589,8 @@ async function main() {
             const alpha = new Array(size * size);
             for (let i = 0; i < alpha.length; i++) alpha[i] = px[4 * i + 3];
             state.panels = [{ name, covered, pixels: size * size }];
-            return { width: size, height: size, covered, alpha, png: canvas.toDataURL('image/png') };
+            return { width: size, height: size, covered, alpha, luminance: meanLuminance(size),
+                png: canvas.toDataURL('image/png') };
         };
         if (params.has('lod')) {
             const dir = (params.get('dir') || '0,0,1').split(',').map(Number);

@@ -1,6 +1,7 @@
 /* sylva-test: cost=6 (tests/run.sh starts the longest first) */
 /* test_octahedral.c — octahedral impostors (octahedral.h): the mapping and
- * its inverse, frame bases, the three-frame selection, Castaño mips, and
+ * its inverse, frame bases, the three-frame selection, docs/runtime.md's
+ * worked example, Castaño mips, and
  * (with the OSMesa renderer) a baked impostor drawn by the C reference
  * runtime against the original from a frame's own direction and from
  * between frames. */
@@ -151,6 +152,67 @@ static void selection_weights_are_barycentric(void **state)
             assert_true(c > cos(M_PI / (g.n - 1) * 1.5));
         }
     }
+}
+
+/* The worked example of docs/runtime.md ("A worked example"): the frames,
+ * weights, directions and bases printed there, to 6 places. */
+static void runtime_md_worked_example(void **state)
+{
+    (void)state;
+    const double eps = 1e-6;
+    sv_octa_grid g = {.n = 8, .hemi = true, .elev_scale = 0.5};
+    double D[3] = {0.5, 0.2, 0.84}, uv[2], w[3];
+    double n = sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2]);
+    for (int k = 0; k < 3; k++) D[k] /= n;
+    uint32_t f[3][2];
+    sv_octa_encode(true, 0.5, D, uv);
+    assert_true(fabs(uv[0] - 0.770115) < eps && fabs(uv[1] + 0.195402) < eps);
+    sv_octa_select(&g, D, f, w);
+    const uint32_t want_f[3][2] = {{7, 3}, {7, 2}, {6, 3}};
+    const double want_w[3] = {0.011494, 0.183908, 0.804598};
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(f[k][0], want_f[k][0]);
+        assert_int_equal(f[k][1], want_f[k][1]);
+        assert_true(fabs(w[k] - want_w[k]) < eps);
+    }
+    double d[3], r[3], u[3];
+    sv_octa_frame_dir(&g, 6, 3, d);
+    sv_octa_frame_basis(d, r, u);
+    const double wd[3] = {0.534522, 0.267261, 0.801784}, wr[3] = {0.832050, 0, -0.554700},
+                 wu[3] = {-0.148250, 0.963624, -0.222375};
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(d[k] - wd[k]) < eps && fabs(r[k] - wr[k]) < eps &&
+                    fabs(u[k] - wu[k]) < eps);
+    /* the ray through (1, 7, 0), centre (0, 6, 0), half 5, F 256: texel (149.8312, 105.2185) */
+    double q[3] = {1, 1, 0}, dd = D[0] * d[0] + D[1] * d[1] + D[2] * d[2];
+    double t = (q[0] * d[0] + q[1] * d[1] + q[2] * d[2]) / dd, P[3];
+    for (int k = 0; k < 3; k++) P[k] = q[k] - t * D[k];
+    double s = (P[0] * r[0] + P[1] * r[1] + P[2] * r[2]) / 5 * 0.5 + 0.5;
+    double tt = 0.5 - (P[0] * u[0] + P[1] * u[1] + P[2] * u[2]) / 5 * 0.5;
+    assert_true(fabs(s * 256 - 0.5 - 149.8312) < 1e-4 && fabs(tt * 256 - 0.5 - 105.2185) < 1e-4);
+    /* below the horizon: hemi clamps, the full octahedron folds */
+    double B[3] = {-0.3, -0.5, 0.81};
+    n = sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2]);
+    for (int k = 0; k < 3; k++) B[k] /= n;
+    sv_octa_select(&g, B, f, w);
+    assert_true(f[0][0] == 5 && f[0][1] == 0 && fabs(w[0] - 0.891892) < eps);
+    sv_octa_grid full = {.n = 12, .hemi = false, .elev_scale = 1};
+    sv_octa_encode(false, 1, B, uv);
+    assert_true(fabs(uv[0] + 0.496894) < eps && fabs(uv[1] - 0.813665) < eps);
+    sv_octa_select(&full, B, f, w);
+    const uint32_t want_b[3][2] = {{3, 10}, {3, 9}, {2, 10}};
+    const double want_bw[3] = {0.742236, 0.024845, 0.232919};
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(f[k][0], want_b[k][0]);
+        assert_int_equal(f[k][1], want_b[k][1]);
+        assert_true(fabs(w[k] - want_bw[k]) < eps);
+    }
+    /* the poles' bases */
+    const double up_y[3] = {0, 1, 0}, dn_y[3] = {0, -1, 0};
+    sv_octa_frame_basis(up_y, r, u);
+    assert_true(fabs(r[0] - 1) < eps && fabs(u[2] + 1) < eps);
+    sv_octa_frame_basis(dn_y, r, u);
+    assert_true(fabs(r[0] - 1) < eps && fabs(u[2] - 1) < eps);
 }
 
 static void mips_keep_each_frames_tested_coverage(void **state)
@@ -335,6 +397,7 @@ int main(void)
         cmocka_unit_test(decode_inverts_encode),
         cmocka_unit_test(frame_bases_are_right_handed_and_orthonormal),
         cmocka_unit_test(selection_weights_are_barycentric),
+        cmocka_unit_test(runtime_md_worked_example),
         cmocka_unit_test(mips_keep_each_frames_tested_coverage),
         cmocka_unit_test(baked_impostor_matches_the_tree),
     };

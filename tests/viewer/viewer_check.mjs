@@ -14,6 +14,24 @@
 //    view): IoU = |A ∩ B| / |A ∪ B|, printed, and must be >= 0.95. The page's
 //    render goes to OUT_DIR/test_LOD.png. REF may also be page:OTHER, the
 //    page's own test render of OTHER (a level or `original`) from the same view.
+// 3. For each --blend LOD X,Y,Z SIZE (a level whose leaves are alpha BLEND,
+//    the oak's): the page's test render of it must have transparent pixels
+//    inside the crown: of the pixels between the first and the last covered
+//    one of each row, at least 15 % with alpha < 128 (the oak's full level:
+//    8.9 % with its leaf cards drawn as opaque squares, 21.3 % drawn as
+//    three.js draws BLEND).
+// 4. --luminance KEY2 SIZE: every level file (report.json lods[].file) of
+//    bake KEY2 loaded by three.js's own GLTFLoader and drawn unlit as loaded
+//    (MeshBasicMaterial with the loader's map, colour, alpha mode and sides;
+//    sRGB output) from four directions; the mean linear luminance
+//    (Rec. 709) over covered pixels, summed over the views, must be within
+//    7 % of the first level's (the full mesh): the quad levels look as bright
+//    as the mesh levels in an engine (docs/outputs.md "Colour").
+// 5. --panels KEY2 X,Y,Z SIZE LOD...: the page's test renders of those
+//    panels of bake KEY2 (a level, `original`, LEVEL?fade=1) from one view:
+//    each one's mean linear luminance over its covered pixels within 7 % of
+//    the first's (every panel under one colour pipeline).
+// --on KEY2: the --compare and --blend options after it are of bake KEY2.
 // Prints "ok - ..." / "FAIL - ..." lines; exits 1 on any failure.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -25,14 +43,31 @@ if (!base || !key || !outDir) {
     console.error('usage: viewer_check.mjs BASE_URL KEY OUT_DIR [--compare LOD X,Y,Z SIZE REF.png]...');
     process.exit(2);
 }
-const compares = [];
+const compares = [], blends = [], lums = [], panelSets = [];
+let onKey = key;
 for (let i = 0; i < rest.length; i++) {
-    if (rest[i] !== '--compare' || i + 4 >= rest.length) {
+    if (rest[i] === '--on' && i + 1 < rest.length) {
+        onKey = rest[++i];
+    } else if (rest[i] === '--compare' && i + 4 < rest.length) {
+        compares.push({ key: onKey, lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
+        i += 4;
+    } else if (rest[i] === '--blend' && i + 3 < rest.length) {
+        blends.push({ key: onKey, lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]) });
+        i += 3;
+    } else if (rest[i] === '--panels' && i + 4 < rest.length) {
+        const [k, d, sz] = rest.slice(i + 1, i + 4);
+        let j = i + 4;
+        const names = [];
+        while (j < rest.length && !rest[j].startsWith('--')) names.push(rest[j++]);
+        panelSets.push({ key: k, dir: d, size: Number(sz), names });
+        i = j - 1;
+    } else if (rest[i] === '--luminance' && i + 2 < rest.length) {
+        lums.push({ key: rest[i + 1], size: Number(rest[i + 2]) });
+        i += 2;
+    } else {
         console.error(`viewer_check.mjs: bad argument ${rest[i]}`);
         process.exit(2);
     }
-    compares.push({ lod: rest[i + 1], dir: rest[i + 2], size: Number(rest[i + 3]), ref: rest[i + 4] });
-    i += 4;
 }
 let failures = 0;
 const ok = (m) => console.log(`ok   - ${m}`);
@@ -145,7 +180,8 @@ try {
     // #defines (docs/runtime.md), whether or not this bake uses it
     const combos = [['octahedral', []], ['octahedral', ['SV_OCTA_NORMAL']], ['octahedral', ['SV_OCTA_DEPTH']],
         ['octahedral', ['SV_OCTA_NORMAL', 'SV_OCTA_DEPTH']], ['octahedral', ['SV_OCTA_DEPTH', 'SV_OCTA_DEPTH_RG8']], ['slicing', []], ['slicing', ['SV_SLICING_BLEND']],
-        ['stochastic', []]];
+        ['stochastic', []], ['octahedral', ['SV_OCTA_NORMAL', 'SV_OCTA_DEPTH', 'SV_OCTA_DEPTH_RG8', 'SV_SRGB_OUTPUT']],
+        ['slicing', ['SV_SLICING_BLEND', 'SV_SRGB_OUTPUT']], ['stochastic', ['SV_SRGB_OUTPUT']]];
     const logs = await page.evaluate(async (combos) => {
         const gl = document.createElement('canvas').getContext('webgl2');
         const src = async (n) => (await fetch(new URL(`../../viewer/${n}.glsl`, location.href))).text();
@@ -174,24 +210,26 @@ try {
     if (errors.length) bad(`page errors: ${errors.join(' | ')}`);
     else ok('no page error, no failed request');
 
-    // the page's test render of one level, all on one test-mode page (each
-    // level loads once): {width, height, alpha[], png}
-    let testPage = null;
-    const rendered = new Map(); // one render per (spec, dir, size)
-    const testRender = async (spec, dir, size) => {
-        const id = `${spec} ${dir} ${size}`;
-        if (!rendered.has(id)) rendered.set(id, testRenderOnce(spec, dir, size));
+    // the page's test render of one level, all on one test-mode page per
+    // bake (each level loads once): {width, height, alpha[], png, luminance}
+    const testPages = new Map();
+    const rendered = new Map(); // one render per (bake, spec, dir, size)
+    const testRender = async (spec, dir, size, k) => {
+        const id = `${k} ${spec} ${dir} ${size}`;
+        if (!rendered.has(id)) rendered.set(id, testRenderOnce(spec, dir, size, k));
         return rendered.get(id);
     };
-    const testRenderOnce = async (spec, dir, size) => {
+    const testRenderOnce = async (spec, dir, size, k) => {
         // (SPEC: a level, or a level with page parameters: stochastic50?fade=1)
         const [lod, extra] = spec.split('?');
-        if (!testPage) {
-            testPage = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
-            testPage.on('pageerror', (e) => bad(`test page: ${e}`));
-            await testPage.goto(`${base}/v1/bakes/${key}/view?test=1`);
-            if (!(await waitReady(testPage, 'test-mode page'))) return null;
-        }
+        if (!testPages.has(k)) testPages.set(k, (async () => {
+            const p = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+            p.on('pageerror', (e) => bad(`test page: ${e}`));
+            await p.goto(`${base}/v1/bakes/${k}/view?test=1`);
+            return (await waitReady(p, `test-mode page of ${k.slice(0, 8)}`)) ? p : null;
+        })());
+        const testPage = await testPages.get(k);
+        if (!testPage) return null;
         let shot;
         try {
             shot = await testPage.evaluate(([l, d, s, f]) => window.sylvaViewer.draw(l, d, s, { fade: f }),
@@ -200,15 +238,15 @@ try {
             bad(`test view of ${spec} from ${dir}: ${e.message.split('\n')[0]}`);
             return null;
         }
-        fs.writeFileSync(path.join(outDir, `test_${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}_${dir}.png`),
+        fs.writeFileSync(path.join(outDir, `test_${k === key ? '' : k.slice(0, 8) + '_'}${spec.replace(/[^A-Za-z0-9_.-]/g, '_')}_${dir}.png`),
             Buffer.from(shot.png.split(',')[1], 'base64'));
         return shot;
     };
     for (const c of compares) {
-        const shot = await testRender(c.lod, c.dir, c.size);
+        const shot = await testRender(c.lod, c.dir, c.size, c.key);
         if (!shot) continue;
         const fromPage = c.ref.startsWith('page:');
-        const ref = fromPage ? await testRender(c.ref.slice(5), c.dir, c.size) : pngAlpha(c.ref);
+        const ref = fromPage ? await testRender(c.ref.slice(5), c.dir, c.size, c.key) : pngAlpha(c.ref);
         if (!ref) continue;
         if (ref.width !== shot.width || ref.height !== shot.height) {
             bad(`${c.lod}: reference is ${ref.width}x${ref.height}, the page drew ${shot.width}x${shot.height}`);
@@ -227,7 +265,142 @@ try {
         if (iou >= 0.95 && nRef > 0) ok(msg);
         else bad(msg);
     }
+    for (const b of blends) {
+        const shot = await testRender(b.lod, b.dir, b.size, b.key);
+        if (!shot) continue;
+        // the crown: each row's pixels from its first to its last covered one
+        let inside = 0, clear = 0;
+        for (let y = 0; y < shot.height; y++) {
+            const row = shot.alpha.slice(y * shot.width, (y + 1) * shot.width);
+            const x0 = row.findIndex((a) => a > 0);
+            if (x0 < 0) continue;
+            let x1 = row.length - 1;
+            while (row[x1] === 0) x1--;
+            for (let x = x0; x <= x1; x++) { inside++; if (row[x] < 128) clear++; }
+        }
+        const f = inside ? clear / inside : 0;
+        const msg = `${b.lod} (alpha BLEND leaves) from ${b.dir}: ${(100 * f).toFixed(1)} % of the ${inside} px inside the crown transparent (alpha < 128)`;
+        if (f >= 0.15) ok(msg);
+        else bad(msg + ', want >= 15 %: leaf cards drawn opaque?');
+    }
+    for (const p of panelSets) await checkPanels(p);
+    for (const l of lums) await checkLuminance(l.key, l.size);
 } finally {
     await browser.close();
+}
+
+// --panels: the page's test renders of bake key's panels, each as bright
+// as the first (one colour pipeline for the original, three.js's materials
+// and our shaders)
+async function checkPanels({ key, dir, size, names }) {
+    const page = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+    page.on('pageerror', (e) => bad(`panels page: ${e}`));
+    await page.goto(`${base}/v1/bakes/${key}/view?test=1`);
+    if (!(await waitReady(page, `panels test-mode page of ${key.slice(0, 8)}`))) return;
+    let ref = null;
+    for (const spec of names) {
+        const [lod, extra] = spec.split('?');
+        let shot;
+        try {
+            shot = await page.evaluate(([l, d, s, f]) => window.sylvaViewer.draw(l, d, s, { fade: f }),
+                [lod, dir.split(',').map(Number), size, /(^|&)fade=1(&|$)/.test(extra || '')]);
+        } catch (e) {
+            bad(`panel ${spec}: ${e.message.split('\n')[0]}`);
+            continue;
+        }
+        if (ref === null) ref = shot.luminance;
+        const ratio = ref > 0 ? shot.luminance / ref : 0;
+        const msg = `viewer panel ${spec} from ${dir}: mean luminance ${shot.luminance.toFixed(4)} over ${shot.covered} px, ${ratio.toFixed(3)} of ${names[0]}'s`;
+        if (shot.covered > 0 && Math.abs(ratio - 1) <= 0.07) ok(msg);
+        else bad(msg + ' (want within 7 %: one colour pipeline)');
+    }
+    await page.close();
+}
+
+// --luminance: three.js's own GLTFLoader on each level file of bake key, in
+// a page of the daemon's origin that maps 'three' to the copy sylvad serves
+async function checkLuminance(key, size) {
+    const page = await browser.newPage({ viewport: { width: 600, height: 600 }, deviceScaleFactor: 1 });
+    page.on('pageerror', (e) => bad(`luminance page: ${e}`));
+    const url = `${base}/v1/viewer/sylva-luminance-test.html`;
+    await page.route(url, (route) => route.fulfill({
+        contentType: 'text/html',
+        body: `<!doctype html><html><head><script type="importmap">
+{"imports": {"three": "./three/three.module.js", "three/addons/": "./three/addons/"}}
+</script></head><body><script type="module">
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+window.measure = async (bake, size) => {
+    const report = await (await fetch(bake + 'artifacts/report.json')).json();
+    const renderer = new THREE.WebGLRenderer({ alpha: true, preserveDrawingBuffer: true });
+    renderer.setPixelRatio(1);
+    renderer.setSize(size, size, false);
+    renderer.setClearColor(0x000000, 0);
+    const gl = renderer.getContext(), px = new Uint8Array(4 * size * size);
+    const lin = (v) => (v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4));
+    const table = Array.from({ length: 256 }, (_, i) => lin(i / 255));
+    let sphere = null;
+    const out = [];
+    for (const lod of report.lods) {
+        const gltf = await new GLTFLoader().loadAsync(bake + 'artifacts/' + encodeURIComponent(lod.file));
+        // plain unlit: the loader's material as MeshBasicMaterial
+        gltf.scene.traverse((o) => {
+            if (!o.isMesh) return;
+            const m = o.material;
+            o.material = new THREE.MeshBasicMaterial({ map: m.map, color: m.color, alphaTest: m.alphaTest,
+                transparent: m.transparent, depthWrite: m.depthWrite, opacity: m.opacity, side: m.side });
+        });
+        const scene = new THREE.Scene();
+        scene.add(gltf.scene);
+        if (!sphere) sphere = new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
+        const views = () => {
+        let sum = 0, n = 0;
+        for (const [az, el] of [[0, 10], [90, 10], [200, 10], [45, 45]]) {
+            const a = az * Math.PI / 180, e = el * Math.PI / 180, r = sphere.radius;
+            const d = new THREE.Vector3(Math.cos(e) * Math.sin(a), Math.sin(e), Math.cos(e) * Math.cos(a));
+            const cam = new THREE.OrthographicCamera(-r, r, r, -r, 0.5 * r, 4 * r);
+            cam.position.copy(sphere.center).addScaledVector(d, 2 * r);
+            cam.lookAt(sphere.center);
+            renderer.render(scene, cam);
+            // the bytes the shader wrote (sRGB-encoded colour; a MASK
+            // material writes its texel's alpha, so covered = alpha > 0)
+            gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+            for (let i = 0; i < px.length; i += 4) {
+                if (px[i + 3] === 0) continue;
+                sum += 0.2126 * table[px[i]] + 0.7152 * table[px[i + 1]] + 0.0722 * table[px[i + 2]];
+                n++;
+            }
+        }
+        return { n, mean: n ? sum / n : 0 };
+        };
+        const asLoaded = views();
+        // the same without mipmaps (as sylva's renderer samples): a note
+        // that tells the texture's transparent texels apart from its colour
+        gltf.scene.traverse((o) => {
+            if (!o.isMesh || !o.material.map) return;
+            o.material.map.generateMipmaps = false;
+            o.material.map.minFilter = THREE.LinearFilter;
+            o.material.map.needsUpdate = true;
+        });
+        const noMip = views();
+        out.push({ name: lod.name, file: lod.file, pixels: asLoaded.n, mean: asLoaded.mean, noMip: noMip.mean });
+    }
+    return out;
+};
+window.measureReady = true;
+</script></body></html>`,
+    }));
+    await page.goto(url);
+    await page.waitForFunction(() => window.measureReady, null, { timeout: 30000 });
+    const levels = await page.evaluate(([b, s]) => window.measure(b, s), [`${base}/v1/bakes/${key}/`, size]);
+    await page.close();
+    const ref = levels[0];
+    for (const l of levels) {
+        const ratio = ref.mean > 0 ? l.mean / ref.mean : 0;
+        const nm = ref.noMip > 0 ? l.noMip / ref.noMip : 0;
+        const msg = `three.js GLTFLoader, unlit: ${l.name} (${l.file}) mean luminance ${l.mean.toFixed(4)} over ${l.pixels} px, ${ratio.toFixed(3)} of ${ref.name}'s (without mipmaps ${nm.toFixed(3)})`;
+        if (l.pixels > 0 && Math.abs(ratio - 1) <= 0.07) ok(msg);
+        else bad(msg + ' (want within 7 %)');
+    }
 }
 process.exit(failures ? 1 : 0);
