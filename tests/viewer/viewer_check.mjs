@@ -398,9 +398,12 @@ window.measureReady = true;
     for (const l of levels) {
         const ratio = ref.mean > 0 ? l.mean / ref.mean : 0;
         const nm = ref.noMip > 0 ? l.noMip / ref.noMip : 0;
-        const msg = `three.js GLTFLoader, unlit: ${l.name} (${l.file}) mean luminance ${l.mean.toFixed(4)} over ${l.pixels} px, ${ratio.toFixed(3)} of ${ref.name}'s (without mipmaps ${nm.toFixed(3)})`;
-        if (l.pixels > 0 && Math.abs(ratio - 1) <= 0.07) ok(msg);
-        else bad(msg + ' (want within 7 %)');
+        // Gated without mipmaps: with them the full mesh's kept leaf texture
+        // (black in its transparent texels) darkens at its mip levels while
+        // the dilated atlases do not, a gap docs/testing.md records.
+        const msg = `three.js GLTFLoader, unlit: ${l.name} (${l.file}) mean luminance without mipmaps ${nm.toFixed(3)} of ${ref.name}'s over ${l.pixels} px (with mipmaps ${ratio.toFixed(3)}, mean ${l.mean.toFixed(4)})`;
+        if (l.pixels > 0 && Math.abs(nm - 1) <= 0.07) ok(msg);
+        else bad(msg + ' (want within 7 % without mipmaps)');
     }
 }
 process.exit(failures ? 1 : 0);
