@@ -71,13 +71,20 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     const char *k = path + 10;
     const char *slash = strchr(k, '/');
     size_t kl = slash ? (size_t)(slash - k) : strlen(k);
-    if (kl != 64) return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
-    memcpy(m->key, k, 64);
-    m->key[64] = '\0';
-    if (!svd_key_valid(m->key))
-        return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
+    static const char bad_key[] = "bad key: expected 64 lowercase hex digits, or a unique "
+                                  "prefix of at least 8 of them";
+    if (kl < SYLVA_KEY_PREFIX_MIN || kl > SYLVA_KEY_HEX_LEN) return fail(m, 400, bad_key, NULL);
+    memcpy(m->key, k, kl);
+    m->key[kl] = '\0';
+    if (!sylva_key_prefix_ok(m->key)) return fail(m, 400, bad_key, NULL);
+    m->key_prefix = kl < SYLVA_KEY_HEX_LEN;
     if (!slash) {
         if (get) m->route = SVD_R_STATUS;
+        else if (strcmp(method, "PUT") == 0 && m->key_prefix)
+            return fail(m, 400,
+                        "bad key: PUT names the bytes it uploads by their whole key (64 "
+                        "lowercase hex digits); a prefix is for reading and DELETE",
+                        NULL);
         else if (strcmp(method, "PUT") == 0) m->route = SVD_R_PUT;
         else if (strcmp(method, "DELETE") == 0) m->route = SVD_R_DELETE;
         else return fail(m, 405, "method not allowed", "GET, HEAD, PUT, DELETE");

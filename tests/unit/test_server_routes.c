@@ -55,6 +55,35 @@ static void routes_refuse_wrong_methods_with_allow(void **state)
     assert_int_equal(m.status, 405);
 }
 
+/* A key prefix of 8 to 63 hex digits names a bake on every route that reads
+ * or deletes one (the daemon resolves it); PUT takes only the whole key. */
+static void routes_take_a_key_prefix_but_not_on_put(void **state)
+{
+    (void)state;
+    svd_route_match m;
+    svd_route_find("GET", "/v1/bakes/12305990", &m);
+    assert_int_equal(m.route, SVD_R_STATUS);
+    assert_true(m.key_prefix);
+    assert_string_equal(m.key, "12305990");
+    svd_route_find("GET", "/v1/bakes/123059907743/artifacts/model.glb", &m);
+    assert_int_equal(m.route, SVD_R_ARTIFACT);
+    assert_string_equal(m.key, "123059907743");
+    svd_route_find("GET", "/v1/bakes/12305990/view", &m);
+    assert_int_equal(m.route, SVD_R_VIEW);
+    svd_route_find("GET", "/v1/bakes/12305990/inputs", &m);
+    assert_int_equal(m.route, SVD_R_INPUTS);
+    svd_route_find("GET", "/v1/bakes/12305990/inputs/tree.obj", &m);
+    assert_int_equal(m.route, SVD_R_INPUT);
+    svd_route_find("DELETE", "/v1/bakes/12305990", &m);
+    assert_int_equal(m.route, SVD_R_DELETE);
+    assert_true(m.key_prefix);
+    svd_route_find("PUT", "/v1/bakes/12305990", &m);
+    assert_int_equal(m.status, 400);
+    assert_non_null(strstr(m.message, "whole key"));
+    svd_route_find("GET", "/v1/bakes/" KEY, &m);
+    assert_false(m.key_prefix);
+}
+
 static void routes_refuse_bad_keys_and_traversal(void **state)
 {
     (void)state;
@@ -65,6 +94,14 @@ static void routes_refuse_bad_keys_and_traversal(void **state)
                    "/v1/bakes/"
                    "1230599077439815640ABF9dfe42b62c109efb4e38938921408ddac29212793c",
                    &m);
+    assert_int_equal(m.status, 400);
+    /* a prefix of fewer than 8 hex digits, or one with a non-hex digit */
+    svd_route_find("GET", "/v1/bakes/1230599", &m);
+    assert_int_equal(m.status, 400);
+    assert_non_null(strstr(m.message, "at least 8"));
+    svd_route_find("GET", "/v1/bakes/1230599g", &m);
+    assert_int_equal(m.status, 400);
+    svd_route_find("GET", "/v1/bakes/" KEY "0", &m); /* 65 digits */
     assert_int_equal(m.status, 400);
     svd_route_find("GET", "/v1/bakes/" KEY "/artifacts/../inputs.json", &m);
     assert_int_equal(m.status, 404);
@@ -173,6 +210,7 @@ int main(void)
         cmocka_unit_test(routes_map_the_v1_api),
         cmocka_unit_test(routes_refuse_wrong_methods_with_allow),
         cmocka_unit_test(routes_refuse_bad_keys_and_traversal),
+        cmocka_unit_test(routes_take_a_key_prefix_but_not_on_put),
         cmocka_unit_test(config_defaults_listen_on_loopback_8080),
         cmocka_unit_test(config_flags_override_file),
         cmocka_unit_test(config_names_the_bad_line),
