@@ -380,9 +380,21 @@ static void take_server_error(sylva_client *c, const char *body, const char *wha
     if (cJSON_IsString(jc)) code = jc->valuestring;
     if (cJSON_IsString(jm)) msg = jm->valuestring;
     snprintf(c->error_code, sizeof c->error_code, "%s", code);
-    if (msg[0])
-        snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status, code,
-                 code[0] ? ": " : "", msg);
+    if (msg[0]) {
+        int n = snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status,
+                         code, code[0] ? ": " : "", msg);
+        /* a key prefix that names several bakes: the keys it could mean */
+        const cJSON *k;
+        size_t used = n > 0 ? (size_t)n : 0, i = 0;
+        cJSON_ArrayForEach(k, cJSON_GetObjectItemCaseSensitive(e, "candidates"))
+        {
+            if (!cJSON_IsString(k) || used >= sizeof c->error) break;
+            n = snprintf(c->error + used, sizeof c->error - used, "%s%.64s", i++ ? ", " : " (",
+                         k->valuestring);
+            used += n > 0 ? (size_t)n : 0;
+        }
+        if (i && used < sizeof c->error) snprintf(c->error + used, sizeof c->error - used, ")");
+    }
     else
         snprintf(c->error, sizeof c->error, "%s: HTTP %ld from %s", what, c->http_status,
                  c->urls[c->current]);

@@ -27,6 +27,9 @@ contains "  with the whole key in the status document" "\"key\":\"$KA\"" "$(cat 
 check "a prefix two keys share is 409" 409 "$(code "$URL/v1/bakes/a28d2b88")"
 contains "  ambiguous_key, listing both candidates in order" \
     "\"code\":\"ambiguous_key\",\"message\":\"key prefix a28d2b88 names 2 bakes: give more of the key\",\"candidates\":[\"$KB\",\"$KA\"]" "$(cat "$T/b")"
+"$B/sylva" --server "$URL" status a28d2b88 >/dev/null 2>"$T/amb.err"
+check "sylva status of the shared prefix exits 1" 1 $?
+contains "  listing both keys" "($KB, $KA)" "$(cat "$T/amb.err")"
 check "  on an artifact too" 409 "$(code "$URL/v1/bakes/a28d2b88/artifacts/model.glb")"
 check "a prefix no key has is 404" 404 "$(code "$URL/v1/bakes/a28d2b89")"
 contains "  naming the prefix" "no bake whose key starts with a28d2b89" "$(cat "$T/b")"
