@@ -28,6 +28,7 @@
 #include "import.h"
 #include "method.h"
 #include "multipart.h"
+#include "openapi.h"
 #include "spec.h"
 
 #define SPEC_MAX (1u << 20)
@@ -1514,6 +1515,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return handle_metrics(q);
     case SVD_R_INFO:
         return handle_info(q);
+    case SVD_R_OPENAPI:
+        return send_text(h, c, q->m.route, 200, svd_openapi_json(NULL), "application/json");
     case SVD_R_ARTIFACT:
         return handle_artifact(q);
     case SVD_R_INPUT:

@@ -9,7 +9,7 @@ static const char *const labels[SVD_R_COUNT] = {
     [SVD_R_INFO] = "info",     [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
     [SVD_R_STATUS] = "status", [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
     [SVD_R_LIST] = "list",     [SVD_R_VIEW] = "view",     [SVD_R_INPUT] = "input",
-    [SVD_R_INPUTS] = "inputs", [SVD_R_VIEWER] = "viewer",
+    [SVD_R_INPUTS] = "inputs", [SVD_R_VIEWER] = "viewer", [SVD_R_OPENAPI] = "openapi",
 };
 
 const char *svd_route_label(svd_route r)
@@ -49,9 +49,12 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     memset(m, 0, sizeof *m);
     int get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
     if (strcmp(path, "/v1/health") == 0 || strcmp(path, "/v1/metrics") == 0 ||
-        strcmp(path, "/v1/info") == 0) {
+        strcmp(path, "/v1/info") == 0 || strcmp(path, "/v1/openapi.json") == 0) {
         if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
-        m->route = path[4] == 'h' ? SVD_R_HEALTH : path[4] == 'm' ? SVD_R_METRICS : SVD_R_INFO;
+        m->route = path[4] == 'h'   ? SVD_R_HEALTH
+                   : path[4] == 'm' ? SVD_R_METRICS
+                   : path[4] == 'i' ? SVD_R_INFO
+                                    : SVD_R_OPENAPI;
         return;
     }
     if (strncmp(path, "/v1/viewer/", 11) == 0) {

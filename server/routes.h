@@ -5,6 +5,9 @@
 
 #include "key.h"
 
+/* Every route is in server/openapi.json with its methods: a route added
+ * here without it fails tests/unit/test_server_routes.c. */
+
 typedef enum svd_route {
     SVD_R_NONE = 0, /* no route: see status */
     SVD_R_HEALTH,   /* GET /v1/health */
@@ -20,6 +23,7 @@ typedef enum svd_route {
     SVD_R_INPUT,    /* GET /v1/bakes/{key}/inputs/{name}: an uploaded file */
     SVD_R_INPUTS,   /* GET /v1/bakes/{key}/inputs: the list of them */
     SVD_R_VIEWER,   /* GET /v1/viewer/{path}: the viewer page's own files */
+    SVD_R_OPENAPI,  /* GET /v1/openapi.json: the API's description (openapi.h) */
     SVD_R_COUNT
 } svd_route;
 
