@@ -211,8 +211,10 @@ $(VIEWER_STAMP): $(VIEWER_SRC) $(BUILD)/viewer-npm/.stamp
 	cp $(THREE_NPM)/examples/jsm/libs/fflate.module.js $(VIEWER_DIR)/three/addons/libs/
 	@touch $@
 
+# DEMO_OUT: where the outputs go (default out/demo; tests give a temporary folder)
+DEMO_OUT ?= $(CURDIR)/out/demo
 demo: all
-	@./examples/demo.sh $(BUILD)
+	@./examples/demo.sh $(BUILD) $(DEMO_OUT)
 
 # What only the bench needs (the held-out trees' sources, issue 40): not in
 # deploy/apt-packages.txt, so neither `make deps` nor CI installs it.
