@@ -375,7 +375,10 @@ void sv_check_units(const sv_mesh *m, const uint8_t *tri_part, const sv_leaves *
     if (m && sv_mesh_bounds(m, mn, mx) && height > 0)
         u->trunk_diameter = trunk_diameter(m, tri_part, mn[1], mx[1] - mn[1]);
     bool cards = false;
-    if (leaves && leaves->count && leaves->median_area > 0) {
+    /* elements of more than SV_UNITS_MASS_TRIS triangles are foliage masses
+     * (a conifer's), not leaves: their size says nothing of the units */
+    if (leaves && leaves->count && leaves->median_area > 0 &&
+        leaves->tri_count <= SV_UNITS_MASS_TRIS * (uint64_t)leaves->count) {
         u->leaf_size = sqrt(leaves->median_area);
         cards = leaves->tri_count <= 4 * (uint64_t)leaves->count; /* quads, not modelled leaves */
     }

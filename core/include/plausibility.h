@@ -79,6 +79,9 @@ void sv_point_rotate_up(double p[3], int z_up);
 #define SV_UNITS_LEAF_TYPICAL 0.05
 #define SV_UNITS_CARD_TYPICAL 0.3
 #define SV_UNITS_D_TYPICAL 0.3
+/* Leaf elements of more triangles than this on average are foliage masses
+ * (a conifer modelled as a few blobs), not leaves or cards: not judged. */
+#define SV_UNITS_MASS_TRIS 64
 
 typedef struct sv_units_guess {
     double height;          /* m as read: the tree's extent along up */
@@ -94,7 +97,8 @@ typedef struct sv_units_guess {
 
 /* Judges the units of a tree read with unit_scale metres per unit (mesh in
  * metres, +Y up, height its extent along up): its height, the size of its
- * median leaf element (leaves; NULL or none: not judged) and its trunk's
+ * median leaf element (leaves; NULL, none, or more than SV_UNITS_MASS_TRIS
+ * triangles an element on average: not judged) and its trunk's
  * diameter near the base (the trunk triangles whose walls face sideways,
  * tri_part[t] == SV_PART_TRUNK, reaching into the slab 2..15 % of the height
  * above the lowest point: twice their centroids' area-weighted median
