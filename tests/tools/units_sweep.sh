@@ -9,6 +9,7 @@
 # test` (about 40 `sylva-bake info` runs); docs/testing.md has its last result.
 # usage: tests/tools/units_sweep.sh [BUILD]
 set -u
+export PYTHONDONTWRITEBYTECODE=1 # heldout.py is imported: no __pycache__ in the checkout
 root=$(cd "$(dirname "$0")/../.." && pwd)
 build=${1:-${BUILD:-build}}
 case "$build" in /*) ;; *) build=$root/$build ;; esac
