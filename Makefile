@@ -145,6 +145,12 @@ $(LIBSYLVA_SO): $(CLIENT_PIC) client/libsylva.map
 	ln -sf $(notdir $@) $(BUILD)/libsylva.so.$(SYLVA_SOMAJOR)
 	ln -sf $(notdir $@) $(BUILD)/libsylva.so
 
+# server/openapi.json as C string literals, one per line, compiled into sylvad (server/openapi.c)
+$(BUILD)/server/openapi.o: INC = -Iserver -Icore/include -Icommon -I$(BUILD)/gen
+$(BUILD)/server/openapi.o: $(BUILD)/gen/openapi_json.inc
+$(BUILD)/gen/openapi_json.inc: server/openapi.json
+	@mkdir -p $(@D)
+	sed -e 's/\\/\\\\/g' -e 's/"/\\"/g' -e 's/^/"/' -e 's/$$/\\n"/' $< > $@
 # The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
 $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lmeshoptimizer -lpthread -lm
@@ -205,8 +211,10 @@ $(VIEWER_STAMP): $(VIEWER_SRC) $(BUILD)/viewer-npm/.stamp
 	cp $(THREE_NPM)/examples/jsm/libs/fflate.module.js $(VIEWER_DIR)/three/addons/libs/
 	@touch $@
 
+# DEMO_OUT: where the outputs go (default out/demo; tests give a temporary folder)
+DEMO_OUT ?= $(CURDIR)/out/demo
 demo: all
-	@./examples/demo.sh $(BUILD)
+	@./examples/demo.sh $(BUILD) $(DEMO_OUT)
 
 # What only the bench needs (the held-out trees' sources, issue 40): not in
 # deploy/apt-packages.txt, so neither `make deps` nor CI installs it.

@@ -533,8 +533,9 @@ cJSON *sylva_cli_summary(const char *job_json, const char *report_json, const ch
     const cJSON *rl = get(rep, "lods");
     const cJSON *pll = get(pl, "lods");
     const cJSON *manifest = get(job, "manifest");
-    if (!cJSON_IsArray(rl))
-        rl = get(manifest, "lods"); /* the daemon's manifest summary, if it has one */
+    if (!cJSON_IsArray(rl)) /* the daemon's copy of report.json's summary */
+        rl = get(get(manifest, "summary"), "lods");
+    if (!cJSON_IsArray(rl)) rl = get(manifest, "lods");
     const cJSON *src = cJSON_IsArray(rl) ? rl : pll;
     if (cJSON_IsArray(src)) {
         cJSON *lods = cJSON_AddArrayToObject(s, "lods");
@@ -662,7 +663,7 @@ size_t sylva_cli_summary_format(const cJSON *s, char *buf, size_t len)
         {
             const cJSON *name = get(l, "name"), *pl = get(l, "planes"), *at = get(l, "atlas");
             const cJSON *tri = get(l, "triangles");
-            put(&o, "    %-8s", cJSON_IsString(name) ? name->valuestring : "?");
+            put(&o, "    %-16s", cJSON_IsString(name) ? name->valuestring : "?");
             if (cJSON_IsNumber(tri)) put(&o, " %7.0f triangles", tri->valuedouble);
             /* planes and an atlas only for the levels that have them: a mesh
              * level has neither */

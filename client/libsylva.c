@@ -21,6 +21,12 @@
 
 #define MAX_JSON_BYTES (16u << 20)         /* a status/health answer */
 #define MAX_MEM_ARTIFACT ((size_t)1 << 31) /* sylva_fetch_mem */
+/* How long a request retries while every attempt is refused and no server
+ * has answered this handle yet: nothing listens there (no daemon running, a
+ * wrong port), which retrying for the full policy would only hide. A daemon
+ * still starting gets this long; once one has answered, a refused connection
+ * is a restart and is retried as any transport error (sylva.h). */
+#define REFUSED_WINDOW_MS 1500
 
 struct sylva_client {
     char **urls;
@@ -37,6 +43,7 @@ struct sylva_client {
     void (*on_retry)(void *, const char *, long, int, int);
     void *on_retry_user;
     CURL *curl;
+    bool answered; /* a server answered this handle over HTTP at least once */
     long http_status;
     char error[1024];
     char error_code[32];
@@ -86,6 +93,13 @@ static double now_s(void)
 static bool key_valid(const char *key)
 {
     return sylva_key_hex_ok(key);
+}
+
+/* What the calls that name a bake take: the key, or a prefix of at least
+ * SYLVA_KEY_PREFIX_MIN hex digits that the server resolves (docs/api.md). */
+static bool key_name_ok(const char *key)
+{
+    return sylva_key_prefix_ok(key);
 }
 
 /* ---- create / destroy ------------------------------------------------------- */
@@ -366,13 +380,37 @@ static void take_server_error(sylva_client *c, const char *body, const char *wha
     if (cJSON_IsString(jc)) code = jc->valuestring;
     if (cJSON_IsString(jm)) msg = jm->valuestring;
     snprintf(c->error_code, sizeof c->error_code, "%s", code);
-    if (msg[0])
-        snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status, code,
-                 code[0] ? ": " : "", msg);
+    if (msg[0]) {
+        int n = snprintf(c->error, sizeof c->error, "%s: HTTP %ld %s%s%s", what, c->http_status,
+                         code, code[0] ? ": " : "", msg);
+        /* a key prefix that names several bakes: the keys it could mean */
+        const cJSON *k;
+        size_t used = n > 0 ? (size_t)n : 0, i = 0;
+        cJSON_ArrayForEach(k, cJSON_GetObjectItemCaseSensitive(e, "candidates"))
+        {
+            if (!cJSON_IsString(k) || used >= sizeof c->error) break;
+            n = snprintf(c->error + used, sizeof c->error - used, "%s%.64s", i++ ? ", " : " (",
+                         k->valuestring);
+            used += n > 0 ? (size_t)n : 0;
+        }
+        if (i && used < sizeof c->error) snprintf(c->error + used, sizeof c->error - used, ")");
+    }
     else
         snprintf(c->error, sizeof c->error, "%s: HTTP %ld from %s", what, c->http_status,
                  c->urls[c->current]);
     cJSON_Delete(doc);
+}
+
+/* The detail when no server ever answered and each refused the connection. */
+static void refused_error(sylva_client *c)
+{
+    size_t used = (size_t)snprintf(c->error, sizeof c->error, "no sylva daemon answers at ");
+    for (size_t i = 0; i < c->url_count && used < sizeof c->error; i++)
+        used += (size_t)snprintf(c->error + used, sizeof c->error - used, "%s%s", i ? ", " : "",
+                                 c->urls[i]);
+    if (used < sizeof c->error)
+        snprintf(c->error + used, sizeof c->error - used,
+                 " (connection refused): is sylvad running?");
 }
 
 static sylva_status status_for_http(long code)
@@ -400,6 +438,8 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         headers = curl_slist_append(headers, auth);
         if (!headers) return fail(c, SYLVA_ERR_NOMEM, "out of memory");
     }
+    double t_start = now_s();
+    bool only_refused = true; /* every attempt of this request: connection refused */
     for (int attempt = 1;; attempt++) {
         char url[2048];
         if (snprintf(url, sizeof url, "%s%s", c->urls[c->current], r->path) >= (int)sizeof url) {
@@ -438,6 +478,8 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         if (rc == CURLE_OK) {
             curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &code);
             c->http_status = code;
+            c->answered = true;
+            only_refused = false;
             if ((code >= 200 && code < 300) || code == 304) {
                 st = SYLVA_OK;
                 break;
@@ -460,6 +502,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
             break;
         } else {
             transport = true;
+            if (rc != CURLE_COULDNT_CONNECT) only_refused = false;
             c->http_status = 0;
             st = rc == CURLE_OPERATION_TIMEDOUT ? SYLVA_ERR_TIMEOUT : SYLVA_ERR_CONNECT;
             fail(c, st, "%s: %s: %s", what, c->urls[c->current],
@@ -467,9 +510,15 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         }
         long ra_ms = retry_after > 0 && retry_after < 86400 ? (long)retry_after * 1000 : -1;
         long delay = sylva_retry_delay(&c->policy, attempt, c->url_count, transport, code, ra_ms);
-        if (delay < 0) break;
+        bool probing = !c->answered && only_refused;
+        if (probing && delay >= 0 && (now_s() - t_start) * 1000.0 + (double)delay > REFUSED_WINDOW_MS)
+            delay = -1; /* nothing listens: say so now, not after every retry */
+        if (delay < 0) {
+            if (probing) refused_error(c);
+            break;
+        }
         c->current = (c->current + 1) % c->url_count;
-        if (c->on_retry && delay > 0)
+        if (c->on_retry && delay > 0 && !probing)
             c->on_retry(c->on_retry_user, c->error, delay, attempt, c->max_attempts);
         sleep_ms(delay);
     }
@@ -602,8 +651,10 @@ sylva_status sylva_status_get(sylva_client *c, const char *key, double wait_s, s
 {
     if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!key_valid(key))
-        return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
+    if (!key_name_ok(key))
+        return fail(c, SYLVA_ERR_ARG,
+                    "\"%.80s\" is not a key (64 lowercase hex digits, or a prefix of at least "
+                    "8)",
                     key ? key : "");
     sink s = {.limit = MAX_JSON_BYTES};
     request r = {.method = "GET", .out = &s};
@@ -625,8 +676,10 @@ sylva_status sylva_cancel_state(sylva_client *c, const char *key, char *state, s
     if (state && state_len) state[0] = '\0';
     if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!key_valid(key))
-        return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
+    if (!key_name_ok(key))
+        return fail(c, SYLVA_ERR_ARG,
+                    "\"%.80s\" is not a key (64 lowercase hex digits, or a prefix of at least "
+                    "8)",
                     key ? key : "");
     sink s = {.limit = MAX_JSON_BYTES};
     request r = {.method = "DELETE", .out = &s};
@@ -674,8 +727,10 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
 {
     if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!key_valid(key))
-        return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
+    if (!key_name_ok(key))
+        return fail(c, SYLVA_ERR_ARG,
+                    "\"%.80s\" is not a key (64 lowercase hex digits, or a prefix of at least "
+                    "8)",
                     key ? key : "");
     sylva_job local = {0};
     sylva_job *j = job ? job : &local;
@@ -800,7 +855,7 @@ static sylva_status done_job(sylva_client *c, const char *key, const sylva_job *
                              const sylva_job **use)
 {
     *use = job;
-    if (!job || !job->json || strcmp(job->key, key) != 0) {
+    if (!job || !job->json || strncmp(job->key, key, strlen(key)) != 0) {
         sylva_status st = sylva_status_get(c, key, 0, tmp);
         if (st != SYLVA_OK) return st;
         *use = tmp;
@@ -921,8 +976,10 @@ sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *
 {
     if (!c) return SYLVA_ERR_ARG;
     clear_error(c);
-    if (!key_valid(key))
-        return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
+    if (!key_name_ok(key))
+        return fail(c, SYLVA_ERR_ARG,
+                    "\"%.80s\" is not a key (64 lowercase hex digits, or a prefix of at least "
+                    "8)",
                     key ? key : "");
     if (!dir || !dir[0]) return fail(c, SYLVA_ERR_ARG, "no output directory");
     sylva_job tmp = {0};
@@ -937,7 +994,7 @@ sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *
         goto out;
     }
     st = mkdir_p(c, dir);
-    for (size_t i = 0; st == SYLVA_OK && i < n; i++) st = fetch_one_to_file(c, key, &arts[i], dir);
+    for (size_t i = 0; st == SYLVA_OK && i < n; i++) st = fetch_one_to_file(c, use->key, &arts[i], dir);
     if (st == SYLVA_OK) st = remove_stale_outputs(c, dir, arts, n);
 out:
     free(arts);
@@ -953,8 +1010,10 @@ sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *
     if (!data || !size || !name) return fail(c, SYLVA_ERR_ARG, "sylva_fetch_mem: NULL argument");
     *data = NULL;
     *size = 0;
-    if (!key_valid(key))
-        return fail(c, SYLVA_ERR_ARG, "\"%.80s\" is not a key (64 lowercase hex digits)",
+    if (!key_name_ok(key))
+        return fail(c, SYLVA_ERR_ARG,
+                    "\"%.80s\" is not a key (64 lowercase hex digits, or a prefix of at least "
+                    "8)",
                     key ? key : "");
     sylva_job tmp = {0};
     const sylva_job *use = NULL;
@@ -981,7 +1040,7 @@ sylva_status sylva_fetch_mem(sylva_client *c, const char *key, const sylva_job *
         st = fail(c, SYLVA_ERR_NOMEM, "out of memory");
         goto out;
     }
-    snprintf(r.path, sizeof r.path, "/v1/bakes/%s/artifacts/%s", key, esc);
+    snprintf(r.path, sizeof r.path, "/v1/bakes/%s/artifacts/%s", use->key, esc);
     curl_free(esc);
     st = request_run(c, &r, "download");
     if (st != SYLVA_OK) goto out;

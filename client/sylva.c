@@ -76,12 +76,25 @@ static int fail_out(const sylva_cli *cli, int code, const char *errcode, const c
     return code;
 }
 
+/* libsylva's detail when nothing listens at any server (connection refused
+ * before any answer), with where the address came from. */
+static const char *no_daemon_line(sylva_client *c, sylva_status st, char *buf, size_t len)
+{
+    const char *detail = sylva_client_error(c);
+    if (st != SYLVA_ERR_CONNECT || strncmp(detail, "no sylva daemon answers", 23) != 0)
+        return NULL;
+    snprintf(buf, len, "%s (--server / SYLVA_SERVER)", detail);
+    return buf;
+}
+
 static int fail_client(const sylva_cli *cli, sylva_client *c, sylva_status st)
 {
     const char *detail = sylva_client_error(c);
     const char *code = sylva_client_error_code(c);
+    char line[1200];
+    const char *nd = no_daemon_line(c, st, line, sizeof line);
     return fail_out(cli, sylva_cli_exit_code(st), code[0] ? code : sylva_status_name(st),
-                    detail[0] ? detail : sylva_status_message(st));
+                    nd ? nd : detail[0] ? detail : sylva_status_message(st));
 }
 
 static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
@@ -450,6 +463,11 @@ static int cmd_bake(const sylva_cli *cli)
         bake *b = &bakes[i];
         b->t0 = now_s();
         sylva_status st = sylva_submit(c, &b->in, &b->job);
+        char line[1200];
+        if (no_daemon_line(c, st, line, sizeof line)) { /* one line for the whole batch */
+            rc = fail_out(cli, sylva_cli_exit_code(st), sylva_status_name(st), line);
+            goto out;
+        }
         if (st != SYLVA_OK) {
             record_failure(b, c, st);
             continue;
@@ -599,6 +617,13 @@ static int cmd_status(const sylva_cli *cli)
                 printf(": %s: %s", job.error_code, job.error_message);
             printf("\n");
             if (job.state == SYLVA_STATE_DONE) {
+                /* the table from the manifest's copy of report.json's summary */
+                cJSON *doc = cJSON_Parse(job.json);
+                sylva_summary_table(cJSON_GetObjectItemCaseSensitive(
+                                        cJSON_GetObjectItemCaseSensitive(doc, "manifest"),
+                                        "summary"),
+                                    NULL, stdout);
+                cJSON_Delete(doc);
                 cJSON *s = sylva_cli_summary(job.json, NULL, NULL);
                 print_summary(s);
                 cJSON_Delete(s);

@@ -17,7 +17,15 @@
  *     and the HTTP status) is kept in the handle: sylva_client_error().
  *   - Retries: connection errors, timeouts, HTTP 429, 5xx are retried with
  *     exponential backoff (Retry-After honoured), failing over between the
- *     configured servers in order (see sylva_retry_delay).
+ *     configured servers in order (see sylva_retry_delay). Until some server
+ *     has answered the handle, a request whose every attempt was refused
+ *     (nothing listens there) stops after 1.5 s: SYLVA_ERR_CONNECT, detail
+ *     "no sylva daemon answers at URL... (connection refused): is sylvad
+ *     running?", and no on_retry call for those quick retries.
+ *   - A `key` argument of the calls that name a bake (status, wait, cancel,
+ *     fetch) is the 64-digit key or a prefix of at least 8 of its digits,
+ *     which the server resolves (docs/api.md "Key prefixes": 404 when none,
+ *     SYLVA_ERR_REJECTED for 409 when several bakes start with it).
  *   - destroy/clear functions accept NULL.
  */
 #ifndef SYLVA_H

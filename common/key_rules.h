@@ -22,6 +22,7 @@
 #define SYLVA_KEY_MAGIC_LEN 13
 #define SYLVA_UPLOAD_NAME_MAX 255 /* longest upload name, bytes */
 #define SYLVA_KEY_HEX_LEN 64      /* a key: 64 lowercase hex digits */
+#define SYLVA_KEY_PREFIX_MIN 8    /* a key may be named by a unique prefix this long */
 
 /* The length of the well-formed UTF-8 sequence at s[0..n) (RFC 3629: no
  * overlong form, no surrogate, nothing above U+10FFFF), or 0 if there is none. */
@@ -92,6 +93,19 @@ static inline bool sylva_key_hex_ok(const char *s)
 {
     if (!s || strlen(s) != SYLVA_KEY_HEX_LEN) return false;
     for (int i = 0; i < SYLVA_KEY_HEX_LEN; i++) {
+        char c = s[i];
+        if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+    }
+    return true;
+}
+
+/* True when s names a key: SYLVA_KEY_PREFIX_MIN..64 of [0-9a-f] (the whole
+ * key, or a prefix that sylvad resolves when it is unique, docs/api.md). */
+static inline bool sylva_key_prefix_ok(const char *s)
+{
+    size_t n = s ? strlen(s) : 0;
+    if (n < SYLVA_KEY_PREFIX_MIN || n > SYLVA_KEY_HEX_LEN) return false;
+    for (size_t i = 0; i < n; i++) {
         char c = s[i];
         if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
     }

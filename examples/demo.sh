@@ -1,10 +1,12 @@
 #!/bin/sh
 # make demo: bake the bundled example tree and say where the outputs are.
 # Through the daemon and the client when they are built, else offline.
+# usage: examples/demo.sh [BUILD [OUT]]  (OUT default out/demo in the checkout;
+# the tests give one under their temporary folder: docs/testing.md)
 set -eu
 BUILD=${1:-build}
 root=$(cd "$(dirname "$0")/.." && pwd)
-out="$root/out/demo"
+out=${2:-$root/out/demo}
 rm -rf "$out"
 mkdir -p "$out"
 tree="$root/examples/oak_large"

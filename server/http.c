@@ -28,6 +28,7 @@
 #include "import.h"
 #include "method.h"
 #include "multipart.h"
+#include "openapi.h"
 #include "spec.h"
 
 #define SPEC_MAX (1u << 20)
@@ -203,6 +204,7 @@ static const struct {
     [SVD_JOBS_STORE_FULL] = {MHD_HTTP_INSUFFICIENT_STORAGE, "store_full"},
     [SVD_JOBS_IO] = {MHD_HTTP_INTERNAL_SERVER_ERROR, "io"},
     [SVD_JOBS_NOMEM] = {MHD_HTTP_INTERNAL_SERVER_ERROR, "nomem"},
+    [SVD_JOBS_AMBIGUOUS] = {MHD_HTTP_CONFLICT, "ambiguous_key"},
 };
 
 /* Answers a job-table call: its document (body, freed) when it succeeded,
@@ -1244,6 +1246,41 @@ static enum MHD_Result handle_metrics(req *q)
 
 /* ---- dispatch ---- */
 
+/* A bake route named by a key prefix (routes.h): the one key of the
+ * caller's bakes (every bake without tokens) that starts with it goes into
+ * q->m.key. True when resolved; else the answer was queued into *ret: 404
+ * when none starts with it, 409 "ambiguous_key" with the error's
+ * "candidates" (the keys, bytewise order) when several do. */
+static bool resolve_prefix(req *q, enum MHD_Result *ret)
+{
+    svd_http *h = q->h;
+    char key[SVD_KEY_HEX], *cands = NULL;
+    sv_error e = {0};
+    svd_jobs_rc rc = svd_jobs_resolve(h->jobs, q->m.key, h->tokens ? q->client : NULL, key,
+                                      &cands, &e);
+    if (rc == SVD_JOBS_OK) {
+        memcpy(q->m.key, key, SVD_KEY_HEX);
+        q->m.key_prefix = false;
+        return true;
+    }
+    if (rc == SVD_JOBS_AMBIGUOUS) {
+        cJSON *doc = cJSON_CreateObject();
+        cJSON *err = cJSON_AddObjectToObject(doc, "error");
+        cJSON_AddStringToObject(err, "code", jobs_http[rc].code);
+        cJSON_AddStringToObject(err, "message", e.message);
+        cJSON *list = cands ? cJSON_Parse(cands) : NULL;
+        if (list) cJSON_AddItemToObject(err, "candidates", list);
+        *ret = send_json(h, q->conn, q->m.route, jobs_http[rc].status,
+                         cJSON_PrintUnformatted(doc));
+        cJSON_Delete(doc);
+    } else {
+        *ret = send_error(h, q->conn, q->m.route, jobs_http[rc].status, jobs_http[rc].code,
+                          e.message);
+    }
+    free(cands);
+    return false;
+}
+
 static void remote_addr(struct MHD_Connection *c, char *out, size_t cap)
 {
     const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
@@ -1434,6 +1471,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return upload_end(q);
     }
     if (q->kind == REQ_WAIT) return handle_status(q, 0); /* resumed */
+    if (q->m.key_prefix) { /* once: resolved, the full key replaces it */
+        enum MHD_Result r;
+        if (!resolve_prefix(q, &r)) {
+            *upload_data_size = 0;
+            return r;
+        }
+    }
     /* Issue 22 item 8: with tokens, a bake is its uploaders' alone; anyone
      * else gets the unknown key's own 404, so a key cannot be probed. */
     if (h->tokens &&
@@ -1471,6 +1515,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
         return handle_metrics(q);
     case SVD_R_INFO:
         return handle_info(q);
+    case SVD_R_OPENAPI:
+        return send_text(h, c, q->m.route, 200, svd_openapi_json(NULL), "application/json");
     case SVD_R_ARTIFACT:
         return handle_artifact(q);
     case SVD_R_INPUT:

@@ -720,6 +720,57 @@ svd_jobs_rc svd_jobs_list(svd_jobs *jobs, const char *client, uint64_t before, u
     return *json_out ? SVD_JOBS_OK : refuse(err, SVD_JOBS_NOMEM, "out of memory");
 }
 
+static int by_strcmp(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+svd_jobs_rc svd_jobs_resolve(svd_jobs *jobs, const char *prefix, const char *client,
+                             char key[SVD_KEY_HEX], char **candidates_json, sv_error *err)
+{
+    if (candidates_json) *candidates_json = NULL;
+    size_t pl = prefix ? strlen(prefix) : 0;
+    if (!sylva_key_prefix_ok(prefix)) {
+        sv_fail(err, SV_ERR_SPEC,
+                "bad key: expected 64 lowercase hex digits, or a unique prefix of at least %d "
+                "of them",
+                SYLVA_KEY_PREFIX_MIN);
+        return SVD_JOBS_NOT_FOUND;
+    }
+    /* The bucket is the key's first three hex digits (bucket_of), which a
+     * prefix holds: one bucket is scanned, not the table. */
+    const char *found[SVD_KEY_CANDIDATES_MAX];
+    size_t n = 0;
+    pthread_mutex_lock(&jobs->mu);
+    for (svd_job *j = jobs->buckets[bucket_of(prefix)]; j; j = j->hnext) {
+        if (strncmp(j->key, prefix, pl) != 0 || (client && !owned_by(j, client))) continue;
+        if (n < SVD_KEY_CANDIDATES_MAX) found[n] = j->key;
+        n++;
+    }
+    svd_jobs_rc rc = SVD_JOBS_OK;
+    if (n == 0) {
+        rc = SVD_JOBS_NOT_FOUND;
+        sv_fail(err, SV_ERR_MISSING, "no bake whose key starts with %s", prefix);
+    } else if (n == 1) {
+        snprintf(key, SVD_KEY_HEX, "%s", found[0]);
+    } else {
+        size_t shown = n < SVD_KEY_CANDIDATES_MAX ? n : SVD_KEY_CANDIDATES_MAX;
+        qsort(found, shown, sizeof found[0], by_strcmp);
+        sv_fail(err, SV_ERR_SPEC, "key prefix %s names %zu bakes: give more of the key", prefix, n);
+        rc = SVD_JOBS_AMBIGUOUS;
+        if (candidates_json) {
+            cJSON *a = cJSON_CreateArray();
+            for (size_t i = 0; a && i < shown; i++)
+                cJSON_AddItemToArray(a, cJSON_CreateString(found[i]));
+            *candidates_json = a ? cJSON_PrintUnformatted(a) : NULL;
+            cJSON_Delete(a);
+            if (!*candidates_json) rc = refuse(err, SVD_JOBS_NOMEM, "out of memory");
+        }
+    }
+    pthread_mutex_unlock(&jobs->mu);
+    return rc;
+}
+
 bool svd_jobs_has(svd_jobs *jobs, const char *key)
 {
     pthread_mutex_lock(&jobs->mu);

@@ -55,7 +55,8 @@ typedef enum svd_jobs_rc {
     SVD_JOBS_CLIENT_FULL, /* this client holds queue_per_client bakes */
     SVD_JOBS_STORE_FULL,  /* the store cannot make room */
     SVD_JOBS_IO,          /* the journal or the store failed */
-    SVD_JOBS_NOMEM        /* out of memory */
+    SVD_JOBS_NOMEM,       /* out of memory */
+    SVD_JOBS_AMBIGUOUS    /* a key prefix that names more than one bake */
 } svd_jobs_rc;
 
 /* A long-poll registration owned by the caller (the HTTP layer). wake() is
@@ -115,6 +116,17 @@ bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64
 /* Gives back bytes `client` reserved with svd_jobs_reserve (an upload that
  * ended: committed, refused or aborted). */
 void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes);
+
+/* Resolves a key prefix (SYLVA_KEY_PREFIX_MIN..64 lowercase hex digits) to
+ * the one key that starts with it into key: OK. Only the bakes `client`
+ * owns (svd_jobs_owned) count when client is non-NULL (sylvad with tokens:
+ * others' keys are neither found nor listed). NOT_FOUND when none matches;
+ * AMBIGUOUS when several do, with *candidates_json (malloc'ed; may be NULL
+ * to skip) a JSON array of their keys in bytewise order, at most
+ * SVD_KEY_CANDIDATES_MAX of them. err says which, naming the prefix. */
+#define SVD_KEY_CANDIDATES_MAX 16
+svd_jobs_rc svd_jobs_resolve(svd_jobs *jobs, const char *prefix, const char *client,
+                             char key[SVD_KEY_HEX], char **candidates_json, sv_error *err);
 
 /* True if a job with this key exists (and its inputs are kept). */
 bool svd_jobs_has(svd_jobs *jobs, const char *key);

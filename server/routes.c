@@ -9,7 +9,7 @@ static const char *const labels[SVD_R_COUNT] = {
     [SVD_R_INFO] = "info",     [SVD_R_SUBMIT] = "submit", [SVD_R_PUT] = "put",
     [SVD_R_STATUS] = "status", [SVD_R_DELETE] = "delete", [SVD_R_ARTIFACT] = "artifact",
     [SVD_R_LIST] = "list",     [SVD_R_VIEW] = "view",     [SVD_R_INPUT] = "input",
-    [SVD_R_INPUTS] = "inputs", [SVD_R_VIEWER] = "viewer",
+    [SVD_R_INPUTS] = "inputs", [SVD_R_VIEWER] = "viewer", [SVD_R_OPENAPI] = "openapi",
 };
 
 const char *svd_route_label(svd_route r)
@@ -49,9 +49,12 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     memset(m, 0, sizeof *m);
     int get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
     if (strcmp(path, "/v1/health") == 0 || strcmp(path, "/v1/metrics") == 0 ||
-        strcmp(path, "/v1/info") == 0) {
+        strcmp(path, "/v1/info") == 0 || strcmp(path, "/v1/openapi.json") == 0) {
         if (!get) return fail(m, 405, "method not allowed", "GET, HEAD");
-        m->route = path[4] == 'h' ? SVD_R_HEALTH : path[4] == 'm' ? SVD_R_METRICS : SVD_R_INFO;
+        m->route = path[4] == 'h'   ? SVD_R_HEALTH
+                   : path[4] == 'm' ? SVD_R_METRICS
+                   : path[4] == 'i' ? SVD_R_INFO
+                                    : SVD_R_OPENAPI;
         return;
     }
     if (strncmp(path, "/v1/viewer/", 11) == 0) {
@@ -71,13 +74,20 @@ void svd_route_find(const char *method, const char *path, svd_route_match *m)
     const char *k = path + 10;
     const char *slash = strchr(k, '/');
     size_t kl = slash ? (size_t)(slash - k) : strlen(k);
-    if (kl != 64) return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
-    memcpy(m->key, k, 64);
-    m->key[64] = '\0';
-    if (!svd_key_valid(m->key))
-        return fail(m, 400, "bad key: expected 64 lowercase hex digits", NULL);
+    static const char bad_key[] = "bad key: expected 64 lowercase hex digits, or a unique "
+                                  "prefix of at least 8 of them";
+    if (kl < SYLVA_KEY_PREFIX_MIN || kl > SYLVA_KEY_HEX_LEN) return fail(m, 400, bad_key, NULL);
+    memcpy(m->key, k, kl);
+    m->key[kl] = '\0';
+    if (!sylva_key_prefix_ok(m->key)) return fail(m, 400, bad_key, NULL);
+    m->key_prefix = kl < SYLVA_KEY_HEX_LEN;
     if (!slash) {
         if (get) m->route = SVD_R_STATUS;
+        else if (strcmp(method, "PUT") == 0 && m->key_prefix)
+            return fail(m, 400,
+                        "bad key: PUT names the bytes it uploads by their whole key (64 "
+                        "lowercase hex digits); a prefix is for reading and DELETE",
+                        NULL);
         else if (strcmp(method, "PUT") == 0) m->route = SVD_R_PUT;
         else if (strcmp(method, "DELETE") == 0) m->route = SVD_R_DELETE;
         else return fail(m, 405, "method not allowed", "GET, HEAD, PUT, DELETE");

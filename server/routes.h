@@ -5,6 +5,9 @@
 
 #include "key.h"
 
+/* Every route is in server/openapi.json with its methods: a route added
+ * here without it fails tests/unit/test_server_routes.c. */
+
 typedef enum svd_route {
     SVD_R_NONE = 0, /* no route: see status */
     SVD_R_HEALTH,   /* GET /v1/health */
@@ -20,6 +23,7 @@ typedef enum svd_route {
     SVD_R_INPUT,    /* GET /v1/bakes/{key}/inputs/{name}: an uploaded file */
     SVD_R_INPUTS,   /* GET /v1/bakes/{key}/inputs: the list of them */
     SVD_R_VIEWER,   /* GET /v1/viewer/{path}: the viewer page's own files */
+    SVD_R_OPENAPI,  /* GET /v1/openapi.json: the API's description (openapi.h) */
     SVD_R_COUNT
 } svd_route;
 
@@ -28,12 +32,17 @@ typedef struct svd_route_match {
     int status;                  /* 0 on a match, else 400, 404 or 405 */
     const char *allow;           /* for 405: the Allow header value */
     const char *message;         /* for errors: why */
-    char key[SVD_KEY_HEX];       /* for bake routes */
+    char key[SVD_KEY_HEX];       /* for bake routes: the key, or a prefix of it */
+    bool key_prefix;             /* key holds SYLVA_KEY_PREFIX_MIN..63 hex digits: the
+                                    caller resolves it (svd_jobs_resolve); never on PUT */
     char name[SVD_NAME_MAX + 1]; /* SVD_R_ARTIFACT, SVD_R_INPUT: a valid name;
                                         SVD_R_VIEWER: a path (svd_viewer_path_valid) */
 } svd_route_match;
 
-/* Matches a request. HEAD is treated as GET. Never fails to fill *m. */
+/* Matches a request. HEAD is treated as GET. A bake route takes the key or
+ * a prefix of at least SYLVA_KEY_PREFIX_MIN lowercase hex digits (key_prefix
+ * set), but PUT, which names the bytes it uploads, takes the whole key;
+ * anything else there is 400. Never fails to fill *m. */
 void svd_route_find(const char *method, const char *path, svd_route_match *m);
 
 /* True if path (relative, below the viewer directory) is 1..SVD_NAME_MAX

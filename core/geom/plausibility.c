@@ -298,3 +298,181 @@ void sv_plausibility_warnings(const sv_up_guess *g, double height, bool rotated,
                "import.units (e.g. \"cm\", \"mm\" or metres per unit)",
                height, 100 * SV_SMALLEST_TREE_M);
 }
+
+/* ---- units ---- */
+
+/* The area-weighted median of n (value, weight) pairs (sorted in place). */
+static double weighted_median(pos_area *v, uint32_t n)
+{
+    double total = 0, acc = 0;
+    for (uint32_t i = 0; i < n; i++) total += v[i].area;
+    qsort(v, n, sizeof *v, pos_cmp);
+    for (uint32_t i = 0; i < n; i++)
+        if ((acc += v[i].area) >= 0.5 * total) return v[i].pos;
+    return NAN;
+}
+
+/* The trunk's diameter near the base (sv_check_units); 0 when not measured. */
+static double trunk_diameter(const sv_mesh *m, const uint8_t *tri_part, double ymin, double h)
+{
+    pos_area *r = malloc((size_t)m->triangle_count * sizeof *r + 1);
+    if (!r) return 0;
+    double lo = ymin + 0.02 * h, hi = ymin + 0.15 * h, c[2] = {0, 0}, total = 0;
+    uint32_t n = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t t = 0; t < m->triangle_count; t++) {
+            if (tri_part && tri_part[t] != SV_PART_TRUNK) continue;
+            double ylo = INFINITY, yhi = -INFINITY, nn[3];
+            for (int v = 0; v < 3; v++) {
+                double y = m->positions[3 * (size_t)m->indices[3 * (size_t)t + v] + 1];
+                ylo = fmin(ylo, y), yhi = fmax(yhi, y);
+            }
+            if (yhi < lo || ylo > hi) continue; /* (a low-poly stem's triangles span it) */
+            sv_tri_normal(m, t, nn);
+            double a = sv_tri_area(m, t);
+            if (!(a > 0) || fabs(nn[1]) > 0.5) continue; /* a wall, not a cap or soil */
+            double x = centroid_along(m, t, 0), z = centroid_along(m, t, 2);
+            if (pass == 0) c[0] += a * x, c[1] += a * z, total += a;
+            else r[n++] = (pos_area){hypot(x - c[0], z - c[1]), a};
+        }
+        if (!(total > 0)) break;
+        if (pass == 0) c[0] /= total, c[1] /= total;
+    }
+    double d = n ? 2 * weighted_median(r, n) : 0;
+    free(r);
+    return isfinite(d) ? d : 0;
+}
+
+/* A measure of the units check: its value as read, its plausible range and
+ * a typical value with its spread (log scale), metres. */
+typedef struct measure {
+    const char *what;
+    double v, lo, hi, typical, spread;
+} measure;
+
+/* How far the sizes a factor f gives are from the typical ones: the sum of
+ * their squared log distances, each over its spread. */
+static double atypical(const measure *ms, int n, double f)
+{
+    double s = 0;
+    for (int i = 0; i < n; i++) {
+        if (!(ms[i].v > 0)) continue;
+        double d = (log(f * ms[i].v) - log(ms[i].typical)) / ms[i].spread;
+        s += d * d;
+    }
+    return s;
+}
+
+void sv_check_units(const sv_mesh *m, const uint8_t *tri_part, const sv_leaves *leaves,
+                    double unit_scale, double height, sv_units_guess *u)
+{
+    memset(u, 0, sizeof *u);
+    double scale = unit_scale > 0 ? unit_scale : 1;
+    u->factor = 1;
+    u->metres_per_unit = scale;
+    u->height = height;
+    double mn[3], mx[3];
+    if (m && sv_mesh_bounds(m, mn, mx) && height > 0)
+        u->trunk_diameter = trunk_diameter(m, tri_part, mn[1], mx[1] - mn[1]);
+    bool cards = false;
+    /* elements of more than SV_UNITS_MASS_TRIS triangles are foliage masses
+     * (a conifer's), not leaves: their size says nothing of the units */
+    if (leaves && leaves->count && leaves->median_area > 0 &&
+        leaves->tri_count <= SV_UNITS_MASS_TRIS * (uint64_t)leaves->count) {
+        u->leaf_size = sqrt(leaves->median_area);
+        cards = leaves->tri_count <= 4 * (uint64_t)leaves->count; /* quads, not modelled leaves */
+    }
+    measure ms[3] = {
+        {"tall", u->height, SV_UNITS_H_MIN, SV_UNITS_H_MAX, SV_UNITS_H_TYPICAL, 1.5},
+        {"across its median leaf element", u->leaf_size, SV_UNITS_L_MIN, SV_UNITS_L_MAX,
+         cards ? SV_UNITS_CARD_TYPICAL : SV_UNITS_LEAF_TYPICAL, 1.0},
+        {"across its trunk near the base", u->trunk_diameter, SV_UNITS_D_MIN, SV_UNITS_D_MAX,
+         SV_UNITS_D_TYPICAL, 2.0},
+    };
+    double flo = 0, fhi = INFINITY; /* the factors that bring every measure in range */
+    char what[200] = "";
+    for (int i = 0; i < 3; i++) {
+        if (!(ms[i].v > 0) || !isfinite(ms[i].v)) {
+            ms[i].v = 0;
+            continue;
+        }
+        flo = fmax(flo, ms[i].lo / ms[i].v);
+        fhi = fmin(fhi, ms[i].hi / ms[i].v);
+        if (ms[i].v < ms[i].lo || ms[i].v > ms[i].hi) {
+            size_t l = strlen(what);
+            snprintf(what + l, sizeof what - l, "%s%.3g m %s", l ? ", " : "", ms[i].v, ms[i].what);
+        }
+    }
+    if (!what[0]) return; /* plausible as read */
+    u->implausible = true;
+    u->factor = 0;
+    /* The unit: of m, cm, mm and 0.1 m (ez-tree's and other generators' units
+     * come near it) the one in range whose sizes are the most typical; only
+     * when none is in range, in, ft or another power of ten of a metre. */
+    static const struct {
+        const char *name;
+        double metres;
+    } common[] = {{"m", 1}, {"cm", 0.01}, {"mm", 0.001}, {"0.1", 0.1}};
+    double best = INFINITY;
+    for (int phase = 0; phase < 2 && u->factor == 0; phase++) {
+        int n = phase == 0 ? 4 : 2 + 13;
+        for (int k = 0; k < n; k++) {
+            double metres;
+            char name[24];
+            if (phase == 0) {
+                metres = common[k].metres;
+                snprintf(name, sizeof name, "%s", common[k].name);
+            } else if (k < 2) {
+                metres = k == 0 ? 0.0254 : 0.3048;
+                snprintf(name, sizeof name, "%s", k == 0 ? "in" : "ft");
+            } else {
+                int e = k - 2 - 6; /* 1e-6 .. 1e6 (import.units' range); the common
+                                      ones are phase 0's */
+                if (e >= -3 && e <= 0) continue;
+                metres = pow(10, e);
+                snprintf(name, sizeof name, "%g", metres);
+            }
+            double f = metres / scale;
+            if (!(flo <= fhi) || f < flo || f > fhi || fabs(f - 1) < 1e-9) continue;
+            double score = atypical(ms, 3, f);
+            if (score < best) {
+                best = score;
+                u->factor = f;
+                snprintf(u->unit, sizeof u->unit, "%s", name);
+            }
+        }
+    }
+    if (u->factor > 0) {
+        u->metres_per_unit = scale * u->factor;
+        size_t l = (size_t)snprintf(u->reason, sizeof u->reason,
+                                    "read at %g m a unit the tree is %s; at %g m a unit it "
+                                    "would be %.3g m tall",
+                                    scale, what, u->metres_per_unit, u->factor * u->height);
+        if (u->leaf_size > 0 && l < sizeof u->reason)
+            l += (size_t)snprintf(u->reason + l, sizeof u->reason - l,
+                                  ", its leaf elements %.3g m across", u->factor * u->leaf_size);
+        if (u->trunk_diameter > 0 && l < sizeof u->reason)
+            snprintf(u->reason + l, sizeof u->reason - l, ", its trunk %.3g m",
+                     u->factor * u->trunk_diameter);
+    } else {
+        u->metres_per_unit = 0;
+        snprintf(u->reason, sizeof u->reason,
+                 "read at %g m a unit the tree is %s, and no unit makes its height, leaves and "
+                 "trunk all plausible",
+                 scale, what);
+    }
+}
+
+void sv_units_warning(const sv_units_guess *u, char *buf, size_t cap)
+{
+    if (!u || !u->implausible || !buf || cap == 0) return;
+    bool named = u->unit[0] >= 'a' && u->unit[0] <= 'z'; /* a name; else metres per unit */
+    if (u->factor > 0)
+        append(buf, cap,
+               "the units look wrong: %s; if so, pass --units %s (spec \"import\": {\"units\": "
+               "%s%s%s})",
+               u->reason, u->unit, named ? "\"" : "", u->unit, named ? "\"" : "");
+    else
+        append(buf, cap, "the size looks wrong: %s; check --units (spec \"import\": {\"units\"})",
+               u->reason);
+}

@@ -5,6 +5,7 @@
 #ifndef SV_PLAUSIBILITY_H
 #define SV_PLAUSIBILITY_H
 
+#include "classify.h"
 #include "mesh.h"
 
 #define SV_TALLEST_TREE_M 150.0 /* taller than any living tree: wrong units */
@@ -63,8 +64,65 @@ void sv_mesh_rotate_up(sv_mesh *mesh, int z_up);
  * import.h), in double. z_up = 0 does nothing. */
 void sv_point_rotate_up(double p[3], int z_up);
 
+/* The units check: the tree's size read three ways, each against the sizes
+ * trees have, and the unit that makes all three plausible when the one
+ * given does not (docs/spec.md "Plausibility checks"). In metres as read: */
+#define SV_UNITS_H_MIN 0.05  /* height: a seedling, a bonsai */
+#define SV_UNITS_H_MAX 100.0 /* the tallest living trees reach 100-116 m */
+#define SV_UNITS_L_MIN 0.003 /* leaf element (sqrt of its area): a needle, a heather leaf */
+#define SV_UNITS_L_MAX 2.0   /* a card holding a whole branch; 4 m^2 */
+#define SV_UNITS_D_MIN 0.002 /* trunk diameter near the base: a seedling's stem */
+#define SV_UNITS_D_MAX 6.0   /* the widest trunks (a pot or a root flare counts too) */
+/* Typical sizes, to choose between units that all fit (a tree, a single
+ * modelled leaf, a leaf card of at most 4 triangles, a trunk): */
+#define SV_UNITS_H_TYPICAL 5.0
+#define SV_UNITS_LEAF_TYPICAL 0.05
+#define SV_UNITS_CARD_TYPICAL 0.3
+#define SV_UNITS_D_TYPICAL 0.3
+/* Leaf elements of more triangles than this on average are foliage masses
+ * (a conifer modelled as a few blobs), not leaves or cards: not judged. */
+#define SV_UNITS_MASS_TRIS 64
+
+typedef struct sv_units_guess {
+    double height;          /* m as read: the tree's extent along up */
+    double leaf_size;       /* m as read: sqrt of the median leaf element's area (0: none) */
+    double trunk_diameter;  /* m as read: near the base (0: not measured) */
+    bool implausible;       /* a size outside its range above */
+    double factor;          /* the likely true size / the size read (1 when plausible; 0 when
+                              no unit makes all three plausible) */
+    double metres_per_unit; /* the unit the file likely has: unit_scale x factor (0: none) */
+    char unit[24];          /* its spelling for --units / import.units ("cm", "0.1", ...) */
+    char reason[400];       /* what is implausible, and why that unit */
+} sv_units_guess;
+
+/* Judges the units of a tree read with unit_scale metres per unit (mesh in
+ * metres, +Y up, height its extent along up): its height, the size of its
+ * median leaf element (leaves; NULL, none, or more than SV_UNITS_MASS_TRIS
+ * triangles an element on average: not judged) and its trunk's
+ * diameter near the base (the trunk triangles whose walls face sideways,
+ * tri_part[t] == SV_PART_TRUNK, reaching into the slab 2..15 % of the height
+ * above the lowest point: twice their centroids' area-weighted median
+ * distance from their area-weighted centre, across the up axis; none: not
+ * judged), each against [SV_UNITS_*_MIN,
+ * SV_UNITS_*_MAX]. One outside: implausible. The likely unit is then, of
+ * m, cm, mm and 0.1 m, the one whose factor brings every measure in range
+ * and whose sizes are the most typical (the sum over the measures of the
+ * squared log distance to SV_UNITS_*_TYPICAL over a spread: 1.5 for the
+ * height, 1 for the leaf, 2 for the trunk; a leaf element of at most 4
+ * triangles is a card); when none of them does, in, ft or another power of
+ * ten of a metre from 1e-6 to 1e6, chosen the same way. None at all: factor 0.
+ * Fills *u (never fails); pure and deterministic. */
+void sv_check_units(const sv_mesh *mesh, const uint8_t *tri_part, const sv_leaves *leaves,
+                    double unit_scale, double height, sv_units_guess *u);
+
+/* Appends u's warning to buf (as sv_plausibility_warnings), when implausible:
+ * what is implausible, the likely unit and how to say it (--units U, spec
+ * "import": {"units": U}). */
+void sv_units_warning(const sv_units_guess *u, char *buf, size_t cap);
+
 /* Appends to buf (a '\n'-separated list, capacity cap, NUL-terminated) one
- * warning per implausibility of a tree of the given height (metres): taller
+ * warning per implausibility of a tree of the given height (metres; NAN: no
+ * size warning, sv_check_units judges the size): taller
  * than SV_TALLEST_TREE_M or shorter than SV_SMALLEST_TREE_M, each naming
  * import.units as the fix; when g->z_up != 0, either that the tree looks
  * lying down, naming import.up (!rotated), or that it was rotated upright

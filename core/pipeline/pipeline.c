@@ -77,14 +77,18 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
         sv_point_rotate_up(p->info.origin, p->up.z_up); /* the local frame turns with it */
         p->up_rotated = true;
     }
+    /* the size is judged by the units check below, from more than the height */
+    sv_plausibility_warnings(&p->up, NAN, p->up_rotated, p->info.warnings, sizeof p->info.warnings);
+    if ((st = sv_leaves_build(p->mesh, &p->cls, &p->leaves, err))) return st;
     {
         double mn[3], mx[3];
         sv_mesh_bounds(p->mesh, mn, mx);
         double height = p->up.z_up && !p->up_rotated ? p->up.height : mx[1] - mn[1];
-        sv_plausibility_warnings(&p->up, height, p->up_rotated, p->info.warnings,
-                                 sizeof p->info.warnings);
+        /* a tree lying down is measured as it lies: its height is along Z */
+        sv_check_units(p->up.z_up && !p->up_rotated ? NULL : p->mesh, p->cls.tri_part, &p->leaves,
+                       p->info.unit_scale, height, &p->units);
+        sv_units_warning(&p->units, p->info.warnings, sizeof p->info.warnings);
     }
-    if ((st = sv_leaves_build(p->mesh, &p->cls, &p->leaves, err))) return st;
     sv_mesh_sphere(p->mesh, p->centre, &p->radius);
     if (!(p->radius > 0) || !isfinite(p->radius))
         return sv_fail(err, SV_ERR_UNBAKEABLE, "the mesh has no extent (all vertices coincide)");

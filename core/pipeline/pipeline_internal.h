@@ -47,6 +47,7 @@ typedef struct prepared {
     sv_leaves leaves;
     sv_up_guess up;  /* the up-axis check (plausibility.h) */
     bool up_rotated; /* import.up "auto" found the tree Z-up and rotated it */
+    sv_units_guess units; /* the units check (plausibility.h) */
     double centre[3], radius;
 } prepared;
 

@@ -48,6 +48,17 @@ cJSON *svp_describe(const prepared *p)
     cJSON_AddStringToObject(uc, "looks", p->up.z_up > 0 ? "Z" : p->up.z_up < 0 ? "-Z" : "Y");
     cJSON_AddBoolToObject(uc, "rotated", p->up_rotated);
     cJSON_AddStringToObject(uc, "reason", p->up.reason);
+    const sv_units_guess *un = &p->units;
+    cJSON *ck = cJSON_AddObjectToObject(j, "units_check");
+    cJSON_AddNumberToObject(ck, "height", un->height);
+    cJSON_AddNumberToObject(ck, "leaf_size", un->leaf_size);
+    cJSON_AddNumberToObject(ck, "trunk_diameter", un->trunk_diameter);
+    cJSON_AddBoolToObject(ck, "plausible", !un->implausible);
+    if (un->implausible && un->factor > 0) {
+        cJSON_AddStringToObject(ck, "likely_units", un->unit);
+        cJSON_AddNumberToObject(ck, "likely_metres_per_unit", un->metres_per_unit);
+    }
+    if (un->implausible) cJSON_AddStringToObject(ck, "reason", un->reason);
     /* where the local frame of every written position is in the file */
     cJSON_AddItemToObject(j, "origin", origin_json(p->info.origin));
     cJSON *m = cJSON_AddObjectToObject(j, "mesh");

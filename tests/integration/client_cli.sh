@@ -17,8 +17,11 @@ for b in "$SYLVA" "$SYLVAD" "$BAKER"; do
 done
 T=$(mktemp -d /tmp/sylva_client_cli.XXXXXX)
 DPID=""
+P503=""
 cleanup() {
     [ -n "$DPID" ] && kill "$DPID" 2>/dev/null && wait "$DPID" 2>/dev/null
+    [ -n "$P503" ] && kill "$P503"
+P503="" 2>/dev/null
     rm -rf "$T"
 }
 trap cleanup EXIT INT TERM
@@ -88,14 +91,41 @@ check "  with one line on stderr" test "$(wc -l <"$T/down.err")" -eq 1
 timeout 10 "$SYLVA" health --server http://127.0.0.1:1,http://127.0.0.1:2 >/dev/null 2>"$T/down2.err"
 check "health with no server up exits 6 at once (no retry rounds)" test $? -eq 6
 check "  having tried both servers" grep -q "127.0.0.1:2" "$T/down2.err"
-# other commands say why they wait, unless --quiet
+# no daemon at all (nothing listens: connection refused before any answer):
+# one line naming the address and the way to change it, exit 6, at once
+# rather than after the retry rounds (24 s before)
+for cmd in "status 0123456789ab" "bake $MESH --out $T/nodaemon"; do
+    t0=$(date +%s%N)
+    "$SYLVA" $cmd --server http://127.0.0.1:1 >/dev/null 2>"$T/nod.err"
+    rc=$?
+    ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+    check "sylva ${cmd%% *} with no daemon exits 6 (service) within 2 s (${ms} ms)" \
+        test "$rc" -eq 6 -a "$ms" -lt 2000
+    check "  with one error line: no daemon at the address, is sylvad running, --server" \
+        sh -c "test \"\$(grep -c '' '$T/nod.err')\" -eq 1 && grep -q '^sylva: error: no sylva daemon answers at http://127.0.0.1:1 (connection refused): is sylvad running? (--server / SYLVA_SERVER)\$' '$T/nod.err'"
+done
+# a daemon that answers 503 is worth waiting for: other commands say why
+# they wait, unless --quiet
+python3 -c '
+import http.server, sys
+class H(http.server.BaseHTTPRequestHandler):
+    def do_GET(self):
+        self.send_response(503); self.send_header("Content-Length", "0"); self.end_headers()
+    def log_message(self, *a): pass
+s = http.server.HTTPServer(("127.0.0.1", 0), H)
+open(sys.argv[1], "w").write(str(s.server_port)); s.serve_forever()' "$T/p503" &
+P503=$!
+i=0
+while [ ! -s "$T/p503" ] && [ $i -lt 50 ]; do sleep 0.1; i=$((i + 1)); done
 "$SYLVA" status 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef \
-    --server http://127.0.0.1:1 --retries 2 >/dev/null 2>"$T/retry.err"
-check "a retried request says so on stderr before each wait (2 notices)" \
+    --server "http://127.0.0.1:$(cat "$T/p503")" --retries 2 >/dev/null 2>"$T/retry.err"
+check "a retried request (503) says so on stderr before each wait (2 notices)" \
     test "$(grep -c 'retrying in .* (attempt [23] of 3)' "$T/retry.err")" -eq 2
 "$SYLVA" status 0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef \
-    --server http://127.0.0.1:1 --retries 2 --quiet >/dev/null 2>"$T/retryq.err"
+    --server "http://127.0.0.1:$(cat "$T/p503")" --retries 2 --quiet >/dev/null 2>"$T/retryq.err"
 check "  and --quiet keeps them back" test "$(grep -c 'retrying in' "$T/retryq.err")" -eq 0
+kill "$P503"
+P503=""
 
 # usage errors
 "$SYLVA" bake $MESH >/dev/null 2>"$T/usage.err"
@@ -165,10 +195,16 @@ check "  state done with a manifest" \
     test "$(json_get "$T/status.json" 'd["state"] + str(len(d["manifest"]["artifacts"]) > 0)')" = doneTrue
 "$SYLVA" status "$KEY" >"$T/status.txt"
 check "status prints the state" grep -q "done" "$T/status.txt"
+check "  and the table of levels with their triangles" \
+    sh -c "grep -q '^level  *triangles  *texels' '$T/status.txt' && grep -Eq '^full +[1-9][0-9]* ' '$T/status.txt'"
+SHORT=$(echo "$KEY" | cut -c1-12)
+"$SYLVA" status "$SHORT" >"$T/status12.txt" 2>&1
+check "status by the 12-digit key the bake printed exits 0" test $? -eq 0
+check "  and names the whole key" grep -q "^$KEY done" "$T/status12.txt"
 mkdir -p "$T/fetched"
 touch "$T/fetched/lod9_stale.glb" "$T/fetched/atlas_stale_albedo.png" "$T/fetched/mine.txt"
-"$SYLVA" fetch "$KEY" --out "$T/fetched" --json >"$T/fetch.json"
-check "fetch exits 0" test $? -eq 0
+"$SYLVA" fetch "$SHORT" --out "$T/fetched" --json >"$T/fetch.json"
+check "fetch by the short key exits 0" test $? -eq 0
 check "  an earlier bake's files left in --out are removed" \
     test ! -e "$T/fetched/lod9_stale.glb" -a ! -e "$T/fetched/atlas_stale_albedo.png"
 check "  a file sylva does not write is kept" test -e "$T/fetched/mine.txt"

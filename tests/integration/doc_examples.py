@@ -171,6 +171,21 @@ def main():
     store = os.path.join(work, "store")
     failures, ran, shapes, specs, skipped = [], 0, 0, 0, []
     daemon = None
+    # The README's quick start is what CI runs on a fresh clone (.ci/run):
+    # every `make X` of its sh blocks is either run here (demo) or a command
+    # line of .ci/run (test), and .ci/run runs the README's test command.
+    ci = open(os.path.join(a.root, ".ci", "run"), encoding="utf-8").read()
+    readme_make = set()
+    for line, lang, text, directive in blocks(os.path.join(a.root, "README.md")):
+        for l in text.split("\n") if lang == "sh" else []:
+            m = re.match(r"\s*make\s+(\w[\w-]*)", l)
+            if m:
+                readme_make.add(m.group(1))
+                if m.group(1) != "demo" and not re.search(r"(?m)^make %s\b" % m.group(1), ci):
+                    failures.append("README.md:%d: `make %s` is not a command .ci/run runs"
+                                    % (line, m.group(1)))
+    if "test" not in readme_make:
+        failures.append("README.md: its sh blocks do not say `make test`, the command .ci/run runs")
     try:
         # README.md starts the daemon (its own example, on the test's port and
         # store); a later page finding none starts one there.
@@ -192,10 +207,13 @@ def main():
                 if lang == "sh":
                     body = text.replace("127.0.0.1:8080", "127.0.0.1:%d" % port)
                     body = body.replace("/var/tmp/sylva-store", store)
-                    # `make test` is the command running this very test; `make
-                    # demo` runs from the source tree.
+                    # `make test` is the command running this very test (and
+                    # .ci/run's: checked above); `make demo` runs from the
+                    # source tree, its outputs here, not in the checkout's out/.
                     body = re.sub(r"(?m)^make test\b", ": make test", body)
-                    body = re.sub(r"(?m)^make demo\b", 'make -s -C "$SYLVA_ROOT" demo BUILD="$SYLVA_BUILD"', body)
+                    body = re.sub(r"(?m)^make demo\b",
+                                  'make -s -C "$SYLVA_ROOT" demo BUILD="$SYLVA_BUILD" DEMO_OUT="$PWD/out/demo"',
+                                  body)
                     script.append("echo \"@@ %s $(date +%%s.%%N)\" >&2" % where)
                     script.append(body)
                     for l in text.split("\n"):

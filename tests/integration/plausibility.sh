@@ -38,6 +38,8 @@ YMESH="$D/aspen_small.obj $D/aspen_small.mtl $D/bark_birch_color_1k.jpg $D/leave
 CHEAP='"method":"crossed_quads","lod":{"chain":false},"bake":{"max_atlas":256},"evaluate":{"views":4,"sizes":[64]}'
 echo "{$CHEAP}" > "$T/spec.json"
 echo "{\"import\":{\"up\":\"auto\"},$CHEAP}" > "$T/auto.json"
+# the aspen's right units (ez-tree's, ~0.2 m a unit: ../shared/data/README.md)
+echo "{\"import\":{\"up\":\"auto\",\"units\":0.2},$CHEAP}" > "$T/autou.json"
 jget() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"; }
 
 # offline, Z-up as given: baked (lying down) with a warning on stderr and in the report
@@ -60,7 +62,7 @@ contains "  and in report.json input.warnings" 'rotated the tree upright' \
 check "auto: rotated, up Z" "Z True" "$(jget "$T/za/report.json" "d['input']['up'], d['input']['up_check']['rotated']" | tr -d "(),'")"
 check "auto: the tree stands (height ~39 m along Y)" "39" "$(jget "$T/za/report.json" "round(d['input']['bounds']['size'][1])")"
 # shellcheck disable=SC2086
-"$BAKE" info $YMESH --spec "$T/auto.json" --json > "$T/ya.json"
+"$BAKE" info $YMESH --spec "$T/autou.json" --json > "$T/ya.json"
 check "auto on a Y-up tree: not rotated, no warning" "Y False []" \
     "$(jget "$T/ya.json" "d['up_check']['looks'], d['up_check']['rotated'], d['warnings']" | tr -d "(),'")"
 
@@ -90,17 +92,56 @@ with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as o:
 PY
 FMESH="$T/flat/aspen_small.obj $T/flat/aspen_small.mtl $T/flat/bark_birch_color_1k.jpg $T/flat/leaves_aspen_color.png"
 # shellcheck disable=SC2086
-"$BAKE" info $FMESH --spec "$T/auto.json" --json > "$T/fa.json"
+"$BAKE" info $FMESH --spec "$T/autou.json" --json > "$T/fa.json"
 check "flat aspen: Y, not rotated, no warning" "Y False []" \
     "$(jget "$T/fa.json" "d['up_check']['looks'], d['up_check']['rotated'], d['warnings']" | tr -d "(),'")"
-check "  its height is the aspen's (39 m with units m)" "39 0" \
-    "$(jget "$T/fa.json" "round(d['bounds']['size'][1]), d['bounds']['size'][2]")"
+check "  its height is the aspen's (7.8 m at 0.2 m a unit)" "7.8 0" \
+    "$(jget "$T/fa.json" "round(d['bounds']['size'][1], 1), d['bounds']['size'][2]")"
 
-# a 4 cm tree: the units are probably wrong
-echo '{"import":{"units":"mm"}}' > "$T/mm.json"
-# shellcheck disable=SC2086
-"$BAKE" info $YMESH --spec "$T/mm.json" > "$T/mm.out"
-contains "a 4 cm tree is warned about" "shorter than 5 cm" "$(cat "$T/mm.out")"
+# units (docs/spec.md "Plausibility checks"): height, leaf element and trunk
+# judged together; the four mistakes of issue 43 each warn naming the likely
+# unit, and the same trees with their right units warn nothing (every shared
+# tree: tests/tools/units_sweep.sh, not in CI)
+S=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}
+units() { # units NAME UNITS MESH [FILES...]: info's units_check, "plausible likely" and warnings
+    n=$1 u=$2; shift 2
+    echo "{\"import\":{\"units\":$u}}" > "$T/u_$n.json"
+    "$BAKE" info "$@" --spec "$T/u_$n.json" --json > "$T/u_$n.out" 2>/dev/null
+    jget "$T/u_$n.out" "d['units_check']['plausible'], d['units_check'].get('likely_units', '-')" | tr -d "(),'"
+}
+check "the bush read as metres (131 m tall): likely cm" "False cm" "$(units bm '"m"' "$S/scopia_bush/bush.obj")"
+contains "  the warning names --units cm" 'pass --units cm (spec "import": {"units": "cm"})' \
+    "$(jget "$T/u_bm.out" "d['warnings']")"
+check "  in centimetres: plausible, no warning" "True - []" \
+    "$(units bc '"cm"' "$S/scopia_bush/bush.obj") $(jget "$T/u_bc.out" "d['warnings']")"
+check "the oak .glb as metres (102 m, 20 m^2 leaf cards): implausible" "False" \
+    "$(units og 1 "$S/eztree_oak_large/oak_large.glb" | cut -d' ' -f1)"
+check "  likely near its 0.2 m a unit (0.1 named: within 2.5 times)" "True" \
+    "$(jget "$T/u_og.out" "0.08 <= d['units_check']['likely_metres_per_unit'] <= 0.5")"
+check "  at 0.2 m a unit: plausible, no warning" "True - []" \
+    "$(units og2 0.2 "$S/eztree_oak_large/oak_large.glb") $(jget "$T/u_og2.out" "d['warnings']")"
+if [ -f "$S/sapling_small_maple/sapling_small_maple_rect.obj" ]; then
+    check "the Sapling maple given cm (12 cm tall, 1 mm leaves): likely m" "False m" \
+        "$(units sc '"cm"' "$S/sapling_small_maple/sapling_small_maple_rect.obj")"
+else
+    bad "the Sapling maple is missing from $S"
+fi
+mkdir -p "$T/k"
+cp "$S/scopia_bush/bush.mtl" "$S/scopia_bush/bark.jpg" "$S/scopia_bush/leaf.png" "$T/k/"
+python3 - "$S/scopia_bush/bush.obj" "$T/k/bush.obj" <<'PY'
+import sys
+with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as o:
+    for line in f:
+        if line.startswith('v '):
+            p = line.split()
+            line = 'v %s\n' % ' '.join('%.9g' % (1000 * float(v)) for v in p[1:4])
+        o.write(line)
+PY
+check "the bush scaled x1000 read as cm: likely 1e-05 (its cm / 1000)" "False 1e-05" \
+    "$(units kx '"cm"' "$T/k/bush.obj")"
+check "the aspen read in mm (3.9 cm tall): likely 0.1" "False 0.1" "$(units am '"mm"' $YMESH)"
+contains "  said in report.json input.warnings too" "the units look wrong" \
+    "$(jget "$T/u_am.out" "d['warnings']")"
 
 # through the daemon (real worker): the status document carries the warning
 start_daemon --workers 1 --worker "$BAKE"

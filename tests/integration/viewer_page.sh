@@ -35,11 +35,8 @@ D=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/eztree_aspen_small
 [ -f "$D/aspen_small.obj" ] || { echo "skipped: $D/aspen_small.obj missing (shared data)"; exit 77; }
 [ -x "$CHROMIUM" ] || { echo "skipped: no chromium at $CHROMIUM (deploy/apt-packages.txt installs it)"; exit 77; }
 command -v node >/dev/null || { echo "skipped: node missing"; exit 77; }
-VT=$SYLVA_ROOT/tests/viewer
-if [ ! -f "$VT/node_modules/playwright-core/package.json" ]; then
-    echo "installing playwright-core into $VT"
-    npm ci --prefix "$VT" --no-audit --no-fund --loglevel=error || { bad "npm ci of playwright-core failed"; finish; }
-fi
+. "$(dirname "$0")/npm.inc"
+VT=$(npm_tool viewer) || { bad "npm ci of playwright-core failed"; finish; }
 export CHROMIUM
 
 start_daemon --workers 1 --worker "$BAKE"

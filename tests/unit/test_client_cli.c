@@ -387,6 +387,34 @@ static void summary_carries_an_unmet_target_and_its_reason(void **state)
     cJSON_Delete(s);
 }
 
+/* `sylva status` of a done bake has no report.json, only the status
+ * document, whose manifest carries report.json's summary: the levels come
+ * from there, each with its triangles; a mesh level shows no planes and no
+ * atlas ("0 planes atlas 0x0" before). */
+static void summary_of_a_status_document_lists_each_level_with_its_triangles(void **state)
+{
+    (void)state;
+    const char *job =
+        "{\"key\":\"k\",\"state\":\"done\",\"manifest\":{\"artifacts\":[],\"summary\":{"
+        "\"lods\":[{\"name\":\"full\",\"quads\":0,\"triangles\":3616,\"texels\":0,"
+        "\"accuracy\":[{\"pixels\":64,\"iou_mean\":1}]},"
+        "{\"name\":\"crossed\",\"quads\":2,\"triangles\":4,\"texels\":16384}]}}}";
+    cJSON *s = sylva_cli_summary(job, NULL, NULL);
+    const cJSON *lods = cJSON_GetObjectItem(s, "lods");
+    assert_int_equal(cJSON_GetArraySize(lods), 2);
+    assert_true(cJSON_GetObjectItem(cJSON_GetArrayItem(lods, 0), "triangles")->valuedouble ==
+                3616);
+    char text[1024];
+    sylva_cli_summary_format(s, text, sizeof text);
+    assert_non_null(strstr(text, "full"));
+    assert_non_null(strstr(text, "3616 triangles"));
+    assert_non_null(strstr(text, "4 triangles"));
+    assert_non_null(strstr(text, "2 planes"));
+    assert_null(strstr(text, "0 planes"));
+    assert_null(strstr(text, "0x0"));
+    cJSON_Delete(s);
+}
+
 static void progress_lines_show_stage_and_percent(void **state)
 {
     (void)state;
@@ -554,6 +582,7 @@ int main(void)
         cmocka_unit_test(progress_lines_show_stage_and_percent),
         cmocka_unit_test(exit_codes_separate_input_service_integrity_and_cancel),
         cmocka_unit_test(summary_carries_an_unmet_target_and_its_reason),
+        cmocka_unit_test(summary_of_a_status_document_lists_each_level_with_its_triangles),
         cmocka_unit_test(batch_exit_puts_failures_before_an_unmet_target),
         cmocka_unit_test(exit_table_is_the_one_both_tools_share),
         cmocka_unit_test(shared_flags_become_sets_and_short_options),

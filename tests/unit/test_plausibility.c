@@ -166,6 +166,80 @@ static void no_trunk_means_no_guess(void **state)
     free(part);
 }
 
+/* The synthetic tree's leaves as sv_leaves_build would count them: LEAVES
+ * cards of two triangles, 0.2 x 0.2 m (scaled by s). */
+static sv_leaves cards(double s)
+{
+    sv_leaves l = {0};
+    l.count = LEAVES;
+    l.tri_count = 2 * LEAVES;
+    l.median_area = l.max_area = 0.04 * s * s;
+    return l;
+}
+
+static void scale_mesh(sv_mesh *m, double s)
+{
+    for (uint32_t v = 0; v < 3 * m->vertex_count; v++)
+        m->positions[v] = (float)(s * m->positions[v]);
+}
+
+/* The units check: a 3.5 m tree with a 0.3 m trunk and 0.2 m cards is
+ * plausible in metres; the same numbers read in centimetres (a file in m
+ * given "cm") and in metres from a file in mm (x1000) are not, and each
+ * names the unit that makes them a tree again; a leaf card of 20 m^2 is
+ * implausible however tall the tree; the report reads the figures. */
+static void units_judged_from_height_leaves_and_trunk_together(void **state)
+{
+    (void)state;
+    uint8_t *part;
+    sv_mesh *m = tree(&part);
+    sv_leaves l = cards(1);
+    sv_units_guess u;
+    sv_check_units(m, part, &l, 1.0, 3.5, &u);
+    assert_false(u.implausible);
+    assert_true(u.factor == 1);
+    assert_true(fabs(u.trunk_diameter - 0.3) < 0.02); /* the cylinder's, 2 x 0.15 */
+    assert_true(fabs(u.leaf_size - 0.2) < 1e-9);
+    char w[1024] = "";
+    sv_units_warning(&u, w, sizeof w);
+    assert_string_equal(w, "");
+    /* a file in m given "cm": 3.5 cm tall, 2 mm cards, a 3 mm trunk */
+    scale_mesh(m, 0.01);
+    l = cards(0.01);
+    sv_check_units(m, part, &l, 0.01, 0.035, &u);
+    assert_true(u.implausible);
+    assert_string_equal(u.unit, "m");
+    assert_true(fabs(u.factor - 100) < 1e-9);
+    assert_true(fabs(u.metres_per_unit - 1) < 1e-12);
+    sv_units_warning(&u, w, sizeof w);
+    assert_non_null(strstr(w, "the units look wrong"));
+    assert_non_null(strstr(w, "--units m (spec \"import\": {\"units\": \"m\"})"));
+    /* a file in mm read as m: 3.5 km tall */
+    scale_mesh(m, 1e5);
+    l = cards(1000);
+    sv_check_units(m, part, &l, 1.0, 3500, &u);
+    assert_true(u.implausible);
+    assert_string_equal(u.unit, "mm");
+    assert_non_null(strstr(u.reason, "3.5e+03 m tall"));
+    /* a 20 m^2 card on a tree of a plausible height: implausible still */
+    scale_mesh(m, 1e-3);
+    l = cards(1);
+    l.median_area = 20;
+    sv_check_units(m, part, &l, 1.0, 3.5, &u);
+    assert_true(u.implausible);
+    assert_non_null(strstr(u.reason, "4.47 m across its median leaf element"));
+    /* no unit brings a 1 km tree with 1 mm leaves in range: said, no unit named */
+    l.median_area = 1e-6;
+    sv_check_units(NULL, NULL, &l, 1.0, 1000, &u);
+    assert_true(u.implausible);
+    assert_true(u.factor == 0);
+    w[0] = 0;
+    sv_units_warning(&u, w, sizeof w);
+    assert_non_null(strstr(w, "no unit makes"));
+    sv_mesh_destroy(m);
+    free(part);
+}
+
 static void heights_outside_5cm_to_150m_are_warned_about(void **state)
 {
     (void)state;
@@ -315,6 +389,7 @@ int main(void)
         cmocka_unit_test(tree_with_its_base_at_the_highest_z_is_turned_the_other_way),
         cmocka_unit_test(no_trunk_means_no_guess),
         cmocka_unit_test(heights_outside_5cm_to_150m_are_warned_about),
+        cmocka_unit_test(units_judged_from_height_leaves_and_trunk_together),
         cmocka_unit_test(weeping_tree_with_branches_below_its_base_is_y_up),
         cmocka_unit_test(flat_cut_out_tree_is_y_up_and_as_tall_as_it_is),
         cmocka_unit_test(unclear_trunk_keeps_the_axis_and_says_so),

@@ -621,6 +621,69 @@ static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
     assert_state(f, k3, "queued");
 }
 
+/* Submits content under a key chosen by the test (the table takes the key
+ * the HTTP layer computed): two keys that share a prefix cost a birthday
+ * search over SHA-256 otherwise. */
+static void submit_as(fx *f, const char *content, const char *client, const char *key)
+{
+    svd_upload up;
+    char tmp[SVD_STORE_PATH];
+    make_upload(f, content, client, &up, tmp);
+    snprintf(up.key, sizeof up.key, "%s", key);
+    char *body = NULL;
+    assert_int_equal(svd_jobs_submit(f->jobs, &up, &body, NULL), SVD_JOBS_ACCEPTED);
+    free(body);
+}
+
+static void a_key_prefix_resolves_when_unique_and_lists_candidates_when_not(void **state)
+{
+    fx *f = *state;
+    const char *ka = "abcdef0100000000000000000000000000000000000000000000000000000001";
+    const char *kb = "abcdef0199999999999999999999999999999999999999999999999999999999";
+    const char *kc = "abcdef0299999999999999999999999999999999999999999999999999999999";
+    submit_as(f, "v 1 0 0\n", "tok:a", kb); /* out of order: candidates come sorted */
+    submit_as(f, "v 2 0 0\n", "tok:a", ka);
+    submit_as(f, "v 3 0 0\n", "tok:b", kc);
+    char key[SVD_KEY_HEX], *cands = NULL;
+    sv_error e = {0};
+    /* the whole key and a unique prefix */
+    assert_int_equal(svd_jobs_resolve(f->jobs, ka, NULL, key, &cands, &e), SVD_JOBS_OK);
+    assert_string_equal(key, ka);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef02", NULL, key, &cands, &e), SVD_JOBS_OK);
+    assert_string_equal(key, kc);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef019", NULL, key, &cands, &e), SVD_JOBS_OK);
+    assert_string_equal(key, kb);
+    /* two bakes start with abcdef01: both listed, in bytewise order */
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef01", NULL, key, &cands, &e),
+                     SVD_JOBS_AMBIGUOUS);
+    assert_non_null(cands);
+    char want[200];
+    snprintf(want, sizeof want, "[\"%s\",\"%s\"]", ka, kb);
+    assert_string_equal(cands, want);
+    assert_non_null(strstr(e.message, "abcdef01"));
+    free(cands);
+    cands = NULL;
+    /* none */
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef03", NULL, key, &cands, &e),
+                     SVD_JOBS_NOT_FOUND);
+    assert_non_null(strstr(e.message, "abcdef03"));
+    assert_null(cands);
+    /* too short, not hex, upper case: refused as not found, never matched */
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef0", NULL, key, NULL, &e), SVD_JOBS_NOT_FOUND);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "ABCDEF01", NULL, key, NULL, &e),
+                     SVD_JOBS_NOT_FOUND);
+    /* with tokens only the caller's bakes count: b sees its one, a its two */
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef0", "tok:b", key, NULL, &e),
+                     SVD_JOBS_NOT_FOUND);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef01", "tok:b", key, NULL, &e),
+                     SVD_JOBS_NOT_FOUND);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef02", "tok:a", key, NULL, &e),
+                     SVD_JOBS_NOT_FOUND);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef02", "tok:b", key, NULL, &e), SVD_JOBS_OK);
+    assert_int_equal(svd_jobs_resolve(f->jobs, "abcdef01", "tok:a", key, NULL, &e),
+                     SVD_JOBS_AMBIGUOUS);
+}
+
 int main(void)
 {
 #define T(fn) cmocka_unit_test_setup_teardown(fn, setup, teardown)
@@ -642,6 +705,7 @@ int main(void)
         T(orphan_job_directory_without_journal_record_is_removed),
         T(a_held_store_is_refused_naming_the_holder),
         T(start_up_survives_a_journal_that_cannot_be_compacted),
+        T(a_key_prefix_resolves_when_unique_and_lists_candidates_when_not),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
