@@ -27,15 +27,24 @@
 
 #include "gltf.h"
 
+/* A file already in the folder that holds an image's pixels (an atlas):
+ * the FBX refers to it instead of writing a tex_ file. */
+typedef struct sv_fbx_file {
+    const sv_image *img; /* matched by its pixels' buffer and size */
+    const char *file;    /* its name in the folder */
+} sv_fbx_file;
+
 /* Writes dir/file (binary FBX, above) holding lods[0..lod_count) under one
  * root node named root_name, and each texture they sample beside it in dir.
- * Only name, mesh and translation of each sv_gltf_lod are read (no extras or
+ * Images that are one of known[0..known_count) (may be NULL) are referred
+ * to by that file's name and not written again. Only name, mesh and translation of each sv_gltf_lod are read (no extras or
  * attributes: FBX has no place assimp writes them to). SV_ERR_INVALID for bad
  * input (no levels, an index or material out of range, a missing name),
  * SV_ERR_NOMEM, SV_ERR_IO when a file cannot be written, SV_ERR_INTERNAL
  * with assimp's message when the export fails. A failure may leave some
  * textures written, never a partial FBX. */
 sv_status sv_fbx_write(const char *dir, const char *file, const char *root_name,
-                       const sv_gltf_lod *lods, uint32_t lod_count, sv_error *err);
+                       const sv_gltf_lod *lods, uint32_t lod_count, const sv_fbx_file *known,
+                       uint32_t known_count, sv_error *err);
 
 #endif

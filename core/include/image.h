@@ -134,8 +134,8 @@ sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char
                                        uint32_t max_size, sv_image *out, sv_error *err);
 /* sv_image_plugin_decode_rgba8 with sv_image_decode_rgba8_within's max_bytes. */
 sv_status sv_image_plugin_decode_rgba8_within(const void *data, size_t size, const char *name,
-                                              uint32_t max_size, uint64_t max_bytes,
-                                              sv_image *out, sv_error *err);
+                                              uint32_t max_size, uint64_t max_bytes, sv_image *out,
+                                              sv_error *err);
 sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,
                                         uint32_t max_size, sv_image *out, sv_error *err);
 

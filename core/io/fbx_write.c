@@ -33,6 +33,8 @@ typedef struct fbx_writer {
     fbx_tex *tex;
     uint32_t tex_count, tex_cap;
     const char *dir;
+    const sv_fbx_file *known;
+    uint32_t known_count;
     sv_error *err;
 } fbx_writer;
 
@@ -74,6 +76,14 @@ static sv_status texture_file(fbx_writer *w, const sv_image *img, const char **n
 {
     if (!img->data || !img->width || !img->height)
         return sv_fail(w->err, SV_ERR_INVALID, "FBX writer: a material refers to an empty image");
+    for (uint32_t k = 0; k < w->known_count; k++) {
+        const sv_image *o = w->known[k].img;
+        if (o && o->data == img->data && o->width == img->width && o->height == img->height &&
+            o->channels == img->channels && o->bits == img->bits) {
+            *name = w->known[k].file;
+            return SV_OK;
+        }
+    }
     uint64_t h = pixels_hash(img);
     for (uint32_t i = 0; i < w->tex_count; i++)
         if (w->tex[i].hash == h) {
@@ -172,8 +182,7 @@ static void material_name(const fbx_writer *w, const sv_material *sm, uint32_t l
     snprintf(out, cap, "%s", sm->name[0] ? sm->name : "material");
     for (unsigned i = 0; i < w->scene->mNumMaterials; i++) {
         struct aiString s;
-        if (aiGetMaterialString(w->scene->mMaterials[i], AI_MATKEY_NAME, &s) ==
-                aiReturn_SUCCESS &&
+        if (aiGetMaterialString(w->scene->mMaterials[i], AI_MATKEY_NAME, &s) == aiReturn_SUCCESS &&
             strcmp(s.data, out) == 0) {
             snprintf(out, cap, "%s_%u", sm->name[0] ? sm->name : "material", level);
             return;
@@ -342,8 +351,7 @@ out:
 }
 
 /* The node of level l: its translation, one mesh per material used. */
-static sv_status level_node(fbx_writer *w, const sv_gltf_lod *l, uint32_t level,
-                            struct aiNode *n)
+static sv_status level_node(fbx_writer *w, const sv_gltf_lod *l, uint32_t level, struct aiNode *n)
 {
     const sv_mesh *sm = l->mesh;
     set_str(&n->mName, l->name);
@@ -371,13 +379,15 @@ static sv_status level_node(fbx_writer *w, const sv_gltf_lod *l, uint32_t level,
 static void free_scene(struct aiScene *s)
 {
     if (!s) return;
-    struct aiNode *root = s->mRootNode;
+    struct aiNode *top = s->mRootNode, *root = top ? top->mChildren[0] : NULL;
     for (unsigned i = 0; root && i < root->mNumChildren; i++) {
         free(root->mChildren[i]->mMeshes);
         free(root->mChildren[i]);
     }
     if (root) free(root->mChildren);
     free(root);
+    if (top) free(top->mChildren);
+    free(top);
     for (unsigned i = 0; i < s->mNumMeshes; i++) free_mesh(s->mMeshes[i]);
     free(s->mMeshes);
     for (unsigned i = 0; i < s->mNumMaterials; i++) free_material(s->mMaterials[i]);
@@ -540,7 +550,8 @@ static bool add_sentinels(const uint8_t *d, size_t n, uint8_t **out, size_t *out
 }
 
 sv_status sv_fbx_write(const char *dir, const char *file, const char *root_name,
-                       const sv_gltf_lod *lods, uint32_t lod_count, sv_error *err)
+                       const sv_gltf_lod *lods, uint32_t lod_count, const sv_fbx_file *known,
+                       uint32_t known_count, sv_error *err)
 {
     if (!dir || !file || !root_name || !root_name[0] || !lods || lod_count == 0)
         return sv_fail(err, SV_ERR_INVALID, "FBX writer: no levels, folder or root name");
@@ -562,17 +573,28 @@ sv_status sv_fbx_write(const char *dir, const char *file, const char *root_name,
                                    m->indices[3 * t + c], m->vertex_count);
         }
     }
-    fbx_writer w = {.dir = dir, .err = err};
+    fbx_writer w = {.dir = dir, .known = known, .known_count = known ? known_count : 0, .err = err};
     sv_status st = SV_OK;
     const struct aiExportDataBlob *blob = NULL;
+    /* assimp's scene root is the FBX document's root, which holds no name:
+     * the named root is its only child */
     struct aiScene *s = w.scene = calloc(1, sizeof *s);
-    struct aiNode *root = s ? calloc(1, sizeof *root) : NULL;
+    struct aiNode *top = s ? calloc(1, sizeof *top) : NULL;
+    struct aiNode *root = top ? calloc(1, sizeof *root) : NULL;
+    if (top && !(top->mChildren = calloc(1, sizeof *top->mChildren))) root = (free(root), NULL);
     if (!root || !(root->mChildren = calloc(lod_count, sizeof *root->mChildren))) {
         free(root);
+        if (top) free(top->mChildren);
+        free(top);
         st = nomem(&w);
         goto out;
     }
-    s->mRootNode = root;
+    s->mRootNode = top;
+    set_str(&top->mName, "RootNode");
+    identity(&top->mTransformation);
+    top->mChildren[0] = root;
+    top->mNumChildren = 1;
+    root->mParent = top;
     s->mFlags = AI_SCENE_FLAGS_NON_VERBOSE_FORMAT; /* vertices shared by faces */
     set_str(&root->mName, root_name);
     identity(&root->mTransformation);

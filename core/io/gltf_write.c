@@ -450,7 +450,8 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     streams[ns++] = (struct meshopt_Stream){m->positions, 3 * sizeof(float), 3 * sizeof(float)};
     if (m->normals)
         streams[ns++] = (struct meshopt_Stream){m->normals, 3 * sizeof(float), 3 * sizeof(float)};
-    if (m->uvs) streams[ns++] = (struct meshopt_Stream){m->uvs, 2 * sizeof(float), 2 * sizeof(float)};
+    if (m->uvs)
+        streams[ns++] = (struct meshopt_Stream){m->uvs, 2 * sizeof(float), 2 * sizeof(float)};
     if (l->attribute_count > 8)
         return w->last = sv_fail(w->err, SV_ERR_INVALID,
                                  "glTF writer: more than 8 extra attributes");
@@ -599,7 +600,8 @@ static sv_status group_root(writer *w, const sv_gltf_group *g, uint32_t lod_coun
     }
     if (g->extras) {
         if (!cJSON_IsObject(g->extras))
-            return sv_fail(w->err, SV_ERR_INVALID, "glTF writer: the root's extras is not an object");
+            return sv_fail(w->err, SV_ERR_INVALID,
+                           "glTF writer: the root's extras is not an object");
         cJSON *e = cJSON_Duplicate(g->extras, true);
         if (!e) return nomem(w);
         cJSON_AddItemToObject(node, "extras", e);

@@ -21,7 +21,7 @@
 #include <string.h>
 
 #ifndef SV_PNG_ZLIB_LEVEL
-#define SV_PNG_ZLIB_LEVEL 1
+#define SV_PNG_ZLIB_LEVEL 6
 #endif
 
 typedef struct png_sink {
@@ -212,8 +212,7 @@ static uint32_t needed_channels(const sv_image *img)
 
 /* Copies into out (allocated by sv_image_alloc) the channels of img that
  * needed_channels keeps: R (grey) or RGB, then alpha when kept. */
-static sv_status pack_channels(const sv_image *img, uint32_t channels, sv_image *out,
-                               sv_error *err)
+static sv_status pack_channels(const sv_image *img, uint32_t channels, sv_image *out, sv_error *err)
 {
     sv_status st = sv_image_alloc(out, img->width, img->height, channels, img->bits, err);
     if (st != SV_OK) return st;

@@ -122,12 +122,21 @@ static sv_status write_lod_group(const run *r, bake_state *b, const sv_gltf_lod 
     sv_gltf_group g = {asset, root};
     snprintf(path, sizeof path, "%s/lods.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_group_glb(path, &g, gg, n, err);
-    if (st == SV_OK) st = sv_fbx_write(r->req->out_dir, "lods.fbx", asset, gl, n, err);
+    /* the FBX files refer to the atlases already written beside them */
+    sv_fbx_file *known = sv_calloc(4 * (size_t)n, sizeof *known);
+    uint32_t nk = 0;
+    if (!known && st == SV_OK) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t i = 0; known && i < n; i++)
+        for (int k = 0; k < 4; k++)
+            if (svp_lod_map(&b->lods[i].baked, k)->data && b->lods[i].maps[k][0])
+                known[nk++] = (sv_fbx_file){svp_lod_map(&b->lods[i].baked, k), b->lods[i].maps[k]};
+    if (st == SV_OK) st = sv_fbx_write(r->req->out_dir, "lods.fbx", asset, gl, n, known, nk, err);
     for (uint32_t i = 0; i < n && st == SV_OK; i++) {
         char file[128];
         snprintf(file, sizeof file, "lod%u_%s.fbx", i, b->si.lods[i].name);
-        st = sv_fbx_write(r->req->out_dir, file, asset, &gl[i], 1, err);
+        st = sv_fbx_write(r->req->out_dir, file, asset, &gl[i], 1, known, nk, err);
     }
+    free(known);
     for (uint32_t i = 0; ex && i < n; i++) cJSON_Delete(ex[i]);
     free(ex);
     free(gg);

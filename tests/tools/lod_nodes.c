@@ -44,8 +44,8 @@ static void count(const struct aiScene *s, const struct aiNode *n, unsigned *mes
         struct aiString p;
         if (aiGetMaterialTexture(mat, aiTextureType_DIFFUSE, 0, &p, NULL, NULL, NULL, NULL, NULL,
                                  NULL) == aiReturn_SUCCESS ||
-            aiGetMaterialTexture(mat, aiTextureType_BASE_COLOR, 0, &p, NULL, NULL, NULL, NULL,
-                                 NULL, NULL) == aiReturn_SUCCESS) {
+            aiGetMaterialTexture(mat, aiTextureType_BASE_COLOR, 0, &p, NULL, NULL, NULL, NULL, NULL,
+                                 NULL) == aiReturn_SUCCESS) {
             if (resolves(s, p.data)) (*tex)++;
             else (*missing)++;
         }
@@ -61,8 +61,8 @@ static void walk(const struct aiScene *s, const struct aiNode *n)
         unsigned meshes = 0, tex = 0, missing = 0;
         unsigned long tris = 0;
         count(s, n, &meshes, &tris, &tex, &missing);
-        printf("%s meshes=%u triangles=%lu textures=%u missing=%u\n", n->mName.data, meshes,
-               tris, tex, missing);
+        printf("%s meshes=%u triangles=%lu textures=%u missing=%u\n", n->mName.data, meshes, tris,
+               tex, missing);
         return;
     }
     for (unsigned i = 0; i < n->mNumChildren; i++) walk(s, n->mChildren[i]);
