@@ -130,8 +130,10 @@ static sv_status write_lod_group(const run *r, bake_state *b, const sv_gltf_lod 
         for (int k = 0; k < 4; k++)
             if (svp_lod_map(&b->lods[i].baked, k)->data && b->lods[i].maps[k][0])
                 known[nk++] = (sv_fbx_file){svp_lod_map(&b->lods[i].baked, k), b->lods[i].maps[k]};
-    if (st == SV_OK) st = sv_fbx_write(r->req->out_dir, "lods.fbx", asset, gl, n, known, nk, err);
-    for (uint32_t i = 0; i < n && st == SV_OK; i++) {
+    bool fbx = r->spec.output_fbx;
+    if (st == SV_OK && fbx)
+        st = sv_fbx_write(r->req->out_dir, "lods.fbx", asset, gl, n, known, nk, err);
+    for (uint32_t i = 0; fbx && i < n && st == SV_OK; i++) {
         char file[128];
         snprintf(file, sizeof file, "lod%u_%s.fbx", i, b->si.lods[i].name);
         st = sv_fbx_write(r->req->out_dir, file, asset, &gl[i], 1, known, nk, err);
