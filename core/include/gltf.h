@@ -12,6 +12,9 @@
  *     a LOD share its vertex accessors (POSITION with min/max, NORMAL
  *     renormalised, TEXCOORD_0, then the caller's extra attributes) and each has
  *     its own index accessor (uint16 when every index < 65535, else uint32).
+ *     Vertices equal in every attribute written (bit for bit) are written
+ *     once, in the order the triangles first use them; vertices no triangle
+ *     uses are left out (the triangles and what they draw are unchanged).
  *   - materials: pbrMetallicRoughness with baseColorFactor, baseColorTexture,
  *     metallicFactor 0, roughnessFactor 1; alphaMode OPAQUE / MASK (with
  *     alphaCutoff) / BLEND; doubleSided; normalTexture, occlusionTexture.
