@@ -291,6 +291,9 @@ install: $(BINS) $(PLUGIN) $(LIBSYLVA) $(LIBSYLVA_SO) $(VIEWER_STAMP)
 	install -d $(DESTDIR)$(DOCDIR)/methods
 	install -m 644 docs/*.md $(DESTDIR)$(DOCDIR)/
 	install -m 644 docs/methods/*.md $(DESTDIR)$(DOCDIR)/methods/
+	install -d $(DESTDIR)$(DOCDIR)/engines
+	install -m 644 examples/engines/unreal_import_lods.py examples/engines/godot_lod_ranges.gd \
+	    $(DESTDIR)$(DOCDIR)/engines/
 	install -m 644 deploy/nginx/sylva.conf deploy/nginx/sylva-nodes.conf $(DESTDIR)$(DOCDIR)/nginx/
 	sed -e 's#/usr/local/bin#$(BINDIR)#g' -e 's#/usr/local/etc/sylva#$(SYSCONFDIR)/sylva#g' \
 	    -e 's#/usr/local/share/doc/sylva#$(DOCDIR)#g' deploy/sylvad.service \

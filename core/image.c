@@ -11,6 +11,17 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* What img->refs points to: the count of images sharing the pixels and, when
+ * the pixels were decoded from a PNG or JPEG (sv_image_set_source), that
+ * file's bytes. The count is first, so refs also reads as an atomic_uint. */
+typedef struct pixels_ref {
+    atomic_uint count;
+    uint8_t *src; /* the encoded file, owned; NULL: none */
+    size_t src_size;
+    const char *mime;  /* "image/png" or "image/jpeg" */
+    uint64_t src_hash; /* pixel_hash of the pixels it decoded to */
+} pixels_ref;
+
 sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels, uint32_t bits,
                          sv_error *err)
 {
@@ -27,13 +38,13 @@ sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channel
         return sv_fail(err, SV_ERR_NOMEM, "image %ux%u with %u channels overflows size_t", w, h,
                        channels);
     void *data = calloc(n ? n : 1, 1);
-    atomic_uint *refs = malloc(sizeof *refs);
+    pixels_ref *refs = calloc(1, sizeof *refs);
     if (!data || !refs) {
         free(data);
         free(refs);
         return sv_fail(err, SV_ERR_NOMEM, "cannot allocate a %ux%u image (%zu bytes)", w, h, n);
     }
-    atomic_init(refs, 1u);
+    atomic_init(&refs->count, 1u);
     img->width = w;
     img->height = h;
     img->channels = channels;
@@ -46,9 +57,10 @@ sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channel
 void sv_image_free(sv_image *img)
 {
     if (!img) return;
-    atomic_uint *refs = img->refs;
-    if (!refs || atomic_fetch_sub_explicit(refs, 1u, memory_order_acq_rel) == 1u) {
+    pixels_ref *refs = img->refs;
+    if (!refs || atomic_fetch_sub_explicit(&refs->count, 1u, memory_order_acq_rel) == 1u) {
         free(img->data);
+        if (refs) free(refs->src);
         free(refs);
     }
     memset(img, 0, sizeof *img);
@@ -64,9 +76,53 @@ sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
         memcpy(dst->data, src->data, sv_image_stride(src) * src->height);
         return SV_OK;
     }
-    atomic_fetch_add_explicit((atomic_uint *)src->refs, 1u, memory_order_relaxed);
+    atomic_fetch_add_explicit(&((pixels_ref *)src->refs)->count, 1u, memory_order_relaxed);
     *dst = *src;
     return SV_OK;
+}
+
+/* FNV-1a over the image's header and pixels: tells whether the pixels are
+ * still the ones the source decoded to. */
+static uint64_t pixel_hash(const sv_image *img)
+{
+    uint64_t h = 1469598103934665603ull;
+    uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
+    const uint8_t *p = (const uint8_t *)head;
+    for (size_t i = 0; i < sizeof head; i++) h = (h ^ p[i]) * 1099511628211ull;
+    p = img->data;
+    size_t n = sv_image_stride(img) * img->height;
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+sv_status sv_image_set_source(sv_image *img, const void *data, size_t size, sv_error *err)
+{
+    pixels_ref *refs = img ? img->refs : NULL;
+    if (!refs || !img->data || !data) return SV_OK;
+    const uint8_t *d = data;
+    const char *mime = NULL;
+    if (size >= 8 && memcmp(d, "\x89PNG\r\n\x1a\n", 8) == 0) mime = "image/png";
+    else if (size >= 3 && d[0] == 0xFF && d[1] == 0xD8 && d[2] == 0xFF) mime = "image/jpeg";
+    if (!mime) return SV_OK;
+    uint8_t *copy = malloc(size);
+    if (!copy) return sv_fail(err, SV_ERR_NOMEM, "cannot keep a %zu-byte texture file", size);
+    memcpy(copy, d, size);
+    free(refs->src);
+    refs->src = copy;
+    refs->src_size = size;
+    refs->mime = mime;
+    refs->src_hash = pixel_hash(img);
+    return SV_OK;
+}
+
+bool sv_image_source(const sv_image *img, const uint8_t **data, size_t *size, const char **mime)
+{
+    const pixels_ref *refs = img ? img->refs : NULL;
+    if (!refs || !refs->src || !img->data || refs->src_hash != pixel_hash(img)) return false;
+    *data = refs->src;
+    *size = refs->src_size;
+    *mime = refs->mime;
+    return true;
 }
 
 size_t sv_image_stride(const sv_image *img)

@@ -12,10 +12,16 @@
  *     a LOD share its vertex accessors (POSITION with min/max, NORMAL
  *     renormalised, TEXCOORD_0, then the caller's extra attributes) and each has
  *     its own index accessor (uint16 when every index < 65535, else uint32).
+ *     Vertices equal in every attribute written (bit for bit) are written
+ *     once, in the order the triangles first use them; vertices no triangle
+ *     uses are left out (the triangles and what they draw are unchanged).
  *   - materials: pbrMetallicRoughness with baseColorFactor, baseColorTexture,
  *     metallicFactor 0, roughnessFactor 1; alphaMode OPAQUE / MASK (with
  *     alphaCutoff) / BLEND; doubleSided; normalTexture, occlusionTexture.
- *   - images are PNG (sv_image_encode_png) in the binary chunk; images with the
+ *   - images are in the binary chunk: an image whose pixels are still those
+ *     of the input's file is that file's own bytes with its mimeType
+ *     (sv_image_source: a JPEG stays image/jpeg), every other image PNG
+ *     (sv_image_encode_png); images with the
  *     same pixels are stored once, whichever LOD or material uses them.
  *   - asset.generator is "sylva <SV_VERSION>".
  * Bytes are deterministic: the same input gives the same file. Chunks and
@@ -63,6 +69,30 @@ sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_
  * partial file is left behind). */
 sv_status sv_gltf_write_glb(const char *path, const sv_gltf_lod *lods, uint32_t lod_count,
                             sv_error *err);
+
+/* The levels as one LOD group (docs/outputs.md, lods.glb): node 0 is the
+ * root, named root_name, with `extras` (copied; NULL: none), and the only
+ * node of the scene; nodes 1..lod_count are the levels, in order, its
+ * children, each with its name (which must be non-empty: `<asset>_LOD<i>`),
+ * translation, mesh and extras as sv_gltf_encode_glb writes them. No
+ * MSFT_lod, no MSFT_screencoverage: every level is an ordinary node, which
+ * every importer shows and an engine's import script groups by name. */
+typedef struct sv_gltf_group {
+    const char *root_name;
+    const cJSON *extras; /* an object, or NULL */
+} sv_gltf_group;
+
+/* Encodes lods[0..lod_count) as a LOD group (above) into a malloc'ed buffer,
+ * with sv_gltf_encode_glb's encoding and errors (SV_ERR_INVALID also for a
+ * missing root or level name); deterministic. */
+sv_status sv_gltf_encode_group_glb(const sv_gltf_group *group, const sv_gltf_lod *lods,
+                                   uint32_t lod_count, uint8_t **out, size_t *out_size,
+                                   sv_error *err);
+
+/* sv_gltf_encode_group_glb, then writes the bytes to path as
+ * sv_gltf_write_glb does. */
+sv_status sv_gltf_write_group_glb(const char *path, const sv_gltf_group *group,
+                                  const sv_gltf_lod *lods, uint32_t lod_count, sv_error *err);
 
 /* One level as a standalone GLB (docs/outputs.md, lod<i>_<name>.glb): one
  * scene whose only node is this level (named lod->name, which must be

@@ -47,6 +47,23 @@ void sv_image_free(sv_image *img);
  * copied instead, which can fail with SV_ERR_NOMEM. */
 sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err);
 
+/* Keeps the encoded file img was decoded from (a copy of data, size bytes)
+ * with its pixels, when it is a PNG or a JPEG (anything else: nothing kept,
+ * SV_OK), so a writer can store the input's own bytes rather than encode the
+ * pixels again (a 300 KB bark JPEG re-encoded was a 2 MB PNG). The file goes
+ * with the pixels: copies (sv_image_copy) share it, new pixels (a reduced
+ * image) have none. img's pixels must be those data decodes to, as
+ * sv_image_decode_rgba8 gives them; img must come from sv_image_alloc (else
+ * nothing is kept). SV_ERR_NOMEM when the copy cannot be made. */
+sv_status sv_image_set_source(sv_image *img, const void *data, size_t size, sv_error *err);
+
+/* True, with the file's bytes (owned by the image's pixels, valid while
+ * they are) and its glTF mimeType ("image/png", "image/jpeg"), when img has
+ * a source (sv_image_set_source) and its pixels are still the ones the file
+ * decoded to (a hash of them is compared: pixels changed in place lose
+ * their source). False otherwise; the outputs are untouched then. */
+bool sv_image_source(const sv_image *img, const uint8_t **data, size_t *size, const char **mime);
+
 /* Bytes per row. */
 size_t sv_image_stride(const sv_image *img);
 
@@ -117,8 +134,8 @@ sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char
                                        uint32_t max_size, sv_image *out, sv_error *err);
 /* sv_image_plugin_decode_rgba8 with sv_image_decode_rgba8_within's max_bytes. */
 sv_status sv_image_plugin_decode_rgba8_within(const void *data, size_t size, const char *name,
-                                              uint32_t max_size, uint64_t max_bytes,
-                                              sv_image *out, sv_error *err);
+                                              uint32_t max_size, uint64_t max_bytes, sv_image *out,
+                                              sv_error *err);
 sv_status sv_image_plugin_decode_gray16(const void *data, size_t size, const char *name,
                                         uint32_t max_size, sv_image *out, sv_error *err);
 

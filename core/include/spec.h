@@ -47,9 +47,9 @@ typedef struct sv_spec {
     uint32_t padding;         /* default 4 */
     uint32_t dilate;          /* default 8 */
     /* evaluate */
-    bool evaluate;                          /* default true */
-    uint32_t eval_views;                    /* default 24 */
-    uint32_t eval_supersample;              /* default 2 (sizes above the small render's) */
+    bool evaluate;              /* default true */
+    uint32_t eval_views;        /* default 24 */
+    uint32_t eval_supersample;  /* default 2 (sizes above the small render's) */
     uint32_t eval_small_render; /* sizes <= this / 4 are judged from their own render this tall
                                    (sveval's 256: 4x4 samples a pixel at 64 px); 0 = one render */
     uint32_t eval_sizes[SV_MAX_EVAL_SIZES]; /* default 256,128,64,32 */
@@ -60,13 +60,15 @@ typedef struct sv_spec {
     double lod_tolerance; /* max (1 - coverage IoU) for a LOD at lod_tolerance_pixels, default 0.1 */
     double
         lod_tolerance_pixels; /* size where lod_tolerance holds; it scales as 1/size (default 64; 0 = one tolerance at every size) */
-    double lod_slack;       /* a level lod_cost_ratio times cheaper within this much error of the
+    double lod_slack;         /* a level lod_cost_ratio times cheaper within this much error of the
                                tolerance (or of the dearer level) is drawn instead (default 0.02) */
-    double lod_cost_ratio;  /* default 10; 0 = off (lod_plan.h rule 3) */
+    double lod_cost_ratio;    /* default 10; 0 = off (lod_plan.h rule 3) */
     double lod_triangles_per_pixel; /* at most k·S² triangles drawn at S px (default 2; 0 = no cap) */
     bool lod_chain; /* full mesh → stochastic levels → method → coarsest (default true) */
     char lod_coarsest[32]; /* method appended as the coarsest LOD, "" = none
                                      (default "crossed_quads"); docs/lod.md */
+    /* output (docs/spec.md "output") */
+    bool output_fbx; /* lods.fbx and lod<i>_<name>.fbx beside the glTF files (default true) */
     /* target (docs/spec.md "target"): search the method's knobs, cheapest first */
     bool has_target;               /* a "target" object was given */
     double target_iou;             /* coverage IoU to reach, 0 = none */

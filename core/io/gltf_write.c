@@ -4,12 +4,15 @@
  * accessors, §3.7 meshes, §3.9 materials, §4.4 GLB container) and the MSFT_lod
  * vendor extension (node-level LODs, extras.MSFT_screencoverage). See gltf.h.
  *
+ * Identical vertices are merged before writing (write_mesh).
+ *
  * The JSON is built with cJSON (insertion-ordered, so output is deterministic)
  * and every binary piece is appended to one buffer at 4-byte aligned offsets.
  */
 #include "gltf.h"
 
 #include <math.h>
+#include <meshoptimizer.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -201,14 +204,23 @@ static int texture_for(writer *w, const sv_image *img)
         w->uniq = nu;
         w->uniq_cap = cap;
     }
-    uint8_t *png = NULL;
-    size_t png_size = 0;
-    if ((w->last = sv_image_encode_png(img, &png, &png_size, w->err)) != SV_OK) return -1;
-    size_t off;
-    sv_status st = bin_append(w, png, png_size, &off);
-    free(png);
+    /* a texture the bake did not change: the input's own file (a JPEG stays
+     * a JPEG); anything else: PNG */
+    const uint8_t *src = NULL;
+    size_t src_size = 0, off;
+    const char *mime = "image/png";
+    sv_status st;
+    if (sv_image_source(img, &src, &src_size, &mime)) {
+        st = bin_append(w, src, src_size, &off);
+    } else {
+        uint8_t *png = NULL;
+        mime = "image/png";
+        if ((w->last = sv_image_encode_png(img, &png, &src_size, w->err)) != SV_OK) return -1;
+        st = bin_append(w, png, src_size, &off);
+        free(png);
+    }
     if (st != SV_OK) return -1;
-    int view = add_view(w, off, png_size, 0);
+    int view = add_view(w, off, src_size, 0);
     cJSON *ji = view < 0 ? NULL : cJSON_CreateObject();
     cJSON *jt = cJSON_CreateObject();
     if (cJSON_GetArraySize(w->samplers) == 0) {
@@ -222,7 +234,7 @@ static int texture_for(writer *w, const sv_image *img)
         }
     }
     if (!ji || !jt || !add_int(ji, "bufferView", view) ||
-        !cJSON_AddStringToObject(ji, "mimeType", "image/png") || !add_int(jt, "sampler", 0) ||
+        !cJSON_AddStringToObject(ji, "mimeType", mime) || !add_int(jt, "sampler", 0) ||
         !add_int(jt, "source", cJSON_GetArraySize(w->images))) {
         cJSON_Delete(ji);
         cJSON_Delete(jt);
@@ -421,7 +433,84 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
 
 /* Writes one glTF mesh for LOD l: shared vertex accessors, one primitive per
  * material used (ascending material index), triangles in input order. */
+static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index);
+
+/* Writes the mesh of LOD l with its identical vertices merged: vertices
+ * equal in every attribute written (position, normal, UV, the extra
+ * attributes; bit for bit) become one, in the order the triangles first use
+ * them (meshopt_generateVertexRemapMulti), and vertices no triangle uses are
+ * left out. Lossless: the same triangles, drawn the same, in fewer bytes
+ * (a tree's triangle soup held each vertex once per triangle). */
 static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index)
+{
+    const sv_mesh *m = l->mesh;
+    size_t nv = m->vertex_count, ni = (size_t)m->triangle_count * 3;
+    struct meshopt_Stream streams[3 + 8];
+    size_t ns = 0;
+    streams[ns++] = (struct meshopt_Stream){m->positions, 3 * sizeof(float), 3 * sizeof(float)};
+    if (m->normals)
+        streams[ns++] = (struct meshopt_Stream){m->normals, 3 * sizeof(float), 3 * sizeof(float)};
+    if (m->uvs)
+        streams[ns++] = (struct meshopt_Stream){m->uvs, 2 * sizeof(float), 2 * sizeof(float)};
+    if (l->attribute_count > 8)
+        return w->last = sv_fail(w->err, SV_ERR_INVALID,
+                                 "glTF writer: more than 8 extra attributes");
+    for (uint32_t a = 0; a < l->attribute_count; a++) {
+        size_t sz = l->attributes[a].components * sizeof(float);
+        streams[ns++] = (struct meshopt_Stream){l->attributes[a].data, sz, sz};
+    }
+    sv_status st = SV_OK;
+    uint32_t *remap = malloc((nv ? nv : 1) * sizeof *remap);
+    uint32_t *idx = malloc((ni ? ni : 1) * sizeof *idx);
+    float *pos = NULL, *nrm = NULL, *uv = NULL, *ad[8] = {0};
+    sv_gltf_attribute at[8];
+    if (!remap || !idx) {
+        st = nomem(w);
+        goto out;
+    }
+    size_t unique = meshopt_generateVertexRemapMulti(remap, m->indices, ni, nv, streams, ns);
+    meshopt_remapIndexBuffer(idx, m->indices, ni, remap);
+    pos = malloc((unique ? unique : 1) * 3 * sizeof(float));
+    if (m->normals) nrm = malloc((unique ? unique : 1) * 3 * sizeof(float));
+    if (m->uvs) uv = malloc((unique ? unique : 1) * 2 * sizeof(float));
+    if (!pos || (m->normals && !nrm) || (m->uvs && !uv)) {
+        st = nomem(w);
+        goto out;
+    }
+    meshopt_remapVertexBuffer(pos, m->positions, nv, 3 * sizeof(float), remap);
+    if (nrm) meshopt_remapVertexBuffer(nrm, m->normals, nv, 3 * sizeof(float), remap);
+    if (uv) meshopt_remapVertexBuffer(uv, m->uvs, nv, 2 * sizeof(float), remap);
+    for (uint32_t a = 0; a < l->attribute_count; a++) {
+        size_t sz = l->attributes[a].components * sizeof(float);
+        if (!(ad[a] = malloc((unique ? unique : 1) * sz))) {
+            st = nomem(w);
+            goto out;
+        }
+        meshopt_remapVertexBuffer(ad[a], l->attributes[a].data, nv, sz, remap);
+        at[a] = l->attributes[a];
+        at[a].data = ad[a];
+    }
+    sv_mesh wm = *m;
+    wm.vertex_count = (uint32_t)unique;
+    wm.positions = pos;
+    wm.normals = nrm;
+    wm.uvs = uv;
+    wm.indices = idx;
+    sv_gltf_lod wl = *l;
+    wl.mesh = &wm;
+    wl.attributes = l->attribute_count ? at : NULL;
+    st = write_welded(w, &wl, name, mesh_index);
+out:
+    for (int a = 0; a < 8; a++) free(ad[a]);
+    free(uv);
+    free(nrm);
+    free(pos);
+    free(idx);
+    free(remap);
+    return st;
+}
+
+static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index)
 {
     const sv_mesh *m = l->mesh;
     sv_status st = SV_OK;
@@ -493,14 +582,44 @@ out:
     return st;
 }
 
-static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
+/* The LOD group's root node (node 0, before the levels): its name, the
+ * levels as its children, the caller's extras. */
+static sv_status group_root(writer *w, const sv_gltf_group *g, uint32_t lod_count)
+{
+    cJSON *node = cJSON_CreateObject();
+    if (!node) return nomem(w);
+    cJSON_AddItemToArray(w->nodes, node);
+    cJSON *ch = cJSON_AddStringToObject(node, "name", g->root_name)
+                    ? cJSON_AddArrayToObject(node, "children")
+                    : NULL;
+    if (!ch) return nomem(w);
+    for (uint32_t i = 0; i < lod_count; i++) {
+        cJSON *x = cJSON_CreateNumber(i + 1);
+        if (!x) return nomem(w);
+        cJSON_AddItemToArray(ch, x);
+    }
+    if (g->extras) {
+        if (!cJSON_IsObject(g->extras))
+            return sv_fail(w->err, SV_ERR_INVALID,
+                           "glTF writer: the root's extras is not an object");
+        cJSON *e = cJSON_Duplicate(g->extras, true);
+        if (!e) return nomem(w);
+        cJSON_AddItemToObject(node, "extras", e);
+    }
+    return SV_OK;
+}
+
+/* The document: levels as MSFT_lod alternates (group NULL) or as the
+ * children of the group's root node. */
+static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count,
+                       const sv_gltf_group *group)
 {
     cJSON *r = w->root;
     cJSON *asset = cJSON_AddObjectToObject(r, "asset");
     if (!asset || !cJSON_AddStringToObject(asset, "generator", "sylva " SV_VERSION) ||
         !cJSON_AddStringToObject(asset, "version", "2.0"))
         return nomem(w);
-    if (lod_count > 1) {
+    if (lod_count > 1 && !group) {
         cJSON *used = cJSON_AddArrayToObject(r, "extensionsUsed");
         cJSON *s = cJSON_CreateString("MSFT_lod");
         if (!used || !s) {
@@ -531,6 +650,10 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
         !(w->accessors = cJSON_AddArrayToObject(r, "accessors")) ||
         !(w->views = cJSON_AddArrayToObject(r, "bufferViews")))
         return nomem(w);
+    if (group) {
+        sv_status st = group_root(w, group, lod_count);
+        if (st != SV_OK) return st;
+    }
 
     for (uint32_t i = 0; i < lod_count; i++) {
         const sv_gltf_lod *l = &lods[i];
@@ -569,7 +692,7 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count)
                                "glTF writer: LOD %u extras is not an object", i);
             if (!(extras = cJSON_Duplicate(l->extras, true))) return nomem(w);
         }
-        if (i == 0 && lod_count > 1) {
+        if (i == 0 && lod_count > 1 && !group) {
             cJSON *ext = cJSON_AddObjectToObject(node, "extensions");
             cJSON *lod = ext ? cJSON_AddObjectToObject(ext, "MSFT_lod") : NULL;
             cJSON *ids = lod ? cJSON_AddArrayToObject(lod, "ids") : NULL;
@@ -642,8 +765,9 @@ static void put_u32(uint8_t *p, uint32_t v)
     p[3] = (uint8_t)(v >> 24);
 }
 
-sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_t **out,
-                             size_t *out_size, sv_error *err)
+/* sv_gltf_encode_glb and sv_gltf_encode_group_glb (group NULL: MSFT_lod). */
+static sv_status encode(const sv_gltf_lod *lods, uint32_t lod_count, const sv_gltf_group *group,
+                        uint8_t **out, size_t *out_size, sv_error *err)
 {
     *out = NULL;
     *out_size = 0;
@@ -660,7 +784,7 @@ sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_
         st = nomem(&w);
         goto out;
     }
-    if ((st = build(&w, lods, lod_count)) != SV_OK) goto out;
+    if ((st = build(&w, lods, lod_count, group)) != SV_OK) goto out;
     if (!(json = cJSON_PrintUnformatted(w.root))) {
         st = nomem(&w);
         goto out;
@@ -696,6 +820,38 @@ out:
     cJSON_Delete(w.root);
     free(w.bin);
     free(w.uniq);
+    return st;
+}
+
+sv_status sv_gltf_encode_glb(const sv_gltf_lod *lods, uint32_t lod_count, uint8_t **out,
+                             size_t *out_size, sv_error *err)
+{
+    return encode(lods, lod_count, NULL, out, out_size, err);
+}
+
+sv_status sv_gltf_encode_group_glb(const sv_gltf_group *group, const sv_gltf_lod *lods,
+                                   uint32_t lod_count, uint8_t **out, size_t *out_size,
+                                   sv_error *err)
+{
+    *out = NULL;
+    *out_size = 0;
+    if (!group || !group->root_name || !group->root_name[0])
+        return sv_fail(err, SV_ERR_INVALID, "glTF writer: a LOD group needs a root name");
+    for (uint32_t i = 0; lods && i < lod_count; i++)
+        if (!lods[i].name || !lods[i].name[0])
+            return sv_fail(err, SV_ERR_INVALID, "glTF writer: LOD %u of a group has no name", i);
+    return encode(lods, lod_count, group, out, out_size, err);
+}
+
+sv_status sv_gltf_write_group_glb(const char *path, const sv_gltf_group *group,
+                                  const sv_gltf_lod *lods, uint32_t lod_count, sv_error *err)
+{
+    uint8_t *data;
+    size_t size;
+    sv_status st = sv_gltf_encode_group_glb(group, lods, lod_count, &data, &size, err);
+    if (st != SV_OK) return st;
+    st = sv_write_file(path, data, size, err);
+    free(data);
     return st;
 }
 

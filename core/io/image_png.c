@@ -20,6 +20,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifndef SV_PNG_ZLIB_LEVEL
+#define SV_PNG_ZLIB_LEVEL 6
+#endif
+
 typedef struct png_sink {
     uint8_t *data;
     size_t size, cap;
@@ -88,7 +92,7 @@ static sv_status encode(const sv_image *img, png_sink *sink, png_bytep *rows, sv
         return SV_ERR_IO;
     }
     png_set_write_fn(png, sink, sink_write, sink_flush);
-    png_set_compression_level(png, 1);
+    png_set_compression_level(png, SV_PNG_ZLIB_LEVEL);
     png_set_IHDR(png, info, img->width, img->height, (int)img->bits, color_type[img->channels],
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
@@ -184,6 +188,50 @@ static void memo_add(sv_png_memo *m, const sv_image *img, const uint8_t *png, si
     m->count++;
 }
 
+/* The channels img's PNG needs (PNG colour types grey, grey+alpha, RGB,
+ * RGBA): alpha only when some texel is not opaque, colour only when some
+ * texel is not grey (R = G = B). Decoders give back the same RGBA. */
+static uint32_t needed_channels(const sv_image *img)
+{
+    uint32_t c = img->channels;
+    bool has_alpha = c == 2 || c == 4, has_colour = c >= 3;
+    if (!has_alpha && !has_colour) return c;
+    bool alpha = false, colour = false;
+    size_t n = (size_t)img->width * img->height;
+    uint32_t maxv = img->bits == 16 ? 65535u : 255u;
+    for (size_t i = 0; i < n && !(alpha && colour); i++) {
+        uint32_t v[4];
+        for (uint32_t k = 0; k < c; k++)
+            v[k] = img->bits == 16 ? ((const uint16_t *)img->data)[i * c + k]
+                                   : ((const uint8_t *)img->data)[i * c + k];
+        if (has_alpha && v[c - 1] != maxv) alpha = true;
+        if (has_colour && (v[0] != v[1] || v[0] != v[2])) colour = true;
+    }
+    return (colour ? 3u : 1u) + (alpha ? 1u : 0u);
+}
+
+/* Copies into out (allocated by sv_image_alloc) the channels of img that
+ * needed_channels keeps: R (grey) or RGB, then alpha when kept. */
+static sv_status pack_channels(const sv_image *img, uint32_t channels, sv_image *out, sv_error *err)
+{
+    sv_status st = sv_image_alloc(out, img->width, img->height, channels, img->bits, err);
+    if (st != SV_OK) return st;
+    uint32_t c = img->channels, colour = channels >= 3 ? 3 : 1;
+    bool alpha = channels == 2 || channels == 4;
+    size_t n = (size_t)img->width * img->height, bpc = img->bits / 8;
+    const uint8_t *s = img->data;
+    uint8_t *d = out->data;
+    for (size_t i = 0; i < n; i++) {
+        memcpy(d, s + i * c * bpc, colour * bpc);
+        d += colour * bpc;
+        if (alpha) {
+            memcpy(d, s + (i * c + c - 1) * bpc, bpc);
+            d += bpc;
+        }
+    }
+    return SV_OK;
+}
+
 sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size, sv_error *err)
 {
     const memo_entry *hit = img ? memo_find(active_memo, img) : NULL;
@@ -207,11 +255,23 @@ sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_si
     if (img->width > PNG_UINT_31_MAX || img->height > PNG_UINT_31_MAX)
         return sv_fail(err, SV_ERR_LIMIT, "image %ux%u is too large for PNG", img->width,
                        img->height);
+    sv_image packed = {0};
+    const sv_image *src = img;
+    uint32_t channels = needed_channels(img);
+    if (channels != img->channels) {
+        sv_status st = pack_channels(img, channels, &packed, err);
+        if (st != SV_OK) return st;
+        src = &packed;
+    }
     png_bytep *rows = calloc(img->height, sizeof *rows);
-    if (!rows) return sv_fail(err, SV_ERR_NOMEM, "PNG encoding: out of memory");
+    if (!rows) {
+        sv_image_free(&packed);
+        return sv_fail(err, SV_ERR_NOMEM, "PNG encoding: out of memory");
+    }
     png_sink sink = {0};
-    sv_status st = encode(img, &sink, rows, err);
+    sv_status st = encode(src, &sink, rows, err);
     free(rows);
+    sv_image_free(&packed);
     if (st != SV_OK) {
         free(sink.data);
         return st;

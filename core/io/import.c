@@ -415,6 +415,12 @@ static sv_status load_texture(importer *im, const struct aiScene *scene, const c
             im->info->textures_missing++;
             return SV_OK;
         }
+        /* the file itself, so outputs that keep this texture unchanged
+         * store its bytes (a JPEG stays a JPEG) */
+        if ((st = sv_image_set_source(img, data, size, im->err)) != SV_OK) {
+            sv_image_free(img);
+            return st;
+        }
     }
     snprintf(im->slots[im->image_count].key, sizeof im->slots[0].key, "%s", key);
     *index = (int32_t)im->image_count++;

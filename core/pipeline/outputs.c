@@ -1,7 +1,8 @@
 /* outputs.c — the files of a bake that are not JSON (docs/outputs.md): the
  * atlases (and what a level writes through its own hook, level.h: an
  * octahedral level's albedo mips), model.glb with every level as MSFT_lod alternates, one
- * lod<i>_<name>.glb per level, and preview.png.
+ * lod<i>_<name>.glb per level, the LOD group files (lods.glb, lods.fbx, one
+ * lod<i>_<name>.fbx per level, textures beside them) and preview.png.
  */
 #include <ctype.h>
 #include <math.h>
@@ -9,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fbx.h"
 #include "gltf.h"
 #include "pipeline_internal.h"
 #include "preview.h"
@@ -76,6 +78,74 @@ sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
     return SV_OK;
 }
 
+/* Level i's switch sizes as report.json gives them (docs/outputs.md "LOD
+ * groups"), into o. */
+static bool add_switch(const run *r, const bake_state *b, uint32_t i, cJSON *o)
+{
+    const lod_out *l = &b->lods[i];
+    double d = sv_scene_distance_for_pixels(&r->spec.scene, b->tree_h, l->switch_pixels);
+    return cJSON_AddNumberToObject(o, "lod", i) &&
+           cJSON_AddNumberToObject(o, "screen_coverage", l->coverage) &&
+           cJSON_AddNumberToObject(o, "switch_pixels", l->switch_pixels) &&
+           cJSON_AddNumberToObject(o, "switch_distance", d);
+}
+
+/* lods.glb (every level a child of one root node, switch sizes in extras),
+ * lods.fbx (the same nodes through assimp, textures beside) and one
+ * lod<i>_<name>.fbx per level (Unreal imports each as a LOD of one static
+ * mesh): the shapes engines group into LODs. */
+static sv_status write_lod_group(const run *r, bake_state *b, const sv_gltf_lod *gl,
+                                 const char *asset, sv_error *err)
+{
+    uint32_t n = b->si.lod_count;
+    sv_status st = SV_OK;
+    char path[4096];
+    sv_gltf_lod *gg = sv_calloc(n, sizeof *gg);
+    cJSON **ex = sv_calloc(n, sizeof *ex);
+    cJSON *root = cJSON_CreateObject();
+    cJSON *list = root ? cJSON_AddArrayToObject(root, "lods") : NULL;
+    bool ok = gg && ex && list && cJSON_AddStringToObject(root, "units", "m") &&
+              cJSON_AddNumberToObject(root, "screen_height", r->spec.scene.screen_height) &&
+              cJSON_AddNumberToObject(root, "fov_deg", r->spec.scene.fov_y_deg);
+    for (uint32_t i = 0; ok && i < n; i++) {
+        gg[i] = gl[i];
+        /* the level's own extras (a stochastic level's fade window) and its
+         * switch sizes */
+        ex[i] = gl[i].extras ? cJSON_Duplicate(gl[i].extras, true) : cJSON_CreateObject();
+        cJSON *e = cJSON_CreateObject();
+        ok = ex[i] && e && add_switch(r, b, i, ex[i]) &&
+             cJSON_AddStringToObject(e, "node", gl[i].name) && add_switch(r, b, i, e);
+        if (e) cJSON_AddItemToArray(list, e);
+        gg[i].extras = ex[i];
+    }
+    if (!ok) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    sv_gltf_group g = {asset, root};
+    snprintf(path, sizeof path, "%s/lods.glb", r->req->out_dir);
+    if (st == SV_OK) st = sv_gltf_write_group_glb(path, &g, gg, n, err);
+    /* the FBX files refer to the atlases already written beside them */
+    sv_fbx_file *known = sv_calloc(4 * (size_t)n, sizeof *known);
+    uint32_t nk = 0;
+    if (!known && st == SV_OK) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t i = 0; known && i < n; i++)
+        for (int k = 0; k < 4; k++)
+            if (svp_lod_map(&b->lods[i].baked, k)->data && b->lods[i].maps[k][0])
+                known[nk++] = (sv_fbx_file){svp_lod_map(&b->lods[i].baked, k), b->lods[i].maps[k]};
+    bool fbx = r->spec.output_fbx;
+    if (st == SV_OK && fbx)
+        st = sv_fbx_write(r->req->out_dir, "lods.fbx", asset, gl, n, known, nk, err);
+    for (uint32_t i = 0; fbx && i < n && st == SV_OK; i++) {
+        char file[128];
+        snprintf(file, sizeof file, "lod%u_%s.fbx", i, b->si.lods[i].name);
+        st = sv_fbx_write(r->req->out_dir, file, asset, &gl[i], 1, known, nk, err);
+    }
+    free(known);
+    for (uint32_t i = 0; ex && i < n; i++) cJSON_Delete(ex[i]);
+    free(ex);
+    free(gg);
+    cJSON_Delete(root);
+    return st;
+}
+
 sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
 {
     const sv_stand_in *si = &b->si;
@@ -112,6 +182,7 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].file);
         st = sv_gltf_write_level_glb(path, &gl[i], err);
     }
+    if (st == SV_OK) st = write_lod_group(r, b, gl, asset, err);
     for (uint32_t i = 0; i < si->lod_count; i++) sv_stoch_gltf_free(&gx[i]);
     free(gx);
     free(gl);

@@ -10,8 +10,8 @@
 #include "json_strict.h"
 #include "method.h"
 
-static const char *const top_keys[] = {"method",   "scene", "import", "classify", "bake",
-                                       "evaluate", "lod",   "target", "seed",     NULL};
+static const char *const top_keys[] = {"method", "scene",  "import", "classify", "bake", "evaluate",
+                                       "lod",    "output", "target", "seed",     NULL};
 
 static sv_status parse_enum(const cJSON *obj, const char *section, const char *key,
                             const char *const *names, int *out, sv_error *err)
@@ -211,8 +211,8 @@ static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"enabled", "views",        "supersample",     "sizes",
-                                       "small_render", "flattening_bound", NULL};
+    static const char *const keys[] = {
+        "enabled", "views", "supersample", "sizes", "small_render", "flattening_bound", NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "evaluate", keys, err))) return st;
     if ((st = sv_setting_bool(o, "evaluate", "enabled", &s->evaluate, err))) return st;
@@ -278,6 +278,7 @@ static void spec_defaults(sv_spec *s)
     s->lod_cost_ratio = 10;
     s->lod_triangles_per_pixel = 2;
     s->lod_chain = true;
+    s->output_fbx = true;
     snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", "crossed_quads");
 }
 
@@ -349,11 +350,21 @@ static sv_status parse_classify(const cJSON *cl, sv_spec *s, sv_error *err)
     return st;
 }
 
+/* "output": which files beyond the glTF ones a bake writes. */
+static sv_status parse_output(const cJSON *o, sv_spec *s, sv_error *err)
+{
+    static const char *const keys[] = {"fbx", NULL};
+    sv_status st = sv_setting_only(o, "output", keys, err);
+    if (!st) st = sv_setting_bool(o, "output", "fbx", &s->output_fbx, err);
+    return st;
+}
+
 /* "lod": the chain's tolerance, whether there is a chain, its coarsest level. */
 static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"tolerance", "tolerance_pixels", "slack", "cost_ratio",
-                                       "triangles_per_pixel", "chain", "coarsest", NULL};
+    static const char *const keys[] = {
+        "tolerance", "tolerance_pixels", "slack", "cost_ratio", "triangles_per_pixel",
+        "chain",     "coarsest",         NULL};
     sv_status st = sv_setting_only(lod, "lod", keys, err);
     if (!st) st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err);
     if (!st)
@@ -448,6 +459,7 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *s, sv_error *err)
     SECTION("import", parse_import);
     SECTION("bake", parse_bake);
     SECTION("evaluate", parse_evaluate);
+    SECTION("output", parse_output);
 #undef SECTION
     const cJSON *cl = cJSON_GetObjectItemCaseSensitive(root, "classify");
     if (cl && (st = parse_classify(cl, s, err))) goto out;

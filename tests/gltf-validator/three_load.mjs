@@ -1,8 +1,9 @@
 #!/usr/bin/env node
 // three_load.mjs FILE... — loads each .glb with three.js's GLTFLoader (the
 // loader of the three.js editor and of most web viewers, which ignores
-// MSFT_lod) and prints one JSON line per file: the scene's node names, the
-// meshes and triangles it would draw, how many of their materials carry a
+// MSFT_lod) and prints one JSON line per file: the scene's node names (and,
+// in `children`, each one's child nodes with their meshes and textured
+// materials: a LOD group's levels), the meshes and triangles it would draw, how many of their materials carry a
 // base-colour texture, alpha test cutoffs, and the drawn bounding box. Exit
 // status 1 when a file does not load. Node has no image decoder: textures
 // are resolved to placeholders (the Khronos validator checks the images);
@@ -23,6 +24,18 @@ THREE.TextureLoader.prototype.load = function (url, onLoad) {
 function summary(file, gltf) {
     const out = { file, nodes: [], meshes: 0, triangles: 0, textured: 0, cutoffs: [] };
     gltf.scene.children.forEach((c) => out.nodes.push(c.name));
+    // a LOD group (lods.glb): each child of a top-level node, with what it draws
+    out.children = gltf.scene.children.map((c) =>
+        c.children.map((k) => {
+            const o = { name: k.name, meshes: 0, textured: 0, visible: k.visible };
+            k.traverse((m) => {
+                if (!m.isMesh) return;
+                o.meshes++;
+                const mats = Array.isArray(m.material) ? m.material : [m.material];
+                o.textured += mats.filter((x) => x.map).length;
+            });
+            return o;
+        }));
     gltf.scene.updateMatrixWorld(true);
     const box = new THREE.Box3();
     gltf.scene.traverse((o) => {

@@ -31,6 +31,30 @@ for f in "$tmp"/a/*; do
     [ "$n" = report.json ] && continue
     cmp -s "$f" "$tmp/b/$n" || fail "$n differs between two identical bakes"
 done
+# the LOD group files, read back with assimp as an engine's importer reads
+# them: one node per kept level named <asset>_LOD<i>, in order, each with its
+# meshes and every texture it samples found (embedded, or beside lods.fbx)
+for f in lods.glb lods.fbx; do
+    "$build/tools/lod_nodes" "$tmp/a/$f" > "$tmp/$f.nodes" || fail "assimp cannot read $f back"
+    python3 - "$tmp/$f.nodes" "$tmp/a/report.json" <<'EOF' || fail "$f: $(cat "$tmp/$f.nodes")"
+import json, sys
+lines = [l.split() for l in open(sys.argv[1])]
+lods = json.load(open(sys.argv[2]))['lods']
+assert len(lods) >= 3 and [l[0] for l in lines] == [l['node'] for l in lods], lines
+for l in lines:
+    kv = dict(x.split('=') for x in l[1:])
+    assert int(kv['meshes']) >= 1 and int(kv['textures']) >= 1 and kv['missing'] == '0', l
+EOF
+done
+for l in $(json_get "$tmp/a/report.json" "' '.join(l['file'][:-4] for l in j['lods'])"); do
+    "$build/tools/lod_nodes" "$tmp/a/$l.fbx" | grep -q "_LOD" || fail "$l.fbx: no level node"
+done
+# outputs no larger than they need be: the full level, its textures the
+# input's own files, is no larger than the input
+# shellcheck disable=SC2086
+in_bytes=$(cat $files | wc -c)
+full=$(wc -c < "$tmp/a/lod0_full.glb")
+[ "$full" -le "$in_bytes" ] || fail "lod0_full.glb is $full bytes, the input $in_bytes"
 strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.pop('times'); print(json.dumps(j, sort_keys=True))" "$1"; }
 [ "$(strip_times "$tmp/a/report.json")" = "$(strip_times "$tmp/b/report.json")" ] ||
     fail "report.json differs (beyond times) between two identical bakes"
@@ -44,7 +68,19 @@ w=$(python3 -c "import struct,sys; print(struct.unpack('>I', open(sys.argv[1],'r
 # the glTF passes the Khronos validator
 if command -v npm > /dev/null 2>&1; then
     v=$(ensure_validator) || fail "cannot install gltf-validator"
-    node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb || fail "model.glb or a standalone level does not validate"
+    node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb "$tmp/a/lods.glb" ||
+        fail "model.glb, lods.glb or a standalone level does not validate"
+    # three.js builds the LOD group: one root, a visible textured child per level
+    node "$(dirname "$v")/three_load.mjs" "$tmp/a/lods.glb" > "$tmp/three.json" ||
+        fail "three.js cannot load lods.glb: $(cat "$tmp/three.json")"
+    python3 - "$tmp/three.json" "$tmp/a/report.json" <<'EOF' || fail "lods.glb in three.js"
+import json, sys
+t, r = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert t['nodes'] == ['oak_large'], t['nodes']
+kids = t['children'][0]
+assert [k['name'] for k in kids] == [l['node'] for l in r['lods']], kids
+assert all(k['visible'] and k['meshes'] >= 1 and k['textured'] >= 1 for k in kids), kids
+EOF
 else
     partial="npm missing, model.glb not validated"
 fi

@@ -71,9 +71,9 @@ def positions(j, binb, mesh):
 want = [2e6, 2e6, 2e6]  # 1e7 units x 0.2: a grid point, so exact in double
 for s in ('chain', 'octa'):
     u, m = os.path.join(t, 'out_u_' + s), os.path.join(t, 'out_m_' + s)
-    levels = sorted(os.path.basename(f) for f in glob.glob(u + '/lod*.glb'))
+    levels = sorted(os.path.basename(f) for f in glob.glob(u + '/lod[0-9]*.glb'))
     check('%s: %d level files in both' % (s, len(levels)),
-          levels and levels == sorted(os.path.basename(f) for f in glob.glob(m + '/lod*.glb')))
+          levels and levels == sorted(os.path.basename(f) for f in glob.glob(m + '/lod[0-9]*.glb')))
     for n in levels:
         ju, bu = glb(os.path.join(u, n))
         jm, bm = glb(os.path.join(m, n))
@@ -82,6 +82,11 @@ for s in ('chain', 'octa'):
             check('%s %s: %d vertices, the same floats' % (s, n, len(pu) // 3), pu == pm)
         check('%s %s: no translation unmoved' % (s, n), 'translation' not in ju['nodes'][0])
         check('%s %s: translation %s' % (s, n, want), jm['nodes'][0].get('translation') == want)
+    # lods.glb: the root stays at the origin, each level carries the translation
+    jm, _ = glb(os.path.join(m, 'lods.glb'))
+    check('%s lods.glb: every level carries the translation, the root none' % s,
+          'translation' not in jm['nodes'][0] and
+          all(nd.get('translation') == want for nd in jm['nodes'][1:]))
     jm, _ = glb(os.path.join(m, 'model.glb'))
     check('%s model.glb: every node carries the translation' % s,
           all(nd.get('translation') == want for nd in jm['nodes']))

@@ -195,14 +195,37 @@ static void status_table_has_a_name_and_message_for_every_code(void **state)
 static void output_names_are_sylvas_own_only(void **state)
 {
     (void)state;
-    const char *ours[] = {
-        "model.glb",         "planes.json",          "report.json",
-        "preview.png",       "error.json",           "impostor.json",
-        "lod0_full.glb",     "lod12_clusters32.glb", "atlas_clusters32_albedo.png",
-        "atlas_x_normal.png"};
-    const char *theirs[] = {"tree.glb",        "model.gltf", "lod_x.glb",  "lodA_x.glb",
-                            "lod3.glb",        "atlas_.png", "atlas.png",  "notes.txt",
-                            "report.json.bak", "spec.json",  "a/model.glb"};
+    const char *ours[] = {"model.glb",
+                          "planes.json",
+                          "report.json",
+                          "preview.png",
+                          "error.json",
+                          "impostor.json",
+                          "lod0_full.glb",
+                          "lod12_clusters32.glb",
+                          "atlas_clusters32_albedo.png",
+                          "atlas_x_normal.png",
+                          "lods.glb",
+                          "lods.fbx",
+                          "lod2_clusters32.fbx",
+                          "tex_0123456789abcdef.png",
+                          "tex_fedcba9876543210.jpg"};
+    const char *theirs[] = {"tree.glb",
+                            "model.gltf",
+                            "lod_x.glb",
+                            "lodA_x.glb",
+                            "lod3.glb",
+                            "atlas_.png",
+                            "atlas.png",
+                            "notes.txt",
+                            "report.json.bak",
+                            "spec.json",
+                            "a/model.glb",
+                            "lods.obj",
+                            "tree.fbx",
+                            "tex_bark.jpg",
+                            "tex_0123456789abcdeg.png",
+                            "tex_0123456789abcdef.tga"};
     for (size_t i = 0; i < sizeof ours / sizeof ours[0]; i++)
         assert_true(sylva_is_output_name(ours[i]));
     for (size_t i = 0; i < sizeof theirs / sizeof theirs[0]; i++) {

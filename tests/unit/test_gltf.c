@@ -1,5 +1,7 @@
 /* test_gltf.c — the GLB writer (gltf.h): container layout, the MSFT_lod chain,
- * accessors, materials, image sharing, extra attributes, determinism, errors. */
+ * accessors, materials, image sharing, extra attributes, determinism, errors;
+ * merged vertices, input files kept as they are, the LOD group (lods.glb) and
+ * its FBX (fbx.h, read back with assimp). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -12,6 +14,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <assimp/cimport.h>
+#include <assimp/material.h>
+#include <assimp/scene.h>
+
+#include "fbx.h"
 #include "gltf.h"
 
 /* ---- fixtures ---------------------------------------------------------- */
@@ -454,13 +461,14 @@ static void extra_vertex_attributes_are_written_under_their_names(void **state)
 static void large_meshes_use_uint32_indices(void **state)
 {
     (void)state;
-    sv_mesh *m = sv_mesh_create(70000, 1, 1, 0);
+    /* 70002 distinct vertices, each used once: nothing to merge */
+    sv_mesh *m = sv_mesh_create(70002, 23334, 1, 0);
     assert_non_null(m);
     for (uint32_t v = 0; v < m->vertex_count; v++) {
         m->positions[3 * v] = (float)v * 1e-3f;
         m->positions[3 * v + 1] = (float)(v % 7);
+        m->indices[v] = v;
     }
-    m->indices[0] = 0, m->indices[1] = 65535, m->indices[2] = 69999;
     sv_gltf_lod lod = {.mesh = m};
     uint8_t *buf;
     size_t size;
@@ -468,8 +476,8 @@ static void large_meshes_use_uint32_indices(void **state)
     int ii = (int)num(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "indices");
     assert_int_equal((int)num(at(get(g.json, "accessors"), ii), "componentType"), 5125);
     const uint32_t *ix = (const uint32_t *)accessor_data(&g, ii, 4);
-    assert_int_equal(ix[1], 65535);
-    assert_int_equal(ix[2], 69999);
+    assert_int_equal(ix[65535], 65535);
+    assert_int_equal(ix[70001], 70001);
     cJSON_Delete(g.json);
     free(buf);
     sv_mesh_destroy(m);
@@ -621,6 +629,234 @@ static void standalone_level_is_one_named_node_with_embedded_images(void **state
     sv_mesh_destroy(m);
 }
 
+static void identical_vertices_are_written_once(void **state)
+{
+    (void)state;
+    /* two triangles of a quad as a triangle soup (6 vertices, 2 repeated),
+     * and one vertex no triangle uses */
+    sv_mesh *m = sv_mesh_create(7, 2, 1, 0);
+    assert_non_null(m);
+    static const float xy[6][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 0}, {1, 1}, {0, 1}};
+    for (uint32_t v = 0; v < 6; v++) {
+        m->positions[3 * v] = xy[v][0];
+        m->positions[3 * v + 1] = xy[v][1];
+        m->normals[3 * v + 2] = 1;
+        m->indices[v] = v;
+    }
+    m->positions[3 * 6] = 50; /* unused: must not widen the bounds */
+    sv_gltf_lod lod = {.name = "soup", .mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *prim = at(get(at(get(g.json, "meshes"), 0), "primitives"), 0);
+    int pa = (int)num(get(prim, "attributes"), "POSITION"), ia = (int)num(prim, "indices");
+    cJSON *acc = get(g.json, "accessors");
+    assert_int_equal((int)num(at(acc, pa), "count"), 4);
+    assert_float_equal(at(get(at(acc, pa), "max"), 0)->valuedouble, 1.0, 0);
+    assert_int_equal((int)num(at(acc, ia), "count"), 6);
+    assert_int_equal((int)num(at(acc, ia), "componentType"), 5123);
+    const uint16_t *ix = (const uint16_t *)accessor_data(&g, ia, 2);
+    const float *pos = (const float *)accessor_data(&g, pa, 12);
+    for (int k = 0; k < 6; k++) { /* the same corners, in the same order */
+        assert_float_equal(pos[3 * ix[k]], xy[k][0], 0);
+        assert_float_equal(pos[3 * ix[k] + 1], xy[k][1], 0);
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
+/* The image the glTF of lod embeds (the first), with its mimeType. */
+static const uint8_t *first_image(const glb *g, const char **mime, size_t *len)
+{
+    cJSON *im = at(get(g->json, "images"), 0);
+    assert_non_null(im);
+    *mime = get(im, "mimeType")->valuestring;
+    cJSON *v = at(get(g->json, "bufferViews"), (int)num(im, "bufferView"));
+    *len = (size_t)num(v, "byteLength");
+    return g->bin + (size_t)num(v, "byteOffset");
+}
+
+static void an_unchanged_texture_is_embedded_as_its_own_file(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(1, 40);
+    /* the writer never decodes it: a JPEG's signature and some bytes do */
+    static const uint8_t jpeg[] = {0xFF, 0xD8, 0xFF, 0xE0, 1, 2, 3, 4, 5, 6, 7, 0xFF, 0xD9};
+    assert_int_equal(sv_image_set_source(&m->images[0], jpeg, sizeof jpeg, NULL), SV_OK);
+    sv_gltf_lod lod = {.name = "a", .mesh = m};
+    uint8_t *buf;
+    size_t size, len;
+    const char *mime;
+    glb g = encode(&lod, 1, &buf, &size);
+    const uint8_t *img = first_image(&g, &mime, &len);
+    assert_string_equal(mime, "image/jpeg");
+    assert_int_equal(len, sizeof jpeg);
+    assert_memory_equal(img, jpeg, sizeof jpeg);
+    cJSON_Delete(g.json);
+    free(buf);
+    /* a copy of the image (another level's mesh) keeps it */
+    sv_image copy;
+    assert_int_equal(sv_image_copy(&m->images[0], &copy, NULL), SV_OK);
+    const uint8_t *src;
+    size_t n;
+    assert_true(sv_image_source(&copy, &src, &n, &mime));
+    assert_int_equal(n, sizeof jpeg);
+    sv_image_free(&copy);
+    /* pixels changed in place: the file no longer says them, PNG it is */
+    ((uint8_t *)m->images[0].data)[5] ^= 1;
+    g = encode(&lod, 1, &buf, &size);
+    img = first_image(&g, &mime, &len);
+    assert_string_equal(mime, "image/png");
+    assert_memory_equal(img, "\x89PNG", 4);
+    cJSON_Delete(g.json);
+    free(buf);
+    /* new pixels (a reduced texture) have no source; nor has a TGA */
+    ((uint8_t *)m->images[0].data)[5] ^= 1;
+    assert_true(sv_image_source(&m->images[0], &src, &n, &mime));
+    assert_int_equal(sv_image_reduce(&m->images[0], 8, NULL), SV_OK);
+    assert_false(sv_image_source(&m->images[0], &src, &n, &mime));
+    static const uint8_t tga[] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    assert_int_equal(sv_image_set_source(&m->images[0], tga, sizeof tga, NULL), SV_OK);
+    assert_false(sv_image_source(&m->images[0], &src, &n, &mime));
+    sv_mesh_destroy(m);
+}
+
+static void lod_group_is_one_root_with_every_level_as_a_named_child(void **state)
+{
+    (void)state;
+    sv_mesh *a = leaf_mesh(3, 10), *b = leaf_mesh(1, 20);
+    cJSON *ea = cJSON_CreateObject(), *root = cJSON_CreateObject();
+    cJSON_AddNumberToObject(ea, "switch_distance", 12.5);
+    cJSON_AddNumberToObject(root, "fov_deg", 60);
+    sv_gltf_lod lods[2] = {{.name = "oak_LOD0", .mesh = a, .screen_coverage = 0.5, .extras = ea},
+                           {.name = "oak_LOD1", .mesh = b, .translation = {1, 2, 3}}};
+    sv_gltf_group grp = {"oak", root};
+    uint8_t *buf = NULL;
+    size_t size = 0;
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_encode_group_glb(&grp, lods, 2, &buf, &size, &err), SV_OK);
+    glb g = parse_glb(buf, size);
+    cJSON *scene_nodes = get(at(get(g.json, "scenes"), 0), "nodes");
+    assert_int_equal(cJSON_GetArraySize(scene_nodes), 1);
+    cJSON *nodes = get(g.json, "nodes");
+    assert_int_equal(cJSON_GetArraySize(nodes), 3);
+    cJSON *r = at(nodes, at(scene_nodes, 0)->valueint);
+    assert_string_equal(get(r, "name")->valuestring, "oak");
+    assert_float_equal(num(get(r, "extras"), "fov_deg"), 60, 0);
+    assert_null(get(r, "mesh"));
+    cJSON *ch = get(r, "children");
+    assert_int_equal(cJSON_GetArraySize(ch), 2);
+    cJSON *n0 = at(nodes, at(ch, 0)->valueint), *n1 = at(nodes, at(ch, 1)->valueint);
+    assert_string_equal(get(n0, "name")->valuestring, "oak_LOD0");
+    assert_string_equal(get(n1, "name")->valuestring, "oak_LOD1");
+    assert_float_equal(num(get(n0, "extras"), "switch_distance"), 12.5, 0);
+    assert_non_null(get(n0, "mesh"));
+    assert_non_null(get(n1, "mesh"));
+    assert_float_equal(at(get(n1, "translation"), 2)->valuedouble, 3, 0);
+    /* no MSFT_lod: every level an ordinary node */
+    assert_null(get(n0, "extensions"));
+    assert_null(get(get(n0, "extras"), "MSFT_screencoverage"));
+    assert_null(get(g.json, "extensionsUsed"));
+    cJSON_Delete(g.json);
+    free(buf);
+    /* a level without a name cannot be grouped */
+    lods[1].name = NULL;
+    assert_int_equal(sv_gltf_encode_group_glb(&grp, lods, 2, &buf, &size, &err), SV_ERR_INVALID);
+    assert_null(buf);
+    cJSON_Delete(ea);
+    cJSON_Delete(root);
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+}
+
+static uint8_t *read_all(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *d = malloc(len > 0 ? (size_t)len : 1);
+    *n = d ? fread(d, 1, (size_t)len, f) : 0;
+    fclose(f);
+    return d;
+}
+
+/* Meshes, triangles and base-colour textures (that exist in dir) of node n
+ * and its children (assimp's FBX exporter writes a level's meshes after the
+ * first as child models). */
+static void count_node(const struct aiScene *s, const struct aiNode *n, const char *dir,
+                       unsigned *meshes, unsigned *tris, unsigned *textured)
+{
+    for (unsigned k = 0; k < n->mNumMeshes; k++) {
+        const struct aiMesh *mm = s->mMeshes[n->mMeshes[k]];
+        (*meshes)++;
+        *tris += mm->mNumFaces;
+        struct aiString tex;
+        if (aiGetMaterialTexture(s->mMaterials[mm->mMaterialIndex], aiTextureType_DIFFUSE, 0, &tex,
+                                 NULL, NULL, NULL, NULL, NULL, NULL) == aiReturn_SUCCESS) {
+            char tp[1200];
+            snprintf(tp, sizeof tp, "%s/%s", dir, tex.data);
+            assert_int_equal(access(tp, R_OK), 0);
+            (*textured)++;
+        }
+    }
+    for (unsigned k = 0; k < n->mNumChildren; k++)
+        count_node(s, n->mChildren[k], dir, meshes, tris, textured);
+}
+
+static void lod_group_fbx_reimports_with_its_levels_and_textures(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/sv_fbx_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    sv_mesh *a = leaf_mesh(3, 10), *b = leaf_mesh(1, 20);
+    sv_gltf_lod lods[2] = {{.name = "oak_LOD0", .mesh = a, .mesh_name = "full"},
+                           {.name = "oak_LOD1", .mesh = b, .mesh_name = "clusters"}};
+    sv_error err = {0};
+    assert_int_equal(sv_fbx_write(dir, "lods.fbx", "oak", lods, 2, NULL, 0, &err), SV_OK);
+    char path[256], path2[256];
+    snprintf(path, sizeof path, "%s/lods.fbx", dir);
+    const struct aiScene *s = aiImportFile(path, 0);
+    if (!s) fail_msg("assimp cannot read the FBX back: %s", aiGetErrorString());
+    const struct aiNode *root = s->mRootNode; /* assimp's own root node above ours */
+    for (unsigned k = 0; k < s->mRootNode->mNumChildren; k++)
+        if (strcmp(s->mRootNode->mChildren[k]->mName.data, "oak") == 0)
+            root = s->mRootNode->mChildren[k];
+    assert_string_equal(root->mName.data, "oak");
+    assert_int_equal(root->mNumChildren, 2);
+    const char *names[2] = {"oak_LOD0", "oak_LOD1"};
+    unsigned tris[2] = {7, 3};
+    for (int i = 0; i < 2; i++) {
+        const struct aiNode *n = root->mChildren[i];
+        assert_string_equal(n->mName.data, names[i]);
+        unsigned meshes = 0, t = 0, textured = 0;
+        count_node(s, n, dir, &meshes, &t, &textured);
+        assert_int_equal(meshes, 2); /* leaf and bark */
+        assert_int_equal(t, tris[i]);
+        assert_int_equal(textured, 1);
+    }
+    aiReleaseImport(s);
+    /* the same levels, the same bytes (no time stamp), even a second later */
+    sleep(1);
+    assert_int_equal(sv_fbx_write(dir, "again.fbx", "oak", lods, 2, NULL, 0, &err), SV_OK);
+    snprintf(path2, sizeof path2, "%s/again.fbx", dir);
+    size_t n1, n2;
+    uint8_t *f1 = read_all(path, &n1), *f2 = read_all(path2, &n2);
+    assert_non_null(f1);
+    assert_non_null(f2);
+    assert_int_equal(n1, n2);
+    assert_memory_equal(f1, f2, n1);
+    free(f1);
+    free(f2);
+    char cmd[300];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    assert_int_equal(system(cmd), 0);
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -638,6 +874,10 @@ int main(void)
         cmocka_unit_test(out_of_range_index_is_refused_with_a_message),
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
         cmocka_unit_test(standalone_level_is_one_named_node_with_embedded_images),
+        cmocka_unit_test(identical_vertices_are_written_once),
+        cmocka_unit_test(an_unchanged_texture_is_embedded_as_its_own_file),
+        cmocka_unit_test(lod_group_is_one_root_with_every_level_as_a_named_child),
+        cmocka_unit_test(lod_group_fbx_reimports_with_its_levels_and_textures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

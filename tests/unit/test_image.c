@@ -154,6 +154,42 @@ static void png_round_trip_keeps_rgba8_exactly_with_straight_alpha(void **state)
     free(png);
 }
 
+/* PNG colour type (IHDR byte 25): 0 grey, 2 RGB, 4 grey+alpha, 6 RGBA. */
+static int png_colour_type(const uint8_t *png)
+{
+    return png[25];
+}
+
+static void png_leaves_out_an_opaque_alpha_and_grey_colour(void **state)
+{
+    (void)state;
+    static const struct {
+        bool opaque, grey;
+        int type;
+    } cases[] = {{false, false, 6}, {true, false, 2}, {false, true, 4}, {true, true, 0}};
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        sv_image img, back;
+        assert_int_equal(sv_image_alloc(&img, 9, 4, 4, 8, NULL), SV_OK);
+        uint8_t *p = img.data;
+        for (int i = 0; i < 36; i++) {
+            uint8_t v = (uint8_t)(7 * i);
+            p[4 * i] = v;
+            p[4 * i + 1] = cases[c].grey ? v : (uint8_t)(v + 3);
+            p[4 * i + 2] = v;
+            p[4 * i + 3] = cases[c].opaque ? 255 : (uint8_t)(255 - i);
+        }
+        size_t n;
+        uint8_t *png = encode(&img, &n);
+        assert_int_equal(png_colour_type(png), cases[c].type);
+        sv_error err = {0};
+        assert_int_equal(sv_image_decode_rgba8(png, n, "x.png", 0, &back, &err), SV_OK);
+        assert_memory_equal(back.data, img.data, 36 * 4); /* the same RGBA back */
+        sv_image_free(&img);
+        sv_image_free(&back);
+        free(png);
+    }
+}
+
 static void png_encoding_is_deterministic_and_write_matches_encode(void **state)
 {
     (void)state;
@@ -648,6 +684,7 @@ int main(void)
         cmocka_unit_test(alloc_refuses_overflow_and_bad_formats),
         cmocka_unit_test(png_round_trip_keeps_rgba8_exactly_with_straight_alpha),
         cmocka_unit_test(png_encoding_is_deterministic_and_write_matches_encode),
+        cmocka_unit_test(png_leaves_out_an_opaque_alpha_and_grey_colour),
         cmocka_unit_test(png_16_bit_round_trips_to_the_nearest_8_bit_value),
         cmocka_unit_test(gray_and_rgb_images_expand_to_opaque_rgba),
         cmocka_unit_test(tga_without_magic_decodes_by_its_name),

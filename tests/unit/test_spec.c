@@ -123,6 +123,25 @@ static void import_missing_files_defaults_to_error_and_accepts_warn(void **state
     }
 }
 
+static void output_fbx_defaults_to_on_and_can_be_turned_off(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *json;
+        bool fbx;
+    } cases[] = {{"{}", true},
+                 {"{\"output\":{}}", true},
+                 {"{\"output\":{\"fbx\":true}}", true},
+                 {"{\"output\":{\"fbx\":false}}", false}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        sv_spec s;
+        sv_error e = {0};
+        assert_int_equal(sv_spec_parse(cases[i].json, strlen(cases[i].json), &s, &e), SV_OK);
+        if (s.output_fbx != cases[i].fbx) fail_msg("case %zu: %s", i, cases[i].json);
+        sv_spec_free(&s);
+    }
+}
+
 static void expect_error(const char *json, const char *needle)
 {
     sv_spec s;
@@ -166,6 +185,9 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"method\":\"nope\"}", "unknown method 'nope'");
     expect_error("{\"method\":3}", "method");
     expect_error("{\"scene\":{\"viewer\":\"underwater\"}}", "scene.viewer");
+    expect_error("{\"output\":{\"fbx\":1}}", "output.fbx");
+    expect_error("{\"output\":{\"compress\":true}}", "output");
+    expect_error("{\"output\":true}", "output: expected an object");
     expect_error("{\"scene\":{\"lighting\":1}}", "scene.lighting");
     expect_error("{\"scene\":{\"distance\":[10,5]}}", "scene.distance");
     expect_error("{\"scene\":{\"light_dir\":[0,0,0]}}", "scene.light_dir");
@@ -264,6 +286,7 @@ int main(void)
         cmocka_unit_test(full_spec_sets_every_section),
         cmocka_unit_test(import_up_accepts_auto),
         cmocka_unit_test(import_missing_files_defaults_to_error_and_accepts_warn),
+        cmocka_unit_test(output_fbx_defaults_to_on_and_can_be_turned_off),
         cmocka_unit_test(bad_specs_are_refused_naming_the_key),
         cmocka_unit_test(deeply_nested_json_is_refused_without_crashing),
         cmocka_unit_test(scene_pixels_and_distance_are_inverse),
