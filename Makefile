@@ -29,7 +29,7 @@ WARN     := -Wall -Wextra -Werror
 # Each part sees only the headers it may use (docs/design.md, "Source
 # layout"): the client its own and common/ (never core), core its own and
 # common/, the server its own, core's and common/; tests and tools everything.
-INC_ALL    := -Icore/include -Iserver -Iclient -Icommon
+INC_ALL    := -Icore/include -Icore -Iserver -Iclient -Icommon
 INC         = $(INC_ALL)
 CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS) -DSYLVA_DOC_DIR=\"$(DOCDIR)\"
 $(BUILD)/client/%.o $(BUILD)/pic/client/%.o: INC = -Iclient -Icommon
@@ -147,7 +147,7 @@ $(LIBSYLVA_SO): $(CLIENT_PIC) client/libsylva.map
 
 # The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
 $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
-	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lmeshoptimizer -lpthread -lm
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lpthread -lm
 # The client links libsylva statically and nothing of core.
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm

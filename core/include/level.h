@@ -1,10 +1,10 @@
 /* level.h — the per-level hooks: how a level that is not quads plugs into
- * the pipeline (issue 17; docs/design.md "How a method plugs in").
+ * the pipeline (docs/design.md, "Adding a method").
  *
  * A method's run may make a LOD that is something else than quads and kept
  * geometry (an octahedral impostor: a grid of frames) by leaving what it is
- * in sv_lod_plan.payload. The pipeline fills sv_lod_plan.ops from this
- * registry (sv_level_ops_find, by the name of the method that made the
+ * in sv_lod_plan.payload. The pipeline fills sv_lod_plan.ops from the
+ * build registry (sv_level_ops_find, by the name of the method that made the
  * level) and from then on reaches the level only through these hooks: it
  * bakes, sizes, draws, writes and describes it without knowing what it is.
  * Every hook may be NULL: the pipeline then does for that step what it does
@@ -13,9 +13,8 @@
  * sv_stand_in_free frees with free() (stand_in.c, at the top of core, knows
  * no hooks).
  *
- * The hooks render and write files, so they are kept apart from sv_method
- * (method.h), whose registry sylvad links to check settings and which must
- * stay free of GL: core/methods/levels.c is the bake's half of the registry.
+ * The hooks render, so they belong to a method's build half (sv_method_ops
+ * levels, method_ops.h), never to its schema (method.h), which sylvad links.
  */
 #ifndef SV_LEVEL_H
 #define SV_LEVEL_H
@@ -85,15 +84,9 @@ typedef struct sv_level_ops {
                       uint32_t size, sv_image *out, bool *found, sv_error *err);
 } sv_level_ops;
 
-/* The hooks of each method that has them, one per method folder (the
- * registry in levels.c lists them). */
-extern const sv_level_ops sv_octa_level_ops;
-
-/* The hooks for the levels of method `method`, or NULL (its levels are quads). */
+/* The hooks for the levels of method `method` (its sv_method_ops levels,
+ * method_ops.h), or NULL (its levels are quads). */
 const sv_level_ops *sv_level_ops_find(const char *method);
-
-/* Every registered table of hooks; *count receives their number. */
-const sv_level_ops *const *sv_level_ops_list(size_t *count);
 
 /* A document's 3-vector: true and v filled when a is an array of exactly
  * three numbers (an impostor.json "centre"), else false, v untouched. */

@@ -169,4 +169,24 @@ sv_status sv_octa_write_mips(const char *dir, const char *name, const sv_octa_gr
 cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char *node,
                              const char maps[4][64], uint32_t mip_count);
 
+/* The method's settings, shared by its schema half (octahedral_settings.c)
+ * and its build half (octahedral.c). */
+typedef struct octa_settings {
+    long grid; /* 0 = default by hemi */
+    bool hemi, hemi_set;
+    long frame_pixels; /* 0 = from the LOD's largest drawn size */
+    long proxy_quads;  /* quads of the glTF proxy */
+    double elev_scale; /* 0 = by the scene's viewer */
+} octa_settings;
+
+/* The settings object s (NULL: defaults) into o; SV_ERR_SPEC naming the key. */
+sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err);
+
+struct sv_method;
+struct sv_method_ops;
+struct sv_level_ops;
+extern const struct sv_method sv_method_octahedral;
+extern const struct sv_method_ops sv_method_octahedral_ops;
+extern const struct sv_level_ops sv_octa_level_ops; /* octahedral_level.c */
+
 #endif

@@ -20,7 +20,7 @@
 #include <cjson/cJSON.h>
 
 #include "gltf.h"
-#include "method.h"
+#include "method_ops.h"
 
 #define SV_STOCH_MAX_LEVELS 8
 
@@ -309,5 +309,8 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g);
  * leaf_triangles, leaf_error, the area and contrast terms. */
 void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                               int level, cJSON *o);
+
+extern const sv_method sv_method_stochastic;         /* stochastic_settings.c */
+extern const sv_method_ops sv_method_stochastic_ops; /* stochastic.c */
 
 #endif

@@ -11,6 +11,7 @@
 #include "image.h"
 #include "import.h"
 #include "level.h"
+#include "method_ops.h"
 #include "render.h"
 #include "vec3.h"
 
@@ -58,11 +59,12 @@ static sv_status view_by_hook(const char *dir, const char *lod, const sv_camera 
                               sv_image *out, bool *drawn, sv_error *err)
 {
     size_t n = 0;
-    const sv_level_ops *const *ops = sv_level_ops_list(&n);
+    const sv_method_ops *const *ms = sv_method_ops_list(&n);
     *drawn = false;
     for (size_t i = 0; i < n && !*drawn; i++) {
-        if (!ops[i]->view) continue;
-        sv_status st = ops[i]->view(dir, lod, read_file, cam, size, out, drawn, err);
+        const sv_level_ops *ops = ms[i]->levels;
+        if (!ops || !ops->view) continue;
+        sv_status st = ops->view(dir, lod, read_file, cam, size, out, drawn, err);
         if (st) return st;
     }
     return SV_OK;

@@ -211,8 +211,8 @@ static sv_status parse_bake(const cJSON *o, sv_spec *s, sv_error *err)
 
 static sv_status parse_evaluate(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"enabled", "views",        "supersample",     "sizes",
-                                       "small_render", "flattening_bound", NULL};
+    static const char *const keys[] = {
+        "enabled", "views", "supersample", "sizes", "small_render", "flattening_bound", NULL};
     sv_status st;
     if ((st = sv_setting_only(o, "evaluate", keys, err))) return st;
     if ((st = sv_setting_bool(o, "evaluate", "enabled", &s->evaluate, err))) return st;
@@ -352,8 +352,9 @@ static sv_status parse_classify(const cJSON *cl, sv_spec *s, sv_error *err)
 /* "lod": the chain's tolerance, whether there is a chain, its coarsest level. */
 static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"tolerance", "tolerance_pixels", "slack", "cost_ratio",
-                                       "triangles_per_pixel", "chain", "coarsest", NULL};
+    static const char *const keys[] = {
+        "tolerance", "tolerance_pixels", "slack", "cost_ratio", "triangles_per_pixel",
+        "chain",     "coarsest",         NULL};
     sv_status st = sv_setting_only(lod, "lod", keys, err);
     if (!st) st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err);
     if (!st)
