@@ -100,10 +100,13 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         memcpy(gl[i].translation, r->p.info.origin, sizeof gl[i].translation);
-        if (ch->info[i].stochastic)
+        if (ch->info[i].stochastic) {
             st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level,
-                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], &gl[i],
-                                    err);
+                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], err);
+            gl[i].attributes = gx[i].attr;
+            gl[i].attribute_count = 2;
+            gl[i].extras = gx[i].extras;
+        }
     }
     snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);

@@ -22,7 +22,7 @@
 #include "plausibility.h"
 #include "render.h"
 #include "spec.h"
-#include "stochastic.h"
+#include "stochastic/stochastic.h"
 #include "validate.h"
 
 enum {
@@ -88,7 +88,7 @@ typedef struct run {
 typedef struct chain_lod {
     bool stochastic; /* a level of the stochastic method (its outputs and report fields) */
     bool scheduled;  /* placed by Cook's schedule: stochastic, or a leafless tree's trunk level */
-    int level; /* index into the stochastic result */
+    int level;       /* index into the stochastic result */
     double lambda;
     double distance;        /* stochastic: nearest distance where λ(d) <= λ (Cook's schedule) */
     double trunk_error;     /* metres: meshoptimizer bound, one pixel at `distance` */

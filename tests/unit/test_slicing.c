@@ -1,5 +1,5 @@
 /* sylva-test: cost=15 (tests/run.sh starts the longest first) */
-/* test_slicing.c — slicings (core/methods/slicing/slicing.c, core/include/slicing.h): clipping
+/* test_slicing.c — slicings (core/methods/slicing/slicing.c, core/methods/slicing/slicing.h): clipping
  * arithmetic, slab boundaries, the blending rule, the method's quads, and a
  * render test (a planar crown seen along a slicing keeps its silhouette). */
 #include <stdarg.h>

@@ -1209,7 +1209,7 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g)
 
 sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                              int level, uint32_t geom_vertices, const sv_mesh *m, sv_stoch_gltf *g,
-                             sv_gltf_lod *gl, sv_error *err)
+                             sv_error *err)
 {
     const sv_stoch_level *L = &res->levels[level];
     uint32_t nv = m->vertex_count;
@@ -1224,10 +1224,8 @@ sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_set
     memcpy(g->centre, m->positions, 3 * sizeof(float) * (size_t)t0);
     memcpy(g->centre + 3 * (size_t)t0, L->leaf_centre, 3 * sizeof(float) * geom_vertices);
     memcpy(g->order + t0, L->leaf_order, sizeof(float) * geom_vertices);
-    g->attr[0] = (sv_gltf_attribute){"_LEAF_CENTRE", g->centre, 3};
-    g->attr[1] = (sv_gltf_attribute){"_LEAF_ORDER", g->order, 1};
-    gl->attributes = g->attr;
-    gl->attribute_count = 2;
+    g->attr[0] = (sv_vertex_attribute){"_LEAF_CENTRE", g->centre, 3};
+    g->attr[1] = (sv_vertex_attribute){"_LEAF_ORDER", g->order, 1};
     cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
     cJSON_AddNumberToObject(o, "lambda", L->lambda);
     cJSON_AddNumberToObject(o, "leaves", L->leaves);
@@ -1244,7 +1242,6 @@ sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_set
     cJSON_AddNumberToObject(o, "d0", ss->d0);
     cJSON_AddStringToObject(o, "order_attribute", "_LEAF_ORDER");
     cJSON_AddStringToObject(o, "centre_attribute", "_LEAF_CENTRE");
-    gl->extras = g->extras;
     return SV_OK;
 }
 
