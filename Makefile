@@ -34,7 +34,8 @@ WARN     := -Wall -Wextra -Werror
 # the -I of the folders it may use, so an include of a folder it may not use
 # does not compile (tests/integration/boundary.sh checks one):
 #   core/*.c (sv, mesh, image, scene, stand_in): core/include only;
-#   io, geom: that and their own; render: also geom;
+#   io, geom: that and their own; render: also geom and io (it writes the
+#     preview and evaluation PNGs);
 #   methods/<name>/: base, geom, render and methods/ (method.h, level.h),
 #     never io, spec or pipeline: a method makes geometry, the pipeline
 #     reads and writes files;
@@ -54,7 +55,7 @@ endef
 $(eval $(call core_inc,,$(I_BASE)))
 $(eval $(call core_inc,io/,$(I_BASE) -Icore/io))
 $(eval $(call core_inc,geom/,$(I_BASE) -Icore/geom))
-$(eval $(call core_inc,render/,$(I_BASE) -Icore/geom -Icore/render))
+$(eval $(call core_inc,render/,$(I_BASE) -Icore/io -Icore/geom -Icore/render))
 $(eval $(call core_inc,methods/,$(I_BASE) $(I_METHODS)))
 $(eval $(call core_inc,spec/,$(I_BASE) -Icore/io -Icore/methods -Icore/spec))
 $(eval $(call core_inc,pipeline/,$(I_CORE)))

@@ -26,6 +26,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "image_io.h"
 #include "mesh.h"
 
 /* An extra per-vertex float attribute (mesh.h). */

@@ -42,6 +42,7 @@
  * (degenerate and duplicate triangles) are sv_validate's job.
  */
 #include "import.h"
+#include "image_io.h"
 
 #include <assimp/GltfMaterial.h>
 #include <assimp/cfileio.h>

@@ -20,6 +20,7 @@
 #define SV_LEVEL_H
 
 #include <cjson/cJSON.h>
+#include <stdlib.h>
 
 #include "bake.h"
 #include "render.h"
@@ -45,10 +46,39 @@ typedef struct sv_level_names {
     const char (*maps)[64]; /* its atlas files: albedo, normal, ao, depth ("" = not baked) */
 } sv_level_names;
 
-/* Reads the whole file `name` of a finished bake's folder `dir` (malloc'd;
- * NULL with err set). Refuses names that leave the folder. */
-typedef uint8_t *(*sv_level_read_fn)(const char *dir, const char *name, size_t *size,
-                                     sv_error *err);
+/* Images a level adds to the outputs beyond its atlases (an impostor's
+ * mips): each a file name of the bake's folder and its pixels, which the
+ * pipeline writes as PNG. Owned: sv_level_images_free (a zeroed one is fine). */
+typedef struct sv_level_image {
+    char name[96]; /* "atlas_<lod>_albedo_mip1.png" */
+    sv_image image;
+} sv_level_image;
+
+typedef struct sv_level_images {
+    sv_level_image *items;
+    uint32_t count;
+} sv_level_images;
+
+/* Frees every image and the list; leaves *l zeroed. */
+static inline void sv_level_images_free(sv_level_images *l)
+{
+    for (uint32_t i = 0; i < l->count; i++) sv_image_free(&l->items[i].image);
+    free(l->items);
+    l->items = NULL;
+    l->count = 0;
+}
+
+/* The files of a finished bake's folder, as the pipeline reads them for the
+ * view hook: a level reaches them only through these. */
+typedef struct sv_level_files {
+    void *user;
+    /* The JSON document `name` (caller deletes it); NULL with *missing set
+     * when the folder has no such file, NULL with err set when it cannot
+     * be read or parsed. */
+    cJSON *(*json)(void *user, const char *name, bool *missing, sv_error *err);
+    /* The PNG `name` decoded into img: 16-bit grey when gray16, else RGBA8. */
+    sv_status (*image)(void *user, const char *name, bool gray16, sv_image *img, sv_error *err);
+} sv_level_files;
 
 typedef struct sv_level_ops {
     const char *method; /* the method whose levels these hooks serve */
@@ -67,20 +97,23 @@ typedef struct sv_level_ops {
      * atlas `halvings` times; returns how many it allows (at most that) and
      * records the new size in the payload. */
     int (*shrink)(sv_lod_plan *lod, int halvings);
-    /* Writing (outputs.c), after the atlases: the level's own extra files in
-     * dir (mips); may note what it wrote in the payload for doc_entry. */
-    sv_status (*write_files)(sv_lod_plan *lod, const sv_baked_lod *baked, const char *dir,
-                             sv_error *err);
+    /* Writing (outputs.c), after the atlases: the level's own extra images
+     * (mips) into out (zeroed by the caller, freed by it with
+     * sv_level_images_free), which the pipeline writes; may note what it
+     * made in the payload for doc_entry. */
+    sv_status (*images)(sv_lod_plan *lod, const sv_baked_lod *baked, sv_level_images *out,
+                        sv_error *err);
     /* A JSON document beside planes.json (report.c): doc_file
      * {"schema": doc_schema, "lods": [one doc_entry per such level, in
      * chain order]}. NULL doc_entry: no document. */
     const char *doc_file;
     const char *doc_schema;
     cJSON *(*doc_entry)(const sv_lod_plan *lod, const sv_level_names *names);
-    /* `sylva-bake view` (view.c): when level `lod` of the finished bake in
-     * dir is one of these, draws it with cam into a size × size RGBA8 out
-     * and sets *found; leaves *found false (and returns SV_OK) otherwise. */
-    sv_status (*view)(const char *dir, const char *lod, sv_level_read_fn read, const sv_camera *cam,
+    /* `sylva-bake view` (view.c): when level `lod` of the finished bake
+     * whose files are `files` is one of these, draws it with cam into a
+     * size × size RGBA8 out and sets *found; leaves *found false (and
+     * returns SV_OK) otherwise. */
+    sv_status (*view)(const sv_level_files *files, const char *lod, const sv_camera *cam,
                       uint32_t size, sv_image *out, bool *found, sv_error *err);
 } sv_level_ops;
 

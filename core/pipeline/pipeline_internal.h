@@ -240,7 +240,7 @@ extern const char *const svp_map_names[4]; /* albedo, normal, ao, depth */
 /* The atlas map i (svp_map_names order) of a bake. */
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i);
 /* atlas_<lod>_<map>.png (names into lods[i].maps), then each level's own
- * files (sv_level_ops write_files: an impostor's mips). */
+ * images (sv_level_ops images: an impostor's mips), written as PNG. */
 sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err);
 /* model.glb and lod<i>_<name>.glb (names into lods[i].node and .file). */
 sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err);

@@ -53,7 +53,7 @@ done
 wmake() { (cd "$W" && make -s BUILD=build "$@") > "$T/make.log" 2>&1; }
 
 mkdir -p "$W/core/methods/toy"
-for h in pipeline.h spec.h import.h gltf.h; do
+for h in pipeline.h spec.h import.h gltf.h image_io.h; do
     printf '#include "method_ops.h"\n#include "%s"\nint toy_probe;\n' "$h" > "$W/core/methods/toy/probe.c"
     if wmake build/core/methods/toy/probe.o; then
         bad "a method file including $h compiled"

@@ -73,7 +73,7 @@ static void octahedral_level_carries_its_grid_and_hooks(void **state)
     assert_non_null(ops->bake);
     assert_non_null(ops->draw);
     assert_non_null(ops->shrink);
-    assert_non_null(ops->write_files);
+    assert_non_null(ops->images);
     assert_non_null(ops->doc_entry);
     assert_non_null(ops->view);
     assert_string_equal(ops->doc_file, "impostor.json");
