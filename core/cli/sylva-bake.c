@@ -52,6 +52,7 @@
 #include "zygote.h"
 #include "zygote_proto.h"
 #include "companions.h"
+#include "error_body.h"
 #include "spec_flags.h"
 #include "summary_table.h"
 
@@ -946,12 +947,9 @@ static int cmd_check_spec(int argc, char **argv)
     else st = sv_spec_parse(s, len, &spec, &e);
     free(s);
     if (st) {
-        printf("{\"error\":{\"code\":\"%s\",\"message\":", sv_status_code(st));
-        cJSON *tmp = cJSON_CreateString(e.message);
-        char *q = cJSON_PrintUnformatted(tmp);
-        printf("%s}}\n", q ? q : "\"\"");
-        free(q);
-        cJSON_Delete(tmp);
+        char *body = sylva_error_body(sv_status_code(st), e.message);
+        printf("%s\n", body ? body : "{\"error\":{}}");
+        free(body);
         return 1;
     }
     sv_spec_free(&spec);

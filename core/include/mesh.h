@@ -89,6 +89,10 @@ double sv_tri_area(const sv_mesh *mesh, uint32_t t);
 /* Unit normal of triangle t (zero vector for a degenerate triangle). */
 void sv_tri_normal(const sv_mesh *mesh, uint32_t t, double n[3]);
 
+/* The cross product of triangle t's edges (b - a) × (c - a), in double: its
+ * unit normal times twice its area (area-weighted vertex normals sum it). */
+void sv_tri_cross(const sv_mesh *mesh, uint32_t t, double n[3]);
+
 /* New mesh holding triangles tris[0..count) of src (in that order), with only
  * the vertices they use, and copies of src's materials and images (so material
  * and image indices are unchanged). Returns SV_ERR_NOMEM on failure. */

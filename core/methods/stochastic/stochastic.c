@@ -20,6 +20,7 @@
  */
 #include "stochastic.h"
 
+#include "rng.h"
 #include "trunk.h"
 #include "vec3.h"
 
@@ -102,18 +103,10 @@ uint32_t sv_stochastic_count(double lambda, uint32_t n)
     return (uint32_t)c;
 }
 
-static uint64_t splitmix64(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 /* Uniform in (0, 1): never 0, so log() is finite. */
 static double u01(uint64_t *s)
 {
-    return ((double)(splitmix64(s) >> 11) + 0.5) * 0x1.0p-53;
+    return ((double)(sv_splitmix64(s) >> 11) + 0.5) * 0x1.0p-53;
 }
 
 typedef struct keyed {
