@@ -27,14 +27,41 @@ endif
 OPT      ?= -O2 -g
 WARN     := -Wall -Wextra -Werror
 # Each part sees only the headers it may use (docs/design.md, "Source
-# layout"): the client its own and common/ (never core), core its own and
-# common/, the server its own, core's and common/; tests and tools everything.
-INC_ALL    := -Icore/include -Iserver -Iclient -Icommon
+# layout"): the client its own and common/ (never core), core's folders
+# their own and those below them, the server its own and the parts of core
+# it links (io, methods' schemas, spec); tests and tools everything. Inside
+# core, a folder's headers sit beside its sources and a folder compiles with
+# the -I of the folders it may use, so an include of a folder it may not use
+# does not compile (tests/integration/boundary.sh checks one):
+#   core/*.c (sv, mesh, image, scene, stand_in): core/include only;
+#   io, geom: that and their own; render: also geom and io (it writes the
+#     preview and evaluation PNGs);
+#   methods/<name>/: base, geom, render and methods/ (method.h, level.h),
+#     never io, spec or pipeline: a method makes geometry, the pipeline
+#     reads and writes files;
+#   spec: base, io (strict JSON), methods (each method checks its settings);
+#   pipeline and cli: every folder of core.
+I_BASE      := -Icore/include -Icommon
+I_METHODS   := -Icore/geom -Icore/render -Icore/methods
+I_CORE      := $(I_BASE) -Icore/io $(I_METHODS) -Icore/spec -Icore/pipeline
+INC_ALL    := $(I_CORE) -Icore $(patsubst %/,-I%,$(wildcard core/methods/*/)) -Iserver -Iclient
 INC         = $(INC_ALL)
 CPPFLAGS_SV = $(INC) -isystem /usr/include/stb -MMD -MP $(PKG_CFLAGS) -DSYLVA_DOC_DIR=\"$(DOCDIR)\"
+# INC of the objects of core folder $(1) (plain, position-independent, fuzz);
+# the most specific pattern wins.
+define core_inc
+$$(BUILD)/core/$(1)%.o $$(BUILD)/pic/core/$(1)%.o $$(BUILD)/fuzz/obj/core/$(1)%.o: INC = $(2)
+endef
+$(eval $(call core_inc,,$(I_BASE)))
+$(eval $(call core_inc,io/,$(I_BASE) -Icore/io))
+$(eval $(call core_inc,geom/,$(I_BASE) -Icore/geom))
+$(eval $(call core_inc,render/,$(I_BASE) -Icore/io -Icore/geom -Icore/render))
+$(eval $(call core_inc,methods/,$(I_BASE) $(I_METHODS)))
+$(eval $(call core_inc,spec/,$(I_BASE) -Icore/io -Icore/methods -Icore/spec))
+$(eval $(call core_inc,pipeline/,$(I_CORE)))
+$(eval $(call core_inc,cli/,$(I_CORE)))
 $(BUILD)/client/%.o $(BUILD)/pic/client/%.o: INC = -Iclient -Icommon
-$(BUILD)/core/%.o $(BUILD)/pic/core/%.o $(BUILD)/fuzz/obj/core/%.o: INC = -Icore/include -Icommon
-$(BUILD)/server/%.o $(BUILD)/fuzz/obj/server/%.o: INC = -Iserver -Icore/include -Icommon
+$(BUILD)/server/%.o $(BUILD)/fuzz/obj/server/%.o: INC = -Iserver $(I_BASE) -Icore/io -Icore/methods -Icore/spec
 SV_CFLAGS   := -std=c11 $(WARN) $(OPT) -D_POSIX_C_SOURCE=200809L -D_DEFAULT_SOURCE $(SAN_FLAGS)
 SV_CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(SAN_FLAGS)
 LDLIBS_SV   = $(PKG_LIBS) -lpthread -lm
@@ -153,7 +180,7 @@ $(BUILD)/gen/openapi_json.inc: server/openapi.json
 	sed -e 's/\\/\\\\/g' -e 's/"/\\"/g' -e 's/^/"/' -e 's/$$/\\n"/' $< > $@
 # The daemon links no GL and no assimp: only libsvserver and the pure parts of core.
 $(BUILD)/sylvad: $(BUILD)/server/sylvad.o $(LIBSERVER) $(LIBCORE)
-	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lmeshoptimizer -lpthread -lm
+	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libmicrohttpd libcjson libcrypto) -lpthread -lm
 # The client links libsylva statically and nothing of core.
 $(BUILD)/sylva: $(BUILD)/client/sylva.o $(LIBCLI) $(LIBSYLVA)
 	$(CC) $(SV_CFLAGS) $(LDFLAGS) -o $@ $^ $(shell pkg-config --libs libcurl libcjson libcrypto) -lm

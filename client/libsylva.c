@@ -1,6 +1,7 @@
 /* libsylva.c — the HTTP side of libsylva (libcurl): one easy handle per client,
  * every request through request_run(), which retries and fails over following
  * sylva_retry_delay(). API v1 as in docs/api.md; contracts in sylva.h. */
+#include "clock.h"
 #include "key_rules.h"
 #include "out_names.h"
 #include "sylva.h"
@@ -74,20 +75,6 @@ static void clear_error(sylva_client *c)
 {
     c->error[0] = '\0';
     c->error_code[0] = '\0';
-}
-
-static void sleep_ms(long ms)
-{
-    if (ms <= 0) return;
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
 static bool key_valid(const char *key)
@@ -438,7 +425,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         headers = curl_slist_append(headers, auth);
         if (!headers) return fail(c, SYLVA_ERR_NOMEM, "out of memory");
     }
-    double t_start = now_s();
+    double t_start = sylva_now_s();
     bool only_refused = true; /* every attempt of this request: connection refused */
     for (int attempt = 1;; attempt++) {
         char url[2048];
@@ -511,7 +498,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         long ra_ms = retry_after > 0 && retry_after < 86400 ? (long)retry_after * 1000 : -1;
         long delay = sylva_retry_delay(&c->policy, attempt, c->url_count, transport, code, ra_ms);
         bool probing = !c->answered && only_refused;
-        if (probing && delay >= 0 && (now_s() - t_start) * 1000.0 + (double)delay > REFUSED_WINDOW_MS)
+        if (probing && delay >= 0 && (sylva_now_s() - t_start) * 1000.0 + (double)delay > REFUSED_WINDOW_MS)
             delay = -1; /* nothing listens: say so now, not after every retry */
         if (delay < 0) {
             if (probing) refused_error(c);
@@ -520,7 +507,7 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         c->current = (c->current + 1) % c->url_count;
         if (c->on_retry && delay > 0 && !probing)
             c->on_retry(c->on_retry_user, c->error, delay, attempt, c->max_attempts);
-        sleep_ms(delay);
+        sylva_sleep_ms(delay);
     }
     curl_mime_free(mime);
     curl_slist_free_all(headers);
@@ -734,13 +721,13 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
                     key ? key : "");
     sylva_job local = {0};
     sylva_job *j = job ? job : &local;
-    double start = now_s();
+    double start = sylva_now_s();
     char last_stage[32] = "";
     double last_progress = -1;
     int resubmits = 0;
     sylva_status st;
     for (;;) {
-        double left = timeout_s > 0 ? timeout_s - (now_s() - start) : 1e9;
+        double left = timeout_s > 0 ? timeout_s - (sylva_now_s() - start) : 1e9;
         if (left <= 0) {
             st = fail(c, SYLVA_ERR_TIMEOUT, "bake %.12s did not finish within %.0f s", key,
                       timeout_s);
@@ -749,7 +736,7 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
         /* Short long-polls while someone shows progress, longer ones otherwise. */
         double w = progress ? 1.0 : 10.0;
         if (w > left) w = left;
-        double t0 = now_s();
+        double t0 = sylva_now_s();
         st = sylva_status_get(c, key, w, j);
         if (st == SYLVA_ERR_NOT_FOUND && in && resubmits < 3) {
             /* The server lost the job (another node after failover, or its store
@@ -794,7 +781,7 @@ sylva_status sylva_wait(sylva_client *c, const char *key, const sylva_input *in,
         }
         /* A server that answers a long-poll at once with nothing new must not be
          * hammered. */
-        if (!changed && now_s() - t0 < 0.2) sleep_ms(250);
+        if (!changed && sylva_now_s() - t0 < 0.2) sylva_sleep_ms(250);
     }
     sylva_job_clear(&local);
     return st;

@@ -4,6 +4,7 @@
  * but the spec's target not met, 4 integrity, 5 cancelled, 6 service: the
  * same table as sylva-bake's). One clear line on stderr
  * on failure; --json prints one JSON document on stdout for every command. */
+#include "clock.h"
 #include "cli.h"
 #include "companions.h"
 #include "summary_table.h"
@@ -132,19 +133,6 @@ static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
     return buf;
 }
 
-static void sleep_ms(long ms)
-{
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
-
 /* Says on stderr why the client is waiting (issue 23: with no server,
  * `sylva health` sat 24 s in silence). */
 static void retry_notice(void *user, const char *error, long delay_ms, int attempt, int max)
@@ -261,7 +249,7 @@ static void show_plain(bake *b, const char *stage, double fraction)
     b->last_try = b->job.search_try;
     char line[256];
     sylva_cli_progress_format(b->label, stage, fraction, b->job.search_try, b->job.search_tries,
-                              now_s() - b->t0, false, line, sizeof line);
+                              sylva_now_s() - b->t0, false, line, sizeof line);
     printf("%s\n", line);
     fflush(stdout);
 }
@@ -278,7 +266,8 @@ static void show_bar(display *d, bake *bakes, size_t n)
         bool running = !bakes[i].finished;
         sylva_cli_progress_format(bakes[i].label, stage, bakes[i].cur_progress,
                                   running ? bakes[i].job.search_try : 0, bakes[i].job.search_tries,
-                                  n == 1 ? now_s() - bakes[i].t0 : -1, n == 1, one, sizeof one);
+                                  n == 1 ? sylva_now_s() - bakes[i].t0 : -1, n == 1, one,
+                                  sizeof one);
         int w = snprintf(line + used, sizeof line - used, "%s%s", i ? "  " : "", one);
         if (w > 0) used += (size_t)w;
     }
@@ -461,7 +450,7 @@ static int cmd_bake(const sylva_cli *cli)
      * and the server bakes them concurrently. */
     for (size_t i = 0; i < ng; i++) {
         bake *b = &bakes[i];
-        b->t0 = now_s();
+        b->t0 = sylva_now_s();
         sylva_status st = sylva_submit(c, &b->in, &b->job);
         char line[1200];
         if (no_daemon_line(c, st, line, sizeof line)) { /* one line for the whole batch */
@@ -474,12 +463,12 @@ static int cmd_bake(const sylva_cli *cli)
         }
         if (d.mode == SYLVA_PROGRESS_PLAIN) printf("%s: submitted as %s\n", b->label, b->key);
     }
-    double start = now_s();
+    double start = sylva_now_s();
     if (ng == 1 && !bakes[0].finished) {
         bake *b = &bakes[0];
         wait_ctx w = {&d, b};
         while (!b->finished) { /* again only when finish_done resubmitted */
-            double left = cli->timeout_s > 0 ? cli->timeout_s - (now_s() - start) : 0;
+            double left = cli->timeout_s > 0 ? cli->timeout_s - (sylva_now_s() - start) : 0;
             if (cli->timeout_s > 0 && left <= 0) left = 1e-3; /* sylva_wait reports the timeout */
             sylva_status st = sylva_wait(c, b->key, &b->in, left, on_progress, &w, &b->job);
             if (st == SYLVA_OK) finish_done(b, c);
@@ -528,7 +517,7 @@ static int cmd_bake(const sylva_cli *cli)
             }
             if (d.mode == SYLVA_PROGRESS_BAR) show_bar(&d, bakes, ng);
             if (!pending) break;
-            if (cli->timeout_s > 0 && now_s() - start > cli->timeout_s) {
+            if (cli->timeout_s > 0 && sylva_now_s() - start > cli->timeout_s) {
                 for (size_t i = 0; i < ng; i++)
                     if (!bakes[i].finished) {
                         bakes[i].st = SYLVA_ERR_TIMEOUT;
@@ -540,7 +529,7 @@ static int cmd_bake(const sylva_cli *cli)
                     }
                 break;
             }
-            sleep_ms(500);
+            sylva_sleep_ms(500);
         }
         bar_close(&d);
     }

@@ -118,7 +118,7 @@ void sv_mesh_frame_sphere(const sv_mesh *m, double c[3], double *r)
     *r = sqrt(best);
 }
 
-static void tri_cross(const sv_mesh *m, uint32_t t, double n[3])
+void sv_tri_cross(const sv_mesh *m, uint32_t t, double n[3])
 {
     const uint32_t *ix = &m->indices[3 * (size_t)t];
     const float *a = &m->positions[3 * (size_t)ix[0]];
@@ -137,13 +137,13 @@ static void tri_cross(const sv_mesh *m, uint32_t t, double n[3])
 double sv_tri_area(const sv_mesh *m, uint32_t t)
 {
     double n[3];
-    tri_cross(m, t, n);
+    sv_tri_cross(m, t, n);
     return 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
 }
 
 void sv_tri_normal(const sv_mesh *m, uint32_t t, double n[3])
 {
-    tri_cross(m, t, n);
+    sv_tri_cross(m, t, n);
     double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (l > 0 && isfinite(l)) {
         n[0] /= l;
@@ -160,7 +160,7 @@ void sv_mesh_compute_normals(sv_mesh *m)
     if (!acc) return;
     for (uint32_t t = 0; t < m->triangle_count; t++) {
         double n[3];
-        tri_cross(m, t, n); /* length = 2 × area: area weighting for free */
+        sv_tri_cross(m, t, n); /* length = 2 × area: area weighting for free */
         for (int j = 0; j < 3; j++) {
             uint32_t v = m->indices[3 * (size_t)t + j];
             for (int k = 0; k < 3; k++) acc[3 * (size_t)v + k] += n[k];

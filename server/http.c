@@ -25,6 +25,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "error_body.h"
 #include "import.h"
 #include "method.h"
 #include "multipart.h"
@@ -72,8 +73,8 @@ typedef struct upload {
     svd_jobs *jobs;
     const char *client; /* the request's client id (outlives the upload) */
     double started;     /* sv_now() at the headers: upload_timeout counts from here */
-    bool known; /* a PUT of a key held when its headers came */
-    bool drop;  /* the rest of the body is read and dropped (upload_drop) */
+    bool known;         /* a PUT of a key held when its headers came */
+    bool drop;          /* the rest of the body is read and dropped (upload_drop) */
     /* in h->watched while the body is coming (under h->wmu) */
     svd_http *h;
     int sock;
@@ -112,7 +113,7 @@ typedef struct req {
  * policy that allows nothing, so even a stored file opened as a page cannot
  * run script on the daemon's origin (the viewer's); the viewer page alone gets
  * its own policy (viewer_csp). */
-#define CSP_NONE                                                                            \
+#define CSP_NONE                                                                        \
     "default-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'; " \
     "sandbox"
 
@@ -172,13 +173,8 @@ static char *error_body(const char *code, const char *message)
 {
     char *m = strdup(message ? message : "");
     if (m) sylva_utf8_fix(m);
-    cJSON *root = cJSON_CreateObject();
-    cJSON *e = cJSON_AddObjectToObject(root, "error");
-    cJSON_AddStringToObject(e, "code", code);
-    cJSON_AddStringToObject(e, "message", m ? m : "");
+    char *s = sylva_error_body(code, m ? m : "");
     free(m);
-    char *s = cJSON_PrintUnformatted(root);
-    cJSON_Delete(root);
     return s;
 }
 
@@ -510,8 +506,8 @@ static void *watch_uploads(void *arg)
             if (!why) continue;
             u->shut = true;
             shutdown(u->sock, SHUT_RDWR);
-            svd_log_kv(h->log, SVD_LOG_INFO, "upload_ended_early", "client", u->client, "msg",
-                       why, (const char *)NULL);
+            svd_log_kv(h->log, SVD_LOG_INFO, "upload_ended_early", "client", u->client, "msg", why,
+                       (const char *)NULL);
         }
     }
     pthread_mutex_unlock(&h->wmu);
@@ -649,8 +645,8 @@ static enum MHD_Result upload_begin(req *q, int *answered)
     if (ms != SV_OK)
         return send_error(h, c, q->m.route, 500, "io", "cannot create upload space in the store");
     q->kind = REQ_UPLOAD;
-    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(
-        c, MHD_CONNECTION_INFO_CONNECTION_FD);
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c,
+                                                                 MHD_CONNECTION_INFO_CONNECTION_FD);
     if (ci) watch_add(h, u, ci->connect_fd);
     *answered = 0;
     return MHD_YES;
@@ -1120,8 +1116,8 @@ static enum MHD_Result serve_viewer_file(req *q, const char *rel, const char *ct
     if (strncmp(ctype, "text/html", 9) == 0) { /* read whole: its policy hashes its import map */
         size_t len = (size_t)sb.st_size;
         char *html = len <= (1u << 20) ? malloc(len ? len : 1) : NULL;
-        bool ok = html && read(fd, html, len) == (ssize_t)len && viewer_csp(html, len, csp,
-                                                                             sizeof csp);
+        bool ok = html && read(fd, html, len) == (ssize_t)len &&
+                  viewer_csp(html, len, csp, sizeof csp);
         close(fd);
         if (ok) r = MHD_create_response_from_buffer(len, html, MHD_RESPMEM_MUST_FREE);
         if (!r) {
@@ -1568,15 +1564,15 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *c)
     const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c,
                                                                  MHD_CONNECTION_INFO_CONNECTION_FD);
     if (ci) {
-        static const char body[] =
-            "{\"error\":{\"code\":\"too_large\",\"message\":\"more than 64 query arguments: no "
-            "route takes more than 3\"}}";
+        char *body = sylva_error_body("too_large", "more than 64 query arguments: no route "
+                                                   "takes more than 3");
         char resp[512];
         int n = snprintf(resp, sizeof resp,
                          "HTTP/1.1 431 Request Header Fields Too Large\r\n"
                          "Content-Type: application/json\r\nConnection: close\r\n"
                          "Content-Length: %zu\r\n\r\n%s",
-                         sizeof body - 1, body);
+                         body ? strlen(body) : 0, body ? body : "");
+        free(body);
         if (n > 0 && send(ci->connect_fd, resp, (size_t)n, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) {
             /* the client is gone: MHD closes the connection anyway */
         }

@@ -3,6 +3,7 @@
 #include "jobs.h"
 
 #include <cjson/cJSON.h>
+#include "error_body.h"
 #include "json_strict.h"
 #include <math.h>
 #include <pthread.h>
@@ -30,9 +31,9 @@ struct svd_job {
     double times[SVD_STAGE_COUNT];
     double t_started;
     char code[32];
-    char *message;   /* failure reason */
-    cJSON *manifest; /* when done */
-    uint64_t bytes;  /* on disk: inputs + result */
+    char *message;    /* failure reason */
+    cJSON *manifest;  /* when done */
+    uint64_t bytes;   /* on disk: inputs + result */
     uint64_t out_est; /* estimated output bytes, held on the disk while not final */
     bool cancel;
     bool resubmitted;  /* uploaded again while a DELETE was stopping it: run it again */
@@ -65,8 +66,8 @@ struct svd_jobs {
     size_t count;
     uint64_t seq_next, lru_clock;
     uint64_t store_bytes;
-    uint64_t uploading; /* bytes reserved by uploads in progress (svd_jobs_reserve) */
-    uint64_t pending_out; /* out_est of every job not final: disk room held for outputs */
+    uint64_t uploading;        /* bytes reserved by uploads in progress (svd_jobs_reserve) */
+    uint64_t pending_out;      /* out_est of every job not final: disk room held for outputs */
     struct client_hold *holds; /* the same, per client (only clients holding bytes) */
     bool stopping, aborting;
     /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
@@ -139,8 +140,7 @@ static void set_state(svd_jobs *jobs, svd_job *j, svd_job_state s)
     list_out(jobs, j);
     if (!is_final(j->state) && is_final(s))
         jobs->pending_out -= j->out_est < jobs->pending_out ? j->out_est : jobs->pending_out;
-    else if (is_final(j->state) && !is_final(s))
-        jobs->pending_out += j->out_est;
+    else if (is_final(j->state) && !is_final(s)) jobs->pending_out += j->out_est;
     j->state = s;
     list_in(jobs, j);
 }
@@ -188,13 +188,7 @@ static svd_jobs_rc refuse(sv_error *err, svd_jobs_rc rc, const char *msg)
  * shape of the status document's "error". */
 static char *error_doc(const char *code, const char *message)
 {
-    cJSON *root = cJSON_CreateObject();
-    cJSON *e = cJSON_AddObjectToObject(root, "error");
-    cJSON_AddStringToObject(e, "code", code);
-    cJSON_AddStringToObject(e, "message", message);
-    char *s = cJSON_PrintUnformatted(root);
-    cJSON_Delete(root);
-    return s;
+    return sylva_error_body(code, message);
 }
 
 static size_t bucket_of(const char *key)
@@ -625,9 +619,7 @@ static cJSON *status_json(svd_jobs *jobs, const svd_job *j)
                                                        ? sv_now() - j->stage_start
                                                        : 0));
     if (j->state == SVD_JOB_FAILED || j->state == SVD_JOB_CANCELLED) {
-        cJSON *e = cJSON_AddObjectToObject(r, "error");
-        cJSON_AddStringToObject(e, "code", j->code[0] ? j->code : "failed");
-        cJSON_AddStringToObject(e, "message", j->message ? j->message : "");
+        sylva_error_add(r, j->code[0] ? j->code : "failed", j->message ? j->message : "");
     }
     if (j->state == SVD_JOB_DONE && j->manifest) {
         /* every warning of the bake, at the top where a client looks first */
@@ -819,8 +811,7 @@ static uint64_t disk_free(svd_jobs *jobs)
 static bool disk_short(svd_jobs *jobs, uint64_t disk_need)
 {
     uint64_t f = disk_free(jobs);
-    return f != UINT64_MAX &&
-           f < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes;
+    return f != UINT64_MAX && f < jobs->pending_out + disk_need + jobs->cfg->disk_reserve_bytes;
 }
 
 /* Evicts least-recently-used finished jobs until need more bytes fit under
@@ -839,8 +830,10 @@ static bool make_room_disk(svd_jobs *jobs, uint64_t need, bool disk, uint64_t di
     for (size_t b = 0; b < NBUCKETS; b++)
         for (svd_job *o = jobs->buckets[b]; o; o = o->hnext)
             if (is_final(o->state)) evictable += o->bytes;
-    if (quota && jobs->store_bytes - (evictable < jobs->store_bytes ? evictable : jobs->store_bytes) +
-                         jobs->uploading + need > limit)
+    if (quota && jobs->store_bytes -
+                         (evictable < jobs->store_bytes ? evictable : jobs->store_bytes) +
+                         jobs->uploading + need >
+                     limit)
         return false;
     if (short_) {
         uint64_t f = disk_free(jobs);
@@ -963,8 +956,8 @@ static bool take_hold(svd_jobs *jobs, const char *client, uint64_t bytes, bool e
     return ok;
 }
 
-bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
-                      char *why, size_t cap)
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held, char *why,
+                      size_t cap)
 {
     /* the common case, room without eviction: the table lock only */
     bool full;

@@ -42,6 +42,7 @@
 #include <cjson/cJSON.h>
 
 #include "image.h"
+#include "image_io.h"
 #include "out_names.h"
 #include "pipeline.h"
 #include "view.h"
@@ -51,6 +52,7 @@
 #include "zygote.h"
 #include "zygote_proto.h"
 #include "companions.h"
+#include "error_body.h"
 #include "spec_flags.h"
 #include "summary_table.h"
 
@@ -433,10 +435,19 @@ static int parse_opts(int argc, char **argv, bool bake, bake_opts *o)
     o->progress_fd = -1;
     o->mode = PROGRESS_AUTO;
     o->cpu_limit = -1;
-    static const char *const with_value[] = {
-        "--spec",     "--out",         "--method",      "--set",          "--units",
-        "--up",       "--cpu-limit",   "--progress",    "--progress-fd",  "--parent-pid",
-        "--shader-cache", "--shader-cache-dir", NULL};
+    static const char *const with_value[] = {"--spec",
+                                             "--out",
+                                             "--method",
+                                             "--set",
+                                             "--units",
+                                             "--up",
+                                             "--cpu-limit",
+                                             "--progress",
+                                             "--progress-fd",
+                                             "--parent-pid",
+                                             "--shader-cache",
+                                             "--shader-cache-dir",
+                                             NULL};
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         char name[32];
@@ -469,8 +480,7 @@ static int parse_opts(int argc, char **argv, bool bake, bake_opts *o)
         }
         bool bake_only = strcmp(name, "--out") == 0 || strcmp(name, "--progress") == 0 ||
                          strcmp(name, "--progress-fd") == 0 || strcmp(name, "--parent-pid") == 0 ||
-                         strcmp(name, "--sandbox") == 0 ||
-                         strcmp(name, "--shader-cache") == 0 ||
+                         strcmp(name, "--sandbox") == 0 || strcmp(name, "--shader-cache") == 0 ||
                          strcmp(name, "--shader-cache-dir") == 0;
         if (bake_only && !bake) return usage_error("%s belongs to the bake command", name);
         if (strcmp(name, "--json") == 0 && bake)
@@ -563,7 +573,8 @@ static void add_companions(bake_opts *o, sylva_companions *found)
 {
     sylva_companions_find(o->paths[0], (const char *const *)o->paths + 1, o->n - 1, "sylva-bake",
                           o->quiet ? NULL : stderr, found);
-    for (size_t i = 0; i < found->count && o->n < MAX_FILES; i++) o->paths[o->n++] = found->paths[i];
+    for (size_t i = 0; i < found->count && o->n < MAX_FILES; i++)
+        o->paths[o->n++] = found->paths[i];
 }
 
 static int cmd_info(int argc, char **argv)
@@ -936,12 +947,9 @@ static int cmd_check_spec(int argc, char **argv)
     else st = sv_spec_parse(s, len, &spec, &e);
     free(s);
     if (st) {
-        printf("{\"error\":{\"code\":\"%s\",\"message\":", sv_status_code(st));
-        cJSON *tmp = cJSON_CreateString(e.message);
-        char *q = cJSON_PrintUnformatted(tmp);
-        printf("%s}}\n", q ? q : "\"\"");
-        free(q);
-        cJSON_Delete(tmp);
+        char *body = sylva_error_body(sv_status_code(st), e.message);
+        printf("%s\n", body ? body : "{\"error\":{}}");
+        free(body);
         return 1;
     }
     sv_spec_free(&spec);

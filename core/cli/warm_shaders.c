@@ -24,6 +24,7 @@
 #include <unistd.h>
 
 #include "image.h"
+#include "image_io.h"
 #include "import.h"
 #include "method.h"
 #include "pipeline.h"

@@ -35,6 +35,7 @@
 #include <unistd.h>
 
 #include "image.h"
+#include "image_io.h"
 #include "zygote_proto.h"
 
 /* Tasks (threads) of this process, from /proc/self/task; -1 if unreadable. */

@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "eigen3.h"
+#include "rng.h"
 #include "vec3.h"
 
 #define DEFAULT_ITERATIONS 50u
@@ -51,20 +52,12 @@ typedef struct stats {
     double nn[3][3];
 } stats;
 
-/* ---- random numbers: splitmix64 (Steele, Lea, Flood 2014), seeded ---- */
-
-static uint64_t rng_next(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
+/* ---- random numbers: splitmix64 (rng.h), seeded ---- */
 
 /* Uniform in [0, 1). */
 static double rng_unit(uint64_t *s)
 {
-    return (double)(rng_next(s) >> 11) * 0x1.0p-53;
+    return (double)(sv_splitmix64(s) >> 11) * 0x1.0p-53;
 }
 
 /* ---- small geometry ---- */

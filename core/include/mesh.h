@@ -43,6 +43,15 @@ typedef struct sv_mesh {
     sv_image *images;       /* image_count, owned */
 } sv_mesh;
 
+/* An extra per-vertex float attribute of a mesh, for a writer to carry
+ * (glTF: application-specific semantics must begin with '_', e.g.
+ * "_LEAF_CENTRE", "_ORDER"). */
+typedef struct sv_vertex_attribute {
+    const char *name;    /* must start with '_' and be at most 63 bytes */
+    const float *data;   /* components * mesh->vertex_count floats, finite */
+    uint32_t components; /* 1 (SCALAR) .. 4 (VEC4) */
+} sv_vertex_attribute;
+
 /* Allocates a mesh with room for the given counts (arrays zeroed, materials
  * initialised with sv_material_init). Returns NULL on overflow/allocation failure. */
 sv_mesh *sv_mesh_create(uint32_t vertex_count, uint32_t triangle_count, uint32_t material_count,
@@ -79,6 +88,10 @@ double sv_tri_area(const sv_mesh *mesh, uint32_t t);
 
 /* Unit normal of triangle t (zero vector for a degenerate triangle). */
 void sv_tri_normal(const sv_mesh *mesh, uint32_t t, double n[3]);
+
+/* The cross product of triangle t's edges (b - a) × (c - a), in double: its
+ * unit normal times twice its area (area-weighted vertex normals sum it). */
+void sv_tri_cross(const sv_mesh *mesh, uint32_t t, double n[3]);
 
 /* New mesh holding triangles tris[0..count) of src (in that order), with only
  * the vertices they use, and copies of src's materials and images (so material

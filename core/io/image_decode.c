@@ -28,6 +28,7 @@
  * and OIIO do).
  */
 #include "image.h"
+#include "image_io.h"
 
 #include <setjmp.h>
 #include <stdio.h> /* before jpeglib.h, which uses FILE */

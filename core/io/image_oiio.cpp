@@ -46,6 +46,7 @@
 
 extern "C" {
 #include "image.h"
+#include "image_io.h"
 }
 
 using namespace OIIO;

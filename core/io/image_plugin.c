@@ -17,6 +17,7 @@
  * (installed: PREFIX/bin and PREFIX/lib/sylva).
  */
 #include "image.h"
+#include "image_io.h"
 
 #include <dlfcn.h>
 #include <limits.h>
@@ -116,8 +117,8 @@ sv_status sv_image_plugin_decode_rgba8(const void *data, size_t size, const char
 }
 
 sv_status sv_image_plugin_decode_rgba8_within(const void *data, size_t size, const char *name,
-                                              uint32_t max_size, uint64_t max_bytes,
-                                              sv_image *out, sv_error *err)
+                                              uint32_t max_size, uint64_t max_bytes, sv_image *out,
+                                              sv_error *err)
 {
     if (out) memset(out, 0, sizeof *out);
     sv_status st = sv_image_plugin_load(err);

@@ -14,6 +14,7 @@
  * the write stage encode each atlas once for its three files.
  */
 #include "image.h"
+#include "image_io.h"
 
 #include <png.h>
 #include <setjmp.h>

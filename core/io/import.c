@@ -42,6 +42,7 @@
  * (degenerate and duplicate triangles) are sv_validate's job.
  */
 #include "import.h"
+#include "image_io.h"
 
 #include <assimp/GltfMaterial.h>
 #include <assimp/cfileio.h>
@@ -511,17 +512,8 @@ static sv_status normals_for_range(sv_mesh *mesh, uint32_t t0, uint32_t t1, uint
     if (!acc) return sv_fail(err, SV_ERR_NOMEM, "cannot allocate normals for %u vertices", v1 - v0);
     for (uint32_t t = t0; t < t1; t++) {
         const uint32_t *ix = &mesh->indices[3 * (size_t)t];
-        const float *a = &mesh->positions[3 * (size_t)ix[0]];
-        const float *b = &mesh->positions[3 * (size_t)ix[1]];
-        const float *c = &mesh->positions[3 * (size_t)ix[2]];
-        double e1[3], e2[3], n[3];
-        for (int k = 0; k < 3; k++) {
-            e1[k] = (double)b[k] - a[k];
-            e2[k] = (double)c[k] - a[k];
-        }
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        double n[3];
+        sv_tri_cross(mesh, t, n); /* length = 2 × area: area weighting for free */
         for (int j = 0; j < 3; j++)
             for (int k = 0; k < 3; k++) acc[3 * (size_t)(ix[j] - v0) + k] += n[k];
     }

@@ -1,11 +1,17 @@
-/* methods.c — the registry of stand-in methods (method.h). */
+/* methods.c — the schema registry of stand-in methods (method.h), made of
+ * registry.h. Links no method's build half. */
 #include "method.h"
 
 #include <string.h>
 
+#define SV_METHOD(n) extern const sv_method sv_method_##n;
+#include "registry.h"
+#undef SV_METHOD
+
 static const sv_method *const registry[] = {
-    &sv_method_crossed_quads, &sv_method_leaf_clusters,   &sv_method_stochastic,
-    &sv_method_slicing,       &sv_method_billboard_cloud, &sv_method_octahedral,
+#define SV_METHOD(n) &sv_method_##n,
+#include "registry.h"
+#undef SV_METHOD
 };
 
 const sv_method *const *sv_method_list(size_t *count)

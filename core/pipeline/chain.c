@@ -15,7 +15,7 @@
 #include <string.h>
 
 #include "lod_plan.h"
-#include "method.h"
+#include "method_ops.h"
 #include "trunk.h"
 #include "pipeline_internal.h"
 
@@ -293,7 +293,7 @@ static sv_status compose_methods(const run *r, const sv_method_input *in, bool i
     if (is_stoch) c->required = (int)si->lod_count - 1;
     for (int k = 0; k < 2; k++) {
         if (!names[k]) continue;
-        const sv_method *m = sv_method_find(names[k]);
+        const sv_method_ops *m = sv_method_ops_find(names[k]);
         if (!m) return sv_fail(err, SV_ERR_SPEC, "lod: unknown method %s", names[k]);
         sv_stand_in part = {0};
         const cJSON *set = cJSON_GetObjectItemCaseSensitive(spec->root, names[k]);

@@ -1,5 +1,5 @@
 /* outputs.c — the files of a bake that are not JSON (docs/outputs.md): the
- * atlases (and what a level writes through its own hook, level.h: an
+ * atlases (and the images a level adds through its own hook, level.h: an
  * octahedral level's albedo mips), model.glb with every level as MSFT_lod alternates, one
  * lod<i>_<name>.glb per level, the LOD group files (lods.glb, lods.fbx, one
  * lod<i>_<name>.fbx per level, textures beside them) and preview.png.
@@ -14,6 +14,7 @@
 #include "gltf.h"
 #include "pipeline_internal.h"
 #include "preview.h"
+#include "image_io.h"
 
 /* The asset's name for node names (`<asset>_LOD<i>`, the convention Unity,
  * Unreal and Godot importers group into LOD sets): the main file's base name
@@ -71,9 +72,15 @@ sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err)
         }
     for (uint32_t i = 0; i < si->lod_count; i++) {
         sv_lod_plan *lp = &si->lods[i];
-        if (lp->ops && lp->ops->write_files &&
-            (st = lp->ops->write_files(lp, &lods[i].baked, r->req->out_dir, err)))
-            return st;
+        if (!lp->ops || !lp->ops->images) continue;
+        sv_level_images extra = {0};
+        st = lp->ops->images(lp, &lods[i].baked, &extra, err);
+        for (uint32_t k = 0; k < extra.count && st == SV_OK; k++) {
+            snprintf(path, sizeof path, "%s/%s", r->req->out_dir, extra.items[k].name);
+            st = sv_image_write_png(&extra.items[k].image, path, err);
+        }
+        sv_level_images_free(&extra);
+        if (st) return st;
     }
     return SV_OK;
 }
@@ -170,10 +177,13 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         memcpy(gl[i].translation, r->p.info.origin, sizeof gl[i].translation);
-        if (ch->info[i].stochastic)
+        if (ch->info[i].stochastic) {
             st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level,
-                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], &gl[i],
-                                    err);
+                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], err);
+            gl[i].attributes = gx[i].attr;
+            gl[i].attribute_count = 2;
+            gl[i].extras = gx[i].extras;
+        }
     }
     snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);

@@ -16,6 +16,7 @@
 
 #include "pipeline_internal.h"
 #include "trunk.h"
+#include "image_io.h"
 
 const char *const svp_stage_names[ST_COUNT] = {"import", "validate", "classify", "method",
                                                "bake",   "pack",     "evaluate", "write"};

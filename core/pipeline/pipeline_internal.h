@@ -22,7 +22,7 @@
 #include "plausibility.h"
 #include "render.h"
 #include "spec.h"
-#include "stochastic.h"
+#include "stochastic/stochastic.h"
 #include "validate.h"
 
 enum {
@@ -89,7 +89,7 @@ typedef struct run {
 typedef struct chain_lod {
     bool stochastic; /* a level of the stochastic method (its outputs and report fields) */
     bool scheduled;  /* placed by Cook's schedule: stochastic, or a leafless tree's trunk level */
-    int level; /* index into the stochastic result */
+    int level;       /* index into the stochastic result */
     double lambda;
     double distance;        /* stochastic: nearest distance where λ(d) <= λ (Cook's schedule) */
     double trunk_error;     /* metres: meshoptimizer bound, one pixel at `distance` */
@@ -241,7 +241,7 @@ extern const char *const svp_map_names[4]; /* albedo, normal, ao, depth */
 /* The atlas map i (svp_map_names order) of a bake. */
 const sv_image *svp_lod_map(const sv_baked_lod *b, int i);
 /* atlas_<lod>_<map>.png (names into lods[i].maps), then each level's own
- * files (sv_level_ops write_files: an impostor's mips). */
+ * images (sv_level_ops images: an impostor's mips), written as PNG. */
 sv_status svp_write_atlases(const run *r, bake_state *b, sv_error *err);
 /* model.glb and lod<i>_<name>.glb (names into lods[i].node and .file). */
 sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err);

@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "method.h"
+#include "method_ops.h"
 #include "pipeline_internal.h"
 
 static const char *alpha_name(sv_alpha_mode m)
@@ -340,7 +340,7 @@ static cJSON *planes_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON *qa = cJSON_AddArrayToObject(o, "quads");
     for (uint32_t q = 0; q < lp->quad_count; q++)
         cJSON_AddItemToArray(qa, quad_json(&lp->quads[q], &bk->uv_rects[4 * (size_t)q]));
-    const sv_method *m = sv_method_find(b->ch.info[i].source);
+    const sv_method_ops *m = sv_method_ops_find(b->ch.info[i].source);
     if (m && m->planes_json) m->planes_json(lp, bk, r->p.mesh->triangle_count, o, qa);
     return o;
 }

@@ -9,8 +9,10 @@
 
 #include "evaluate.h"
 #include "image.h"
+#include "image_io.h"
 #include "import.h"
 #include "level.h"
+#include "method_ops.h"
 #include "render.h"
 #include "vec3.h"
 
@@ -52,17 +54,45 @@ static cJSON *read_json(const char *dir, const char *name, sv_error *err)
     return j;
 }
 
+/* sv_level_files json on the bake's folder (user: its path). */
+static cJSON *files_json(void *user, const char *name, bool *missing, sv_error *err)
+{
+    const char *dir = user;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "rb");
+    *missing = f == NULL;
+    if (!f) return NULL;
+    fclose(f);
+    return read_json(dir, name, err);
+}
+
+/* sv_level_files image: the PNG decoded (16-bit grey or RGBA8). */
+static sv_status files_image(void *user, const char *name, bool gray16, sv_image *img,
+                             sv_error *err)
+{
+    size_t n = 0;
+    uint8_t *b = read_file(user, name, &n, err);
+    if (!b) return err ? err->status : SV_ERR_IO;
+    sv_status st = gray16 ? sv_image_decode_gray16(b, n, name, 0, img, err)
+                          : sv_image_decode_rgba8(b, n, name, 0, img, err);
+    free(b);
+    return st;
+}
+
 /* Level lod drawn by the first registered level hooks that know it
  * (level.h view: an impostor.json level); *drawn false when none does. */
 static sv_status view_by_hook(const char *dir, const char *lod, const sv_camera *cam, uint32_t size,
                               sv_image *out, bool *drawn, sv_error *err)
 {
     size_t n = 0;
-    const sv_level_ops *const *ops = sv_level_ops_list(&n);
+    const sv_method_ops *const *ms = sv_method_ops_list(&n);
+    sv_level_files files = {(void *)dir, files_json, files_image};
     *drawn = false;
     for (size_t i = 0; i < n && !*drawn; i++) {
-        if (!ops[i]->view) continue;
-        sv_status st = ops[i]->view(dir, lod, read_file, cam, size, out, drawn, err);
+        const sv_level_ops *ops = ms[i]->levels;
+        if (!ops || !ops->view) continue;
+        sv_status st = ops->view(&files, lod, cam, size, out, drawn, err);
         if (st) return st;
     }
     return SV_OK;

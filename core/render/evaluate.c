@@ -11,6 +11,7 @@
  */
 #include "evaluate.h"
 #include "image.h"
+#include "image_io.h"
 #include "vec3.h"
 
 #include <math.h>

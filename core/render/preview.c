@@ -1,6 +1,7 @@
 /* preview.c — the chain preview (preview.h). Text with stb_easy_font's
  * axis-aligned quads, filled as rectangles. */
 #include "preview.h"
+#include "image_io.h"
 
 #include <math.h>
 #include <stdio.h>

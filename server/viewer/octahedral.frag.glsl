@@ -1,5 +1,5 @@
 // octahedral.frag.glsl — sylva's octahedral impostor, fragment stage (GLSL ES 3.00).
-// Implements the conventions block of core/include/octahedral.h, the same
+// Implements the conventions block of core/methods/octahedral/octahedral.h, the same
 // rules sylva's evaluator and `sylva-bake view` run in C (sv_octa_render):
 // frame selection, ray-plane sampling of three frames, blend, alpha test.
 // Optional parts, each behind a #define prepended by the engine:

@@ -1,5 +1,5 @@
 // octahedral.vert.glsl — sylva's octahedral impostor, vertex stage (GLSL ES 3.00).
-// The contract is the conventions block of core/include/octahedral.h; every
+// The contract is the conventions block of core/methods/octahedral/octahedral.h; every
 // uniform and the impostor.json field it comes from: docs/runtime.md.
 // Prepend "#version 300 es" (three.js: RawShaderMaterial, glslVersion GLSL3).
 //

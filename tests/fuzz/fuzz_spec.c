@@ -1,4 +1,4 @@
-/* fuzz_spec.c — libFuzzer target: the bake spec parser (core/pipeline/spec.c,
+/* fuzz_spec.c — libFuzzer target: the bake spec parser (core/spec/spec.c,
  * sv_spec_parse; docs/spec.md), including every method's settings check.
  * Any bytes must parse or fail with SV_ERR_SPEC/NOMEM and a message. */
 #include <stdlib.h>

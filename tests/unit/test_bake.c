@@ -475,6 +475,7 @@ static void bake_is_byte_identical_across_runs(void **state)
 }
 
 #include "import.h"
+#include "image_io.h"
 
 /* 20 quads over the real oak: 12 vertical planes through the trunk axis and 8
  * horizontal slices; foliage only. Prints the timing for the report. */

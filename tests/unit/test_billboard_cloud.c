@@ -17,9 +17,9 @@
 
 #include "classify.h"
 #include "import.h"
-#include "method.h"
+#include "methods/billboard_cloud/billboard_cloud.h"
 
-#define BC (&sv_method_billboard_cloud)
+#define BC (&sv_method_billboard_cloud_ops)
 
 /* ---------------------------------------------------------------- a synthetic tree */
 
@@ -224,16 +224,16 @@ static void settings_defaults_and_every_documented_key_are_accepted(void **state
 {
     (void)state;
     sv_error err = {0};
-    assert_int_equal(BC->check(NULL, &err), SV_OK);
+    assert_int_equal(sv_method_billboard_cloud.check(NULL, &err), SV_OK);
     cJSON *j = json(
         "{\"epsilon\": 0.05, \"max_planes\": 30, \"lods\": [30, {\"epsilon\": 0.2},"
         " {\"max_planes\": 5, \"epsilon\": 0.3}], \"grid\": [48, 24, 48],"
         " \"horizontal_penalty\": {\"enabled\": null, \"penalty\": 0.5, \"angle_deg\": 45},"
         " \"cardboard\": {\"enabled\": true, \"coverage\": 0.7}, \"tweak\": false,"
         " \"weld\": false, \"threads\": 1, \"miss_penalty\": 0, \"max_angle_deg\": 90}");
-    assert_int_equal(BC->check(j, &err), SV_OK);
+    assert_int_equal(sv_method_billboard_cloud.check(j, &err), SV_OK);
     cJSON_Delete(j);
-    assert_string_equal(BC->name, "billboard_cloud");
+    assert_string_equal(BC->method->name, "billboard_cloud");
 }
 
 static void settings_errors_name_the_key(void **state)
@@ -268,7 +268,7 @@ static void settings_errors_name_the_key(void **state)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         cJSON *j = json(bad[i].json);
         sv_error err = {0};
-        assert_int_equal(BC->check(j, &err), SV_ERR_SPEC);
+        assert_int_equal(sv_method_billboard_cloud.check(j, &err), SV_ERR_SPEC);
         if (!strstr(err.message, bad[i].key))
             fail_msg("%s: message '%s' lacks '%s'", bad[i].json, err.message, bad[i].key);
         cJSON_Delete(j);

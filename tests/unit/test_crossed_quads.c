@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "method.h"
+#include "methods/crossed_quads/crossed_quads.h"
 
 /* A tree: trunk box around (tx, tz) from y 0..4 (material "bark"), and a crown
  * of leaf triangles (material "leaves") off to one side between y 3 and 6. */
@@ -74,7 +74,7 @@ static sv_status run(run_ctx *r, sv_mesh *m, const char *settings_json, sv_error
     r->in.seed = 1;
     cJSON *s = settings_json ? cJSON_Parse(settings_json) : NULL;
     if (settings_json) assert_non_null(s);
-    sv_status st = sv_method_crossed_quads.run(&r->in, s, &r->out, err);
+    sv_status st = sv_method_crossed_quads_ops.run(&r->in, s, &r->out, err);
     cJSON_Delete(s);
     return st;
 }

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "evaluate.h"
+#include "image_io.h"
 
 #define DEG (180.0 / M_PI)
 

@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "image.h"
+#include "image_io.h"
 
 static void fill_pattern(sv_image *img)
 {

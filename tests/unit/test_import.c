@@ -23,6 +23,7 @@
 
 #include "import.h"
 #include "validate.h"
+#include "image_io.h"
 
 /* ---------- helpers ---------- */
 

@@ -17,7 +17,8 @@
 
 #include "cluster.h"
 #include "import.h"
-#include "method.h"
+#include "methods/billboard_cloud/billboard_cloud.h"
+#include "methods/leaf_clusters/leaf_clusters.h"
 
 extern const sv_method sv_method_leaf_clusters;
 
@@ -289,7 +290,7 @@ static void twigs_the_trunk_cap_drops_go_onto_the_quads(void **state)
                           : "{\"clusters\":[8],\"twigs\":false,\"trunk_max_triangles\":1}");
         sv_stand_in s = {0};
         sv_error e = {0};
-        assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_OK);
+        assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, j, &s, &e), SV_OK);
         assert_stand_in_sound(&s, &t.in, levels, 1);
         for (uint32_t q = 0; q < s.lods[0].quad_count; q++)
             for (uint32_t f = 0; f < s.lods[0].quads[q].face_count; f++)
@@ -309,7 +310,7 @@ static void toy_tree_gives_one_lod_per_level_with_sound_quads(void **state)
     toy_make(&t, 200, 3);
     sv_stand_in s = {0};
     sv_error e = {0};
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &s, &e), SV_OK);
     const uint32_t levels[] = {32, 16, 8};
     assert_stand_in_sound(&s, &t.in, levels, 3);
     assert_int_equal(s.lods[0].quad_count, 32);
@@ -318,7 +319,7 @@ static void toy_tree_gives_one_lod_per_level_with_sound_quads(void **state)
     sv_stand_in_free(&s);
 
     cJSON *j = json("{\"clusters\":[4,2,1],\"trunk_ratio\":[0.9,0.6,0.3]}");
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, j, &s, &e), SV_OK);
     const uint32_t small[] = {4, 2, 1};
     assert_stand_in_sound(&s, &t.in, small, 3);
     assert_true(s.lods[2].trunk_ratio == 0.3);
@@ -342,7 +343,7 @@ static void quads_are_planes_of_their_leaves(void **state)
     toy_make(&t, 120, 9);
     cJSON *j = json("{\"clusters\":[4],\"twigs\":false}");
     sv_stand_in s = {0};
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, NULL), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, j, &s, NULL), SV_OK);
     assert_int_equal(s.lods[0].quad_count, 4);
     for (uint32_t k = 0; k < 4; k++) assert_true(s.lods[0].quads[k].slab < 0.03);
     cJSON_Delete(j);
@@ -356,8 +357,8 @@ static void same_seed_gives_identical_stand_in_and_seed_matters(void **state)
     toy t;
     toy_make(&t, 300, 5);
     sv_stand_in a = {0}, b = {0}, c = {0};
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &a, NULL), SV_OK);
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &b, NULL), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &a, NULL), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &b, NULL), SV_OK);
     for (uint32_t l = 0; l < a.lod_count; l++) {
         assert_int_equal(a.lods[l].quad_count, b.lods[l].quad_count);
         for (uint32_t k = 0; k < a.lods[l].quad_count; k++) {
@@ -369,7 +370,7 @@ static void same_seed_gives_identical_stand_in_and_seed_matters(void **state)
         }
     }
     t.in.seed = 2;
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &c, NULL), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &c, NULL), SV_OK);
     bool differs = false;
     for (uint32_t k = 0; k < a.lods[0].quad_count && !differs; k++)
         differs = memcmp(a.lods[0].quads[k].normal, c.lods[0].quads[k].normal, sizeof(double[3])) !=
@@ -389,11 +390,11 @@ static void tree_without_leaves_is_unbakeable(void **state)
     t.leaves.count = 0;
     sv_stand_in s = {0};
     sv_error e = {0};
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
     assert_non_null(strstr(e.message, "leaf"));
     assert_int_equal(s.lod_count, 0);
     t.in.leaves = NULL;
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, NULL, &s, &e), SV_ERR_UNBAKEABLE);
     t.leaves.count = 10;
     toy_free(&t);
 }
@@ -406,7 +407,7 @@ static void bad_settings_make_run_fail_too(void **state)
     cJSON *j = json("{\"alpha_rel\":1000}");
     sv_stand_in s = {0};
     sv_error e = {0};
-    assert_int_equal(sv_method_leaf_clusters.run(&t.in, j, &s, &e), SV_ERR_SPEC);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&t.in, j, &s, &e), SV_ERR_SPEC);
     assert_int_equal(s.lod_count, 0);
     cJSON_Delete(j);
     toy_free(&t);
@@ -474,7 +475,7 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
 
     sv_stand_in s = {0};
     t0 = sv_now();
-    assert_int_equal(sv_method_leaf_clusters.run(&in, NULL, &s, &e), SV_OK);
+    assert_int_equal(sv_method_leaf_clusters_ops.run(&in, NULL, &s, &e), SV_OK);
     print_message("%s: leaf_clusters method (clustering + quads) %.1f ms\n", obj,
                   1e3 * (sv_now() - t0));
     const uint32_t levels[] = {32, 16, 8};

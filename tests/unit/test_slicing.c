@@ -1,5 +1,5 @@
 /* sylva-test: cost=15 (tests/run.sh starts the longest first) */
-/* test_slicing.c — slicings (core/methods/slicing/slicing.c, core/include/slicing.h): clipping
+/* test_slicing.c — slicings (core/methods/slicing/slicing.c, core/methods/slicing/slicing.h): clipping
  * arithmetic, slab boundaries, the blending rule, the method's quads, and a
  * render test (a planar crown seen along a slicing keeps its silhouette). */
 #include <stdarg.h>
@@ -15,7 +15,7 @@
 
 #include "bake.h"
 #include "evaluate.h"
-#include "method.h"
+#include "method_ops.h"
 #include "render.h"
 #include "slicing.h"
 
@@ -114,7 +114,7 @@ static sv_status run(run_ctx *r, sv_mesh *m, const char *settings_json, sv_viewe
     r->in.seed = 1;
     cJSON *s = settings_json ? cJSON_Parse(settings_json) : NULL;
     if (settings_json) assert_non_null(s);
-    sv_status st = sv_method_slicing.run(&r->in, s, &r->out, err);
+    sv_status st = sv_method_slicing_ops.run(&r->in, s, &r->out, err);
     cJSON_Delete(s);
     return st;
 }

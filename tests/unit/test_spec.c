@@ -1,4 +1,4 @@
-/* test_spec.c — strict bake-spec parsing (core/pipeline/spec.c) and scene conversions (core/scene.c). */
+/* test_spec.c — strict bake-spec parsing (core/spec/spec.c) and scene conversions (core/scene.c). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>

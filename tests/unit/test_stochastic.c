@@ -857,7 +857,7 @@ static void settings_are_strict_and_the_method_needs_r(void **state)
 
     toy t;
     toy_make(&t, 40);
-    const sv_method *m = sv_method_find("stochastic");
+    const sv_method_ops *m = sv_method_ops_find("stochastic");
     assert_non_null(m);
     sv_stand_in si = {0};
     assert_int_equal(m->run(&t.in, NULL, &si, &err), SV_ERR_INVALID);

@@ -17,37 +17,12 @@
  * triangles' horizontal (x, z) coordinates; the bounding-box centre when the tree
  * has no trunk triangles of positive area.
  */
-#include "method.h"
+#include "crossed_quads.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define CQ_NAME "crossed_quads"
-
-static const char *const cq_keys[] = {"planes", "horizontal", NULL};
-
-typedef struct cq_settings {
-    long planes;
-    bool horizontal;
-} cq_settings;
-
-static sv_status cq_parse(const cJSON *s, cq_settings *o, sv_error *err)
-{
-    o->planes = 2;
-    o->horizontal = false;
-    sv_status st;
-    if ((st = sv_setting_only(s, CQ_NAME, cq_keys, err))) return st;
-    if ((st = sv_setting_int(s, CQ_NAME, "planes", 2, 3, &o->planes, err))) return st;
-    return sv_setting_bool(s, CQ_NAME, "horizontal", &o->horizontal, err);
-}
-
-static sv_status cq_check(const cJSON *settings, sv_error *err)
-{
-    cq_settings s;
-    return cq_parse(settings, &s, err);
-}
 
 /* Slab that contains every vertex: the largest |n·p + d|, with a relative margin
  * so rounding in the baker cannot drop the farthest face. */
@@ -204,23 +179,7 @@ static sv_status cq_run(const sv_method_input *in, const cJSON *settings, sv_sta
     return st;
 }
 
-/* method.h ladder: planes 2, 2 + horizontal, 3, 3 + horizontal. */
-static bool cq_ladder(int step, uint32_t max_triangles, cJSON *set)
-{
-    (void)max_triangles; /* its trunk is not a per-level budget of its own */
-    if (step < 0 || step >= 4) return false;
-    cJSON_DeleteItemFromObjectCaseSensitive(set, "planes");
-    cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
-    cJSON_AddNumberToObject(set, "planes", step < 2 ? 2 : 3);
-    cJSON_AddBoolToObject(set, "horizontal", step % 2 == 1);
-    return true;
-}
-
-const sv_method sv_method_crossed_quads = {
-    .name = CQ_NAME,
-    .summary = "2 or 3 vertical quads crossing on the trunk axis (+ optional horizontal): "
-               "the cardboard baseline",
-    .check = cq_check,
+const sv_method_ops sv_method_crossed_quads_ops = {
+    .method = &sv_method_crossed_quads,
     .run = cq_run,
-    .ladder = cq_ladder,
 };

@@ -14,7 +14,8 @@
 #include "octahedral.h"
 
 #include "bake.h"
-#include "method.h"
+#include "level.h"
+#include "method_ops.h"
 #include "vec3.h"
 
 #include <math.h>
@@ -22,8 +23,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define OCTA_NAME SV_OCTA_METHOD
 
 /* ---- mapping ------------------------------------------------------------- */
 
@@ -472,46 +471,6 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
 
 /* ---- the method ---------------------------------------------------------- */
 
-static const char *const octa_keys[] = {
-    "grid", "hemi", "frame_pixels", "proxy_quads", "elevation_scale", NULL};
-
-typedef struct octa_settings {
-    long grid; /* 0 = default by hemi */
-    bool hemi, hemi_set;
-    long frame_pixels; /* 0 = from the LOD's largest drawn size */
-    long proxy_quads;  /* quads of the glTF proxy */
-    double elev_scale; /* 0 = by the scene's viewer */
-} octa_settings;
-
-static sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err)
-{
-    memset(o, 0, sizeof *o);
-    o->proxy_quads = SV_OCTA_PROXY_QUADS;
-    sv_status st;
-    if ((st = sv_setting_only(s, OCTA_NAME, octa_keys, err))) return st;
-    if ((st = sv_setting_int(s, OCTA_NAME, "proxy_quads", 1, 8, &o->proxy_quads, err))) return st;
-    if ((st = sv_setting_number(s, OCTA_NAME, "elevation_scale", 0.1, 1, &o->elev_scale, err)))
-        return st;
-    if ((st = sv_setting_int(s, OCTA_NAME, "grid", 2, SV_OCTA_MAX_GRID, &o->grid, err))) return st;
-    if (cJSON_GetObjectItemCaseSensitive(s, "hemi")) {
-        if ((st = sv_setting_bool(s, OCTA_NAME, "hemi", &o->hemi, err))) return st;
-        o->hemi_set = true;
-    }
-    if ((st = sv_setting_int(s, OCTA_NAME, "frame_pixels", 0, 2048, &o->frame_pixels, err)))
-        return st;
-    if (o->frame_pixels && (o->frame_pixels < 8 || (o->frame_pixels & (o->frame_pixels - 1))))
-        return sv_fail(err, SV_ERR_SPEC,
-                       "octahedral.frame_pixels: %ld is not a power of two in [8, 2048] (or 0)",
-                       o->frame_pixels);
-    return SV_OK;
-}
-
-static sv_status octa_check(const cJSON *settings, sv_error *err)
-{
-    octa_settings s;
-    return octa_parse(settings, &s, err);
-}
-
 static sv_status octa_run(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
                           sv_error *err)
 {
@@ -619,23 +578,9 @@ static void octa_planes_json(const sv_lod_plan *lod, const sv_baked_lod *b,
     cJSON_AddBoolToObject(entry, "impostor", true);
 }
 
-/* method.h ladder: grid N = 4 .. 16 (issue 21; frames keep their size, so
- * texels grow as N^2; every step has the same proxy of proxy_quads quads). */
-static bool octa_ladder(int step, uint32_t max_triangles, cJSON *set)
-{
-    (void)max_triangles; /* its trunk is not a per-level budget of its own */
-    static const int grids[] = {4, 6, 8, 12, 16};
-    if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return false;
-    cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
-    cJSON_AddNumberToObject(set, "grid", grids[step]);
-    return true;
-}
-
-const sv_method sv_method_octahedral = {
-    OCTA_NAME,
-    "octahedral impostor: N×N views on an octahedron (or hemi), three blended per view",
-    octa_check,
-    octa_run,
-    .ladder = octa_ladder,
+const sv_method_ops sv_method_octahedral_ops = {
+    .method = &sv_method_octahedral,
+    .run = octa_run,
     .planes_json = octa_planes_json,
+    .levels = &sv_octa_level_ops,
 };

@@ -361,26 +361,3 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
     if (st) sv_baked_lod_free(out);
     return st;
 }
-
-sv_status sv_octa_write_mips(const char *dir, const char *name, const sv_octa_grid *g,
-                             const sv_image *albedo, uint32_t *count, sv_error *err)
-{
-    sv_image prev = {0}, next = {0};
-    const sv_image *src = albedo;
-    sv_status st = SV_OK;
-    *count = 0;
-    char path[4096];
-    while (st == SV_OK && src->width / g->n >= 8) {
-        if ((st = sv_octa_mip(g, albedo, src, &next, err))) break;
-        snprintf(path, sizeof path, "%s/atlas_%s_albedo_mip%u.png", dir, name, *count + 1);
-        st = sv_image_write_png(&next, path, err);
-        sv_image_free(&prev);
-        prev = next;
-        memset(&next, 0, sizeof next);
-        src = &prev;
-        if (st == SV_OK) (*count)++;
-    }
-    sv_image_free(&prev);
-    sv_image_free(&next);
-    return st;
-}

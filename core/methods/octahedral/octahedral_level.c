@@ -1,16 +1,15 @@
 /* octahedral_level.c — an octahedral level's hooks for the pipeline
- * (level.h, sv_octa_level_ops): what the pipeline did by name before issue
- * 17. The level's payload is its sv_octa_grid (octahedral.h); the technique
+ * (level.h, sv_octa_level_ops). The level's payload is its sv_octa_grid (octahedral.h); the technique
  * is R. Brucks, "Octahedral Impostors" (2018), its mips I. Castaño,
  * "Computing Alpha Mipmaps" (2010), docs/methods/octahedral.md. Apart from
- * octahedral.c, like octahedral_bake.c: these hooks render and write PNGs,
- * which the daemon (it links the method registry) must not link. */
+ * octahedral.c, like octahedral_bake.c: these hooks render, which the
+ * daemon (it links the methods' schema halves) must not link. The pipeline
+ * reads and writes their files. */
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "image.h"
 #include "level.h"
 #include "octahedral.h"
 
@@ -47,13 +46,31 @@ static int octa_level_shrink(sv_lod_plan *lod, int halvings)
     return k;
 }
 
-/* level.h write_files: the albedo's Castaño mips (sv_octa_write_mips),
- * counted in the grid for impostor.json. */
-static sv_status octa_level_write(sv_lod_plan *lod, const sv_baked_lod *b, const char *dir,
-                                  sv_error *err)
+/* level.h images: the albedo's Castaño mips atlas_<lod>_albedo_mip<k>.png,
+ * k = 1.., while frames keep at least 4 texels (sv_octa_mip from the albedo,
+ * level 0), counted in the grid for impostor.json. */
+static sv_status octa_level_images(sv_lod_plan *lod, const sv_baked_lod *b, sv_level_images *out,
+                                   sv_error *err)
 {
     sv_octa_grid *g = lod->payload;
-    return sv_octa_write_mips(dir, lod->name, g, &b->albedo, &g->mip_count, err);
+    g->mip_count = 0;
+    for (;;) {
+        /* mip k + 1 from mip k (level 0: the albedo) */
+        uint32_t k = out->count;
+        if ((k ? out->items[k - 1].image.width : b->albedo.width) / g->n < 8) break;
+        sv_level_image *items = realloc(out->items, (k + 1) * sizeof *items);
+        if (!items) return sv_fail(err, SV_ERR_NOMEM, "octahedral: no memory for a mip");
+        out->items = items;
+        memset(&items[k], 0, sizeof items[k]);
+        const sv_image *src = k ? &items[k - 1].image : &b->albedo;
+        sv_status st = sv_octa_mip(g, &b->albedo, src, &items[k].image, err);
+        if (st) return st;
+        out->count = k + 1;
+        snprintf(items[k].name, sizeof items[k].name, "atlas_%s_albedo_mip%u.png", lod->name,
+                 k + 1);
+    }
+    g->mip_count = out->count;
+    return SV_OK;
 }
 
 /* level.h doc_entry: the level's impostor.json entry (sv_octa_impostor_json). */
@@ -61,19 +78,6 @@ static cJSON *octa_level_doc(const sv_lod_plan *lod, const sv_level_names *names
 {
     const sv_octa_grid *g = lod->payload;
     return sv_octa_impostor_json(g, names->lod, names->node, names->maps, g->mip_count);
-}
-
-/* The PNG `name` of dir through read, decoded (16-bit grey or RGBA8). */
-static sv_status decode(const char *dir, const char *name, sv_level_read_fn read, bool gray16,
-                        sv_image *img, sv_error *err)
-{
-    size_t n = 0;
-    uint8_t *b = read(dir, name, &n, err);
-    if (!b) return err ? err->status : SV_ERR_IO;
-    sv_status st = gray16 ? sv_image_decode_gray16(b, n, name, 0, img, err)
-                          : sv_image_decode_rgba8(b, n, name, 0, img, err);
-    free(b);
-    return st;
 }
 
 /* One impostor.json entry into g (the fields the runtime reads). */
@@ -104,22 +108,13 @@ static sv_status grid_of(const cJSON *e, const char *lod, sv_octa_grid *g, sv_er
 
 /* level.h view: level lod of impostor.json (absent file or level: not
  * found), drawn by the reference runtime from its atlases. */
-static sv_status octa_level_view(const char *dir, const char *lod, sv_level_read_fn read,
-                                 const sv_camera *cam, uint32_t size, sv_image *out, bool *found,
-                                 sv_error *err)
+static sv_status octa_level_view(const sv_level_files *files, const char *lod, const sv_camera *cam,
+                                 uint32_t size, sv_image *out, bool *found, sv_error *err)
 {
     *found = false;
-    char path[4096];
-    snprintf(path, sizeof path, "%s/impostor.json", dir);
-    FILE *f = fopen(path, "rb");
-    if (!f) return SV_OK;
-    fclose(f);
-    size_t len = 0;
-    uint8_t *bytes = read(dir, "impostor.json", &len, err);
-    if (!bytes) return err ? err->status : SV_ERR_IO;
-    cJSON *j = cJSON_ParseWithLength((const char *)bytes, len);
-    free(bytes);
-    if (!j) return sv_fail(err, SV_ERR_PARSE, "view: %s/impostor.json is not JSON", dir);
+    bool missing = false;
+    cJSON *j = files->json(files->user, "impostor.json", &missing, err);
+    if (!j) return missing ? SV_OK : err ? err->status : SV_ERR_IO;
     sv_status st = SV_OK;
     sv_octa_grid g;
     sv_image albedo = {0}, depth = {0};
@@ -137,8 +132,9 @@ static sv_status octa_level_view(const char *dir, const char *lod, sv_level_read
             st = sv_fail(err, SV_ERR_PARSE, "view: impostor.json: level %s lacks a field", lod);
             break;
         }
-        if ((st = decode(dir, alb->valuestring, read, false, &albedo, err))) break;
-        if (cJSON_IsString(dep) && (st = decode(dir, dep->valuestring, read, true, &depth, err)))
+        if ((st = files->image(files->user, alb->valuestring, false, &albedo, err))) break;
+        if (cJSON_IsString(dep) &&
+            (st = files->image(files->user, dep->valuestring, true, &depth, err)))
             break;
         st = sv_octa_render(&g, &albedo, depth.data ? &depth : NULL, cam, size, size, out, NULL,
                             err);
@@ -155,7 +151,7 @@ const sv_level_ops sv_octa_level_ops = {
     .bake = octa_level_bake,
     .draw = octa_level_draw,
     .shrink = octa_level_shrink,
-    .write_files = octa_level_write,
+    .images = octa_level_images,
     .doc_file = "impostor.json",
     .doc_schema = "sylva.impostor/1",
     .doc_entry = octa_level_doc,

@@ -21,6 +21,7 @@
 #include "stochastic.h"
 
 #include "image.h"
+#include "rng.h"
 #include "trunk.h"
 #include "vec3.h"
 
@@ -104,18 +105,10 @@ uint32_t sv_stochastic_count(double lambda, uint32_t n)
     return (uint32_t)c;
 }
 
-static uint64_t splitmix64(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 /* Uniform in (0, 1): never 0, so log() is finite. */
 static double u01(uint64_t *s)
 {
-    return ((double)(splitmix64(s) >> 11) + 0.5) * 0x1.0p-53;
+    return ((double)(sv_splitmix64(s) >> 11) + 0.5) * 0x1.0p-53;
 }
 
 typedef struct keyed {
@@ -366,94 +359,6 @@ sv_status sv_stochastic_measure_ratio(const sv_leaves *leaves, const uint32_t *o
     out->n_sub = ns;
     out->r = sv_stochastic_ratio_from_coverage(out->covered_sub / out->covered_all, ns, n);
     if (!(out->r > 0)) out->r = 1e-12; /* no measurable overlap: s → 1/λ */
-    return SV_OK;
-}
-
-/* ---- settings ----------------------------------------------------------- */
-
-static const char *const st_keys[] = {"levels",
-                                      "h",
-                                      "d0",
-                                      "order",
-                                      "fade",
-                                      "area_preservation",
-                                      "contrast_preservation",
-                                      "shutter",
-                                      "ratio_fraction",
-                                      "visible_ratio",
-                                      "simplify_leaves",
-                                      NULL};
-
-sv_status sv_stochastic_parse(const cJSON *o, sv_stochastic_settings *s, sv_error *err)
-{
-    memset(s, 0, sizeof *s);
-    static const double def[4] = {1, 0.5, 0.25, 0.1};
-    memcpy(s->levels, def, sizeof def);
-    s->level_count = 4;
-    s->h = 0.5;
-    s->fade = 0.1;
-    s->area_preservation = true;
-    s->contrast_preservation = true;
-    s->simplify_leaves = true;
-    s->shutter = 1.0 / 60.0;
-    s->ratio_fraction = 0.1;
-    sv_status st;
-    if ((st = sv_setting_only(o, ST_NAME, st_keys, err))) return st;
-    const cJSON *lv = cJSON_GetObjectItemCaseSensitive(o, "levels");
-    if (lv) {
-        int n = cJSON_IsArray(lv) ? cJSON_GetArraySize(lv) : -1;
-        if (n < 1 || n > SV_STOCH_MAX_LEVELS)
-            return sv_fail(err, SV_ERR_SPEC,
-                           ST_NAME ".levels: expected an array of 1 to %d numbers in (0, 1]",
-                           SV_STOCH_MAX_LEVELS);
-        for (int i = 0; i < n; i++) {
-            const cJSON *e = cJSON_GetArrayItem(lv, i);
-            if (cJSON_IsObject(e)) {
-                /* {"triangles": N}: resolved to λ by sv_stochastic_resolve */
-                const cJSON *t = cJSON_GetObjectItemCaseSensitive(e, "triangles");
-                if (!cJSON_IsNumber(t) || cJSON_GetArraySize(e) != 1 || !(t->valuedouble >= 1) ||
-                    t->valuedouble > 4e9 || t->valuedouble != floor(t->valuedouble))
-                    return sv_fail(err, SV_ERR_SPEC,
-                                   ST_NAME ".levels[%d]: expected {\"triangles\": N} with N a "
-                                           "whole number >= 1 and no other key",
-                                   i);
-                s->level_triangles[i] = (uint32_t)t->valuedouble;
-                s->levels[i] = 0;
-                continue;
-            }
-            if (!cJSON_IsNumber(e) || !(e->valuedouble > 0) || e->valuedouble > 1)
-                return sv_fail(err, SV_ERR_SPEC,
-                               ST_NAME ".levels[%d]: expected a number in (0, 1] or "
-                                       "{\"triangles\": N}",
-                               i);
-            if (i > 0 && !s->level_triangles[i - 1] && !(e->valuedouble < s->levels[i - 1]))
-                return sv_fail(err, SV_ERR_SPEC,
-                               ST_NAME ".levels[%d]: levels must be strictly decreasing", i);
-            s->levels[i] = e->valuedouble;
-        }
-        s->level_count = (uint32_t)n;
-    }
-    if ((st = sv_setting_number(o, ST_NAME, "h", 0.01, 0.99, &s->h, err))) return st;
-    if ((st = sv_setting_number(o, ST_NAME, "d0", 0, 1e7, &s->d0, err))) return st;
-    if ((st = sv_setting_number(o, ST_NAME, "fade", 0, 0.5, &s->fade, err))) return st;
-    if ((st = sv_setting_bool(o, ST_NAME, "area_preservation", &s->area_preservation, err)))
-        return st;
-    if ((st = sv_setting_bool(o, ST_NAME, "contrast_preservation", &s->contrast_preservation, err)))
-        return st;
-    if ((st = sv_setting_bool(o, ST_NAME, "simplify_leaves", &s->simplify_leaves, err))) return st;
-    if ((st = sv_setting_number(o, ST_NAME, "shutter", 0, 1, &s->shutter, err))) return st;
-    if ((st = sv_setting_number(o, ST_NAME, "ratio_fraction", 0.01, 0.5, &s->ratio_fraction, err)))
-        return st;
-    if ((st = sv_setting_number(o, ST_NAME, "visible_ratio", 0, 1, &s->visible_ratio, err)))
-        return st;
-    const cJSON *ord = cJSON_GetObjectItemCaseSensitive(o, "order");
-    if (ord) {
-        if (cJSON_IsString(ord) && strcmp(ord->valuestring, "random") == 0)
-            s->order = SV_STOCH_ORDER_RANDOM;
-        else if (cJSON_IsString(ord) && strcmp(ord->valuestring, "area") == 0)
-            s->order = SV_STOCH_ORDER_AREA;
-        else return sv_fail(err, SV_ERR_SPEC, ST_NAME ".order: expected one of random, area");
-    }
     return SV_OK;
 }
 
@@ -1647,12 +1552,6 @@ out:
 
 /* ---- the method ------------------------------------------------------------ */
 
-static sv_status st_check(const cJSON *settings, sv_error *err)
-{
-    sv_stochastic_settings s;
-    return sv_stochastic_parse(settings, &s, err);
-}
-
 /* One LOD per level: the level's geometry, the trunk kept (λ = 1) or
  * simplified to a fraction max(λ, 0.05) (the pipeline bounds the error by the
  * level's distance). */
@@ -1697,7 +1596,7 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g)
 
 sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                              int level, uint32_t geom_vertices, const sv_mesh *m, sv_stoch_gltf *g,
-                             sv_gltf_lod *gl, sv_error *err)
+                             sv_error *err)
 {
     const sv_stoch_level *L = &res->levels[level];
     uint32_t nv = m->vertex_count;
@@ -1712,10 +1611,8 @@ sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_set
     memcpy(g->centre, m->positions, 3 * sizeof(float) * (size_t)t0);
     memcpy(g->centre + 3 * (size_t)t0, L->leaf_centre, 3 * sizeof(float) * geom_vertices);
     memcpy(g->order + t0, L->leaf_order, sizeof(float) * geom_vertices);
-    g->attr[0] = (sv_gltf_attribute){"_LEAF_CENTRE", g->centre, 3};
-    g->attr[1] = (sv_gltf_attribute){"_LEAF_ORDER", g->order, 1};
-    gl->attributes = g->attr;
-    gl->attribute_count = 2;
+    g->attr[0] = (sv_vertex_attribute){"_LEAF_CENTRE", g->centre, 3};
+    g->attr[1] = (sv_vertex_attribute){"_LEAF_ORDER", g->order, 1};
     cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
     cJSON_AddNumberToObject(o, "lambda", L->lambda);
     cJSON_AddNumberToObject(o, "leaves", L->leaves);
@@ -1732,7 +1629,6 @@ sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_set
     cJSON_AddNumberToObject(o, "d0", ss->d0);
     cJSON_AddStringToObject(o, "order_attribute", "_LEAF_ORDER");
     cJSON_AddStringToObject(o, "centre_attribute", "_LEAF_CENTRE");
-    gl->extras = g->extras;
     return SV_OK;
 }
 
@@ -1765,25 +1661,7 @@ void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_se
         cJSON_AddNumberToObject(o, "copy_of_lambda", res->levels[L->same_as].lambda);
 }
 
-/* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
-static bool st_ladder(int step, uint32_t max_triangles, cJSON *set)
-{
-    (void)max_triangles; /* its trunk is not a per-level budget of its own */
-    static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
-    if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
-    cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
-    cJSON *a = cJSON_CreateArray();
-    cJSON_AddItemToArray(a, cJSON_CreateNumber(lambdas[step]));
-    cJSON_AddItemToObject(set, "levels", a);
-    return true;
-}
-
-const sv_method sv_method_stochastic = {
-    .name = ST_NAME,
-    .summary = "stochastic simplification of the foliage (Cook et al. 2007): random leaf "
-               "subsets, area- and contrast-preserving, as meshes",
-    .check = st_check,
+const sv_method_ops sv_method_stochastic_ops = {
+    .method = &sv_method_stochastic,
     .run = st_run,
-    .ladder = st_ladder,
-    .chain_levels = true,
 };

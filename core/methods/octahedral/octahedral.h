@@ -83,7 +83,7 @@ typedef struct sv_octa_grid {
     double cutoff;         /* the blend's alpha test (0 = 0.5); the pipeline calibrates it */
     uint32_t proxy_quads;  /* quads of the glTF proxy (plain viewers' fallback), 1..8 */
     double elev_scale;     /* S in (0, 1]: directions squashed towards the horizon (1 = Brucks) */
-    uint32_t mip_count;    /* albedo mips written after level 0 (sv_octa_level_ops' write_files) */
+    uint32_t mip_count;    /* albedo mips after level 0 (sv_octa_level_ops' images) */
 } sv_octa_grid;
 
 /* uv in [-1,1]² of unit direction d (conventions above; elev_scale S in
@@ -155,18 +155,33 @@ sv_status sv_octa_mip(const sv_octa_grid *g, const sv_image *level0, const sv_im
 uint32_t sv_octa_frame_pixels(uint32_t n, uint32_t largest_pixels, double texels_per_pixel,
                               uint32_t max_atlas);
 
-/* Writes dir/atlas_<name>_albedo_mip<k>.png for k = 1.. while frames keep at
- * least 4 texels (sv_octa_mip from albedo, level 0); *count receives how many
- * were written. (octahedral_bake.c: writing PNGs needs the image library.) */
-sv_status sv_octa_write_mips(const char *dir, const char *name, const sv_octa_grid *g,
-                             const sv_image *albedo, uint32_t *count, sv_error *err);
-
 /* impostor.json's entry for one octahedral level (docs/runtime.md): its lod
  * and node names, the grid, frame bounds, alpha cutoff, the map files
  * (maps[k]: albedo, normal, ao, depth; "" = not baked) and the albedo's mips
- * (maps[0] then mip_count files named as sv_octa_write_mips names them).
+ * (maps[0] then mip_count files atlas_<lod>_albedo_mip<k>.png, k = 1..,
+ * octahedral_level.c).
  * Returns a new object (NULL when out of memory). */
 cJSON *sv_octa_impostor_json(const sv_octa_grid *g, const char *lod, const char *node,
                              const char maps[4][64], uint32_t mip_count);
+
+/* The method's settings, shared by its schema half (octahedral_settings.c)
+ * and its build half (octahedral.c). */
+typedef struct octa_settings {
+    long grid; /* 0 = default by hemi */
+    bool hemi, hemi_set;
+    long frame_pixels; /* 0 = from the LOD's largest drawn size */
+    long proxy_quads;  /* quads of the glTF proxy */
+    double elev_scale; /* 0 = by the scene's viewer */
+} octa_settings;
+
+/* The settings object s (NULL: defaults) into o; SV_ERR_SPEC naming the key. */
+sv_status octa_parse(const cJSON *s, octa_settings *o, sv_error *err);
+
+struct sv_method;
+struct sv_method_ops;
+struct sv_level_ops;
+extern const struct sv_method sv_method_octahedral;
+extern const struct sv_method_ops sv_method_octahedral_ops;
+extern const struct sv_level_ops sv_octa_level_ops; /* octahedral_level.c */
 
 #endif

@@ -1,42 +1,27 @@
-/* method.h — the interface every stand-in method implements.
+/* method.h — a method's schema: what it is called, what its settings are
+ * and how the target search steps them. All that sylvad links (it checks
+ * specs); pure C and cJSON, no geometry.
  *
- * A method turns the classified mesh into an sv_stand_in (quads and kept
- * geometry per LOD); the pipeline bakes, packs, evaluates and writes it.
- * Methods are pure geometry: no GL, no files. Each method's settings are the
- * JSON object under the spec key named after it (NULL = all defaults); unknown
- * keys, wrong types and out-of-range values fail with SV_ERR_SPEC naming the key.
- * A level that is not quads carries a payload the pipeline reaches through
- * per-level hooks (level.h), registered apart: they render.
+ * Each method's settings are the JSON object under the spec key named after
+ * it (NULL = all defaults); unknown keys, wrong types and out-of-range values
+ * fail with SV_ERR_SPEC naming the key. What a method builds, and how, is its
+ * other half, sv_method_ops (method_ops.h), which only the bake links. Both
+ * halves of every method are listed once, in core/methods/registry.h.
  */
 #ifndef SV_METHOD_H
 #define SV_METHOD_H
 
 #include <cjson/cJSON.h>
+#include <stdbool.h>
+#include <stdint.h>
 
-#include "classify.h"
-#include "scene.h"
-#include "stand_in.h"
-
-struct sv_baked_lod; /* bake.h */
-
-typedef struct sv_method_input {
-    const sv_mesh *mesh;
-    const sv_classification *cls;
-    const sv_leaves *leaves;
-    double centre[3]; /* bounding sphere (sv_mesh_sphere) */
-    double radius;
-    const sv_scene *scene;
-    uint64_t seed; /* spec "seed" (default 1): every random choice derives from it */
-} sv_method_input;
+#include "sv.h"
 
 typedef struct sv_method {
     const char *name;    /* spec "method" value and settings key */
     const char *summary; /* one line for `GET /v1/info` and --help */
     /* Validates settings without running (the daemon calls this). */
     sv_status (*check)(const cJSON *settings, sv_error *err);
-    /* Builds the stand-in. out is zero-initialised by the caller. */
-    sv_status (*run)(const sv_method_input *in, const cJSON *settings, sv_stand_in *out,
-                     sv_error *err);
     /* The target search's ladder (docs/spec.md "target", the table of
      * ladders), cheapest first: rewrites `settings` — a copy of the user's
      * settings object of this method, owned by the caller — to step `step`
@@ -46,28 +31,12 @@ typedef struct sv_method {
      * max_triangles: the target's triangle budget (0 = none), for methods
      * whose kept trunk shares it with the quads (sv_ladder_trunk_share). */
     bool (*ladder)(int step, uint32_t max_triangles, cJSON *settings);
-    /* planes.json (docs/outputs.md): adds what a runtime needs beyond the
-     * plain quad list to `entry`, the object of one LOD this method made —
-     * keys after "quads", and quads appended to `quads` (that entry's
-     * array). baked is the LOD's bake (its mesh and uv_rects), source_triangles
-     * the original mesh's triangle count. NULL: nothing to add. */
-    void (*planes_json)(const sv_lod_plan *lod, const struct sv_baked_lod *baked,
-                        uint32_t source_triangles, cJSON *entry, cJSON *quads);
     /* True: this method's levels are the LOD chain's stochastic levels
      * (docs/lod.md), built by the chain itself (they need the renderer to
      * measure r and score candidates); its settings are the chain's
      * stochastic settings, and it cannot be the chain's coarsest method. */
     bool chain_levels;
 } sv_method;
-
-/* The registered methods, one per method file (the registry in methods.c
- * lists them; tests use them directly). */
-extern const sv_method sv_method_crossed_quads;
-extern const sv_method sv_method_leaf_clusters;
-extern const sv_method sv_method_stochastic;
-extern const sv_method sv_method_slicing;
-extern const sv_method sv_method_billboard_cloud;
-extern const sv_method sv_method_octahedral;
 
 /* The method named `name`, or NULL. */
 const sv_method *sv_method_find(const char *name);

@@ -19,8 +19,7 @@
 
 #include <cjson/cJSON.h>
 
-#include "gltf.h"
-#include "method.h"
+#include "method_ops.h"
 
 #define SV_STOCH_MAX_LEVELS 8
 
@@ -297,17 +296,16 @@ void sv_stochastic_level_name(double lambda, char name[32]);
  * Owned by the struct: sv_stoch_gltf_free (a zeroed one is fine). */
 typedef struct sv_stoch_gltf {
     float *centre, *order;
-    sv_gltf_attribute attr[2];
-    cJSON *extras;
+    sv_vertex_attribute attr[2]; /* the node's extra vertex attributes */
+    cJSON *extras;               /* the node's extras */
 } sv_stoch_gltf;
 
 /* Fills out for level `level` of res (settings ss) drawn as mesh m, whose last
- * geom_vertices vertices are the level's leaves, and points gl->attributes
- * and gl->extras at it (valid while out lives). SV_ERR_INTERNAL when m has
+ * geom_vertices vertices are the level's leaves. SV_ERR_INTERNAL when m has
  * fewer vertices than that. */
 sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                              int level, uint32_t geom_vertices, const sv_mesh *m,
-                             sv_stoch_gltf *out, sv_gltf_lod *gl, sv_error *err);
+                             sv_stoch_gltf *out, sv_error *err);
 void sv_stoch_gltf_free(sv_stoch_gltf *g);
 
 /* Adds report.json's fields of level `level` of res to o (docs/outputs.md):
@@ -315,5 +313,8 @@ void sv_stoch_gltf_free(sv_stoch_gltf *g);
  * leaf_triangles, leaf_error, the area and contrast terms. */
 void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
                               int level, cJSON *o);
+
+extern const sv_method sv_method_stochastic;         /* stochastic_settings.c */
+extern const sv_method_ops sv_method_stochastic_ops; /* stochastic.c */
 
 #endif

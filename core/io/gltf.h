@@ -32,15 +32,11 @@
 
 #include <cjson/cJSON.h>
 
+#include "image_io.h"
 #include "mesh.h"
 
-/* An extra per-vertex float attribute (glTF: application-specific semantics
- * must begin with '_', e.g. "_LEAF_CENTRE", "_ORDER"). */
-typedef struct sv_gltf_attribute {
-    const char *name;    /* must start with '_' and be at most 63 bytes */
-    const float *data;   /* components * mesh->vertex_count floats, finite */
-    uint32_t components; /* 1 (SCALAR) .. 4 (VEC4) */
-} sv_gltf_attribute;
+/* An extra per-vertex float attribute (mesh.h). */
+typedef sv_vertex_attribute sv_gltf_attribute;
 
 typedef struct sv_gltf_lod {
     const char *name;       /* node and mesh name; NULL = "lod<i>" */

@@ -76,4 +76,24 @@ uint32_t sv_slicing_blend(uint32_t slicings, bool top, const double view_dir[3],
  * the LOD's "slicing"). NULL for any other LOD, or on out-of-memory. */
 cJSON *sv_slicing_describe(const sv_lod_plan *lod);
 
+/* The method's own: its settings, shared by the schema half
+ * (slicing_settings.c) and the build half (slicing.c). */
+#define SL_NAME "slicing"
+#define SL_DEFAULT_SPACING SV_SPACING_UNIFORM
+
+typedef struct sl_settings {
+    long slicings, slices;
+    sv_slice_spacing spacing;
+    int top; /* -1 auto, 0, 1 */
+    double trunk_ratio;
+} sl_settings;
+
+/* The settings object s (NULL: defaults) into o; SV_ERR_SPEC naming the key. */
+sv_status sl_parse(const cJSON *s, sl_settings *o, sv_error *err);
+
+struct sv_method;
+struct sv_method_ops;
+extern const struct sv_method sv_method_slicing;
+extern const struct sv_method_ops sv_method_slicing_ops;
+
 #endif

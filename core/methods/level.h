@@ -1,10 +1,10 @@
 /* level.h — the per-level hooks: how a level that is not quads plugs into
- * the pipeline (issue 17; docs/design.md "How a method plugs in").
+ * the pipeline (docs/design.md, "Adding a method").
  *
  * A method's run may make a LOD that is something else than quads and kept
  * geometry (an octahedral impostor: a grid of frames) by leaving what it is
- * in sv_lod_plan.payload. The pipeline fills sv_lod_plan.ops from this
- * registry (sv_level_ops_find, by the name of the method that made the
+ * in sv_lod_plan.payload. The pipeline fills sv_lod_plan.ops from the
+ * build registry (sv_level_ops_find, by the name of the method that made the
  * level) and from then on reaches the level only through these hooks: it
  * bakes, sizes, draws, writes and describes it without knowing what it is.
  * Every hook may be NULL: the pipeline then does for that step what it does
@@ -13,14 +13,14 @@
  * sv_stand_in_free frees with free() (stand_in.c, at the top of core, knows
  * no hooks).
  *
- * The hooks render and write files, so they are kept apart from sv_method
- * (method.h), whose registry sylvad links to check settings and which must
- * stay free of GL: core/methods/levels.c is the bake's half of the registry.
+ * The hooks render, so they belong to a method's build half (sv_method_ops
+ * levels, method_ops.h), never to its schema (method.h), which sylvad links.
  */
 #ifndef SV_LEVEL_H
 #define SV_LEVEL_H
 
 #include <cjson/cJSON.h>
+#include <stdlib.h>
 
 #include "bake.h"
 #include "render.h"
@@ -46,10 +46,39 @@ typedef struct sv_level_names {
     const char (*maps)[64]; /* its atlas files: albedo, normal, ao, depth ("" = not baked) */
 } sv_level_names;
 
-/* Reads the whole file `name` of a finished bake's folder `dir` (malloc'd;
- * NULL with err set). Refuses names that leave the folder. */
-typedef uint8_t *(*sv_level_read_fn)(const char *dir, const char *name, size_t *size,
-                                     sv_error *err);
+/* Images a level adds to the outputs beyond its atlases (an impostor's
+ * mips): each a file name of the bake's folder and its pixels, which the
+ * pipeline writes as PNG. Owned: sv_level_images_free (a zeroed one is fine). */
+typedef struct sv_level_image {
+    char name[96]; /* "atlas_<lod>_albedo_mip1.png" */
+    sv_image image;
+} sv_level_image;
+
+typedef struct sv_level_images {
+    sv_level_image *items;
+    uint32_t count;
+} sv_level_images;
+
+/* Frees every image and the list; leaves *l zeroed. */
+static inline void sv_level_images_free(sv_level_images *l)
+{
+    for (uint32_t i = 0; i < l->count; i++) sv_image_free(&l->items[i].image);
+    free(l->items);
+    l->items = NULL;
+    l->count = 0;
+}
+
+/* The files of a finished bake's folder, as the pipeline reads them for the
+ * view hook: a level reaches them only through these. */
+typedef struct sv_level_files {
+    void *user;
+    /* The JSON document `name` (caller deletes it); NULL with *missing set
+     * when the folder has no such file, NULL with err set when it cannot
+     * be read or parsed. */
+    cJSON *(*json)(void *user, const char *name, bool *missing, sv_error *err);
+    /* The PNG `name` decoded into img: 16-bit grey when gray16, else RGBA8. */
+    sv_status (*image)(void *user, const char *name, bool gray16, sv_image *img, sv_error *err);
+} sv_level_files;
 
 typedef struct sv_level_ops {
     const char *method; /* the method whose levels these hooks serve */
@@ -68,32 +97,29 @@ typedef struct sv_level_ops {
      * atlas `halvings` times; returns how many it allows (at most that) and
      * records the new size in the payload. */
     int (*shrink)(sv_lod_plan *lod, int halvings);
-    /* Writing (outputs.c), after the atlases: the level's own extra files in
-     * dir (mips); may note what it wrote in the payload for doc_entry. */
-    sv_status (*write_files)(sv_lod_plan *lod, const sv_baked_lod *baked, const char *dir,
-                             sv_error *err);
+    /* Writing (outputs.c), after the atlases: the level's own extra images
+     * (mips) into out (zeroed by the caller, freed by it with
+     * sv_level_images_free), which the pipeline writes; may note what it
+     * made in the payload for doc_entry. */
+    sv_status (*images)(sv_lod_plan *lod, const sv_baked_lod *baked, sv_level_images *out,
+                        sv_error *err);
     /* A JSON document beside planes.json (report.c): doc_file
      * {"schema": doc_schema, "lods": [one doc_entry per such level, in
      * chain order]}. NULL doc_entry: no document. */
     const char *doc_file;
     const char *doc_schema;
     cJSON *(*doc_entry)(const sv_lod_plan *lod, const sv_level_names *names);
-    /* `sylva-bake view` (view.c): when level `lod` of the finished bake in
-     * dir is one of these, draws it with cam into a size × size RGBA8 out
-     * and sets *found; leaves *found false (and returns SV_OK) otherwise. */
-    sv_status (*view)(const char *dir, const char *lod, sv_level_read_fn read, const sv_camera *cam,
+    /* `sylva-bake view` (view.c): when level `lod` of the finished bake
+     * whose files are `files` is one of these, draws it with cam into a
+     * size × size RGBA8 out and sets *found; leaves *found false (and
+     * returns SV_OK) otherwise. */
+    sv_status (*view)(const sv_level_files *files, const char *lod, const sv_camera *cam,
                       uint32_t size, sv_image *out, bool *found, sv_error *err);
 } sv_level_ops;
 
-/* The hooks of each method that has them, one per method folder (the
- * registry in levels.c lists them). */
-extern const sv_level_ops sv_octa_level_ops;
-
-/* The hooks for the levels of method `method`, or NULL (its levels are quads). */
+/* The hooks for the levels of method `method` (its sv_method_ops levels,
+ * method_ops.h), or NULL (its levels are quads). */
 const sv_level_ops *sv_level_ops_find(const char *method);
-
-/* Every registered table of hooks; *count receives their number. */
-const sv_level_ops *const *sv_level_ops_list(size_t *count);
 
 /* A document's 3-vector: true and v filled when a is an array of exactly
  * three numbers (an impostor.json "centre"), else false, v untouched. */

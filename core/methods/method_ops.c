@@ -1,0 +1,39 @@
+/* method_ops.c — the build registry of stand-in methods (method_ops.h) and
+ * of their per-level hooks (level.h), made of registry.h. Kept out of
+ * methods.c, which sylvad links to check settings: these run the methods,
+ * render and write files. */
+#include "level.h"
+#include "method_ops.h"
+
+#include <string.h>
+
+#define SV_METHOD(n) extern const sv_method_ops sv_method_##n##_ops;
+#include "registry.h"
+#undef SV_METHOD
+
+static const sv_method_ops *const registry[] = {
+#define SV_METHOD(n) &sv_method_##n##_ops,
+#include "registry.h"
+#undef SV_METHOD
+};
+#define REGISTRY_COUNT (sizeof registry / sizeof registry[0])
+
+const sv_method_ops *const *sv_method_ops_list(size_t *count)
+{
+    *count = REGISTRY_COUNT;
+    return registry;
+}
+
+const sv_method_ops *sv_method_ops_find(const char *name)
+{
+    if (!name) return NULL;
+    for (size_t i = 0; i < REGISTRY_COUNT; i++)
+        if (strcmp(registry[i]->method->name, name) == 0) return registry[i];
+    return NULL;
+}
+
+const sv_level_ops *sv_level_ops_find(const char *method)
+{
+    const sv_method_ops *m = sv_method_ops_find(method);
+    return m ? m->levels : NULL;
+}
