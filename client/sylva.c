@@ -34,6 +34,7 @@ static const char usage_text[] =
     "  sylva fetch KEY --out DIR\n"
     "  sylva cancel KEY [--delete]  (--delete: also a finished bake, results and all)\n"
     "  sylva health\n"
+    "KEY: the 64 hex digits a bake printed, or a prefix of at least 8 naming one bake.\n"
     "The companions a mesh names (.mtl, textures, .bin) are found beside it when\n"
     "not listed. --method, --set, --units, --up, -o, -q and -v mean what they mean\n"
     "for sylva-bake bake; flags override --spec.\n"
