@@ -381,8 +381,7 @@ static void take_server_error(sylva_client *c, const char *body, const char *wha
             used += n > 0 ? (size_t)n : 0;
         }
         if (i && used < sizeof c->error) snprintf(c->error + used, sizeof c->error - used, ")");
-    }
-    else
+    } else
         snprintf(c->error, sizeof c->error, "%s: HTTP %ld from %s", what, c->http_status,
                  c->urls[c->current]);
     cJSON_Delete(doc);
@@ -498,7 +497,8 @@ static sylva_status request_run(sylva_client *c, request *r, const char *what)
         long ra_ms = retry_after > 0 && retry_after < 86400 ? (long)retry_after * 1000 : -1;
         long delay = sylva_retry_delay(&c->policy, attempt, c->url_count, transport, code, ra_ms);
         bool probing = !c->answered && only_refused;
-        if (probing && delay >= 0 && (sylva_now_s() - t_start) * 1000.0 + (double)delay > REFUSED_WINDOW_MS)
+        if (probing && delay >= 0 &&
+            (sylva_now_s() - t_start) * 1000.0 + (double)delay > REFUSED_WINDOW_MS)
             delay = -1; /* nothing listens: say so now, not after every retry */
         if (delay < 0) {
             if (probing) refused_error(c);
@@ -981,7 +981,8 @@ sylva_status sylva_fetch_dir(sylva_client *c, const char *key, const sylva_job *
         goto out;
     }
     st = mkdir_p(c, dir);
-    for (size_t i = 0; st == SYLVA_OK && i < n; i++) st = fetch_one_to_file(c, use->key, &arts[i], dir);
+    for (size_t i = 0; st == SYLVA_OK && i < n; i++)
+        st = fetch_one_to_file(c, use->key, &arts[i], dir);
     if (st == SYLVA_OK) st = remove_stale_outputs(c, dir, arts, n);
 out:
     free(arts);

@@ -35,6 +35,7 @@ static const char usage_text[] =
     "  sylva fetch KEY --out DIR\n"
     "  sylva cancel KEY [--delete]  (--delete: also a finished bake, results and all)\n"
     "  sylva health\n"
+    "KEY: the 64 hex digits a bake printed, or a prefix of at least 8 naming one bake.\n"
     "The companions a mesh names (.mtl, textures, .bin) are found beside it when\n"
     "not listed. --method, --set, --units, --up, -o, -q and -v mean what they mean\n"
     "for sylva-bake bake; flags override --spec.\n"
@@ -82,8 +83,7 @@ static int fail_out(const sylva_cli *cli, int code, const char *errcode, const c
 static const char *no_daemon_line(sylva_client *c, sylva_status st, char *buf, size_t len)
 {
     const char *detail = sylva_client_error(c);
-    if (st != SYLVA_ERR_CONNECT || strncmp(detail, "no sylva daemon answers", 23) != 0)
-        return NULL;
+    if (st != SYLVA_ERR_CONNECT || strncmp(detail, "no sylva daemon answers", 23) != 0) return NULL;
     snprintf(buf, len, "%s (--server / SYLVA_SERVER)", detail);
     return buf;
 }
@@ -95,7 +95,9 @@ static int fail_client(const sylva_cli *cli, sylva_client *c, sylva_status st)
     char line[1200];
     const char *nd = no_daemon_line(c, st, line, sizeof line);
     return fail_out(cli, sylva_cli_exit_code(st), code[0] ? code : sylva_status_name(st),
-                    nd ? nd : detail[0] ? detail : sylva_status_message(st));
+                    nd          ? nd
+                    : detail[0] ? detail
+                                : sylva_status_message(st));
 }
 
 static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
@@ -608,10 +610,10 @@ static int cmd_status(const sylva_cli *cli)
             if (job.state == SYLVA_STATE_DONE) {
                 /* the table from the manifest's copy of report.json's summary */
                 cJSON *doc = cJSON_Parse(job.json);
-                sylva_summary_table(cJSON_GetObjectItemCaseSensitive(
-                                        cJSON_GetObjectItemCaseSensitive(doc, "manifest"),
-                                        "summary"),
-                                    NULL, stdout);
+                sylva_summary_table(
+                    cJSON_GetObjectItemCaseSensitive(
+                        cJSON_GetObjectItemCaseSensitive(doc, "manifest"), "summary"),
+                    NULL, stdout);
                 cJSON_Delete(doc);
                 cJSON *s = sylva_cli_summary(job.json, NULL, NULL);
                 print_summary(s);

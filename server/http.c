@@ -1252,8 +1252,8 @@ static bool resolve_prefix(req *q, enum MHD_Result *ret)
     svd_http *h = q->h;
     char key[SVD_KEY_HEX], *cands = NULL;
     sv_error e = {0};
-    svd_jobs_rc rc = svd_jobs_resolve(h->jobs, q->m.key, h->tokens ? q->client : NULL, key,
-                                      &cands, &e);
+    svd_jobs_rc rc = svd_jobs_resolve(h->jobs, q->m.key, h->tokens ? q->client : NULL, key, &cands,
+                                      &e);
     if (rc == SVD_JOBS_OK) {
         memcpy(q->m.key, key, SVD_KEY_HEX);
         q->m.key_prefix = false;
@@ -1266,8 +1266,7 @@ static bool resolve_prefix(req *q, enum MHD_Result *ret)
         cJSON_AddStringToObject(err, "message", e.message);
         cJSON *list = cands ? cJSON_Parse(cands) : NULL;
         if (list) cJSON_AddItemToObject(err, "candidates", list);
-        *ret = send_json(h, q->conn, q->m.route, jobs_http[rc].status,
-                         cJSON_PrintUnformatted(doc));
+        *ret = send_json(h, q->conn, q->m.route, jobs_http[rc].status, cJSON_PrintUnformatted(doc));
         cJSON_Delete(doc);
     } else {
         *ret = send_error(h, q->conn, q->m.route, jobs_http[rc].status, jobs_http[rc].code,

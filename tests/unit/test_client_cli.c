@@ -402,8 +402,7 @@ static void summary_of_a_status_document_lists_each_level_with_its_triangles(voi
     cJSON *s = sylva_cli_summary(job, NULL, NULL);
     const cJSON *lods = cJSON_GetObjectItem(s, "lods");
     assert_int_equal(cJSON_GetArraySize(lods), 2);
-    assert_true(cJSON_GetObjectItem(cJSON_GetArrayItem(lods, 0), "triangles")->valuedouble ==
-                3616);
+    assert_true(cJSON_GetObjectItem(cJSON_GetArrayItem(lods, 0), "triangles")->valuedouble == 3616);
     char text[1024];
     sylva_cli_summary_format(s, text, sizeof text);
     assert_non_null(strstr(text, "full"));
