@@ -100,7 +100,7 @@ set -e
 [ "$(json_get "$tmp/c/error.json" "j['error']['code']")" = spec ] || fail "bad spec: error.json code"
 grep -q "scene.viewer" "$tmp/err2.txt" || fail "bad spec: message does not name scene.viewer"
 # a later success in the same folder removes the failure's error.json (issue 23)
-echo '{"method": "crossed_quads", "lod": {"chain": false}, "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/quick.json"
+echo '{"import": {"units": 0.2}, "method": "crossed_quads", "lod": {"chain": false}, "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/quick.json"
 # and the files of an earlier bake it does not write go too; a file sylva does
 # not name stays
 touch "$tmp/c/lod7_old.glb" "$tmp/c/atlas_old_albedo.png" "$tmp/c/notes.txt" "$tmp/c/lod_x.glb"
