@@ -16,8 +16,8 @@ void sv_scene_defaults(sv_scene *s)
     s->ambient_occlusion = false;
     s->viewer = SV_VIEWER_SIDE;
     s->distance_min = 10.0;
-    s->distance_max = 1000.0; /* an open-world draw distance (issue 19: at 200 m a
-                               * 12 m tree is 60 px and no quad level was needed) */
+    s->distance_max = 1000.0; /* an open-world draw distance: nearer, a tree is
+                               * too tall for any quad level to be drawn */
     s->distance_auto = true;  /* replaced by the tree's own range once its size is
                                * known: a bake does not depend on the file's units */
     s->screen_height = 1080;

@@ -13,7 +13,7 @@
  * (the best try's bake) and stderr says why (report.json target.reason).
  * Anything else (a signal) is a crash. sylvad takes 0 and 3 as done.
  *
- * CPU-time guard (issue 25): every info and bake runs under RLIMIT_CPU, so a
+ * CPU-time guard: every info and bake runs under RLIMIT_CPU, so a
  * file that makes a reader spin cannot keep a core busy forever. The limit is
  * --cpu-limit S; without it, the RLIMIT_CPU the process inherited (ulimit -t,
  * sylvad's worker_cpu_seconds through prlimit) when there is one, else
@@ -684,7 +684,7 @@ static int cmd_info(int argc, char **argv)
 }
 
 /* The outcome of a finished bake, from out_dir/report.json, so a degraded
- * result is not silent (issue 19): prints every input warning on stderr as
+ * result is not silent: prints every input warning on stderr as
  * "sylva-bake: warning: ..." (not when quiet), and when the spec's target was not met
  * (target.met false) why, and returns EXIT_TARGET_UNMET; else 0. Prints
  * nothing and returns 0 when there is no report. */
@@ -856,7 +856,7 @@ static int bake_run(const bake_opts *o, char **paths, size_t n, const char *out_
                     const char *shader_db, const char *shader_dir)
 {
     long cpu_limit = o->cpu_limit;
-    /* sylvad's worker dies with it (issue 22 item 9): SIGKILL when the parent
+    /* sylvad's worker dies with it: SIGKILL when the parent
      * goes; a parent already gone before the prctl is caught by getppid. */
     if (parent > 0) {
         if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != (pid_t)parent) {

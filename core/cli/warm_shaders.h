@@ -1,7 +1,6 @@
 /* warm_shaders.h — a read-only llvmpipe shader cache for sandboxed bakes
- * (issue 20: a daemon job spent a third of its CPU JIT-compiling the same
- * few shaders in every job, because sandboxed bakes ran without Mesa's disk
- * cache).
+ * (sandboxed bakes run without Mesa's disk cache, so each job would
+ * JIT-compile the same few shaders again; docs/benchmarks.md has the cost).
  *
  * The daemon runs `sylva-bake warm-shaders DIR` once, before any job, on a
  * scene the program builds itself (no upload is read): Mesa's single-file

@@ -211,7 +211,7 @@ int sv_zygote_serve(int fd, long parent, char *title, size_t title_room, sv_zygo
         return 1;
     pid_t self = getpid();
     /* The image plugin once, here, for every job (most decode textures):
-     * OIIO's start-up (~0.7 s) is paid once per zygote, and its threads are
+     * OIIO's start-up (docs/benchmarks.md) is paid once per zygote, and its threads are
      * stopped below before any fork. A plugin that cannot load is each job's
      * error, as without the pool. */
     sv_error perr = {0};

@@ -1,5 +1,5 @@
 /* zygote.h — `sylva-bake zygote`: the resident worker of sylvad's pool
- * (issue 20 item 1; the protocol is common/zygote_proto.h, the design
+ * (the protocol is common/zygote_proto.h, the design
  * docs/design.md "The worker pool").
  *
  * A process that has loaded sylva-bake's libraries once (OpenImageIO,

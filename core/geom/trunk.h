@@ -45,13 +45,13 @@ sv_status sv_trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, doub
  * each trunk triangle that mesh draws — its centroid within 1 % of `radius` of
  * the kept surface. The other trunk triangles (thin branches the budget could
  * not hold) are for the method's quads, so nothing is drawn twice and no
- * branch is lost (issue 18). */
+ * branch is lost. */
 sv_status sv_trunk_kept(const sv_mesh *m, const uint8_t *part, double radius, double ratio,
                         uint32_t budget, sv_mesh **tm, uint8_t *skip, sv_error *err);
 
 /* Cell side of sv_twig_groups in the methods, as a fraction of the bounding
- * radius (docs/methods/leaf_clusters.md: 1/64 cost 0.008 sveval on the maple
- * against one element a triangle, and cut its clustering 3.4 -> 0.9 s). */
+ * radius (docs/methods/leaf_clusters.md: on the maple it costs little
+ * accuracy against one element a triangle and cuts its clustering most). */
 #define SV_TWIG_CELL (1.0 / 64.0)
 
 /* The trunk triangles a kept trunk leaves out (part[t] == SV_PART_TRUNK and

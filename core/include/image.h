@@ -34,8 +34,7 @@ sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channel
 void sv_image_free(sv_image *img);
 
 /* dst (overwritten) becomes a copy of src that shares its pixels: a tree's
- * 1024² textures were copied into every level's mesh (issue 20: 170 MB of
- * the ez-tree pine's peak). The count is atomic, so copies may be made and
+ * 1024² textures were copied into every level's mesh. The count is atomic, so copies may be made and
  * freed on any thread. Pixels of an image that has copies are read-only:
  * whoever changes an image makes new pixels (as sv_image_reduce does); no
  * code writes into an image after copying it (docs/design.md). src without

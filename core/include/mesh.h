@@ -64,8 +64,8 @@ void sv_mesh_destroy(sv_mesh *mesh);
  * per-triangle materials, materials equal in every field a renderer reads
  * (colour, texture slots, alpha mode and cutoff, sides, unlit; not the
  * names), images equal in size and pixels (the same shared pixels, or equal
- * bytes). A level whose mesh draws as an earlier level's is measured once
- * (issue 20). NULL equals only NULL. */
+ * bytes). A level whose mesh draws as an earlier level's is measured once.
+ * NULL equals only NULL. */
 bool sv_mesh_draws_same(const sv_mesh *a, const sv_mesh *b);
 
 /* Sets a material to glTF defaults: white, no textures, opaque, cutoff 0.5,

@@ -1,5 +1,5 @@
 /* vec3.h — the small 3-vector helpers every geometry file needs, in one place
- * (issue 17: dot3 was in 7 files, normalize3 in 4 with different rules). */
+ * (one definition of each, one rule for a zero vector). */
 #ifndef SV_VEC3_H
 #define SV_VEC3_H
 

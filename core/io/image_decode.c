@@ -2,10 +2,10 @@
  * libjpeg(-turbo); every other format through the OpenImageIO plugin
  * (image_plugin.c).
  *
- * Why (issue 20): nearly every tree ships PNG or JPEG textures, and loading
- * the plugin to read them cost ~0.7 s and ~140 MB of RSS in every offline
- * bake (OIIO's 261 libraries: the ez-tree pine's RSS was 58 MB before its two
- * textures and 201 MB after). libpng and libjpeg are small, well-kept and
+ * Why: nearly every tree ships PNG or JPEG textures, and loading
+ * the plugin to read them costs every offline bake OIIO's start-up and
+ * memory (its 261 libraries; docs/benchmarks.md, "Figures moved out of the
+ * code"). libpng and libjpeg are small, well-kept and
  * already what OIIO itself calls for these two formats.
  *
  * Same pixels as the plugin, by construction and checked by a test on every

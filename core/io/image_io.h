@@ -62,8 +62,8 @@ sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *er
 /* Encodes img as PNG into a malloc'ed buffer (*out, *out_size; caller frees). */
 sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size, sv_error *err);
 
-/* A memo of encoded PNGs (issue 20: a bake encoded each atlas three times,
- * for its file, model.glb and its level's glb). While a memo is in use on
+/* A memo of encoded PNGs (a bake encodes each atlas for its file,
+ * model.glb and its level's glb). While a memo is in use on
  * the calling thread (sv_png_memo_use), sv_image_encode_png and
  * sv_image_write_png give the bytes of an earlier encoding when the image
  * holds the same pixels (the same sv_image_alloc buffer, which the memo keeps

@@ -1,7 +1,7 @@
 /* image_oiio.cpp — the OpenImageIO shim behind image.h's decoders: from memory
  * to RGBA8, or a PNG's first channel to 16 bits. Built as its own shared
  * object, libsvimage.so, which image_plugin.c loads on the first decode (OIIO's
- * 261 libraries cost ~0.7 s and ~130 MB at every process start otherwise);
+ * 261 libraries cost time and memory at every process start otherwise);
  * PNG encoding is libpng (image_png.c).
  *
  * The only C++ file in core. Every entry point is extern "C" and catches every

@@ -3,8 +3,8 @@
  * image_decode.c reads with libpng and libjpeg.
  *
  * Debian's OpenImageIO links 261 shared libraries (OpenVDB, GDAL, Poppler,
- * ...): linked into sylva-bake they cost ~0.7 s and ~130 MB of RSS at every
- * process start, before any work, and most processes never decode an image
+ * ...): linked into sylva-bake they cost time and memory at every process
+ * start (docs/benchmarks.md, "Figures moved out of the code"), before any work, and most processes never decode an image
  * (`info` and `check-spec`, untextured trees, the tests' hostile inputs; PNG
  * encoding is libpng, image_png.c). So the OIIO shim (image_oiio.cpp) is
  * built as its own shared object, libsvimage.so, and dlopen'ed here the first

@@ -2,14 +2,14 @@
  *
  * Every bake writes PNGs (atlases, mips, depth maps, the preview); few decode
  * anything. Encoding through libpng directly keeps OpenImageIO, whose 261
- * shared libraries cost ~0.7 s and ~130 MB of RSS at every process start, out
+ * shared libraries cost time and memory at every process start, out
  * of the processes that never decode a texture: OIIO is the decoding plugin
- * (image_plugin.c), loaded on first use (issue 20).
+ * (image_plugin.c), loaded on first use.
  *
  * The stream is deterministic: IHDR, IDAT, IEND only (no time, text or
- * physical-size chunks), zlib level 1 (encoding speed over size: a 2048²
- * atlas is 0.1-0.3 s at level 1 and several times that at the default 6; the
- * files are about 10 % larger), libpng's default adaptive filters. 16-bit
+ * physical-size chunks), zlib level 1 (encoding speed over size: several
+ * times faster than the default 6 for slightly larger files;
+ * docs/benchmarks.md), libpng's default adaptive filters. 16-bit
  * samples are written big-endian as PNG requires. A memo (sv_png_memo) lets
  * the write stage encode each atlas once for its three files.
  */

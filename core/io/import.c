@@ -29,7 +29,7 @@
  *    cards (leaves, twigs) are always meant to be seen from both sides.
  *  - textures: embedded ("*N") or an uploaded file, decoded to RGBA8; one that
  *    does not decode is a warning, not an error.
- * Missing files (issue 19, "honest outcomes"): a .mtl that assimp asks for and
+ * Missing files ("honest outcomes"): a .mtl that assimp asks for and
  * a base-colour texture a material names, when neither is among the uploaded
  * files, are listed in info->missing_files and fail the import with
  * SV_ERR_MISSING naming them, unless options.missing_files_warn: then they are

@@ -1,7 +1,7 @@
 /* calibrate.c — alpha cutoffs and atlas sizes, after the bake: each quad
- * level's atlas cutoff chosen against the original's coverage (issue 18,
- * after Behrendt et al. §3.3.7), and the atlases of levels drawn only small
- * reduced to what their switch size shows (issue 19 item 3). Also the small
+ * level's atlas cutoff chosen against the original's coverage (after
+ * Behrendt et al. §3.3.7), and the atlases of levels drawn only small
+ * reduced to what their switch size shows. Also the small
  * evaluator both share with the stochastic candidates' scoring.
  */
 #include <math.h>
@@ -10,7 +10,7 @@
 
 #include "pipeline_internal.h"
 
-/* Alpha calibration (issue 18; Behrendt et al. §3.3.7 threshold the baked
+/* Alpha calibration (Behrendt et al. §3.3.7 threshold the baked
  * coverage "to keep the look of density", but a fixed threshold inflates or
  * thins the crown depending on leaf size, texel size and how far leaves were
  * flattened). The atlas keeps each texel's covered fraction as alpha; the
@@ -20,7 +20,7 @@
  * cutoff (k + 0.5) / 255 is judged, all from one render a view: a sample is
  * covered at a cutoff exactly when the largest alpha drawn there reaches it
  * (render.h SV_SHADE_ALPHA_MAX, evaluate.h sv_evaluate_cutoffs). Until
- * issue 18's last re-measurement: a grid of 0.1 refined three times, 15
+ * the last re-measurement (docs/accuracy.md): a grid of 0.1 refined three times, 15
  * renders a view at 128²; the one render allows 256², sveval's resolution,
  * at the same cost (docs/accuracy.md "Alpha calibration"). */
 #define SV_CALIB_PIXELS 64u
@@ -176,7 +176,7 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
     return st;
 }
 
-/* Atlases sized by where a level is drawn (issue 19 item 3). A level after
+/* Atlases sized by where a level is drawn. A level after
  * the first is never drawn taller than its switch size S, where one texel
  * of tree_h / (S × SV_ATLAS_TEXELS_PER_PIXEL) is enough; its maps (baked at
  * bake.texel_pixels, 256 texels per tree height by default) are box-filtered

@@ -1,4 +1,4 @@
-/* chain.c — the LOD chain (issue 6; docs/lod.md): which levels are built
+/* chain.c — the LOD chain (docs/lod.md): which levels are built
  * (svp_chain_compose: full mesh → stochastic levels → the spec's method →
  * the coarsest method) and, once measured, where each is drawn
  * (svp_plan_switches, svp_plan_visibility, svp_compact_lods).
@@ -342,7 +342,7 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
     return compose_methods(r, &in, is_stoch, si, c, err);
 }
 
-/* Switch sizes from measured error (issue 6). Each LOD's own limit is the
+/* Switch sizes from measured error. Each LOD's own limit is the
  * largest screen size S (pixels: sv_eval_max_pixels_scaled) at which its mean
  * coverage error is within lod.tolerance × lod.tolerance_pixels / S (issue
  * 19: one tolerance at every size dropped every quad level of most trees), at

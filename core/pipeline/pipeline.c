@@ -70,7 +70,7 @@ static sv_status prepare(const sv_file *files, size_t count, const sv_spec *spec
     if (r && (st = svp_progress(r, ST_CLASSIFY, 0))) return sv_fail(err, st, "cancelled");
     sv_classify_options co = {spec->foliage, spec->foliage_count, spec->trunk, spec->trunk_count};
     if ((st = sv_classify(p->mesh, &co, &p->cls, err))) return st;
-    /* Plausibility (issue 19): lying down or in the wrong units, said in
+    /* Plausibility: lying down or in the wrong units, said in
      * input.warnings; import.up "auto" turns a Z-up tree upright here. */
     sv_detect_up(p->mesh, p->cls.tri_part, &p->up);
     if (spec->up_axis == 'A' && p->up.z_up) {
@@ -452,8 +452,7 @@ static sv_status eval_sizes(run *r, const eval_call *c, sv_eval_result *out, sv_
 
 /* An earlier measured level that draws as level i does (sv_mesh_draws_same;
  * neither drawn by its own hook nor view-dependent), or -1. A tree without foliage
- * makes every quad level its trunk, one mesh measured three times (issue 20:
- * most of the one-triangle bake). */
+ * makes every quad level its trunk, one mesh measured three times. */
 static int drawn_as_earlier(const bake_state *b, uint32_t i)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
@@ -480,8 +479,8 @@ static sv_status copy_eval(const sv_eval_result *src, sv_eval_result *dst, sv_er
 }
 
 /* Measures LOD i against the original as it is drawn: the full level, or any
- * that draws as the original does, is the original (nothing to measure,
- * issue 20), a level drawn as an earlier one has its measures, a level
+ * that draws as the original does, is the original (nothing to measure),
+ * a level drawn as an earlier one has its measures, a level
  * with a draw hook (an impostor: the reference runtime) is drawn by it, a
  * view-dependent level by its per-view subsets. */
 static sv_status evaluate_level(run *r, bake_state *b, uint32_t i, sv_error *err)

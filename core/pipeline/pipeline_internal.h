@@ -71,8 +71,8 @@ typedef struct run {
     trial_out tout;
     cJSON *target_json;  /* report "target" (deterministic part), owned */
     cJSON *target_times; /* report times.target: seconds per try, owned */
-    /* Kept across the bakes of one run (a target search bakes once per try,
-     * issue 19 item 6): the renderer, the original on it, and the evaluator
+    /* Kept across the bakes of one run (a target search bakes once per
+     * try): the renderer, the original on it, and the evaluator
      * with its reference renders, reused while its options stay the same. */
     sv_renderer *ren;
     sv_gpu_mesh *gsrc;
@@ -84,7 +84,7 @@ typedef struct run {
     sv_eval_options calib_opt;
 } run;
 
-/* ---- the LOD chain (chain.c; issue 6, docs/lod.md) ---- */
+/* ---- the LOD chain (chain.c; docs/lod.md) ---- */
 
 typedef struct chain_lod {
     bool stochastic; /* a level of the stochastic method (its outputs and report fields) */

@@ -1,5 +1,4 @@
-/* target.c — the target search (docs/spec.md "target"; issue 10, bisection
- * since issue 19 item 6): the method's ladder (its sv_method ladder hook) is
+/* target.c — the target search (docs/spec.md "target"; bisection): the method's ladder (its sv_method ladder hook) is
  * searched by bisection for the cheapest setting that meets the spec's
  * budget and IoU, each try a trial bake (svp_bake_all with r->trial), then
  * the chosen setting is baked with the user's own LOD settings.
@@ -107,7 +106,7 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
                  stopped ? ", and the next step was over the budget" : "");
 }
 
-/* One step of a target search (issue 19 item 6): what a try found. */
+/* One step of a target search: what a try found. */
 typedef struct step_try {
     bool tried, baked, within, reached;
     double iou; /* -1 when not measured */
@@ -298,7 +297,7 @@ static void count_steps(search *s)
     if (s->r->search_most < 1) s->r->search_most = 1;
 }
 
-/* A target (issue 10; bisection since issue 19 item 6). The method's ladder
+/* A target, searched by bisection. The method's ladder
  * (ladder_step) orders settings from the cheapest; a budget is crossed once
  * along it and an IoU is taken to rise along it, so both are found by
  * bisection: first the last step within the budget, then the first step at

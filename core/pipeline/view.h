@@ -1,4 +1,4 @@
-/* view.h — one evaluation view of a finished bake's level (issue 21): what
+/* view.h — one evaluation view of a finished bake's level: what
  * `sylva-bake view` draws, so a runtime (the viewer page's shaders, an
  * engine) can be compared with the evaluator pixel for pixel. */
 #ifndef SV_VIEW_H

@@ -1,6 +1,6 @@
 /* evaluate.c — accuracy of a stand-in against the original (see evaluate.h).
  *
- * Implements issue 3 "Accuracy: what every bake measures" (DESIGN.md, pipeline
+ * What every bake measures (docs/accuracy.md; docs/design.md, pipeline
  * step 7): V orthographic views placed by the scene's viewer, supersampled
  * renders box-filtered to each screen size, coverage IoU Σmin/Σmax, colour
  * error on premultiplied colour, depth error relative to the bounding radius.
@@ -39,7 +39,7 @@ struct sv_evaluator {
     double *ftmp;                         /* scratch: the fused filter's rows (filter_render) */
     int src[SV_EVAL_MAX_SIZES]; /* size s > 0 is filtered from size src[s]; -1: from full */
     bool need_full;             /* some size is filtered from full: it is filled every render */
-    /* Cropping (issue 20): most of a view is background, which filters to
+    /* Cropping: most of a view is background, which filters to
      * exact zeros. When every size is filtered by integer factors (the fused
      * filter for the largest, then size from size), the base image is cut
      * into tiles of `tile` × `tile` pixels, tile the lcm of the factors, so
@@ -245,8 +245,7 @@ static void filter_plane_rect(const float *src, uint32_t W, float *dst, uint32_t
  * 128 …) takes a loop over exactly its f taps: the same products in the same
  * order as the general loop (every tap weighs box1d's ov/s = 1/f, and the
  * general loop's extra tap weighs 0 and adds +0.0), so the same bits, without
- * the index arithmetic and the wasted tap (issue 20: this filter was a third
- * of a small bake). */
+ * the index arithmetic and the wasted tap. */
 static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, uint32_t w,
                          uint32_t h, uint32_t ch, const box1d *bx, const box1d *by, double *tmp)
 {
@@ -281,8 +280,8 @@ static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, u
 }
 
 /* from_render_into followed by the box filter to out's size by the integer
- * factor f = W / out->width, in one pass over the render (issue 20: the float
- * image at base resolution was 20 MB written and read again per view), over
+ * factor f = W / out->width, in one pass over the render (no float image at
+ * base resolution written and read again per view), over
  * output rows [y0, y1) and columns [x0, x1) only. Every channel gets the same
  * values (a covered pixel's p/255.0f, its depth; 0 elsewhere) multiplied by
  * the same weights in the same order as the two steps did, so the result has
@@ -481,7 +480,7 @@ sv_eval_metrics sv_eval_compare(const sv_eval_image *a, const sv_eval_image *b, 
     return compare_metrics(&cs, radius);
 }
 
-/* ---- cropping to the covered tiles (issue 20) ---------------------------- */
+/* ---- cropping to the covered tiles --------------------------------------- */
 
 /* Spans: for each of `tiles` tile rows, the tile columns [lo[t], hi[t]) that
  * may hold coverage; lo[t] >= hi[t] when none can. lo and hi are one array
@@ -613,7 +612,7 @@ static uint32_t tile_side(const sv_evaluator *e, uint32_t width)
  * the spans `span`: the fused filter for the largest size, then each size
  * from size src[s], tile row by tile row. out is zero outside the spans
  * `held` on entry, and outside `span` on return: only held minus span is
- * cleared (issue 20: clearing whole images was most of the remaining memset). */
+ * cleared: clearing whole images costs more than the filtering. */
 static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *depth,
                            const uint32_t *held, const uint32_t *span, sv_eval_image *out)
 {

@@ -1,4 +1,4 @@
-/* evaluate.h — how close a stand-in looks to the original (issue 3, "Accuracy").
+/* evaluate.h — how close a stand-in looks to the original (docs/accuracy.md).
  *
  * The original and the result are rendered (render.h, albedo unless the options
  * say otherwise) from V views placed as the scene's viewer says, with the same
@@ -25,7 +25,7 @@
  * texel decoded from sRGB, encoded to sRGB, as ../shared/tools/sveval's
  * default colour; the box filter then averages the encoded values.
  * Point-sampled IoU at a high resolution punishes a leaf moved by a fraction of
- * its width as hard as a missing leaf; the box filter does not (issue 3).
+ * its width as hard as a missing leaf; the box filter does not.
  *
  * The pure parts (view placement, cameras, filtering, metrics) need no GL and
  * are exposed for tests. Everything is deterministic.
@@ -106,7 +106,8 @@ typedef struct sv_evaluator sv_evaluator;
 
 /* Places the views, frames `original` (its bounding sphere), renders it (`g`,
  * uploaded to r) once per view at the base resolution and keeps the filtered
- * images of every size (about 1.7 MB per view for the default sizes).
+ * images of every size (docs/benchmarks.md, "Figures moved out of the code",
+ * has their memory per view).
  * opt may be NULL (all defaults). r, original and g must outlive the evaluator.
  * Fails with SV_ERR_INVALID for an empty original or bad options (a size of 0,
  * too many sizes), SV_ERR_RENDER when rendering fails. */

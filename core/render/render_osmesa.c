@@ -63,8 +63,7 @@ struct sv_renderer {
     GLuint ibo;          /* per-call index buffer (subset draws) */
     bool pack_invert;    /* GL_MESA_pack_invert is on: glReadPixels gives the top row first */
     /* Textures shared by the meshes whose images share pixels (sv_image_copy):
-     * a tree's textures were uploaded again for every level (issue 20: 73 MB
-     * of the ez-tree pine's peak). Each entry holds a copy of its image, so
+     * a tree's textures were uploaded again for every level. Each entry holds a copy of its image, so
      * the pixels, whose address is the key, cannot be freed and reused while
      * the texture lives. */
     struct tex_entry {
@@ -86,8 +85,8 @@ struct sv_gpu_mesh {
 
 /* One vertex and one fragment shader, built twice: with SV_NORMALS (every
  * shading mode: u_shade 0 albedo, 1 normal, 2 lit) and without (the albedo
- * program, no normal varying: issue 20, a 119k-triangle draw at 512² about
- * 20 % faster; the same pixels, since albedo never read the normal). Each
+ * program, no normal varying: cheaper, and the same pixels, since albedo
+ * never reads the normal). Each
  * source follows the "#version 130" line and the defines (shader_head).
  * u_cutoff < 0: opaque (no alpha test); below -1.5: no alpha test and the
  * fragment's alpha written instead of 1 (SV_SHADE_ALPHA_MAX's swept materials). */
@@ -286,8 +285,8 @@ sv_status sv_renderer_create(uint32_t max_size, sv_renderer **out, sv_error *err
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     /* Read-backs in sylva's row order (row 0 at the top) straight from GL
-     * when Mesa offers it: no row flip, no staging buffer for depth (issue 20:
-     * the evaluator reads back two 512² images per view). Same bytes. */
+     * when Mesa offers it: no row flip, no staging buffer for depth (the
+     * evaluator reads back two images per view). Same bytes. */
     GLint next = 0;
     glGetIntegerv(GL_NUM_EXTENSIONS, &next);
     for (GLint i = 0; i < next && !r->pack_invert; i++) {

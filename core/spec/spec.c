@@ -265,7 +265,7 @@ static void spec_defaults(sv_spec *s)
     s->dilate = 8;
     s->evaluate = true;
     s->eval_views = 24;
-    s->eval_supersample = 2; /* 512² for 256 px: issue 20, 4x cheaper than 4 for <0.001 IoU */
+    s->eval_supersample = 2; /* 512² for 256 px (docs/benchmarks.md: 4 costs more for no IoU) */
     s->eval_small_render = 256;
     s->eval_sizes[0] = 256;
     s->eval_sizes[1] = 128;
@@ -322,7 +322,7 @@ static sv_status parse_target(const cJSON *o, sv_spec *s, sv_error *err)
 
 /* The error for a spec that is not JSON, guessing at a file name sent in
  * its place: curl's -F spec=FILE sends the name itself; -F spec=@FILE sends
- * the file (issue 23). end: where cJSON stopped. */
+ * the file. end: where cJSON stopped. */
 static sv_status invalid_json(const char *json, size_t len, const char *end, sv_error *err)
 {
     size_t off = end ? (size_t)(end - json) : 0;

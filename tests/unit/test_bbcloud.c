@@ -1,4 +1,4 @@
-/* test_bbcloud.c — billboard-cloud plane selection (core/methods/billboard_cloud/bbcloud.c).
+/* test_bbcloud.c — billboard-cloud plane selection (core/methods/billboard_cloud/greedy_planes.c).
  * Synthetic geometry only: boxes, faces on known planes, the Fig. 4b box,
  * layered foliage, degenerate faces. */
 #include <math.h>
@@ -11,7 +11,7 @@
 
 #include <cmocka.h>
 
-#include "bbcloud.h"
+#include "planes.h"
 #include "classify.h"
 
 /* ---------------------------------------------------------------- geometry builder */
@@ -655,7 +655,7 @@ static void planes_are_byte_identical_across_runs_and_thread_counts(void **state
     geo_free(&g);
 }
 
-/* k-planes (bbcloud_kplanes.c) on a crown large enough for its threaded
+/* k-planes (kplanes.c) on a crown large enough for its threaded
  * steps (assignment, moments, areas): the same bytes on every run, and every
  * triangle still in exactly one primary plane. */
 static void kplanes_is_byte_identical_across_runs(void **state)

@@ -445,7 +445,7 @@ static double flattening_error(const sv_mesh *m, const sv_lod_plan *l)
     return w > 0 ? sum / w : 0;
 }
 
-/* k-planes refinement (bbcloud_kplanes.c): at the same plane budget the leaves
+/* k-planes refinement (kplanes.c): at the same plane budget the leaves
  * end up nearer their planes than with the greedy selection alone, each leaf
  * is baked by its own plane only, and the trunk is kept as capped geometry. */
 static void refinement_brings_leaves_nearer_their_planes(void **state)

@@ -1,6 +1,6 @@
 /* billboard_cloud.c — the "billboard_cloud" method (method.h): Décoret et al.
  * 2003 with Behrendt et al.'s tree fixes (papers/billboard-cloud-forests.txt);
- * plane selection lives in bbcloud.c, this file turns the classified mesh into
+ * plane selection lives in greedy_planes.c (refined by kplanes.c), this file turns the classified mesh into
  * elements (one per leaf, one per other triangle), runs the selection per LOD
  * (incremental LODs, §3.3.8: each coarser LOD from the previous one's
  * billboards, i.e. its faces projected onto their planes, with a larger ε) and
@@ -22,7 +22,7 @@
  *   "refine":      k-planes iterations after the greedy selection (48; 0 = the
  *                  papers' planes as selected). Refined planes bake exactly the
  *                  leaves assigned to them (each leaf drawn once; see
- *                  bbcloud_kplanes.c and docs/methods/billboard_cloud.md)
+ *                  kplanes.c and docs/methods/billboard_cloud.md)
  *   "trunk":       "mesh" (default: trunk and branches kept as geometry,
  *                  simplified to at most trunk_max_triangles) or "planes" (the
  *                  papers' separate trunk pass of billboards)
@@ -35,7 +35,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bbcloud.h"
+#include "planes.h"
 #include "trunk.h"
 
 /* ---------------------------------------------------------------- elements */
@@ -57,11 +57,10 @@ static void bc_input_free(bc_input *b)
 
 /* Twig triangles (trunk triangles the kept trunk leaves out) above which they
  * become elements a cell of SV_TWIG_CELL at a time instead of one a triangle:
- * the sapling maple's 115,706 made the plane selection 7.9 of a 10 s bake
- * (3.1 s grouped, sveval 0.783 -> 0.784); the decorativePlant's 19,208 are
- * grouped too (0.907 -> 0.915); the other shared trees and the unseen ez-tree
- * presets have 0-9,100 and keep one element a triangle, where grouping
- * measured -0.010..+0.008 (docs/methods/billboard_cloud.md). */
+ * many twig triangles as elements make the plane selection most of a bake,
+ * and grouping them costs no accuracy there; few are kept one element a
+ * triangle (the figures: docs/methods/billboard_cloud.md and
+ * docs/benchmarks.md, "Figures moved out of the code"). */
 #define BC_TWIG_GROUP_MIN 16384
 
 /* One element per leaf (sv_leaves), one per other triangle. skip (may be

@@ -12,7 +12,7 @@
 #define BC_DEFAULT_EPS 0.14
 #define BC_DEFAULT_MAX 24
 
-/* trunk_max_triangles when not given (issue 18: the coarser LODs' budget) */
+/* trunk_max_triangles when not given (the coarser LODs' budget) */
 #define BC_TRUNK_MAX_DEFAULT 200
 
 typedef struct bc_lod {

@@ -40,7 +40,7 @@ static double slab_all(const sv_mesh *m, const sv_quad *q, double radius)
 /* Fills q's extents along its given axes (axis_u, axis_v set) as the bounding
  * rectangle of every vertex referenced by a triangle, centred on the plane. A
  * flat tree seen edge-on (a single card) has zero extent along u: it gets a
- * sliver of 1e-6·radius so the quad still has a renderable chart (issue 12). */
+ * sliver of 1e-6·radius so the quad still has a renderable chart. */
 static void fit_axes(const sv_mesh *m, sv_quad *q, const double origin[3], double radius)
 {
     double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;

@@ -48,7 +48,7 @@
  *   "trunk_max_triangles": number or array (one per level), default 200: the
  *                    kept trunk is capped at this many triangles
  *                    (sv_trunk_mesh_budget), so a level's cost is its quads
- *                    plus at most this (issue 18: 32 clusters within 264).
+ *                    plus at most this.
  *   "twigs":         bool (default true): see "trunk" above.
  */
 #include "leaf_clusters.h"

@@ -11,7 +11,7 @@
 #define LC_MAX_LEVELS 8
 #define LC_MAX_CLUSTERS 1024
 
-/* trunk_max_triangles when not given (issue 18: the coarser LODs' budget) */
+/* trunk_max_triangles when not given (the coarser LODs' budget) */
 #define LC_TRUNK_MAX_DEFAULT 200
 
 typedef struct lc_settings {

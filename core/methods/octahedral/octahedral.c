@@ -1,4 +1,4 @@
-/* octahedral.c — octahedral and hemi-octahedral impostors (issue 21;
+/* octahedral.c — octahedral and hemi-octahedral impostors (
  * octahedral.h has the conventions, docs/methods/octahedral.md the prose).
  *
  * R. Brucks, "Octahedral Impostors" (shaderbits.com, 2018): frames on an

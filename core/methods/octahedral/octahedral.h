@@ -1,4 +1,4 @@
-/* octahedral.h — octahedral and hemi-octahedral impostors (issue 21).
+/* octahedral.h — octahedral and hemi-octahedral impostors.
  *
  * Technique: R. Brucks, "Octahedral Impostors" (shaderbits.com, 2018), as
  * shipped in Unreal's ImpostorBaker and Amplify Impostors: the tree is

@@ -289,7 +289,7 @@ sv_status sv_octa_bake(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *s
      * frame is an orthographic view along d, so sliding its plane along d
      * keeps the picture and puts the points on the plane (the trunk) where
      * they are; through the centre, a trunk off the centre was drawn once
-     * per quad, side by side (issue 18's doubled trunk). The axis: the mean
+     * per quad, side by side (a trunk drawn twice otherwise). The axis: the mean
      * x, z of the trunk triangles' vertices (none classified: the centre). */
     double axis[3] = {g->centre[0], g->centre[1], g->centre[2]};
     if (opt->tri_part) {

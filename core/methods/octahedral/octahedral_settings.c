@@ -42,7 +42,7 @@ static sv_status octa_check(const cJSON *settings, sv_error *err)
     return octa_parse(settings, &s, err);
 }
 
-/* method.h ladder: grid N = 4 .. 16 (issue 21; frames keep their size, so
+/* method.h ladder: grid N = 4 .. 16 (frames keep their size, so
  * texels grow as N^2; every step has the same proxy of proxy_quads quads). */
 static bool octa_ladder(int step, uint32_t max_triangles, cJSON *set)
 {

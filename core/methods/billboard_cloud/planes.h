@@ -1,4 +1,5 @@
-/* bbcloud.h — billboard-cloud plane selection.
+/* planes.h — billboard-cloud plane selection (greedy_planes.c) and its
+ * k-planes refinement (kplanes.c).
  *
  * Décoret, Durand, Sillion, Dorsey, "Billboard Clouds for Extreme Model
  * Simplification" (SIGGRAPH 2003), with the tree-specific fixes of Behrendt et
@@ -25,8 +26,8 @@
  * triangle). An element is simplified as a whole; an element thicker than ε
  * along its own normal is split into its triangles for that ε.
  */
-#ifndef SV_BBCLOUD_H
-#define SV_BBCLOUD_H
+#ifndef SV_BBC_PLANES_H
+#define SV_BBC_PLANES_H
 
 #include "sv.h"
 
@@ -136,7 +137,7 @@ void sv_bbc_result_free(sv_bbc_result *r);
 sv_status sv_bbc_project(const sv_bbc_input *in, const sv_bbc_result *res, double **positions_out,
                          uint32_t **indices_out, uint32_t *vertex_count_out, sv_error *err);
 
-/* k-planes refinement (bbcloud_kplanes.c): first adds foliage planes until
+/* k-planes refinement (kplanes.c): first adds foliage planes until
  * res has target_planes planes in all (0 or fewer = none added; each seeded
  * parallel to the plane of the leaf drawn farthest from it, through that
  * leaf), then moves the foliage planes to the total-least-squares planes of

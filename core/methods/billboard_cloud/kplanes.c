@@ -1,6 +1,6 @@
-/* bbcloud_kplanes.c — k-planes refinement of a billboard cloud's foliage planes.
+/* kplanes.c — k-planes refinement of a billboard cloud's foliage planes.
  *
- * Décoret et al.'s greedy selection (bbcloud.c, papers/billboard-cloud-forests.txt
+ * Décoret et al.'s greedy selection (greedy_planes.c, papers/billboard-cloud-forests.txt
  * §3.2) picks the densest planes for a validity distance ε; when a plane budget
  * forces ε up to a large fraction of the crown, the planes it picks are dense
  * but each leaf may sit far from the plane that draws it, and the flattened
@@ -15,7 +15,7 @@
  * An emptied plane is reseeded on the leaf farthest from its plane.
  * Trunk-pass planes and cardboard planes are left as they are. Deterministic.
  */
-#include "bbcloud.h"
+#include "planes.h"
 
 #include <math.h>
 #include <stdlib.h>
