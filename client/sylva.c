@@ -135,8 +135,8 @@ static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
     return buf;
 }
 
-/* Says on stderr why the client is waiting (issue 23: with no server,
- * `sylva health` sat 24 s in silence). */
+/* Says on stderr why the client is waiting (with no server, a command
+ * would otherwise sit through its retries in silence). */
 static void retry_notice(void *user, const char *error, long delay_ms, int attempt, int max)
 {
     (void)user;
@@ -675,7 +675,7 @@ static int cmd_cancel(const sylva_cli *cli)
     if (!c) return sylva_cli_exit_code(st);
     char state[32] = "";
     /* A finished bake is not cancelled but deleted with its results: only
-     * with --delete (issue 23). The state is read first; a bake that
+     * with --delete. The state is read first; a bake that
      * finishes between the two requests is deleted as a cancel would have
      * stopped it. */
     if (!cli->delete_done) {
@@ -700,7 +700,7 @@ static int cmd_cancel(const sylva_cli *cli)
     }
     st = sylva_cancel_state(c, cli->args[0], state, sizeof state);
     int rc = SYLVA_EXIT_OK;
-    /* a finished bake is deleted, not cancelled: say which (issue 23) */
+    /* a finished bake is deleted, not cancelled: say which */
     bool deleted = strcmp(state, "deleted") == 0;
     if (st != SYLVA_OK) {
         rc = fail_client(cli, c, st);

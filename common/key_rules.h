@@ -1,6 +1,6 @@
 /* key_rules.h — the content key's rules, shared by sylvad (server/key.c)
- * and libsylva (client/key.c, client/libsylva.c) so the two cannot drift
- * (issue 17): which upload names are valid, what a key looks like, and how
+ * and libsylva (client/key.c, client/libsylva.c) so the two cannot drift:
+ * which upload names are valid, what a key looks like, and how
  * the key frames each part (docs/api.md "Content key"):
  *
  *   SHA-256 of  "sylva-key-v1\n"
@@ -31,8 +31,10 @@ static inline size_t sylva_utf8_seq(const unsigned char *s, size_t n)
     if (n == 0) return 0;
     unsigned char c = s[0];
     if (c < 0x80) return 1;
-    size_t len = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3
-               : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    size_t len = c >= 0xC2 && c <= 0xDF   ? 2
+                 : c >= 0xE0 && c <= 0xEF ? 3
+                 : c >= 0xF0 && c <= 0xF4 ? 4
+                                          : 0;
     if (len == 0 || len > n) return 0;
     for (size_t i = 1; i < len; i++)
         if ((s[i] & 0xC0) != 0x80) return 0;

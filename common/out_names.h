@@ -1,6 +1,6 @@
 /* out_names.h - the names a bake writes into its output folder, shared by
  * sylva-bake (core/cli) and libsylva (client/) so both clean the same files
- * out of a reused --out folder (issue 23): model.glb, planes.json,
+ * out of a reused --out folder: model.glb, planes.json,
  * report.json, preview.png, impostor.json, error.json, lod<i>_<name>.glb,
  * atlas_<level>_<map>.png, the LOD group files lods.glb, lods.fbx,
  * lod<i>_<name>.fbx and their textures tex_<16 hex digits>.png|jpg

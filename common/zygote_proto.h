@@ -1,5 +1,5 @@
 /* zygote_proto.h — the wire format between sylvad's worker threads and
- * `sylva-bake zygote` (issue 20 item 1; docs/design.md, "The worker pool").
+ * `sylva-bake zygote` (docs/design.md, "The worker pool").
  *
  * One zygote per daemon worker thread, on a SOCK_SEQPACKET unix socketpair
  * (one message per send, boundaries kept, SCM_RIGHTS beside the data). All

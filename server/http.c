@@ -590,7 +590,7 @@ static enum MHD_Result upload_begin(req *q, int *answered)
      * If the store has no room for it while the key is still held, the rest
      * is dropped and the held bake answered (upload_drop). */
     /* (with tokens only for an owner: anyone else proves possession by
-     * sending the bytes, issue 22 item 8) */
+     * sending the bytes) */
     bool known = false;
     if (q->m.route == SVD_R_PUT && svd_jobs_has(h->jobs, q->m.key) &&
         (!h->tokens || svd_jobs_owned(h->jobs, q->m.key, q->client))) {
@@ -1637,7 +1637,7 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
         free(h);
         return NULL;
     }
-    /* The listening socket is ours (issue 23): SO_REUSEADDR always, so a
+    /* The listening socket is ours: SO_REUSEADDR always, so a
      * restart binds while the old connections linger (TIME_WAIT, FIN_WAIT);
      * SO_REUSEPORT only with reuse_port = on, so a second daemon on a port
      * in use fails instead of sharing it (the kernel split requests between
@@ -1665,8 +1665,8 @@ svd_http *svd_http_start(const svd_config *cfg, svd_jobs *jobs, svd_metrics *met
                             MHD_OPTION_THREAD_POOL_SIZE,
                             (unsigned int)(cfg->http_threads ? cfg->http_threads : 1),
                             MHD_OPTION_CONNECTION_LIMIT, (unsigned int)cfg->connection_limit,
-                            /* issue 22 item 6: one address holding 1,100 slow-header or
-         * long-poll connections stopped /v1/health for everyone */
+                            /* one address holding many slow-header or long-poll
+         * connections must not stop /v1/health for everyone */
                             MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned int)cfg->max_conns_per_ip,
                             MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)cfg->connection_memory,
                             MHD_OPTION_CONNECTION_TIMEOUT, (unsigned int)cfg->connection_timeout,

@@ -876,7 +876,7 @@ static bool server_side_code(const char *code)
     return false;
 }
 
-/* How the store's bytes are used, for an exact store_full message (issue 22 item 5). */
+/* How the store's bytes are used, for an exact store_full message. */
 static void store_use(svd_jobs *jobs, uint64_t need, char *out, size_t cap)
 {
     uint64_t unfinished = 0;
@@ -1377,7 +1377,7 @@ bool svd_jobs_take(svd_jobs *jobs, svd_ticket *t)
         /* Oldest queued job among the clients with the fewest running jobs,
          * from the queue (in seq order) and the running list: the first job
          * whose client runs nothing is the answer. Once a scan of every
-         * stored job per take (issue 22 item 4). */
+         * stored job per take. */
         svd_job *best = NULL;
         unsigned best_load = 0;
         double now = sv_now(), next = 0; /* the earliest retry still backing off */

@@ -111,8 +111,8 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
  * room. On false the `held` bytes this upload reserved before are given back
  * in the same step, so of uploads racing for the last room one fails and the
  * others see its room. */
-bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held,
-                      char *why, size_t cap);
+bool svd_jobs_reserve(svd_jobs *jobs, const char *client, uint64_t bytes, uint64_t held, char *why,
+                      size_t cap);
 /* Gives back bytes `client` reserved with svd_jobs_reserve (an upload that
  * ended: committed, refused or aborted). */
 void svd_jobs_unreserve(svd_jobs *jobs, const char *client, uint64_t bytes);
@@ -163,7 +163,7 @@ svd_jobs_rc svd_jobs_delete(svd_jobs *jobs, const char *key, char **json_out, sv
 /* True when `client` (svd_client_id) uploaded the bake's bytes (first or
  * later: each upload of the same bytes adds its caller, journaled), or the
  * key is unknown. sylvad with --tokens answers anyone else as if the bake
- * did not exist, on its status, artifacts and DELETE (issue 22 item 8). */
+ * did not exist, on its status, artifacts and DELETE. */
 bool svd_jobs_owned(svd_jobs *jobs, const char *key, const char *client);
 
 /* Looks up an artifact of a done job in its manifest: path, size, SHA-256.

@@ -38,8 +38,8 @@ struct svd_store {
     int stray_workers;   /* killed at open: workers of a dead daemon (sweep_stray_workers) */
 };
 
-/* One daemon per store (issue 23): two sylvad on one --store both recovered
- * its jobs and the second wiped the first one's tmp/. Takes an exclusive,
+/* One daemon per store: two sylvad on one --store would both recover its
+ * jobs and the second wipe the first one's tmp/. Takes an exclusive,
  * non-blocking flock on <root>/lock (close-on-exec: workers do not hold it)
  * and writes our pid there; a held lock fails naming the holder's pid. */
 static int lock_store(const char *root, sv_error *err)

@@ -35,7 +35,7 @@ typedef struct svd_store svd_store;
 svd_store *svd_store_open(const char *root, sv_error *err);
 
 /* How many stray workers svd_store_open killed: processes of a dead daemon
- * still baking into this store's tmp/ (issue 22 item 9). */
+ * still baking into this store's tmp/. */
 int svd_store_stray_workers(const svd_store *s);
 
 /* Closes the store. NULL is a no-op. */

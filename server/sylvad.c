@@ -1,4 +1,4 @@
-/* sylvad — the sylva baking daemon (issue 8; docs/api.md, docs/operations.md).
+/* sylvad — the sylva baking daemon (docs/api.md, docs/operations.md).
  *
  * main: configuration, store + journal recovery, the worker pool, the HTTP
  * front end, then a signal loop (signals are blocked in every thread and

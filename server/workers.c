@@ -788,7 +788,7 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
     argv[ac++] = outdir;
     argv[ac++] = "--progress-fd";
     argv[ac++] = "3";
-    /* the worker dies with the daemon (PR_SET_PDEATHSIG; issue 22 item 9),
+    /* the worker dies with the daemon (PR_SET_PDEATHSIG),
      * or with its zygote, which dies with the daemon: run_process says */
     char ppid[24] = "";
     argv[ac++] = "--parent-pid";

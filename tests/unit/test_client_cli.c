@@ -426,7 +426,7 @@ static void progress_lines_show_stage_and_percent(void **state)
     assert_null(strchr(buf, '\r'));
     sylva_cli_progress_format("x", "write", 7.0, 0, 0, -1, false, buf, sizeof buf);
     assert_string_equal(buf, "x: write 100%");
-    /* a target search's try and the elapsed time (issue 23) */
+    /* a target search's try and the elapsed time */
     sylva_cli_progress_format("t.obj", "bake", 0.3, 2, 4, 3.14, false, buf, sizeof buf);
     assert_string_equal(buf, "t.obj: bake 30% (try 2 of at most 4), 3.1 s");
     sylva_cli_progress_format("t.obj", "bake", 0.3, 2, 4, 12.0, true, buf, sizeof buf);
@@ -482,8 +482,9 @@ static void exit_table_is_the_one_both_tools_share(void **state)
 static void shared_flags_become_sets_and_short_options(void **state)
 {
     (void)state;
-    char *argv[] = {"sylva", "bake", "t.obj", "-o", "out", "--units", "cm", "--up=Z",
-                    "-q", "-v", "--set", "billboard_cloud.lods=[20]", NULL};
+    char *argv[] = {"sylva", "bake",   "t.obj", "-o", "out",   "--units",
+                    "cm",    "--up=Z", "-q",    "-v", "--set", "billboard_cloud.lods=[20]",
+                    NULL};
     sylva_cli cli;
     char err[256];
     assert_int_equal(sylva_cli_parse(12, argv, NULL, NULL, &cli, err, sizeof err), SYLVA_EXIT_OK);
@@ -492,9 +493,9 @@ static void shared_flags_become_sets_and_short_options(void **state)
     assert_int_equal(cli.progress, SYLVA_PROGRESS_NONE);
     char *spec = NULL;
     size_t len = 0;
-    assert_int_equal(sylva_cli_build_spec(NULL, 0, NULL, cli.sets, cli.set_count, &spec, &len, err,
-                                          sizeof err),
-                     SYLVA_EXIT_OK);
+    assert_int_equal(
+        sylva_cli_build_spec(NULL, 0, NULL, cli.sets, cli.set_count, &spec, &len, err, sizeof err),
+        SYLVA_EXIT_OK);
     assert_string_equal(spec, "{\"import\":{\"units\":\"cm\",\"up\":\"Z\"},"
                               "\"billboard_cloud\":{\"lods\":[20]}}");
     free(spec);

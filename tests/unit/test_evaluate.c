@@ -409,7 +409,7 @@ static void max_pixels_interpolates_where_the_curve_crosses_the_tolerance(void *
     sv_eval_result_free(NULL);
 }
 
-/* The tolerance scales as 1/size (issue 19): (1 − IoU) · S <= tol · ref. */
+/* The tolerance scales as 1/size: (1 − IoU) · S <= tol · ref. */
 static void scaled_max_pixels_keeps_the_error_band_in_pixels(void **state)
 {
     (void)state;
@@ -863,7 +863,7 @@ static void preview_shows_original_result_and_heat_for_four_views(void **state)
     sv_mesh_destroy(moved);
 }
 
-/* ---- cropping (issue 20): the evaluator filters and compares only the tiles
+/* ---- cropping: the evaluator filters and compares only the tiles
  * of each row between its first and last covered one, and must give the bits
  * of the whole-image path. The reference below is that path through the
  * public functions: the render filtered to the largest size in one pass, each

@@ -75,7 +75,7 @@ static uint8_t *encode(const sv_image *img, size_t *n)
     return out;
 }
 
-/* The PNG memo (issue 20): an image and its shared copies are encoded once
+/* The PNG memo: an image and its shared copies are encoded once
  * while a memo is in use; equal pixels in another buffer, pixels not made by
  * sv_image_alloc, and calls without a memo are encoded; every answer is the
  * same bytes. */

@@ -1,5 +1,5 @@
 /* sylva-test: cost=1 (tests/run.sh starts the longest first) */
-/* test_level_ops.c — the per-level hooks (level.h, issue 17): the
+/* test_level_ops.c — the per-level hooks (level.h): the
  * octahedral method's level carries its grid and the registry gives it
  * hooks, the hooks describe and size the grid as the pipeline did by name,
  * its draw hook is the reference runtime, quad methods have no hooks (their

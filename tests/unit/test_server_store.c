@@ -442,7 +442,7 @@ static void status_reports_stage_progress_and_manifest(void **state)
     assert_string_equal(cJSON_GetStringValue(cJSON_GetObjectItem(j, "stage")), "bake");
     assert_true(cJSON_GetObjectItem(j, "progress")->valuedouble == 0.5);
     assert_non_null(cJSON_GetObjectItem(cJSON_GetObjectItem(j, "times"), "import"));
-    /* a target search's try k of at most n (issue 23) */
+    /* a target search's try k of at most n */
     assert_int_equal(cJSON_GetObjectItem(j, "try")->valueint, 2);
     assert_int_equal(cJSON_GetObjectItem(j, "tries")->valueint, 4);
     cJSON_Delete(j);
@@ -540,7 +540,7 @@ static void orphan_job_directory_without_journal_record_is_removed(void **state)
     assert_int_not_equal(stat(orphan, &sb), 0);
 }
 
-/* One daemon per store (issue 23): a second open of a held store fails naming
+/* One daemon per store: a second open of a held store fails naming
  * the holder's pid and leaves its tmp/ alone; after close it opens again. */
 static void a_held_store_is_refused_naming_the_holder(void **state)
 {

@@ -178,7 +178,7 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{", "invalid JSON");
     expect_error("[]", "expected a JSON object");
     expect_error("{\"colour\":1}", "unknown key 'colour'");
-    /* curl -F spec=spec.json sends the name: the error says so (issue 23) */
+    /* curl -F spec=spec.json sends the name: the error says so */
     expect_error("spec.json", "a file name? (curl -F spec=@FILE sends the file");
     expect_error("  /tmp/x/my spec.json\n", "holds '/tmp/x/my spec.json'");
     expect_error("nope", "invalid JSON near byte 0");

@@ -226,7 +226,7 @@ static int stem_quarters(const sv_mesh *o, double r)
  * for a budget of 100. The stem is what shows under the crown; it must be there, from the
  * ground up, and the twigs (the quads' to draw) may go. The unbounded
  * whole-trunk collapse and the vertex clustering after it dissolved the
- * sapling maple's stem into scattered triangles (issue 18). */
+ * sapling maple's stem into scattered triangles. */
 static void parts_keep_the_stem_under_many_twigs(void **state)
 {
     (void)state;
@@ -277,7 +277,7 @@ static void parts_share_the_budget_between_a_pot_and_the_stem(void **state)
  * branches, held to 200. Its stem is what shows under the crown: the kept
  * trunk must draw the lowest 15 % of the trunk's height (at least a third of
  * the area the original has there). The whole-trunk collapse kept 190
- * triangles, none below 2 m (issue 18). */
+ * triangles, none below 2 m. */
 static void the_maple_keeps_its_stem_at_200_triangles(void **state)
 {
     (void)state;
