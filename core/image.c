@@ -19,7 +19,7 @@ typedef struct pixels_ref {
     uint8_t *src; /* the encoded file, owned; NULL: none */
     size_t src_size;
     const char *mime;  /* "image/png" or "image/jpeg" */
-    uint64_t src_hash; /* pixel_hash of the pixels it decoded to */
+    uint64_t src_hash; /* sv_image_pixel_hash of the pixels it decoded to */
 } pixels_ref;
 
 sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels, uint32_t bits,
@@ -81,9 +81,7 @@ sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
     return SV_OK;
 }
 
-/* FNV-1a over the image's header and pixels: tells whether the pixels are
- * still the ones the source decoded to. */
-static uint64_t pixel_hash(const sv_image *img)
+uint64_t sv_image_pixel_hash(const sv_image *img)
 {
     uint64_t h = 1469598103934665603ull;
     uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
@@ -111,14 +109,15 @@ sv_status sv_image_set_source(sv_image *img, const void *data, size_t size, sv_e
     refs->src = copy;
     refs->src_size = size;
     refs->mime = mime;
-    refs->src_hash = pixel_hash(img);
+    refs->src_hash = sv_image_pixel_hash(img);
     return SV_OK;
 }
 
 bool sv_image_source(const sv_image *img, const uint8_t **data, size_t *size, const char **mime)
 {
     const pixels_ref *refs = img ? img->refs : NULL;
-    if (!refs || !refs->src || !img->data || refs->src_hash != pixel_hash(img)) return false;
+    if (!refs || !refs->src || !img->data || refs->src_hash != sv_image_pixel_hash(img))
+        return false;
     *data = refs->src;
     *size = refs->src_size;
     *mime = refs->mime;

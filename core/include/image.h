@@ -59,6 +59,11 @@ sv_status sv_image_set_source(sv_image *img, const void *data, size_t size, sv_e
  * their source). False otherwise; the outputs are untouched then. */
 bool sv_image_source(const sv_image *img, const uint8_t **data, size_t *size, const char **mime);
 
+/* FNV-1a over img's header (width, height, channels, bits) and pixels: the
+ * same pixels give the same value (sv_image_source's check, texture file
+ * names). */
+uint64_t sv_image_pixel_hash(const sv_image *img);
+
 /* Bytes per row. */
 size_t sv_image_stride(const sv_image *img);
 

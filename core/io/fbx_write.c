@@ -58,19 +58,6 @@ static void identity(struct aiMatrix4x4 *m)
     m->a1 = m->b2 = m->c3 = m->d4 = 1;
 }
 
-/* FNV-1a over the image's header and pixels: its texture file's name. */
-static uint64_t pixels_hash(const sv_image *img)
-{
-    uint64_t h = 1469598103934665603ull;
-    uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
-    const uint8_t *p = (const uint8_t *)head;
-    for (size_t i = 0; i < sizeof head; i++) h = (h ^ p[i]) * 1099511628211ull;
-    p = img->data;
-    size_t n = sv_image_stride(img) * img->height;
-    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
-    return h;
-}
-
 /* The file name of img's texture beside the FBX, written on first use. */
 static sv_status texture_file(fbx_writer *w, const sv_image *img, const char **name)
 {
@@ -84,7 +71,7 @@ static sv_status texture_file(fbx_writer *w, const sv_image *img, const char **n
             return SV_OK;
         }
     }
-    uint64_t h = pixels_hash(img);
+    uint64_t h = sv_image_pixel_hash(img);
     for (uint32_t i = 0; i < w->tex_count; i++)
         if (w->tex[i].hash == h) {
             *name = w->tex[i].file;
