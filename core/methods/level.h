@@ -80,6 +80,25 @@ typedef struct sv_level_files {
     sv_status (*image)(void *user, const char *name, bool gray16, sv_image *img, sv_error *err);
 } sv_level_files;
 
+/* What a level adds to its glTF node (outputs.c): vertex attributes by name,
+ * one value set per vertex of the baked mesh, and extras merged into the
+ * node's. Owned by the struct: sv_level_gltf_free (a zeroed one is fine). */
+#define SV_LEVEL_MAX_ATTRIBUTES 4
+typedef struct sv_level_gltf {
+    sv_vertex_attribute attr[SV_LEVEL_MAX_ATTRIBUTES];
+    uint32_t attr_count;
+    float *data;   /* every attribute's values, one block (attr[i].data point into it) */
+    cJSON *extras; /* NULL: none */
+} sv_level_gltf;
+
+/* Frees the values and the extras; leaves *g zeroed. */
+static inline void sv_level_gltf_free(sv_level_gltf *g)
+{
+    free(g->data);
+    cJSON_Delete(g->extras);
+    *g = (sv_level_gltf){0};
+}
+
 typedef struct sv_level_ops {
     const char *method; /* the method whose levels these hooks serve */
     /* Bake stage (pipeline.c): bakes the level into out instead of
@@ -115,6 +134,14 @@ typedef struct sv_level_ops {
      * returns SV_OK) otherwise. */
     sv_status (*view)(const sv_level_files *files, const char *lod, const sv_camera *cam,
                       uint32_t size, sv_image *out, bool *found, sv_error *err);
+    /* glTF writing (outputs.c): what the level adds to its node in
+     * model.glb, its own file and lods.glb, from its bake (out zeroed by the
+     * caller, freed by it with sv_level_gltf_free, also on failure). */
+    sv_status (*gltf)(const sv_lod_plan *lod, const sv_baked_lod *baked, sv_level_gltf *out,
+                      sv_error *err);
+    /* report.json (report.c): adds the level's own fields to its "lods"
+     * entry o, after "source". */
+    void (*report)(const sv_lod_plan *lod, cJSON *o);
 } sv_level_ops;
 
 /* The hooks for the levels of method `method` (its sv_method_ops levels,

@@ -5,6 +5,7 @@
 #include "level.h"
 #include "method_ops.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #define SV_METHOD(n) extern const sv_method_ops sv_method_##n##_ops;
@@ -36,4 +37,13 @@ const sv_level_ops *sv_level_ops_find(const char *method)
 {
     const sv_method_ops *m = sv_method_ops_find(method);
     return m ? m->levels : NULL;
+}
+
+void sv_chain_out_free(sv_chain_out *o)
+{
+    sv_stand_in_free(&o->levels);
+    free(o->place);
+    cJSON_Delete(o->skipped);
+    cJSON_Delete(o->report);
+    memset(o, 0, sizeof *o);
 }

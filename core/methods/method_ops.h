@@ -30,6 +30,53 @@ typedef struct sv_method_input {
     uint64_t seed; /* spec "seed" (default 1): every random choice derives from it */
 } sv_method_input;
 
+/* ---- the chain's own levels (docs/lod.md) ----
+ *
+ * The method whose schema says chain_levels builds the levels the LOD chain
+ * places by its own schedule between the full mesh and the quad levels
+ * (sv_method_ops chain). What it cannot do without the renderer the pipeline
+ * lends it as two callbacks. */
+
+/* Covered area (pixels summed over the pipeline's views) when triangles
+ * tris[0..count) of the original are drawn alone: a visible ratio's input. */
+typedef sv_status (*sv_chain_cover_fn)(void *user, const uint32_t *tris, uint32_t count,
+                                       double *covered, sv_error *err);
+/* Scores a candidate level (its whole geometry, trunk included) against the
+ * original, higher = closer. */
+typedef sv_status (*sv_chain_score_fn)(void *user, const sv_mesh *level, double *score,
+                                       sv_error *err);
+
+typedef struct sv_chain_in {
+    const sv_method_input *in;
+    const cJSON *settings; /* the spec's object of the method (NULL: its defaults) */
+    bool own;              /* the spec's method is this one: every level asked for is built */
+    bool build;            /* false: the settings are only checked against the mesh */
+    sv_chain_cover_fn cover;
+    void *cover_user;
+    uint32_t cover_views, cover_pixels; /* what cover draws: views of pixels², for the report */
+    sv_chain_score_fn score;
+    void *score_user;
+} sv_chain_in;
+
+/* Where one of the chain's levels sits in its schedule. */
+typedef struct sv_chain_place {
+    char source[32];    /* the method that made it (its level hooks, report.json "source"),
+                           or a name of no method (a leafless tree's "trunk") */
+    double lambda;      /* its share of the tree's detail: 1 = the full mesh, exact everywhere */
+    double distance;    /* the nearest distance it is drawn from (INFINITY: never reached) */
+    double trunk_error; /* metres its trunk may be off (report.json trunk_max_error) */
+} sv_chain_place;
+
+typedef struct sv_chain_out {
+    sv_stand_in levels;    /* finest first; a level with a payload sets its own ops */
+    sv_chain_place *place; /* one per level */
+    cJSON *skipped;        /* levels not built: [{name, stage, reason}]; NULL: none */
+    cJSON *report;         /* report.json lod_chain.<method name>; NULL: nothing built */
+} sv_chain_out;
+
+/* Frees every part; leaves *o zeroed. */
+void sv_chain_out_free(sv_chain_out *o);
+
 typedef struct sv_method_ops {
     const sv_method *method; /* its schema half */
     /* Builds the stand-in. out is zero-initialised by the caller. */
@@ -45,6 +92,11 @@ typedef struct sv_method_ops {
     /* The hooks of the levels it makes when they are not quads (level.h);
      * NULL: its levels are quads. */
     const struct sv_level_ops *levels;
+    /* Only the method whose schema says chain_levels: parses and checks its
+     * settings (in->settings) against the mesh and, when in->build, builds
+     * the chain's levels the scene needs into out (zeroed by the caller,
+     * freed by it with sv_chain_out_free, also on failure). */
+    sv_status (*chain)(const sv_chain_in *in, sv_chain_out *out, sv_error *err);
 } sv_method_ops;
 
 /* The build half of the method named `name`, or NULL. */

@@ -2,7 +2,7 @@
  * level's atlas cutoff chosen against the original's coverage (after
  * Behrendt et al. §3.3.7), and the atlases of levels drawn only small
  * reduced to what their switch size shows. Also the small
- * evaluator both share with the stochastic candidates' scoring.
+ * evaluator both share with the chain's score callback.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -38,7 +38,7 @@ static void calib_options(const run *r, uint32_t px, uint32_t render, sv_eval_op
     eo->supersample = render / px;
 }
 
-/* The stochastic candidates' scorer renders at 128² (at 64 px: a quarter of
+/* The chain's score callback renders at 128² (at 64 px: a quarter of
  * the pixels of a supersample of 4). A cutoff is chosen at 256², the
  * resolution sveval judges coverage at (4 × 4 samples per pixel at 64 px):
  * at 128² the blocks of 2 × 2 samples favour fatter texels (thin twigs and
@@ -66,10 +66,10 @@ sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
     return SV_OK;
 }
 
-/* Stochastic candidates (sv_stoch_scorer): mean IoU at 64 px, 8 views. */
-sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_error *err)
+/* The chain's candidates (sv_chain_score_fn): mean IoU at 64 px, 8 views. */
+sv_status svp_chain_score(void *user, const sv_mesh *level, double *score, sv_error *err)
 {
-    stoch_score_ctx *c = user;
+    score_ctx *c = user;
     sv_evaluator *ev = NULL;
     sv_status st = svp_small_evaluator(c->r, c->ren, c->gsrc, SV_SCORE_RENDER, &ev, err);
     if (st) return st;

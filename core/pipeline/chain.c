@@ -1,12 +1,14 @@
 /* chain.c — the LOD chain (docs/lod.md): which levels are built
- * (svp_chain_compose: full mesh → stochastic levels → the spec's method →
- * the coarsest method) and, once measured, where each is drawn
+ * (svp_chain_compose: full mesh → the chain's own levels → the spec's method
+ * → the coarsest method) and, once measured, where each is drawn
  * (svp_plan_switches, svp_plan_visibility, svp_compact_lods).
  *
- * Stochastic levels finer or coarser than the scene's distance range needs
- * (by λ(d), Fichtner eq. 1–2 after Cook et al. 2007, stochastic.h) are not
- * built; after evaluation, LODs whose planned screen-size interval misses the
- * scene's range are dropped. Every skip is noted in report.json with why.
+ * The chain's own levels, placed by a schedule of distances, come from the
+ * method whose schema says chain_levels (its sv_method_ops chain hook), with
+ * the renderer lent as a cover and a score callback; it notes the levels the
+ * scene's distance range does not need. After evaluation, LODs whose planned
+ * screen-size interval misses the scene's range are dropped. Every skip is
+ * noted in report.json with why.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -21,7 +23,7 @@
 
 void svp_chain_free(chain *c)
 {
-    sv_stoch_result_free(&c->sres);
+    cJSON_Delete(c->levels_report);
     free(c->info);
     cJSON_Delete(c->skipped);
     memset(c, 0, sizeof *c);
@@ -51,8 +53,9 @@ static double metres_per_pixel(const sv_scene *sc, double d)
     return px > 0 && isfinite(px) ? 1.0 / px : 0.0;
 }
 
-/* Coverage for measuring r (paper §6): foliage triangles drawn alone from six
- * views placed as the scene's viewer says, covered pixels summed. */
+/* The chain's cover callback (sv_chain_cover_fn): triangles of the original
+ * drawn alone from COVER_VIEWS views placed as the scene's viewer says,
+ * covered pixels summed. */
 typedef struct cover_ctx {
     sv_renderer *ren;
     const sv_gpu_mesh *g;
@@ -113,184 +116,81 @@ static sv_status append_lods(sv_stand_in *dst, chain *c, sv_stand_in *src, const
         chain_lod *x = &ci[dst->lod_count - 1];
         memset(x, 0, sizeof *x);
         snprintf(x->source, sizeof x->source, "%s", source);
-        x->level = -1;
     }
     sv_stand_in_free(src);
     return SV_OK;
 }
 
-/* The stochastic levels the scene needs (by λ at its nearest and farthest
- * distance) into *keep; the others get a skip note. The stochastic method
- * itself keeps every level it was asked for. */
-static void stochastic_levels(const run *r, chain *c, bool is_stoch, sv_stochastic_settings *keep)
+/* The chain's own levels (the sv_method_ops chain hook of method m), built
+ * by m with the renderer lent as callbacks (ren, gsrc: the original) and
+ * appended to si finest first with their place in its schedule; its notes
+ * of levels not built go to c->skipped, its report.json part to
+ * c->levels_report. own: the spec's method is m. */
+static sv_status compose_levels(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
+                                const sv_method_input *in, const sv_method_ops *m, bool own,
+                                sv_stand_in *si, chain *c, sv_error *err)
 {
-    const sv_scene *sc = &r->spec.scene;
-    *keep = c->ss;
-    keep->level_count = 0;
-    double ln = sv_stochastic_lambda_at(&c->ss, sc, sc->distance_min);
-    double lf = sv_stochastic_lambda_at(&c->ss, sc, sc->distance_max);
-    /* the finest level needed: the smallest level >= λ(distance_min);
-     * the coarsest: the smallest level >= λ(distance_max) */
-    int fine = 0, coarse = (int)c->ss.level_count - 1;
-    for (int i = 0; i < (int)c->ss.level_count; i++) {
-        if (c->ss.levels[i] >= ln) fine = i;
-        if (c->ss.levels[i] >= lf) coarse = i;
-    }
-    for (int i = 0; i < (int)c->ss.level_count; i++) {
-        char name[32];
-        sv_stochastic_level_name(c->ss.levels[i], name);
-        if (i < fine && !is_stoch && c->ss.levels[i] < 1)
-            skip_note(c, name, "plan",
-                      "finer than needed: at the nearest scene distance (%g m) lambda is "
-                      "%.3g, so level %g suffices",
-                      sc->distance_min, ln, c->ss.levels[fine]);
-        else if (i > coarse && !is_stoch)
-            skip_note(c, name, "plan",
-                      "never reached: at the farthest scene distance (%g m) lambda is still "
-                      "%.3g (level %g)",
-                      sc->distance_max, lf, c->ss.levels[coarse]);
-        else {
-            keep->level_triangles[keep->level_count] = c->ss.level_triangles[i];
-            keep->levels[keep->level_count++] = c->ss.levels[i];
-        }
-    }
-}
-
-/* r for area preservation: the spec's, or measured by rendering (paper §6)
- * when it gives none (c->ratio, c->ratio_measured). */
-static sv_status stochastic_ratio(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, chain *c,
-                                  const sv_stochastic_settings *keep, double *ratio, sv_error *err)
-{
-    const prepared *p = &r->p;
-    *ratio = c->ss.visible_ratio;
-    if (*ratio > 0 || !keep->area_preservation) return SV_OK;
-    uint32_t *order = sv_calloc(p->leaves.count ? p->leaves.count : 1, sizeof *order);
-    if (!order) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    sv_status st = sv_stochastic_order(&p->leaves, r->spec.seed, c->ss.order, order, err);
-    cover_ctx cc = {ren, gsrc, p, r->spec.scene.viewer};
-    if (!st)
-        st = sv_stochastic_measure_ratio(&p->leaves, order, c->ss.ratio_fraction, count_cover, &cc,
-                                         &c->ratio, err);
-    free(order);
-    if (st) return st;
-    *ratio = c->ratio.r;
-    c->ratio_measured = true;
-    return SV_OK;
-}
-
-/* A tree without leaves (a winter tree, a trunk alone) has no stochastic
- * levels: its own mesh, then its trunk simplified with meshopt_simplify
- * (topology kept) within a quarter of the error the schedule allows at each
- * level's λ (one pixel where λ(d) reaches it; sv_stochastic_level_error),
- * named trunk<λ%>, placed by the same schedule (docs/lod.md). The quarter:
- * meshoptimizer's error is a distance, and a branch thinner than it
- * collapses and leaves the silhouette; at the whole pixel the aspen's
- * branches lost 0.30 of the coverage at 256 px, at a quarter 0.02. The
- * quad levels come after these. */
-#define TRUNK_LEVEL_ERROR 0.25
-static sv_status compose_trunk_levels(run *r, const sv_stochastic_settings *keep, sv_stand_in *si,
-                                      chain *c, sv_error *err)
-{
-    const sv_scene *sc = &r->spec.scene;
-    for (uint32_t k = 0; k < keep->level_count; k++) {
-        double lambda = keep->levels[k];
-        char name[32];
-        if (lambda >= 1) snprintf(name, sizeof name, "full");
-        else snprintf(name, sizeof name, "trunk%d", (int)lround(lambda * 100));
+    cover_ctx cc = {ren, gsrc, &r->p, r->spec.scene.viewer};
+    score_ctx sc = {r, ren, gsrc};
+    sv_chain_in ci = {in,
+                      cJSON_GetObjectItemCaseSensitive(r->spec.root, m->method->name),
+                      own,
+                      own || r->spec.lod_chain,
+                      count_cover,
+                      &cc,
+                      COVER_VIEWS,
+                      COVER_SIZE,
+                      svp_chain_score,
+                      &sc};
+    sv_chain_out out = {0};
+    sv_status st = m->chain(&ci, &out, err);
+    cJSON *note;
+    while (!st && out.skipped && (note = cJSON_DetachItemFromArray(out.skipped, 0)))
+        cJSON_AddItemToArray(c->skipped, note);
+    for (uint32_t k = 0; !st && k < out.levels.lod_count; k++) {
         sv_stand_in one = {0};
-        sv_lod_plan *l = sv_stand_in_add_lod(&one, name);
-        if (!l) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-        double e = lambda >= 1 ? 0 : sv_stochastic_level_error(keep, sc, r->p.radius, lambda);
-        sv_status st = SV_OK;
-        if (lambda >= 1) {
-            l->trunk = SV_TRUNK_MESH;
-        } else {
-            l->trunk = SV_TRUNK_NONE; /* the simplified trunk is the level's geometry */
-            st = sv_trunk_mesh(r->p.mesh, r->p.cls.tri_part, SV_STOCH_TRUNK_FLOOR,
-                               e * TRUNK_LEVEL_ERROR, &l->geometry, err);
+        sv_lod_plan *l = sv_stand_in_add_lod(&one, NULL);
+        if (!l) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+            break;
         }
-        if (st) {
-            sv_stand_in_free(&one);
-            return st;
-        }
-        if ((st = append_lods(si, c, &one, "trunk", err))) return st;
+        *l = out.levels.lods[k];
+        memset(&out.levels.lods[k], 0, sizeof out.levels.lods[k]);
+        if ((st = append_lods(si, c, &one, out.place[k].source, err))) break;
         chain_lod *x = &c->info[si->lod_count - 1];
         x->scheduled = true;
-        x->lambda = lambda;
-        x->distance = sv_stochastic_distance_for_lambda(keep, sc, lambda);
-        x->trunk_error = e;
+        x->lambda = out.place[k].lambda;
+        x->distance = out.place[k].distance;
+        x->trunk_error = out.place[k].trunk_error;
     }
-    return SV_OK;
+    if (!st) {
+        c->levels_report = out.report;
+        c->levels_name = m->method->name;
+        out.report = NULL;
+    }
+    sv_chain_out_free(&out);
+    return st;
 }
 
-/* Builds the kept stochastic levels (Fichtner §4.3) and appends them to si,
- * finest first, with their λ, schedule distance and trunk error. */
-static sv_status compose_stochastic(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,
-                                    const sv_method_input *in, bool is_stoch, sv_stand_in *si,
-                                    chain *c, sv_error *err)
-{
-    const sv_scene *sc = &r->spec.scene;
-    sv_stochastic_settings keep;
-    stochastic_levels(r, c, is_stoch, &keep);
-    if (!keep.level_count) return SV_OK;
-    if (r->p.leaves.count == 0 && !is_stoch) return compose_trunk_levels(r, &keep, si, c, err);
-    double ratio;
-    sv_status st = stochastic_ratio(r, ren, gsrc, c, &keep, &ratio, err);
-    if (st) return st;
-    stoch_score_ctx sc_ctx = {r, ren, gsrc};
-    sv_stoch_scorer scorer = {svp_stoch_score, &sc_ctx};
-    if ((st = sv_stochastic_build(in, &keep, ratio, &scorer, &c->sres, err))) return st;
-    c->ss = keep;
-    c->has_stochastic = true;
-    for (uint32_t k = 0; k < c->sres.level_count; k++) {
-        sv_stoch_level *L = &c->sres.levels[k];
-        char name[32];
-        sv_stochastic_level_name(L->lambda, name);
-        sv_stand_in one = {0};
-        sv_lod_plan *l = sv_stand_in_add_lod(&one, name);
-        if (!l) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-        l->geometry = L->geometry;
-        L->geometry = NULL;
-        /* below λ = 1 the method built the trunk first (it leads the geometry) */
-        l->trunk = L->trunk_in_geometry ? SV_TRUNK_NONE
-                   : L->lambda >= 1     ? SV_TRUNK_MESH
-                                        : SV_TRUNK_SIMPLIFIED;
-        l->trunk_ratio = fmax(L->lambda, SV_STOCH_TRUNK_FLOOR);
-        l->trunk_max_triangles = sv_stochastic_trunk_cap(&keep, k, L);
-        uint32_t gv = l->geometry ? l->geometry->vertex_count - L->trunk_vertices : 0;
-        if ((st = append_lods(si, c, &one, sv_method_chain_levels()->name, err))) return st;
-        chain_lod *x = &c->info[si->lod_count - 1];
-        x->stochastic = true;
-        x->scheduled = true;
-        x->level = (int)k;
-        x->lambda = L->lambda;
-        x->geom_vertices = gv;
-        x->distance = sv_stochastic_distance_for_lambda(&c->ss, sc, L->lambda);
-        x->trunk_error = L->trunk_in_geometry
-                             ? L->trunk_error
-                             : sv_stochastic_level_error(&c->ss, sc, r->p.radius, L->lambda);
-    }
-    return SV_OK;
-}
-
-/* The quad methods after the stochastic levels: the spec's (its LODs are the
- * chain's required ones), then the coarsest. */
-static sv_status compose_methods(const run *r, const sv_method_input *in, bool is_stoch,
-                                 sv_stand_in *si, chain *c, sv_error *err)
+/* The quad methods after the chain's own levels: the spec's (its LODs are
+ * the chain's required ones; none when own, the spec's method made the
+ * chain's levels), then the coarsest. */
+static sv_status compose_methods(const run *r, const sv_method_input *in, bool own, sv_stand_in *si,
+                                 chain *c, sv_error *err)
 {
     const sv_spec *spec = &r->spec;
     const sv_scene *sc = &spec->scene;
-    const char *names[2] = {is_stoch ? NULL : spec->method, NULL};
+    const char *names[2] = {own ? NULL : spec->method, NULL};
     if (spec->lod_chain && spec->lod_coarsest[0] && strcmp(spec->lod_coarsest, spec->method) != 0)
         names[1] = spec->lod_coarsest;
-    double d_after = sc->distance_min; /* quads come after the last stochastic level */
+    double d_after = sc->distance_min; /* quads come after the last scheduled level */
     for (uint32_t i = 0; i < si->lod_count; i++)
         if (c->info[i].scheduled && isfinite(c->info[i].distance) && c->info[i].distance > d_after)
             d_after = c->info[i].distance;
     d_after = fmin(d_after, sc->distance_max);
     c->required = c->coarsest = -1;
     c->required_first = c->coarsest_first = 0;
-    if (is_stoch) c->required = (int)si->lod_count - 1;
+    if (own) c->required = (int)si->lod_count - 1;
     for (int k = 0; k < 2; k++) {
         if (!names[k]) continue;
         const sv_method_ops *m = sv_method_ops_find(names[k]);
@@ -323,23 +223,19 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
     sv_status st;
     c->skipped = cJSON_CreateArray();
     if (!c->skipped) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    /* the chain's stochastic levels are the levels of the method that says
-     * so (sv_method chain_levels); its settings are the chain's */
+    /* the chain's own levels are the levels of the method that says so
+     * (sv_method chain_levels), built by its chain hook */
     const sv_method *levels = sv_method_chain_levels(), *m = sv_method_find(spec->method);
-    if (!levels) return sv_fail(err, SV_ERR_INTERNAL, "no method makes the chain's levels");
-    bool is_stoch = m == levels;
-    if ((st = sv_stochastic_parse(cJSON_GetObjectItemCaseSensitive(spec->root, levels->name),
-                                  &c->ss, err)) ||
-        (st = sv_stochastic_resolve(&c->ss, p->mesh->triangle_count, err)))
-        return st;
+    const sv_method_ops *lo = levels ? sv_method_ops_find(levels->name) : NULL;
+    if (!lo || !lo->chain)
+        return sv_fail(err, SV_ERR_INTERNAL, "no method makes the chain's levels");
+    bool own = m == levels;
     sv_method_input in = {
         p->mesh,   &p->cls,      &p->leaves, {p->centre[0], p->centre[1], p->centre[2]},
         p->radius, &spec->scene, spec->seed};
     snprintf(si->method, sizeof si->method, "%s", spec->method);
-    if ((is_stoch || spec->lod_chain) &&
-        (st = compose_stochastic(r, ren, gsrc, &in, is_stoch, si, c, err)))
-        return st;
-    return compose_methods(r, &in, is_stoch, si, c, err);
+    if ((st = compose_levels(r, ren, gsrc, &in, lo, own, si, c, err))) return st;
+    return compose_methods(r, &in, own, si, c, err);
 }
 
 /* Switch sizes from measured error. Each LOD's own limit is the
@@ -347,7 +243,7 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
  * coverage error is within lod.tolerance × lod.tolerance_pixels / S (issue
  * 19: one tolerance at every size dropped every quad level of most trees), at
  * most the largest measured size for a quad LOD, 0 when it fails everywhere. The full mesh is the original: it is good at any size (its
- * limit is the tree's size at the nearest scene distance). A stochastic level
+ * limit is the tree's size at the nearest scene distance). A scheduled level
  * that passes at every measured size is limited by Cook's schedule instead
  * (the size at the nearest distance where λ(d) <= its λ), since nothing was
  * measured above. Without evaluation only the schedule is known: quad LODs

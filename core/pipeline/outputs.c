@@ -116,8 +116,7 @@ static sv_status write_lod_group(const run *r, bake_state *b, const sv_gltf_lod 
               cJSON_AddNumberToObject(root, "fov_deg", r->spec.scene.fov_y_deg);
     for (uint32_t i = 0; ok && i < n; i++) {
         gg[i] = gl[i];
-        /* the level's own extras (a stochastic level's fade window) and its
-         * switch sizes */
+        /* the level's own extras (its gltf hook's) and its switch sizes */
         ex[i] = gl[i].extras ? cJSON_Duplicate(gl[i].extras, true) : cJSON_CreateObject();
         cJSON *e = cJSON_CreateObject();
         ok = ex[i] && e && add_switch(r, b, i, ex[i]) &&
@@ -157,12 +156,11 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
 {
     const sv_stand_in *si = &b->si;
     lod_out *lods = b->lods;
-    const chain *ch = &b->ch;
     sv_status st = SV_OK;
     char path[4096];
     sv_gltf_lod *gl = sv_calloc(si->lod_count, sizeof *gl);
     if (!gl) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    sv_stoch_gltf *gx = sv_calloc(si->lod_count, sizeof *gx);
+    sv_level_gltf *gx = sv_calloc(si->lod_count, sizeof *gx);
     if (!gx) {
         free(gl);
         return sv_fail(err, SV_ERR_NOMEM, "out of memory");
@@ -177,11 +175,11 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         memcpy(gl[i].translation, r->p.info.origin, sizeof gl[i].translation);
-        if (ch->info[i].stochastic) {
-            st = sv_stochastic_gltf(&ch->sres, &ch->ss, ch->info[i].level,
-                                    ch->info[i].geom_vertices, lods[i].baked.mesh, &gx[i], err);
+        const sv_lod_plan *lp = &si->lods[i];
+        if (lp->ops && lp->ops->gltf) { /* the level's own attributes and extras */
+            st = lp->ops->gltf(lp, &lods[i].baked, &gx[i], err);
             gl[i].attributes = gx[i].attr;
-            gl[i].attribute_count = 2;
+            gl[i].attribute_count = gx[i].attr_count;
             gl[i].extras = gx[i].extras;
         }
     }
@@ -193,7 +191,7 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         st = sv_gltf_write_level_glb(path, &gl[i], err);
     }
     if (st == SV_OK) st = write_lod_group(r, b, gl, asset, err);
-    for (uint32_t i = 0; i < si->lod_count; i++) sv_stoch_gltf_free(&gx[i]);
+    for (uint32_t i = 0; i < si->lod_count; i++) sv_level_gltf_free(&gx[i]);
     free(gx);
     free(gl);
     return st;

@@ -220,7 +220,7 @@ static sv_status stage_compose(run *r, bake_state *b, sv_error *err)
         sv_scene_resolve_distance(&r->spec.scene, 2.0 * (fr > 0 ? fr : p->radius));
     }
     if ((st = stage(r, ST_METHOD, 0, err))) return st;
-    /* the renderer first: the stochastic levels need r measured by rendering */
+    /* the renderer first: the chain's own levels measure and score by rendering */
     if (!r->ren) {
         if ((st = sv_renderer_create(SVP_RENDER_MAX, &r->ren, err))) return st;
         if ((st = sv_gpu_mesh_upload(r->ren, p->mesh, &r->gsrc, err))) return st;
@@ -255,7 +255,7 @@ static void bake_options(const run *r, sv_bake_options *bo)
 
 /* Bakes LOD i of b into b->lods[i].baked: through the level's own bake
  * hook (level.h; an impostor's frames), or the quads with the geometry the
- * level keeps (trunk, stochastic leaves). */
+ * level keeps (trunk, a chain level's own leaves). */
 static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
 {
     const sv_spec *spec = &r->spec;
@@ -278,7 +278,7 @@ static sv_status bake_level(run *r, bake_state *b, uint32_t i, sv_error *err)
             return st;
     }
     if (lp->geometry) {
-        /* explicit geometry (stochastic levels) is drawn as is, with the trunk */
+        /* explicit geometry (a chain level's leaves) is drawn as is, with the trunk */
         sv_mesh *merged = NULL;
         st = sv_mesh_merge(keep, lp->geometry, &merged, err);
         sv_mesh_destroy(keep);

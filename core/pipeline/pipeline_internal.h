@@ -22,7 +22,7 @@
 #include "plausibility.h"
 #include "render.h"
 #include "spec.h"
-#include "stochastic/stochastic.h"
+#include "method_ops.h"
 #include "validate.h"
 
 enum {
@@ -45,8 +45,8 @@ typedef struct prepared {
     sv_validate_report repairs;
     sv_classification cls;
     sv_leaves leaves;
-    sv_up_guess up;  /* the up-axis check (plausibility.h) */
-    bool up_rotated; /* import.up "auto" found the tree Z-up and rotated it */
+    sv_up_guess up;       /* the up-axis check (plausibility.h) */
+    bool up_rotated;      /* import.up "auto" found the tree Z-up and rotated it */
     sv_units_guess units; /* the units check (plausibility.h) */
     double centre[3], radius;
 } prepared;
@@ -87,31 +87,28 @@ typedef struct run {
 /* ---- the LOD chain (chain.c; docs/lod.md) ---- */
 
 typedef struct chain_lod {
-    bool stochastic; /* a level of the stochastic method (its outputs and report fields) */
-    bool scheduled;  /* placed by Cook's schedule: stochastic, or a leafless tree's trunk level */
-    int level;       /* index into the stochastic result */
-    double lambda;
-    double distance;        /* stochastic: nearest distance where λ(d) <= λ (Cook's schedule) */
-    double trunk_error;     /* metres: meshoptimizer bound, one pixel at `distance` */
-    uint32_t geom_vertices; /* vertices of the stochastic geometry (the baked mesh ends with them) */
-    char source[32];        /* method that made it */
+    bool scheduled;     /* placed by the schedule of the chain's own levels (sv_method_ops
+                               chain), e.g. a leafless tree's trunk level */
+    double lambda;      /* scheduled: its share of the detail (1: the full mesh, exact) */
+    double distance;    /* scheduled: the nearest distance it is drawn from */
+    double trunk_error; /* metres: meshoptimizer bound, one pixel at `distance` */
+    char source[32];    /* method that made it */
 } chain_lod;
 
 typedef struct chain {
-    sv_stochastic_settings ss;
-    sv_stoch_result sres;
-    sv_stoch_ratio ratio;
-    bool ratio_measured, has_stochastic;
-    chain_lod *info;    /* one per si LOD */
-    cJSON *skipped;     /* [{name, stage, reason}] */
-    int required;       /* the spec method's last LOD (-1: none) */
-    int required_first; /* the spec method's first LOD */
-    int coarsest;       /* lod.coarsest's last LOD (-1: none) */
-    int coarsest_first; /* ... and its first */
+    cJSON *levels_report;    /* report.json lod_chain.<levels_name> from the chain hook; owned */
+    const char *levels_name; /* the method that built the chain's own levels */
+    chain_lod *info;         /* one per si LOD */
+    cJSON *skipped;          /* [{name, stage, reason}] */
+    int required;            /* the spec method's last LOD (-1: none) */
+    int required_first;      /* the spec method's first LOD */
+    int coarsest;            /* lod.coarsest's last LOD (-1: none) */
+    int coarsest_first;      /* ... and its first */
 } chain;
 
-/* r, the stochastic visible ratio, is measured on COVER_VIEWS renders of
- * COVER_SIZE² (report.json says so) */
+/* The chain's cover callback (sv_chain_in cover: a visible ratio's input)
+ * sums covered pixels of COVER_VIEWS renders of COVER_SIZE² (report.json
+ * says so) */
 #define COVER_VIEWS 6
 #define COVER_SIZE 512
 
@@ -187,9 +184,10 @@ bool svp_drawn_by_hook(const sv_lod_plan *lod);
 
 /* ---- chain.c: which LODs, and where each is drawn ---- */
 
-/* Builds the chain into si (and c->info, one per LOD): stochastic levels the
- * scene needs, the spec's method, the coarsest method. Uses the renderer
- * (ren, gsrc: the original) to measure r and score stochastic candidates. */
+/* Builds the chain into si (and c->info, one per LOD): the chain's own levels
+ * the scene needs (sv_method_ops chain), the spec's method, the coarsest
+ * method. Lends the renderer (ren, gsrc: the original) to the chain hook as
+ * its cover and score callbacks. */
 sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_stand_in *si,
                             chain *c, sv_error *err);
 void svp_chain_free(chain *c);
@@ -205,18 +203,19 @@ void svp_compact_lods(sv_stand_in *si, lod_out *lods, chain *c, const bool *drop
 
 /* ---- calibrate.c: alpha cutoffs and atlas sizes ---- */
 
-/* The small evaluator of the alpha calibration and the stochastic scorer
- * (64 px, 8 views, rendered at render²), kept in r and made again only when
- * render changes; *out is r's, not the caller's. */
+/* The small evaluator of the alpha calibration and the chain's score
+ * callback (64 px, 8 views, rendered at render²), kept in r and made again
+ * only when render changes; *out is r's, not the caller's. */
 sv_status svp_small_evaluator(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, uint32_t render,
                               sv_evaluator **out, sv_error *err);
-/* sv_stoch_scorer on a stoch_score_ctx: mean IoU of a candidate at 64 px. */
-typedef struct stoch_score_ctx {
+/* The chain's score callback (sv_chain_score_fn) on a score_ctx: mean IoU of
+ * a candidate level at 64 px. */
+typedef struct score_ctx {
     run *r;
     sv_renderer *ren;
     const sv_gpu_mesh *gsrc;
-} stoch_score_ctx;
-sv_status svp_stoch_score(void *user, const sv_mesh *level, double *score, sv_error *err);
+} score_ctx;
+sv_status svp_chain_score(void *user, const sv_mesh *level, double *score, sv_error *err);
 /* Sets the atlas cutoff (lods[i].alpha_cutoff, calib_iou) of every quad level
  * baked with coverage alpha. */
 sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc,

@@ -143,47 +143,8 @@ static cJSON *chain_json(const run *r, const chain *c)
     cJSON_AddNumberToObject(j, "slack", s->lod_slack);
     cJSON_AddNumberToObject(j, "cost_ratio", s->lod_cost_ratio);
     cJSON_AddNumberToObject(j, "triangles_per_pixel", s->lod_triangles_per_pixel);
-    if (c->has_stochastic) {
-        cJSON *st = cJSON_AddObjectToObject(j, "stochastic");
-        cJSON_AddNumberToObject(st, "leaves", c->sres.leaf_count);
-        cJSON_AddNumberToObject(st, "h", c->ss.h);
-        cJSON_AddNumberToObject(st, "d0", c->ss.d0 > 0 ? c->ss.d0 : s->scene.distance_min);
-        cJSON_AddStringToObject(st, "order",
-                                c->ss.order == SV_STOCH_ORDER_AREA ? "area" : "random");
-        cJSON_AddItemToObject(st, "mean_leaf_color",
-                              cJSON_CreateDoubleArray(c->sres.mean_color, 3));
-        cJSON *vr = cJSON_AddObjectToObject(st, "visible_ratio");
-        cJSON_AddNumberToObject(vr, "r", c->sres.r);
-        if (c->ratio_measured) {
-            cJSON_AddStringToObject(vr, "source",
-                                    "measured by rendering (covered pixels of a "
-                                    "leaf prefix vs all leaves)");
-            cJSON_AddNumberToObject(vr, "views", COVER_VIEWS);
-            cJSON_AddNumberToObject(vr, "pixels", COVER_SIZE);
-            cJSON_AddNumberToObject(vr, "covered_all", c->ratio.covered_all);
-            cJSON_AddNumberToObject(vr, "covered_prefix", c->ratio.covered_sub);
-            cJSON_AddNumberToObject(vr, "prefix_leaves", c->ratio.n_sub);
-        } else {
-            cJSON_AddStringToObject(vr, "source",
-                                    c->ss.area_preservation
-                                        ? "given in the spec (stochastic.visible_ratio)"
-                                        : "not used (area_preservation is off)");
-        }
-        cJSON *terms = cJSON_AddArrayToObject(st, "lambda_terms");
-        cJSON *t = cJSON_CreateObject();
-        cJSON_AddStringToObject(t, "term", "size");
-        cJSON_AddStringToObject(t, "status", "done");
-        cJSON_AddStringToObject(t, "reason", "b = d0^2/d^2 (Fichtner eq. 1)");
-        cJSON_AddItemToArray(terms, t);
-        t = cJSON_CreateObject();
-        bool mv = s->scene.camera_speed > 0;
-        cJSON_AddStringToObject(t, "term", "motion");
-        cJSON_AddStringToObject(t, "status", mv ? "done" : "skipped");
-        cJSON_AddStringToObject(t, "reason",
-                                mv ? "scene.camera_speed > 0: b /= 1 + blur pixels"
-                                   : "no camera motion in the scene");
-        cJSON_AddItemToArray(terms, t);
-    }
+    if (c->levels_report) /* the chain hook's own part (its schedule's terms) */
+        cJSON_AddItemToObject(j, c->levels_name, cJSON_Duplicate(c->levels_report, true));
     cJSON_AddItemToObject(j, "skipped", cJSON_Duplicate(c->skipped, true));
     return j;
 }
@@ -215,6 +176,11 @@ static cJSON *effects_json(const sv_spec *s, const bake_state *b)
     cJSON *alb = map_outputs(b, 0, &n_alb), *nrm = map_outputs(b, 1, &n_nrm),
           *ao = map_outputs(b, 2, &n_ao), *dep = map_outputs(b, 3, &n_dep);
     cJSON *lit = bo->lit ? cJSON_Duplicate(alb, true) : cJSON_CreateArray();
+    /* the motion term is a term of the chain's own levels' schedule */
+    const sv_method *sched = sv_method_chain_levels();
+    char motion_why[96];
+    snprintf(motion_why, sizeof motion_why, "scene.camera_speed > 0 (used by %s)",
+             sched ? sched->name : "no method");
     const char *dep_why =
         bo->depth_map ? (n_dep ? "scene.shadows is true"
                                : "scene.shadows is true, but no level "
@@ -257,9 +223,7 @@ static cJSON *effects_json(const sv_spec *s, const bake_state *b)
                                              : "scene.viewer is not ground",
          NULL},
         {"motion_term", s->scene.camera_speed > 0,
-         s->scene.camera_speed > 0 ? "scene.camera_speed > 0 (used by stochastic)"
-                                   : "no camera motion in the scene",
-         NULL},
+         s->scene.camera_speed > 0 ? motion_why : "no camera motion in the scene", NULL},
     };
     for (size_t i = 0; i < sizeof e / sizeof e[0]; i++) {
         cJSON *o = cJSON_CreateObject();
@@ -413,11 +377,8 @@ static cJSON *report_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON_AddStringToObject(o, "file", l->file);
     cJSON_AddStringToObject(o, "node", l->node);
     cJSON_AddStringToObject(o, "source", ch->info[i].source);
-    if (ch->info[i].stochastic) {
-        sv_stochastic_level_json(&ch->sres, &ch->ss, ch->info[i].level, o);
-        if (isfinite(ch->info[i].distance))
-            cJSON_AddNumberToObject(o, "lambda_distance", ch->info[i].distance);
-    }
+    const sv_lod_plan *lp = &b->si.lods[i];
+    if (lp->ops && lp->ops->report) lp->ops->report(lp, o); /* the level's own fields */
     cJSON_AddNumberToObject(o, "trunk_max_error", ch->info[i].trunk_error);
     cJSON_AddNumberToObject(o, "quads", bk->quad_count);
     cJSON_AddNumberToObject(o, "triangles", bk->mesh->triangle_count);

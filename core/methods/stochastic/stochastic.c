@@ -16,7 +16,9 @@
  * whose simplified silhouette at that pixel falls below SV_STOCH_MIN_COVER
  * of its modelled one is drawn whole instead (leaf_cover), and with a scorer
  * stricter rules up to the paper's (every leaf whole) compete.
- * Pure C: no GL (the daemon links this file through the method registry).
+ * Pure C: no GL. The chain's levels (the scene's schedule, r measured and
+ * candidates scored through the pipeline's callbacks, their outputs) are in
+ * stochastic_chain.c.
  */
 #include "stochastic.h"
 
@@ -33,11 +35,10 @@
 
 #define ST_NAME "stochastic"
 #define LAMBDA_MIN 1e-9
-#define CONTRAST_STEPS 16  /* bins per octave of the luminance factor */
-#define CONTRAST_BINS 64   /* |bin| <= 64: factors 1/16 .. 16 */
-#define SV_STOCH_WHOLE 1e9 /* a min_cover no simplified leaf reaches: every leaf whole */
-#define COST_MARGIN 0.005  /* the score a candidate of many more triangles must gain */
-#define COLOUR_LATTICE 12  /* at most this many colour samples along a triangle side */
+#define CONTRAST_STEPS 16 /* bins per octave of the luminance factor */
+#define CONTRAST_BINS 64  /* |bin| <= 64: factors 1/16 .. 16 */
+#define COST_MARGIN 0.005 /* the score a candidate of many more triangles must gain */
+#define COLOUR_LATTICE 12 /* at most this many colour samples along a triangle side */
 
 /* ---- formulas ------------------------------------------------------------- */
 
@@ -1552,6 +1553,19 @@ out:
 
 /* ---- the method ------------------------------------------------------------ */
 
+void sv_stochastic_plan(const sv_stochastic_settings *s, uint32_t i, sv_stoch_level *L,
+                        sv_lod_plan *lod)
+{
+    lod->geometry = L->geometry;
+    L->geometry = NULL;
+    /* below λ = 1 the build made the trunk first (it leads the geometry) */
+    lod->trunk = L->trunk_in_geometry ? SV_TRUNK_NONE
+                 : L->lambda >= 1     ? SV_TRUNK_MESH
+                                      : SV_TRUNK_SIMPLIFIED;
+    lod->trunk_ratio = fmax(L->lambda, SV_STOCH_TRUNK_FLOOR);
+    lod->trunk_max_triangles = sv_stochastic_trunk_cap(s, i, L);
+}
+
 /* One LOD per level: the level's geometry, the trunk kept (λ = 1) or
  * simplified to a fraction max(λ, 0.05) (the pipeline bounds the error by the
  * level's distance). */
@@ -1573,95 +1587,16 @@ static sv_status st_run(const sv_method_input *in, const cJSON *settings, sv_sta
             st = sv_fail(err, SV_ERR_NOMEM, "stochastic: no memory for a LOD");
             break;
         }
-        lod->geometry = res.levels[i].geometry;
-        res.levels[i].geometry = NULL;
-        lod->trunk = res.levels[i].trunk_in_geometry ? SV_TRUNK_NONE
-                     : res.levels[i].lambda >= 1     ? SV_TRUNK_MESH
-                                                     : SV_TRUNK_SIMPLIFIED;
-        lod->trunk_ratio = fmax(res.levels[i].lambda, SV_STOCH_TRUNK_FLOOR);
-        lod->trunk_max_triangles = sv_stochastic_trunk_cap(&s, i, &res.levels[i]);
+        sv_stochastic_plan(&s, i, &res.levels[i], lod);
     }
     sv_stoch_result_free(&res);
     if (st) sv_stand_in_free(out);
     return st;
 }
 
-void sv_stoch_gltf_free(sv_stoch_gltf *g)
-{
-    free(g->centre);
-    free(g->order);
-    cJSON_Delete(g->extras);
-    memset(g, 0, sizeof *g);
-}
-
-sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
-                             int level, uint32_t geom_vertices, const sv_mesh *m, sv_stoch_gltf *g,
-                             sv_error *err)
-{
-    const sv_stoch_level *L = &res->levels[level];
-    uint32_t nv = m->vertex_count;
-    if (geom_vertices > nv)
-        return sv_fail(err, SV_ERR_INTERNAL, "stochastic LOD: %u vertices, geometry has %u", nv,
-                       geom_vertices);
-    uint32_t t0 = nv - geom_vertices;
-    g->centre = sv_calloc(nv ? nv : 1, 3 * sizeof(float));
-    g->order = sv_calloc(nv ? nv : 1, sizeof(float));
-    g->extras = cJSON_CreateObject();
-    if (!g->centre || !g->order || !g->extras) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
-    memcpy(g->centre, m->positions, 3 * sizeof(float) * (size_t)t0);
-    memcpy(g->centre + 3 * (size_t)t0, L->leaf_centre, 3 * sizeof(float) * geom_vertices);
-    memcpy(g->order + t0, L->leaf_order, sizeof(float) * geom_vertices);
-    g->attr[0] = (sv_vertex_attribute){"_LEAF_CENTRE", g->centre, 3};
-    g->attr[1] = (sv_vertex_attribute){"_LEAF_ORDER", g->order, 1};
-    cJSON *o = cJSON_AddObjectToObject(g->extras, "sylva_stochastic");
-    cJSON_AddNumberToObject(o, "lambda", L->lambda);
-    cJSON_AddNumberToObject(o, "leaves", L->leaves);
-    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
-    cJSON_AddNumberToObject(o, "leaf_total", res->leaf_count);
-    cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
-    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
-    cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
-    double fw[2] = {L->fade_lo, L->fade_hi};
-    cJSON_AddItemToObject(o, "fade_window", cJSON_CreateDoubleArray(fw, 2));
-    cJSON_AddNumberToObject(o, "fade_radius", ss->fade);
-    cJSON_AddNumberToObject(o, "visible_ratio", res->r);
-    cJSON_AddNumberToObject(o, "h", ss->h);
-    cJSON_AddNumberToObject(o, "d0", ss->d0);
-    cJSON_AddStringToObject(o, "order_attribute", "_LEAF_ORDER");
-    cJSON_AddStringToObject(o, "centre_attribute", "_LEAF_CENTRE");
-    return SV_OK;
-}
-
-void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
-                              int level, cJSON *o)
-{
-    const sv_stoch_level *L = &res->levels[level];
-    cJSON_AddNumberToObject(o, "lambda", L->lambda);
-    cJSON_AddNumberToObject(o, "leaves", L->leaves);
-    if (ss->level_triangles[level])
-        cJSON_AddNumberToObject(o, "triangles_asked", ss->level_triangles[level]);
-    cJSON_AddNumberToObject(o, "leaf_fraction", L->leaf_fraction);
-    cJSON_AddNumberToObject(o, "leaf_triangles", (double)L->leaf_triangles);
-    cJSON_AddNumberToObject(o, "leaf_error", L->leaf_error);
-    cJSON_AddNumberToObject(o, "area_scale", L->area_scale);
-    cJSON_AddNumberToObject(o, "area_gamma", L->area_gamma);
-    cJSON_AddNumberToObject(o, "contrast_alpha", L->contrast_alpha);
-    cJSON_AddNumberToObject(o, "contrast_materials", L->contrast_materials);
-    cJSON_AddNumberToObject(o, "contrast_capped_leaves", L->contrast_capped);
-    cJSON_AddNumberToObject(o, "colour_gain", L->colour_gain);
-    cJSON_AddNumberToObject(o, "layered_leaves", res->layered_leaves);
-    cJSON_AddNumberToObject(o, "brightened_textures", L->brightened_textures);
-    cJSON_AddNumberToObject(o, "leaves_simplified", L->leaves_simplified);
-    cJSON_AddNumberToObject(o, "leaves_whole", L->leaves_whole);
-    if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
-    else cJSON_AddStringToObject(o, "min_cover", "whole");
-    cJSON_AddNumberToObject(o, "leaf_cover_min", L->leaf_cover_min);
-    if (!isnan(L->score)) cJSON_AddNumberToObject(o, "candidate_iou", L->score);
-    if (L->same_as >= 0)
-        cJSON_AddNumberToObject(o, "copy_of_lambda", res->levels[L->same_as].lambda);
-}
-
 const sv_method_ops sv_method_stochastic_ops = {
     .method = &sv_method_stochastic,
     .run = st_run,
+    .levels = &sv_stochastic_level_ops,
+    .chain = sv_stochastic_chain,
 };

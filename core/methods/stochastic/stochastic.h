@@ -84,9 +84,9 @@ double sv_stochastic_ratio_from_coverage(double q, uint32_t n_sub, uint32_t n);
 /* ---- measuring r ---------------------------------------------------------- */
 
 /* Covered area (e.g. pixels summed over several views) when triangles
- * tris[0..count) of the source mesh are drawn alone. */
-typedef sv_status (*sv_coverage_fn)(void *user, const uint32_t *tris, uint32_t count,
-                                    double *covered, sv_error *err);
+ * tris[0..count) of the source mesh are drawn alone (in the chain: the
+ * pipeline's cover callback, method_ops.h). */
+typedef sv_chain_cover_fn sv_coverage_fn;
 
 typedef struct sv_stoch_ratio {
     double r;           /* the measured ratio */
@@ -163,6 +163,9 @@ double sv_stochastic_distance_for_lambda(const sv_stochastic_settings *s, const 
  * modelled) or not at all, and the budget drops more leaves instead. */
 #define SV_STOCH_MIN_COVER 0.5
 
+/* A min_cover no simplified leaf reaches: every leaf drawn whole. */
+#define SV_STOCH_WHOLE 1e9
+
 /* The geometric error a level may have, in metres: one pixel at the nearest
  * distance d it is drawn by Cook's schedule (sv_stochastic_distance_for_lambda,
  * clamped to the scene's distance range), or, when larger, one pixel of the
@@ -222,8 +225,7 @@ typedef struct sv_stoch_result {
 /* Scores a candidate level (its whole geometry, trunk included) against the
  * original, higher = closer (the pipeline: mean coverage IoU at 64 px from 8
  * views, the alpha calibration's evaluator). */
-typedef sv_status (*sv_stoch_score_fn)(void *user, const sv_mesh *level, double *score,
-                                       sv_error *err);
+typedef sv_chain_score_fn sv_stoch_score_fn;
 typedef struct sv_stoch_scorer {
     sv_stoch_score_fn fn;
     void *user;
@@ -279,40 +281,44 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
 uint32_t sv_stochastic_trunk_cap(const sv_stochastic_settings *s, uint32_t i,
                                  const sv_stoch_level *L);
 
+/* Moves level i of a build (settings s) into lod: its geometry (L->geometry
+ * becomes NULL), and how the pipeline adds the trunk: none when the level
+ * leads with its own, the whole trunk at λ = 1, else simplified to
+ * max(λ, SV_STOCH_TRUNK_FLOOR) within sv_stochastic_trunk_cap. */
+void sv_stochastic_plan(const sv_stochastic_settings *s, uint32_t i, sv_stoch_level *L,
+                        sv_lod_plan *lod);
+
 /* Frees geometry, attributes and order. NULL is fine. */
 void sv_stoch_result_free(sv_stoch_result *res);
 
 /* The LOD name used for level λ: "full" for 1, else "stochastic<λ·100>". */
 void sv_stochastic_level_name(double lambda, char name[32]);
 
-/* ---- outputs ---------------------------------------------------------------- */
+/* ---- the chain's levels (stochastic_chain.c) ------------------------------- */
 
-/* What model.glb carries for a stochastic level (Fichtner §4.3.1, §4.3.3):
+/* sv_method_ops chain (method_ops.h): the levels the scene's distances need
+ * (by λ at the nearest and farthest distance; the others are noted as
+ * skipped, unless the spec's method is this one, which keeps every level
+ * asked for), r measured through in->cover when the spec gives none, every
+ * level built with in->score as its scorer (sv_stochastic_build) and placed
+ * by Cook's schedule (sv_stochastic_distance_for_lambda). A tree without
+ * leaves gets its own mesh and its trunk simplified at each level's error
+ * instead (source "trunk"). Each stochastic level's payload carries what
+ * sv_stochastic_level_ops writes for it. */
+sv_status sv_stochastic_chain(const sv_chain_in *in, sv_chain_out *out, sv_error *err);
+
+/* The hooks of a chain's stochastic level (level.h): gltf gives model.glb
  * per-vertex _LEAF_CENTRE (VEC3) and _LEAF_ORDER (SCALAR, (position + 0.5)/N)
- * let a renderer draw any prefix and scale leaves about their centres; trunk
- * vertices (first in the baked mesh) carry their own position and order 0, so
- * the same shader leaves them alone. The node extras "sylva_stochastic" hold
- * the level's λ, leaves, scales, fade window and the chain's r, h, d0.
- * Owned by the struct: sv_stoch_gltf_free (a zeroed one is fine). */
-typedef struct sv_stoch_gltf {
-    float *centre, *order;
-    sv_vertex_attribute attr[2]; /* the node's extra vertex attributes */
-    cJSON *extras;               /* the node's extras */
-} sv_stoch_gltf;
-
-/* Fills out for level `level` of res (settings ss) drawn as mesh m, whose last
- * geom_vertices vertices are the level's leaves. SV_ERR_INTERNAL when m has
- * fewer vertices than that. */
-sv_status sv_stochastic_gltf(const sv_stoch_result *res, const sv_stochastic_settings *ss,
-                             int level, uint32_t geom_vertices, const sv_mesh *m,
-                             sv_stoch_gltf *out, sv_error *err);
-void sv_stoch_gltf_free(sv_stoch_gltf *g);
-
-/* Adds report.json's fields of level `level` of res to o (docs/outputs.md):
- * lambda, leaves, triangles_asked (when given as a count), leaf_fraction,
- * leaf_triangles, leaf_error, the area and contrast terms. */
-void sv_stochastic_level_json(const sv_stoch_result *res, const sv_stochastic_settings *ss,
-                              int level, cJSON *o);
+ * so a renderer can draw any prefix and scale leaves about their centres
+ * (Fichtner §4.3.1, §4.3.3; trunk vertices, first in the baked mesh, carry
+ * their own position and order 0, so the same shader leaves them alone), and
+ * the node extras "sylva_stochastic" (the level's λ, leaves, scales, fade
+ * window and the chain's r, h, d0); report adds report.json's fields
+ * (docs/outputs.md): lambda, leaves, triangles_asked (when given as a count),
+ * leaf_fraction, leaf_triangles, leaf_error, the area and contrast terms, the
+ * leaf shapes, the candidate's score and lambda_distance. */
+struct sv_level_ops;
+extern const struct sv_level_ops sv_stochastic_level_ops;
 
 extern const sv_method sv_method_stochastic;         /* stochastic_settings.c */
 extern const sv_method_ops sv_method_stochastic_ops; /* stochastic.c */
