@@ -1,13 +1,13 @@
 #!/bin/sh
-# same_outputs.sh — do two builds of sylva-bake bake the same bytes? (issue 17:
-# a refactor must not change any output). Builds `sylva-bake` at two git
+# same_outputs.sh — do two builds of sylva-bake bake the same bytes? (a
+# refactor must not change any output). Builds `sylva-bake` at two git
 # revisions, bakes a fixed set of the shared trees with a fixed set of specs
 # with each, and compares every output file by sha256. report.json is
 # compared without its "times" object, the one part that differs between
 # identical bakes (docs/outputs.md); the exit status of each bake and the
 # list of files it wrote are compared too.
 #
-# Usage: tests/tools/same_outputs.sh [--all | --trees DIR,...] [--keep] [--jobs N] A B
+# Usage: tests/tools/same_outputs.sh [--all | --trees DIR,...] [--specs NAME,...] [--keep] [--jobs N] A B
 #   A, B     git revisions (main, HEAD, a commit: committed sources only, built
 #            from `git archive` into $SAME_OUTPUTS_DIR/bin/<commit>/ and kept
 #            there, so a second run reuses the build), or the path of a
@@ -16,6 +16,8 @@
 #            the bonsai as OBJ, the oak and the ficus as GLB)
 #   --trees DIR,...  only these trees of tests/data/trees.tsv (by folder name,
 #            e.g. --trees eztree_aspen_small for a quick look)
+#   --specs NAME,...  only these specs of the list below (by name, e.g.
+#            --specs default,stochastic for a change to the chain's levels)
 #   --keep   keep the bakes ($SAME_OUTPUTS_DIR/run-PID/; kept anyway when
 #            something differs) for a look at a difference
 #   --jobs N bakes at a time (default 2: A's and B's side by side)
@@ -29,20 +31,21 @@ set -eu
 root=$(cd "$(dirname "$0")/../.." && pwd)
 data=${SYLVA_DATA:-$root/../shared/data}
 work=${SAME_OUTPUTS_DIR:-$root/build/same-outputs}
-all=0 keep=0 jobs=2 only=
+all=0 keep=0 jobs=2 only= only_specs=
 while [ $# -gt 0 ]; do
     case "$1" in
     --all) all=1 ;;
     --keep) keep=1 ;;
     --trees) only=$2; all=1; shift ;;
     --jobs) jobs=$2; shift ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    --specs) only_specs=$2; shift ;;
+    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
     -*) echo "same_outputs: unknown option $1" >&2; exit 2 ;;
     *) break ;;
     esac
     shift
 done
-[ $# -eq 2 ] || { echo "usage: $0 [--all | --trees DIR,...] [--keep] [--jobs N] A B" >&2; exit 2; }
+[ $# -eq 2 ] || { echo "usage: $0 [--all | --trees DIR,...] [--specs NAME,...] [--keep] [--jobs N] A B" >&2; exit 2; }
 case "$jobs" in ''|*[!0-9]*|0) echo "same_outputs: --jobs needs a positive number" >&2; exit 2 ;; esac
 
 # The specs: NAME<TAB>JSON. Every method, the default chain, a target search
@@ -57,6 +60,10 @@ crossed_quads	{"method": "crossed_quads"}
 octahedral	{"method": "octahedral", "octahedral": {"grid": 4}, "lod": {"chain": false}}
 target	{"method": "leaf_clusters", "target": {"iou": 0.8, "max_planes": 24}}
 dynamic	{"scene": {"lighting": "dynamic", "shadows": true, "ambient_occlusion": true}}'
+if [ -n "$only_specs" ]; then
+    specs=$(echo "$specs" | awk -F '\t' -v only=",$only_specs," 'index(only, "," $1 ",")')
+    [ -n "$specs" ] || { echo "same_outputs: no spec named in --specs $only_specs" >&2; exit 2; }
+fi
 base='{"bake": {"max_atlas": 512}, "evaluate": {"views": 4, "sizes": [64, 32]}}'
 
 # trees: "dir mesh units" lines
