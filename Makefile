@@ -124,8 +124,13 @@ VIEWER_STAMP := $(VIEWER_DIR)/.stamp
 THREE_NPM    := $(BUILD)/viewer-npm/node_modules/three
 
 .PHONY: all deps bench-deps test unit integration sanitize sanitize-full sanitize-build ci-build demo bench same-outputs reliability soak clean install
-# keep object files of tests and tools (make would delete them as intermediates)
-.SECONDARY:
+# keep object files of tests, tools and fuzz targets (make would delete them
+# as intermediates). Named, not a bare .SECONDARY: that makes every target
+# secondary, the empty rules -MP writes for headers too, and a header a .d
+# names that has since moved or gone then no longer makes its object stale:
+# the object kept the old header's code and the incremental build failed.
+# (the fuzz targets' objects: beside FUZZ_SRC below)
+.SECONDARY: $(UNIT_SRC:%.c=$(BUILD)/%.o) $(TOOL_SRC:%.c=$(BUILD)/%.o)
 all: $(BINS) $(PLUGIN) $(LIBSYLVA) $(LIBSYLVA_SO) $(UNIT_BINS) $(TOOL_BINS) $(VIEWER_STAMP)
 
 # Installs missing Debian packages (non-interactive). Every build depends on it.
@@ -251,15 +256,16 @@ bench-deps:
 bench: all bench-deps
 	@BUILD=$(BUILD) ./tests/bench/run.sh
 
-# Byte-identity of two revisions (issue 17: refactors change no output): builds
+# Byte-identity of two revisions (a refactor changes no output): builds
 # sylva-bake at A and B (git revisions, or paths of sylva-bake binaries), bakes
 # four shared trees (ALL=1: every one; TREES=dir,dir: those) with a spec per method, the default
-# chain, a target and dynamic lighting, and compares every output's sha256
+# chain, a target and dynamic lighting (SPECS=name,name: those specs only),
+# and compares every output's sha256
 # (report.json without "times"). tests/tools/same_outputs.sh, docs/testing.md.
 A ?= main
 B ?= HEAD
 same-outputs:
-	@./tests/tools/same_outputs.sh $(if $(filter 1,$(ALL)),--all) $(if $(TREES),--trees $(TREES)) $(A) $(B)
+	@./tests/tools/same_outputs.sh $(if $(filter 1,$(ALL)),--all) $(if $(TREES),--trees $(TREES)) $(if $(SPECS),--specs $(SPECS)) $(A) $(B)
 
 # Issue 12's fault, bad-input and load suites with their figures
 # (docs/reliability.md); RELIABILITY_LONG=1 for the long forms. `make soak` is
@@ -351,6 +357,7 @@ FUZZ_CFLAGS  := -std=c11 -Wall -Wextra -O1 -g -D_POSIX_C_SOURCE=200809L -D_DEFAU
                 -fsanitize=fuzzer-no-link $(FUZZ_SAN)
 FUZZ_SRC     := $(wildcard tests/fuzz/fuzz_*.c)
 FUZZ_BINS    := $(FUZZ_SRC:tests/fuzz/%.c=$(FUZZ_DIR)/%)
+.SECONDARY: $(FUZZ_SRC:%.c=$(FUZZ_DIR)/obj/%.o)
 FUZZ_LIB     := $(FUZZ_DIR)/libfuzzcore.a
 FUZZ_LIB_OBJ := $(CORE_C:%.c=$(FUZZ_DIR)/obj/%.o) \
                 $(FUZZ_DIR)/obj/server/multipart.o
