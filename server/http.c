@@ -713,7 +713,7 @@ static enum MHD_Result upload_end(req *q)
         return send_error(h, c, route, 415, "format", msg);
     }
 
-    /* Issue 22 item 12: what the import's pre-checks decide (structure,
+    /* What the import's pre-checks decide (structure,
      * declared counts against the limits, glTF buffers and URIs against the
      * uploaded files) is answered now, 422 with the worker's code, instead of
      * a 202 and a bake that fails. Same functions, same default limits as the
@@ -1473,7 +1473,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
             return r;
         }
     }
-    /* Issue 22 item 8: with tokens, a bake is its uploaders' alone; anyone
+    /* With tokens, a bake is its uploaders' alone; anyone
      * else gets the unknown key's own 404, so a key cannot be probed. */
     if (h->tokens &&
         (q->m.route == SVD_R_STATUS || q->m.route == SVD_R_ARTIFACT || q->m.route == SVD_R_DELETE ||
@@ -1541,7 +1541,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     }
 }
 
-/* Issue 22 item 13: libmicrohttpd 0.9.75 stores every query argument in the
+/* libmicrohttpd 0.9.75 stores every query argument in the
  * connection's memory pool; ~1000 of them exhaust it, and the 431 it then
  * means to send needs that pool too: the connection hung until the idle
  * timeout (30 s) with no answer. MHD calls this with the raw request line

@@ -70,7 +70,7 @@ struct svd_jobs {
     uint64_t pending_out;      /* out_est of every job not final: disk room held for outputs */
     struct client_hold *holds; /* the same, per client (only clients holding bytes) */
     bool stopping, aborting;
-    /* Issue 22 item 4: the queued jobs in seq order and the running ones, so
+    /* The queued jobs in seq order and the running ones, so
      * taking work, a queue position, the queue's length and a client's load
      * are O(queued + running), not a scan of every stored job (30,000 stored
      * and 1,000 queued: 60 jobs/s dispatched, status p99 2.5 ms before). Valid
@@ -259,7 +259,7 @@ static void unlink_job(svd_jobs *jobs, svd_job *j)
     job_free(j);
 }
 
-/* Issue 22 item 8: a bake belongs to every caller who uploaded its bytes
+/* A bake belongs to every caller who uploaded its bytes
  * (holding them proves the right to them); others do not see it. */
 static bool owned_by(const svd_job *j, const char *client)
 {
@@ -1006,7 +1006,7 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
             if (journal_json(jobs, rec, &e) != SV_OK || !add_owner(j, up->client))
                 log_journal_error(jobs, j->key, &e);
         }
-        /* Issue 22 item 11: a re-upload racing a DELETE of the running bake
+        /* A re-upload racing a DELETE of the running bake
          * was answered "running" and then the bake ended cancelled: the
          * upload was lost. The upload wins: the cancel is withdrawn (the
          * worker has not stopped yet) or, if the worker already stopped, the
@@ -1015,7 +1015,7 @@ svd_jobs_rc svd_jobs_submit(svd_jobs *jobs, const svd_upload *up, char **json_ou
             j->cancel = false;
             j->resubmitted = true;
         }
-        /* Issue 22 item 2: a bake that failed for the server's sake (crashed
+        /* A bake that failed for the server's sake (crashed
          * or timed out on every attempt, the store's disk, memory) is not the
          * input's verdict: uploading it again runs it again, as a cancelled
          * one. A failure the input caused stays (baking it again would fail

@@ -135,7 +135,7 @@ static sv_status mkdir_p1(const char *path, sv_error *err)
     return SV_OK;
 }
 
-/* Issue 22 item 9: workers of a daemon that was SIGKILLed (or crashed)
+/* Workers of a daemon that was SIGKILLed (or crashed)
  * outlived it and wrote into the next daemon's tmp/. Workers now die with
  * their daemon (sylva-bake --parent-pid: PR_SET_PDEATHSIG); this sweep, run
  * with the store's lock held and before tmp/ is emptied, kills any that is

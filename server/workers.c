@@ -855,7 +855,7 @@ static void run_job(svd_workers *w, zygote *z, svd_ticket *t)
         const char *m = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(e, "message"));
         char tail[300];
         if (!m) tail_of_log(logpath, tail, sizeof tail);
-        /* Issue 22 item 2: the input's fault fails the bake; the server's (an
+        /* The input's fault fails the bake; the server's (an
          * I/O error in the store, or no error.json at all because the disk
          * was full) is retried with backoff like a crash. "nomem" is the
          * input's: what it asks for does not fit the worker's limits, and

@@ -31,8 +31,8 @@ sv_status sv_trunk_mesh_budget(const sv_mesh *mesh, const uint8_t *tri_part, dou
  * connected parts, largest area first, each simplified alone within 1/256 of
  * the trunk's extent (coarser bounds up to 1/16 tried), kept while they fit;
  * B or C, whichever draws more of the trunk's area (per part, the smaller of
- * its drawn and its own area). Parts left out are the quads' to draw (issue
- * 18: B and vertex clustering dissolved the maple's stem; A gave
+ * its drawn and its own area). Parts left out are the quads' to draw (B and
+ * vertex clustering dissolved the maple's stem; A gave
  * decorativePlant's pot 31 triangles by its share of the count). *out NULL
  * when there is no trunk. */
 sv_status sv_trunk_mesh_parts(const sv_mesh *mesh, const uint8_t *tri_part, double ratio,

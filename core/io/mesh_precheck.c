@@ -2,7 +2,7 @@
  * before assimp sees them (glTF/GLB have gltf_precheck.c).
  *
  * Why: assimp 5.2.5's readers trust what a file declares and some of them loop
- * when the bytes end early. Issue 25: the 38-byte PLY header
+ * when the bytes end early. One: the 38-byte PLY header
  * "ply\nformat ascii 1.0\nelement vertex 1\n" (no end_header) keeps
  * PLY::DOM::ParseHeader spinning at 100 % CPU forever. So every format sylva
  * passes on is walked here first, iteratively and bounded by the input size,
@@ -435,11 +435,9 @@ static sv_status obj_check(const uint8_t *d, size_t n, const char *shown, const 
             if (!sp && !in) {
                 toks++;
                 if (toks == 1)
-                    kind = d[k] == 'v' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t')
-                               ? 1
-                           : d[k] == 'f' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t')
-                               ? 2
-                               : 3;
+                    kind = d[k] == 'v' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t')   ? 1
+                           : d[k] == 'f' && (k + 1 == n || d[k + 1] == ' ' || d[k + 1] == '\t') ? 2
+                                                                                                : 3;
             }
             in = !sp;
             if (++len > SV_OBJ_MAX_LINE)

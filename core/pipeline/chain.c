@@ -240,10 +240,10 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
 
 /* Switch sizes from measured error. Each LOD's own limit is the
  * largest screen size S (pixels: sv_eval_max_pixels_scaled) at which its mean
- * coverage error is within lod.tolerance × lod.tolerance_pixels / S (issue
- * 19: one tolerance at every size dropped every quad level of most trees), at
- * most the largest measured size for a quad LOD, 0 when it fails everywhere. The full mesh is the original: it is good at any size (its
- * limit is the tree's size at the nearest scene distance). A scheduled level
+ * coverage error is within lod.tolerance × lod.tolerance_pixels / S (one
+ * tolerance at every size dropped every quad level of most trees), at most
+ * the largest measured size for a quad LOD, 0 when it fails everywhere. The
+ * full mesh is the original: it is good at any size (its limit is the tree's size at the nearest scene distance). A scheduled level
  * that passes at every measured size is limited by Cook's schedule instead
  * (the size at the nearest distance where λ(d) <= its λ), since nothing was
  * measured above. Without evaluation only the schedule is known: quad LODs

@@ -1,5 +1,5 @@
 /* fuzz_import.c — libFuzzer target: the whole import path on arbitrary bytes
- * (issue 16; issue 25's hang was in it): the sniffer, the pre-checks
+ * (a PLY header without end_header once hung assimp in it): the sniffer, the pre-checks
  * (core/io/mesh_precheck.c, core/io/gltf_precheck.c), then assimp reading the upload
  * from memory through sylva's file system (core/io/import.c), and the merge.
  * Every input must return a status, never crash, leak, read out of bounds or

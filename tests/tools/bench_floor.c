@@ -1,5 +1,5 @@
-/* bench_floor.c — the floor of issue 10 and the stage timings the issues ask
- * `make bench` to print.
+/* bench_floor.c — the floor of a bake's time and the stage timings
+ * `make bench` prints (docs/benchmarks.md).
  *
  * The floor is the least any baker must spend on a mesh: import it and
  * rasterise it once at the atlas's texel density. Here: sv_import + validate
@@ -8,9 +8,9 @@
  * sphere, lit as a static-lighting bake renders) at (2R / texel_size)² pixels.
  * A method's bake time divided by this is "how many meshes' worth of work".
  *
- * Stage timings (medians of --repeat runs): import of the mesh (issue 2: the
- * ficus OBJ "well under a second"), classification and leaf elements, and the
- * k-means of issue 4 (Garcia et al. §2: leaves into 32 planes, alpha_rel·R²,
+ * Stage timings (medians of --repeat runs): import of the mesh (the
+ * ficus OBJ: the goal is "well under a second"), classification and leaf elements, and the
+ * k-means of the leaf clusters (Garcia et al. §2: leaves into 32 planes, alpha_rel·R²,
  * area-weighted, seed 1 — the leaf_clusters defaults; "under 50 ms" on the
  * ficus), alone and with the 16 and 8 hierarchy levels.
  *

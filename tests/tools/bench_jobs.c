@@ -1,4 +1,4 @@
-/* bench_jobs.c — issue 22 item 4's scale figure: the job table with many
+/* bench_jobs.c — the job table's scale figure: the job table with many
  * stored bakes and a long queue, through the same API sylvad's HTTP threads
  * and workers use (server/jobs.h), without HTTP or a worker process.
  *

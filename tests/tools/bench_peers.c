@@ -1,4 +1,4 @@
-/* bench_peers.c — the peers of issue 10: meshoptimizer's meshopt_simplify and
+/* bench_peers.c — our peers in simplification: meshoptimizer's meshopt_simplify and
  * meshopt_simplifySloppy (Debian's libmeshoptimizer-dev) at given triangle
  * counts, judged by the same evaluation as our bakes (evaluate.h, options
  * derived from the same spec exactly as core/pipeline/pipeline.c derives them).

@@ -281,8 +281,8 @@ static void set_overrides_a_spec_file_and_uses_its_method(void **state)
     char *out = NULL;
     size_t len = 0;
     char err[256];
-    /* "seed" is a top-level scalar of the spec: the root's (issue 23: `--set
-     * seed=2` could not set it); a leading dot names the root for any key. */
+    /* "seed" is a top-level scalar of the spec: the root's (`--set seed=2`
+     * sets it); a leading dot names the root for any key. */
     assert_int_equal(
         sylva_cli_build_spec(base, sizeof base - 1, NULL, sets, 3, &out, &len, err, sizeof err),
         SYLVA_EXIT_OK);
@@ -350,7 +350,7 @@ static void summary_falls_back_to_the_job_times_and_survives_missing_files(void 
     cJSON_Delete(s);
 }
 
-/* Issue 19: an unmet target is in the summary (report.json's, else the
+/* An unmet target is in the summary (report.json's, else the
  * status document's), printed with its reason, and gives exit 3. */
 static void summary_carries_an_unmet_target_and_its_reason(void **state)
 {

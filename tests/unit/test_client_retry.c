@@ -144,7 +144,7 @@ static void job_parse_accepts_a_null_stage(void **state)
     sylva_job_clear(&job);
 }
 
-/* Issue 19: a done bake whose target was not met says so in the job. */
+/* A done bake whose target was not met says so in the job. */
 static void job_parse_reads_an_unmet_target(void **state)
 {
     (void)state;

@@ -237,7 +237,7 @@ static void box_filter_averages_blocks_and_preserves_total_coverage(void **state
     sv_eval_image_free(NULL);
 }
 
-/* Issue 20: the evaluator filters a render to its largest size in one pass;
+/* The evaluator filters a render to its largest size in one pass;
  * it must give the very bits of the two steps it replaces (conversion to float
  * planes, then the box filter), on a render with every alpha and colour value,
  * depths, and infinite depths. */

@@ -1,5 +1,5 @@
 /* test_hostile.c — the hostile corpus and the truncation sweep, in-process
- * (issue 25; issue 16's "hostile files checked in-process").
+ * (beside the fuzz targets of tests/fuzz/).
  *
  *  - every file of tests/corpus/MANIFEST.tsv goes through the import path that
  *    `sylva-bake info` takes (sv_pipeline_info: sniff, pre-check, assimp,
@@ -426,9 +426,9 @@ static void test_cpu_guard_catches_a_spin(void **state)
     assert_true(sv_now() - t0 < 60);
 }
 
-/* ---------- issue 25's file ---------- */
+/* ---------- a PLY header without end_header (assimp's reader spun on it) ---------- */
 
-static void test_issue25_header_refused_fast(void **state)
+static void test_ply_header_without_end_refused_fast(void **state)
 {
     (void)state;
     static const char bytes[] = "ply\nformat ascii 1.0\nelement vertex 1\n";
@@ -436,7 +436,7 @@ static void test_issue25_header_refused_fast(void **state)
     for (int k = 0; k < 2; k++) {
         icase c = {0};
         snprintf(c.name, sizeof c.name, "%s", names[k]);
-        snprintf(c.label, sizeof c.label, "issue 25 header as %s", names[k]);
+        snprintf(c.label, sizeof c.label, "PLY header without end_header as %s", names[k]);
         c.data = (const uint8_t *)bytes;
         c.size = sizeof bytes - 1;
         result res = {0};
@@ -453,7 +453,8 @@ static void test_issue25_header_refused_fast(void **state)
         assert_non_null(strstr(e.message, names[k]));
         assert_non_null(strstr(e.message, "end_header"));
         assert_true(dt < 1.0);
-        printf("# issue 25 header as %s: refused in %.6f s: %s\n", names[k], dt, e.message);
+        printf("# PLY header without end_header as %s: refused in %.6f s: %s\n", names[k], dt,
+               e.message);
     }
 }
 
@@ -622,7 +623,7 @@ int main(void)
         return 1;
     }
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_issue25_header_refused_fast),
+        cmocka_unit_test(test_ply_header_without_end_refused_fast),
         cmocka_unit_test(test_mesh_precheck_messages),
         cmocka_unit_test(test_one_reader_per_extension),
         cmocka_unit_test(test_cpu_guard_catches_a_spin),

@@ -678,7 +678,7 @@ static void mtllib_outside_the_upload_is_refused(void **state)
     upload_free(&u);
 }
 
-/* Issue 19, "honest outcomes": a base-colour texture the .mtl names that was
+/* Honest outcomes: a base-colour texture the .mtl names that was
  * not supplied fails the import by default, naming the file and the way on. */
 static void missing_texture_fails_naming_it_by_default(void **state)
 {

@@ -231,13 +231,13 @@ static void crashing_job_fails_after_three_attempts_with_reason(void **state)
     close_all(f);
     open_all(f);
     assert_state(f, k, "failed");
-    /* issue 22 item 2: the server's failure (a crash on every attempt) is not
+    /* The server's failure (a crash on every attempt) is not
      * the input's verdict: uploading the same bytes again bakes it again */
     assert_int_equal(submit(f, "# poison\n", "addr:a", NULL), SVD_JOBS_OK);
     assert_state(f, k, "queued");
 }
 
-/* Issue 22 item 2: a retry waits (0.5 s, then 1 s, ... 8 s) instead of
+/* A retry waits (0.5 s, then 1 s, ... 8 s) instead of
  * meeting a full disk again at once; a failure the input caused is final,
  * also when uploaded again. */
 static void retries_back_off_and_input_failures_stay(void **state)
@@ -278,7 +278,7 @@ static void delete_cancels_queued_and_removes_finished(void **state)
     free(body);
 }
 
-/* Issue 22 item 11: an upload of a running bake that a DELETE is stopping is
+/* An upload of a running bake that a DELETE is stopping is
  * not lost: before the worker stops, the cancel is withdrawn; after, the
  * bake is queued again. */
 static void reupload_racing_a_delete_of_a_running_bake_wins(void **state)
@@ -463,7 +463,7 @@ static void status_reports_stage_progress_and_manifest(void **state)
     cJSON_Delete(j);
 }
 
-/* Issue 19: a bake whose target was not met is done, and its status document
+/* A bake whose target was not met is done, and its status document
  * says so at the top ("target": met false and why) beside every warning; a
  * bake without a target has no "target". */
 static void status_lifts_an_unmet_target_and_the_warnings_to_the_top(void **state)
@@ -583,8 +583,7 @@ static void start_up_survives_a_journal_that_cannot_be_compacted(void **state)
     fake_done(f, &t, "GLB1");
     close_all(f);
     /* journal.tmp cannot be written (a directory stands in its place, as a
-     * full disk would refuse it): compaction fails; before issue 22 so did
-     * start-up */
+     * full disk would refuse it): compaction fails; start-up must not */
     char journal[SVD_STORE_PATH], jtmp[SVD_STORE_PATH + 8];
     snprintf(journal, sizeof journal, "%s/journal", f->root);
     snprintf(jtmp, sizeof jtmp, "%s.tmp", journal);

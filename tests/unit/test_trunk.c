@@ -169,7 +169,7 @@ static double deviation(const sv_mesh *orig, const uint8_t *parts, const sv_mesh
  * collapsed faces), not the distance between the surfaces, and successive
  * collapses on a curved rim exceed it: measured here, 0.076 for a bound of
  * 0.05 and 0.80 for 0.5. So the check is "within twice the bound" (trunk.h
- * promises the bound itself: reported on issue 16). Without a bound, or with
+ * promises the bound itself, which meshoptimizer does not quite keep). Without a bound, or with
  * the bound ignored, the same request strays more than a bounded one may. */
 static void trunk_simplification_stays_within_max_error(void **state)
 {
