@@ -17,6 +17,7 @@
 
 #include "evaluate.h"
 #include "import.h"
+#include "level.h"
 #include "render.h"
 #include "stochastic.h"
 
@@ -1020,6 +1021,103 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     free(data);
 }
 
+/* ---- the chain hook ---- */
+
+/* The pipeline's cover callback, stood in for by Cook's model: each leaf
+ * (2 triangles) covers 5 % of a 1000-pixel image at random. */
+static sv_status cover_by_model(void *user, const uint32_t *tris, uint32_t count, double *covered,
+                                sv_error *err)
+{
+    (void)tris, (void)err;
+    ++*(int *)user;
+    *covered = 1000.0 * (1.0 - pow(0.95, count / 2.0));
+    return SV_OK;
+}
+
+static sv_status score_counting(void *user, const sv_mesh *g, double *score, sv_error *err)
+{
+    (void)err;
+    ++*(int *)user;
+    *score = -(double)g->triangle_count;
+    return SV_OK;
+}
+
+/* The chain's levels come through the method's chain hook: r measured by the
+ * pipeline's cover callback (r of the model), candidates scored by its score
+ * callback; each level carries its place in the schedule and a payload whose
+ * hooks give its glTF attributes (trunk vertices before the leaves: their own
+ * position, order 0) and its report fields. Without build, only the settings
+ * are checked. */
+static void chain_hook_builds_levels_through_the_pipelines_callbacks(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make(&t, 100);
+    const sv_method_ops *m = sv_method_ops_find(sv_method_chain_levels()->name);
+    assert_non_null(m);
+    assert_non_null(m->chain);
+    cJSON *set = cJSON_Parse("{\"levels\": [1, 0.5, 0.25]}");
+    int covers = 0, scores = 0;
+    sv_chain_in ci = {&t.in,   set, true, false,          cover_by_model,
+                      &covers, 3,   128,  score_counting, &scores};
+    sv_chain_out out = {0};
+    sv_error err = {0};
+    assert_int_equal(m->chain(&ci, &out, &err), SV_OK);
+    assert_int_equal(out.levels.lod_count, 0);
+    assert_int_equal(covers + scores, 0);
+    sv_chain_out_free(&out);
+
+    ci.build = true;
+    assert_int_equal(m->chain(&ci, &out, &err), SV_OK);
+    assert_int_equal(out.levels.lod_count, 3);
+    assert_true(covers >= 2);
+    assert_true(scores > 0);
+    const cJSON *vr = cJSON_GetObjectItem(out.report, "visible_ratio");
+    assert_float_equal(cJSON_GetObjectItem(vr, "r")->valuedouble, 0.05, 0.01);
+    assert_int_equal(cJSON_GetObjectItem(vr, "views")->valueint, 3);
+    assert_int_equal(cJSON_GetObjectItem(vr, "pixels")->valueint, 128);
+    const double lambdas[3] = {1, 0.5, 0.25};
+    int scored = 0;
+    for (uint32_t k = 0; k < 3; k++) {
+        sv_lod_plan *lp = &out.levels.lods[k];
+        assert_string_equal(out.place[k].source, "stochastic");
+        assert_float_equal(out.place[k].lambda, lambdas[k], 1e-12);
+        assert_non_null(lp->payload);
+        assert_non_null(lp->ops);
+        assert_non_null(lp->geometry);
+        /* a bake: two trunk vertices, then the level's geometry */
+        uint32_t gv = lp->geometry->vertex_count;
+        sv_baked_lod bk = {0};
+        bk.mesh = sv_mesh_create(2 + gv, 0, 1, 0);
+        assert_non_null(bk.mesh);
+        for (uint32_t i = 0; i < 3 * (2 + gv); i++) bk.mesh->positions[i] = (float)i;
+        sv_level_gltf g = {0};
+        assert_int_equal(lp->ops->gltf(lp, &bk, &g, &err), SV_OK);
+        assert_int_equal(g.attr_count, 2);
+        assert_string_equal(g.attr[0].name, "_LEAF_CENTRE");
+        assert_string_equal(g.attr[1].name, "_LEAF_ORDER");
+        for (uint32_t i = 0; i < 6; i++) assert_float_equal(g.attr[0].data[i], (float)i, 0);
+        assert_float_equal(g.attr[1].data[0], 0, 0);
+        assert_float_equal(g.attr[1].data[1], 0, 0);
+        for (uint32_t i = 2; i < 2 + gv; i++)
+            assert_true(g.attr[1].data[i] > 0 && g.attr[1].data[i] < 1);
+        const cJSON *x = cJSON_GetObjectItem(g.extras, "sylva_stochastic");
+        assert_float_equal(cJSON_GetObjectItem(x, "lambda")->valuedouble, lambdas[k], 1e-12);
+        sv_level_gltf_free(&g);
+        sv_mesh_destroy(bk.mesh);
+        cJSON *o = cJSON_CreateObject();
+        lp->ops->report(lp, o);
+        assert_float_equal(cJSON_GetObjectItem(o, "lambda")->valuedouble, lambdas[k], 1e-12);
+        assert_true(cJSON_GetObjectItem(o, "leaves")->valueint > 0);
+        scored += cJSON_IsNumber(cJSON_GetObjectItem(o, "candidate_iou"));
+        cJSON_Delete(o);
+    }
+    assert_true(scored > 0); /* the score callback's figure is reported */
+    sv_chain_out_free(&out);
+    cJSON_Delete(set);
+    toy_free(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1044,6 +1142,7 @@ int main(void)
         cmocka_unit_test(a_factor_past_one_brightens_a_copy_of_the_texture),
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),
         cmocka_unit_test(area_preservation_keeps_the_visible_area_of_a_real_tree),
+        cmocka_unit_test(chain_hook_builds_levels_through_the_pipelines_callbacks),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
 }
