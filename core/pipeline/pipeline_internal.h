@@ -87,8 +87,7 @@ typedef struct run {
 /* ---- the LOD chain (chain.c; docs/lod.md) ---- */
 
 typedef struct chain_lod {
-    bool scheduled;     /* placed by the schedule of the chain's own levels (sv_method_ops
-                               chain), e.g. a leafless tree's trunk level */
+    bool scheduled;     /* placed by the chain hook's schedule (sv_method_ops chain) */
     double lambda;      /* scheduled: its share of the detail (1: the full mesh, exact) */
     double distance;    /* scheduled: the nearest distance it is drawn from */
     double trunk_error; /* metres: meshoptimizer bound, one pixel at `distance` */
