@@ -38,19 +38,36 @@
 /* An extra per-vertex float attribute (mesh.h). */
 typedef sv_vertex_attribute sv_gltf_attribute;
 
+/* How a level's geometry is stored (docs/outputs.md "Sizes"). */
+typedef enum sv_gltf_compress {
+    SV_GLTF_FLOAT = 0, /* float positions, normals and UVs */
+    /* KHR_mesh_quantization: positions as 16-bit integers with the node's
+     * translation and uniform scale undoing the quantization (float when the
+     * level has extra attributes, which are in the positions' space), normals
+     * as normalized bytes, UVs in [0, 1] as normalized 16-bit integers (float
+     * otherwise); the extension is required */
+    SV_GLTF_QUANTIZE,
+    /* SV_GLTF_QUANTIZE, then every vertex and index buffer view encoded with
+     * EXT_meshopt_compression (meshoptimizer's codecs: attributes, triangles)
+     * in the binary chunk, the views' declared buffer a placeholder without
+     * data (buffer 1, "fallback": true); both extensions are required */
+    SV_GLTF_MESHOPT
+} sv_gltf_compress;
+
 typedef struct sv_gltf_lod {
     const char *name;       /* node and mesh name; NULL = "lod<i>" */
     const sv_mesh *mesh;    /* may have zero triangles: the node has no mesh */
     double screen_coverage; /* MSFT_screencoverage: lower bound of this LOD, in [0,1] */
     const sv_gltf_attribute *attributes; /* optional extra vertex attributes */
     uint32_t attribute_count;
-    const cJSON *extras;   /* optional object merged into the node's extras
+    const cJSON *extras;       /* optional object merged into the node's extras
                                        (e.g. the fade window); copied, not owned */
-    const char *mesh_name; /* mesh name; NULL = the node's name */
-    double translation[3]; /* the node's translation (the mesh's local origin in the
+    const char *mesh_name;     /* mesh name; NULL = the node's name */
+    double translation[3];     /* the node's translation (the mesh's local origin in the
                               scene, metres): written when not zero, with every
                               digit of the double (JSON numbers), so a tree far
                               from the origin keeps local float vertices */
+    sv_gltf_compress compress; /* how the geometry is stored (default: floats) */
 } sv_gltf_lod;
 
 /* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a

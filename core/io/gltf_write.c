@@ -21,6 +21,8 @@
 #define GLB_CHUNK_JSON 0x4E4F534Au /* "JSON" */
 #define GLB_CHUNK_BIN 0x004E4942u  /* "BIN\0" */
 #define GL_FLOAT 5126
+#define GL_BYTE 5120
+#define GL_SHORT 5122
 #define GL_UNSIGNED_SHORT 5123
 #define GL_UNSIGNED_INT 5125
 #define GL_ARRAY_BUFFER 34962
@@ -43,6 +45,11 @@ typedef struct writer {
     size_t uniq_count, uniq_cap;
     sv_error *err;
     sv_status last; /* status of the last failure, for helpers that return an index */
+    /* the level being written: how its geometry is stored */
+    sv_gltf_compress compress;
+    bool quantized;      /* some accessor uses KHR_mesh_quantization's types */
+    bool meshopt;        /* some view is EXT_meshopt_compression-encoded */
+    size_t fallback_len; /* the placeholder buffer's length (buffer 1) */
 } writer;
 
 static sv_status nomem(writer *w)
@@ -83,6 +90,12 @@ static bool add_int(cJSON *obj, const char *key, double v)
     return cJSON_AddNumberToObject(obj, key, v) != NULL;
 }
 
+static const char *type_name(uint32_t components)
+{
+    static const char *const names[5] = {NULL, "SCALAR", "VEC2", "VEC3", "VEC4"};
+    return components <= 4 ? names[components] : NULL;
+}
+
 /* Adds a buffer view over bytes already appended; returns its index or -1. */
 static int add_view(writer *w, size_t offset, size_t length, int target)
 {
@@ -99,27 +112,94 @@ static int add_view(writer *w, size_t offset, size_t length, int target)
     return cJSON_GetArraySize(w->views) - 1;
 }
 
-static const char *type_name(uint32_t components)
+/* Appends count elements of stride bytes (vertex data: target
+ * GL_ARRAY_BUFFER; or triangle indices of stride 2 or 4, vertex_count the
+ * vertices they index) as a new buffer view; returns its index or -1 with
+ * w->err set. With
+ * SV_GLTF_MESHOPT the bytes in the binary chunk are meshoptimizer's encoding
+ * (EXT_meshopt_compression "ATTRIBUTES" or "TRIANGLES", bitstream versions 0
+ * and 1) and the view's own range is in the placeholder buffer 1. */
+static int add_data_view(writer *w, const void *data, size_t count, size_t stride, int target,
+                         size_t vertex_count)
 {
-    static const char *const names[5] = {NULL, "SCALAR", "VEC2", "VEC3", "VEC4"};
-    return components <= 4 ? names[components] : NULL;
+    size_t bytes = count * stride, off;
+    bool vertex = target == GL_ARRAY_BUFFER;
+    uint8_t *enc = NULL;
+    size_t enc_len = 0;
+    if (w->compress == SV_GLTF_MESHOPT && count) {
+        size_t bound = vertex ? meshopt_encodeVertexBufferBound(count, stride)
+                              : meshopt_encodeIndexBufferBound(count, vertex_count);
+        unsigned int *idx = NULL;
+        if (!(enc = malloc(bound))) return nomem(w), -1;
+        if (vertex) {
+            meshopt_encodeVertexVersion(0);
+            enc_len = meshopt_encodeVertexBuffer(enc, bound, data, count, stride);
+        } else {
+            if (!(idx = malloc(count * sizeof *idx))) {
+                free(enc);
+                return nomem(w), -1;
+            }
+            for (size_t i = 0; i < count; i++)
+                idx[i] = stride == 2 ? ((const uint16_t *)data)[i] : ((const uint32_t *)data)[i];
+            meshopt_encodeIndexVersion(1);
+            enc_len = meshopt_encodeIndexBuffer(enc, bound, idx, count);
+            free(idx);
+        }
+        if (!enc_len) {
+            free(enc);
+            w->last = sv_fail(w->err, SV_ERR_INTERNAL, "glTF writer: meshopt encoding failed");
+            return -1;
+        }
+    }
+    sv_status st = enc ? bin_append(w, enc, enc_len, &off) : bin_append(w, data, bytes, &off);
+    free(enc);
+    if (st != SV_OK) return -1;
+    cJSON *v = cJSON_CreateObject();
+    if (!v) return nomem(w), -1;
+    bool ok;
+    if (enc) {
+        cJSON *x = cJSON_CreateObject(), *m = NULL;
+        ok = x && (m = cJSON_AddObjectToObject(x, "EXT_meshopt_compression")) &&
+             add_int(m, "buffer", 0) && add_int(m, "byteOffset", (double)off) &&
+             add_int(m, "byteLength", (double)enc_len) &&
+             add_int(m, "byteStride", (double)stride) && add_int(m, "count", (double)count) &&
+             cJSON_AddStringToObject(m, "mode", vertex ? "ATTRIBUTES" : "TRIANGLES");
+        ok = ok && add_int(v, "buffer", 1) && add_int(v, "byteOffset", (double)w->fallback_len) &&
+             add_int(v, "byteLength", (double)bytes);
+        if (ok && vertex) ok = add_int(v, "byteStride", (double)stride);
+        ok = ok && add_int(v, "target", target);
+        if (ok) cJSON_AddItemToObject(v, "extensions", x);
+        else cJSON_Delete(x);
+        w->fallback_len += (bytes + 3) & ~(size_t)3;
+        w->meshopt = true;
+    } else {
+        ok = add_int(v, "buffer", 0) && add_int(v, "byteOffset", (double)off) &&
+             add_int(v, "byteLength", (double)bytes);
+        /* quantized elements are padded to 4 bytes: the stride says so */
+        if (ok && vertex && w->compress != SV_GLTF_FLOAT)
+            ok = add_int(v, "byteStride", (double)stride);
+        if (ok) ok = add_int(v, "target", target);
+    }
+    if (!ok) {
+        cJSON_Delete(v);
+        return nomem(w), -1;
+    }
+    cJSON_AddItemToArray(w->views, v);
+    return cJSON_GetArraySize(w->views) - 1;
 }
 
-/* Appends data as a new buffer view + accessor; returns accessor index or -1
- * (error already recorded in w->err). min/max (may be NULL) have `components`
- * entries each. */
-static int add_accessor(writer *w, const void *data, size_t bytes, int component_type, size_t count,
-                        uint32_t components, int target, const double *mn, const double *mx)
+/* Adds an accessor over buffer view `view`; returns its index or -1 (error
+ * recorded in w->err). min/max (may be NULL) have `components` entries. */
+static int add_accessor_on(writer *w, int view, int component_type, bool normalized, size_t count,
+                           uint32_t components, const double *mn, const double *mx)
 {
-    size_t off;
-    if (bin_append(w, data, bytes, &off) != SV_OK) return -1;
-    int view = add_view(w, off, bytes, target);
     cJSON *a = view < 0 ? NULL : cJSON_CreateObject();
     if (!a) {
-        nomem(w);
+        if (view >= 0) nomem(w);
         return -1;
     }
     bool ok = add_int(a, "bufferView", view) && add_int(a, "componentType", component_type) &&
+              (!normalized || cJSON_AddTrueToObject(a, "normalized")) &&
               add_int(a, "count", (double)count) &&
               cJSON_AddStringToObject(a, "type", type_name(components)) != NULL;
     if (ok && mn && mx) {
@@ -140,6 +220,17 @@ static int add_accessor(writer *w, const void *data, size_t bytes, int component
     }
     cJSON_AddItemToArray(w->accessors, a);
     return cJSON_GetArraySize(w->accessors) - 1;
+}
+
+/* Appends count elements of `components` components (stride bytes each) as
+ * a new buffer view (add_data_view) and an accessor over it; returns the
+ * accessor's index or -1 (error recorded in w->err). */
+static int add_accessor(writer *w, const void *data, size_t stride, int component_type,
+                        bool normalized, size_t count, uint32_t components, int target,
+                        size_t vertex_count, const double *mn, const double *mx)
+{
+    int view = add_data_view(w, data, count, stride, target, vertex_count);
+    return add_accessor_on(w, view, component_type, normalized, count, components, mn, mx);
 }
 
 /* Shortest decimal that reads back as the same float, so material factors read
@@ -377,12 +468,64 @@ static sv_status check_lod(const sv_gltf_lod *l, uint32_t i, sv_error *err)
     return SV_OK;
 }
 
-/* Writes the vertex accessors of one LOD into `attrs` (a JSON object). */
-static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
+/* A unit component as a normalized signed byte, as glTF decodes it:
+ * max(q / 127, -1) (glTF 2.0 §3.11, accessor data normalization). */
+static int8_t quantize_snorm8(float v)
+{
+    if (!(v >= -1.0f)) v = -1.0f; /* also NaN */
+    if (v > 1.0f) v = 1.0f;
+    return (int8_t)lround((double)v * 127.0);
+}
+
+/* A value of [0, 1] as a normalized unsigned 16-bit integer: q / 65535. */
+static uint16_t quantize_unorm16(float v)
+{
+    return (uint16_t)lround((double)v * 65535.0);
+}
+
+/* KHR_mesh_quantization's positions: each coordinate p stored as the 16-bit
+ * integer round((p - off) / scale), off the bounds' centre and scale the
+ * largest half extent / 32767 (one scale for the three axes, so the node's
+ * uniform scale keeps normals' directions); the node's translation adds off
+ * and its scale is scale. Elements are padded to 8 bytes. */
+static int16_t *quantize_positions(const float *p, size_t nv, const double mn[3],
+                                   const double mx[3], double off[3], double *scale, double qmn[3],
+                                   double qmx[3])
+{
+    double half = 0;
+    for (int k = 0; k < 3; k++) {
+        off[k] = nv ? 0.5 * (mn[k] + mx[k]) : 0;
+        if (nv && 0.5 * (mx[k] - mn[k]) > half) half = 0.5 * (mx[k] - mn[k]);
+        qmn[k] = 32767, qmx[k] = -32767;
+    }
+    *scale = half > 0 ? half / 32767.0 : 1.0;
+    int16_t *q = malloc((nv ? nv : 1) * 4 * sizeof *q);
+    if (!q) return NULL;
+    for (size_t v = 0; v < nv; v++) {
+        for (int k = 0; k < 3; k++) {
+            double x = round(((double)p[3 * v + k] - off[k]) / *scale);
+            if (x < -32767) x = -32767;
+            if (x > 32767) x = 32767;
+            q[4 * v + k] = (int16_t)x;
+            if (x < qmn[k]) qmn[k] = x;
+            if (x > qmx[k]) qmx[k] = x;
+        }
+        q[4 * v + 3] = 0;
+    }
+    return q;
+}
+
+/* Writes the vertex accessors of one LOD into `attrs` (a JSON object). With
+ * quantized positions, *qscale is their scale and qoff their offset (the
+ * node's transform undoes them); else *qscale is 0. */
+static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs, double qoff[3],
+                                double *qscale)
 {
     const sv_mesh *m = l->mesh;
     size_t nv = m->vertex_count, bytes3, bytes2;
-    if (!sv_mul_size(nv, 3 * sizeof(float), &bytes3) ||
+    bool quant = w->compress != SV_GLTF_FLOAT;
+    *qscale = 0;
+    if (!sv_mul_size(nv, 4 * sizeof(float), &bytes3) ||
         !sv_mul_size(nv, 2 * sizeof(float), &bytes2))
         return nomem(w);
     double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -392,12 +535,27 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
             if (p < mn[k]) mn[k] = p;
             if (p > mx[k]) mx[k] = p;
         }
-    int acc = add_accessor(w, m->positions, bytes3, GL_FLOAT, nv, 3, GL_ARRAY_BUFFER, mn, mx);
+    int acc;
+    if (quant && !l->attribute_count) {
+        /* extra attributes (a stochastic level's leaf centres) are in the
+         * positions' space: positions stay float there */
+        double qmn[3], qmx[3], sc;
+        int16_t *q = quantize_positions(m->positions, nv, mn, mx, qoff, &sc, qmn, qmx);
+        if (!q) return nomem(w);
+        acc = add_accessor(w, q, 8, GL_SHORT, false, nv, 3, GL_ARRAY_BUFFER, 0, qmn, qmx);
+        free(q);
+        *qscale = sc;
+        w->quantized = true;
+    } else {
+        acc = add_accessor(w, m->positions, 3 * sizeof(float), GL_FLOAT, false, nv, 3,
+                           GL_ARRAY_BUFFER, 0, mn, mx);
+    }
     if (acc < 0) return w->last;
     if (!add_int(attrs, "POSITION", acc)) return nomem(w);
     if (m->normals) {
         /* glTF requires unit normals; renormalise (zero → +Y) in double. */
         float *n = malloc(bytes3 ? bytes3 : 1);
+        int8_t *qn = (int8_t *)n; /* quantized: 4 bytes a normal, in place */
         if (!n) return nomem(w);
         for (size_t v = 0; v < nv; v++) {
             double x = m->normals[3 * v], y = m->normals[3 * v + 1], z = m->normals[3 * v + 2];
@@ -405,17 +563,42 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
             if (!(len > 1e-20) || !isfinite(len)) {
                 x = 0, y = 1, z = 0, len = 1;
             }
-            n[3 * v] = (float)(x / len);
-            n[3 * v + 1] = (float)(y / len);
-            n[3 * v + 2] = (float)(z / len);
+            if (quant) {
+                qn[4 * v] = quantize_snorm8((float)(x / len));
+                qn[4 * v + 1] = quantize_snorm8((float)(y / len));
+                qn[4 * v + 2] = quantize_snorm8((float)(z / len));
+                qn[4 * v + 3] = 0;
+            } else {
+                n[3 * v] = (float)(x / len);
+                n[3 * v + 1] = (float)(y / len);
+                n[3 * v + 2] = (float)(z / len);
+            }
         }
-        acc = add_accessor(w, n, bytes3, GL_FLOAT, nv, 3, GL_ARRAY_BUFFER, NULL, NULL);
+        acc = quant ? add_accessor(w, n, 4, GL_BYTE, true, nv, 3, GL_ARRAY_BUFFER, 0, NULL, NULL)
+                    : add_accessor(w, n, 3 * sizeof(float), GL_FLOAT, false, nv, 3, GL_ARRAY_BUFFER,
+                                   0, NULL, NULL);
+        if (quant) w->quantized = true;
         free(n);
         if (acc < 0) return w->last;
         if (!add_int(attrs, "NORMAL", acc)) return nomem(w);
     }
     if (m->uvs) {
-        acc = add_accessor(w, m->uvs, bytes2, GL_FLOAT, nv, 2, GL_ARRAY_BUFFER, NULL, NULL);
+        bool unit = quant;
+        for (size_t v = 0; unit && v < 2 * nv; v++)
+            if (!(m->uvs[v] >= 0.0f && m->uvs[v] <= 1.0f)) unit = false;
+        if (unit) {
+            /* UVs in [0, 1]: normalized 16-bit integers (steps of 1/65535) */
+            uint16_t *qu = malloc(bytes2 ? bytes2 : 1);
+            if (!qu) return nomem(w);
+            for (size_t v = 0; v < 2 * nv; v++) qu[v] = quantize_unorm16(m->uvs[v]);
+            acc = add_accessor(w, qu, 4, GL_UNSIGNED_SHORT, true, nv, 2, GL_ARRAY_BUFFER, 0, NULL,
+                               NULL);
+            free(qu);
+            w->quantized = true;
+        } else {
+            acc = add_accessor(w, m->uvs, 2 * sizeof(float), GL_FLOAT, false, nv, 2,
+                               GL_ARRAY_BUFFER, 0, NULL, NULL);
+        }
         if (acc < 0) return w->last;
         if (!add_int(attrs, "TEXCOORD_0", acc)) return nomem(w);
     }
@@ -423,8 +606,8 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
         const sv_gltf_attribute *at = &l->attributes[a];
         size_t bytes;
         if (!sv_mul_size(nv, at->components * sizeof(float), &bytes)) return nomem(w);
-        acc = add_accessor(w, at->data, bytes, GL_FLOAT, nv, at->components, GL_ARRAY_BUFFER, NULL,
-                           NULL);
+        acc = add_accessor(w, at->data, at->components * sizeof(float), GL_FLOAT, false, nv,
+                           at->components, GL_ARRAY_BUFFER, 0, NULL, NULL);
         if (acc < 0) return w->last;
         if (!add_int(attrs, at->name, acc)) return nomem(w);
     }
@@ -433,7 +616,8 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs)
 
 /* Writes one glTF mesh for LOD l: shared vertex accessors, one primitive per
  * material used (ascending material index), triangles in input order. */
-static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index);
+static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
+                              double qoff[3], double *qscale);
 
 /* Writes the mesh of LOD l with its identical vertices merged: vertices
  * equal in every attribute written (position, normal, UV, the extra
@@ -441,7 +625,8 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
  * them (meshopt_generateVertexRemapMulti), and vertices no triangle uses are
  * left out. Lossless: the same triangles, drawn the same, in fewer bytes
  * (a tree's triangle soup held each vertex once per triangle). */
-static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index)
+static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
+                            double qoff[3], double *qscale)
 {
     const sv_mesh *m = l->mesh;
     size_t nv = m->vertex_count, ni = (size_t)m->triangle_count * 3;
@@ -499,7 +684,7 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     sv_gltf_lod wl = *l;
     wl.mesh = &wm;
     wl.attributes = l->attribute_count ? at : NULL;
-    st = write_welded(w, &wl, name, mesh_index);
+    st = write_welded(w, &wl, name, mesh_index, qoff, qscale);
 out:
     for (int a = 0; a < 8; a++) free(ad[a]);
     free(uv);
@@ -510,7 +695,8 @@ out:
     return st;
 }
 
-static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index)
+static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
+                              double qoff[3], double *qscale)
 {
     const sv_mesh *m = l->mesh;
     sv_status st = SV_OK;
@@ -522,7 +708,7 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
         st = nomem(w);
         goto out;
     }
-    if ((st = write_vertices(w, l, attrs)) != SV_OK) goto out;
+    if ((st = write_vertices(w, l, attrs, qoff, qscale)) != SV_OK) goto out;
     for (uint32_t t = 0; t < m->triangle_count; t++) per_mat[m->tri_material[t]]++;
     bool small = m->vertex_count <= 65535; /* index 65535 is primitive restart: never used */
     size_t isz = small ? 2 : 4;
@@ -542,8 +728,8 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
                 else ((uint32_t *)idx)[k] = v;
             }
         }
-        int acc = add_accessor(w, idx, bytes, small ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, count, 1,
-                               GL_ELEMENT_ARRAY_BUFFER, NULL, NULL);
+        int acc = add_accessor(w, idx, isz, small ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, false,
+                               count, 1, GL_ELEMENT_ARRAY_BUFFER, m->vertex_count, NULL, NULL);
         free(idx);
         idx = NULL;
         if (acc < 0) {
@@ -666,25 +852,41 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count,
             return nomem(w);
         }
         cJSON_AddItemToArray(w->nodes, node);
-        if (l->translation[0] != 0 || l->translation[1] != 0 || l->translation[2] != 0) {
+        int mesh_index = -1;
+        double qoff[3] = {0, 0, 0}, qscale = 0, tr3[3];
+        if (l->mesh->triangle_count) {
+            w->compress = l->compress;
+            sv_status st = write_mesh(w, l, l->mesh_name && l->mesh_name[0] ? l->mesh_name : name,
+                                      &mesh_index, qoff, &qscale);
+            w->compress = SV_GLTF_FLOAT;
+            if (st != SV_OK) return st;
+        }
+        /* the level's translation, plus the quantized positions' offset */
+        for (int k = 0; k < 3; k++) tr3[k] = l->translation[k] + qoff[k];
+        if (tr3[0] != 0 || tr3[1] != 0 || tr3[2] != 0) {
             /* %.17g: cJSON's own printing may drop the last bits of a double */
             cJSON *tr = cJSON_AddArrayToObject(node, "translation");
             for (int k = 0; tr && k < 3; k++) {
                 char num[32];
-                snprintf(num, sizeof num, "%.17g", l->translation[k]);
+                snprintf(num, sizeof num, "%.17g", tr3[k]);
                 cJSON *x = cJSON_CreateRaw(num);
                 if (!x) tr = NULL;
                 else cJSON_AddItemToArray(tr, x);
             }
             if (!tr) return nomem(w);
         }
-        if (l->mesh->triangle_count) {
-            int mesh_index = -1;
-            sv_status st = write_mesh(w, l, l->mesh_name && l->mesh_name[0] ? l->mesh_name : name,
-                                      &mesh_index);
-            if (st != SV_OK) return st;
-            if (!add_int(node, "mesh", mesh_index)) return nomem(w);
+        if (qscale > 0) { /* undoes the quantization (KHR_mesh_quantization) */
+            cJSON *sc = cJSON_AddArrayToObject(node, "scale");
+            for (int k = 0; sc && k < 3; k++) {
+                char num[32];
+                snprintf(num, sizeof num, "%.17g", qscale);
+                cJSON *x = cJSON_CreateRaw(num);
+                if (!x) sc = NULL;
+                else cJSON_AddItemToArray(sc, x);
+            }
+            if (!sc) return nomem(w);
         }
+        if (mesh_index >= 0 && !add_int(node, "mesh", mesh_index)) return nomem(w);
         cJSON *extras = NULL;
         if (l->extras) {
             if (!cJSON_IsObject(l->extras))
@@ -728,6 +930,39 @@ static sv_status build(writer *w, const sv_gltf_lod *lods, uint32_t lod_count,
             return nomem(w);
         }
         cJSON_AddItemToArray(buffers, b);
+        if (w->meshopt) {
+            /* buffer 1: the decoded views' placeholder, without data
+             * (EXT_meshopt_compression "Fallback buffers") */
+            cJSON *f = cJSON_CreateObject(), *x = NULL, *m = NULL;
+            bool ok = f &&
+                      add_int(f, "byteLength", (double)(w->fallback_len ? w->fallback_len : 4)) &&
+                      (x = cJSON_AddObjectToObject(f, "extensions")) &&
+                      (m = cJSON_AddObjectToObject(x, "EXT_meshopt_compression")) &&
+                      cJSON_AddTrueToObject(m, "fallback");
+            if (!ok) {
+                cJSON_Delete(f);
+                return nomem(w);
+            }
+            cJSON_AddItemToArray(buffers, f);
+        }
+    }
+    /* the geometry's extensions, required: a loader without them would
+     * misread the data (or have none) */
+    const char *geo_ext[2] = {w->quantized ? "KHR_mesh_quantization" : NULL,
+                              w->meshopt ? "EXT_meshopt_compression" : NULL};
+    for (int k = 0; k < 2; k++) {
+        if (!geo_ext[k]) continue;
+        const char *key[2] = {"extensionsUsed", "extensionsRequired"};
+        for (int u = 0; u < 2; u++) {
+            cJSON *list = cJSON_GetObjectItemCaseSensitive(r, key[u]);
+            if (!list) list = cJSON_AddArrayToObject(r, key[u]);
+            cJSON *x = cJSON_CreateString(geo_ext[k]);
+            if (!list || !x) {
+                cJSON_Delete(x);
+                return nomem(w);
+            }
+            cJSON_AddItemToArray(list, x);
+        }
     }
     /* KHR_materials_unlit is declared when a material uses it. */
     const cJSON *mat;

@@ -152,6 +152,26 @@ static sv_status write_lod_group(const run *r, bake_state *b, const sv_gltf_lod 
     return st;
 }
 
+/* Deletes from the objects in extras (one level down: a method's own
+ * object) every member whose value is the name of one of l's extra
+ * attributes. */
+static void drop_attribute_names(cJSON *extras, const sv_gltf_lod *l)
+{
+    cJSON *o;
+    cJSON_ArrayForEach(o, extras)
+    {
+        if (!cJSON_IsObject(o)) continue;
+        for (cJSON *m = o->child, *next; m; m = next) {
+            next = m->next;
+            for (uint32_t a = 0; cJSON_IsString(m) && a < l->attribute_count; a++)
+                if (strcmp(m->valuestring, l->attributes[a].name) == 0) {
+                    cJSON_Delete(cJSON_DetachItemViaPointer(o, m));
+                    break;
+                }
+        }
+    }
+}
+
 sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
 {
     const sv_stand_in *si = &b->si;
@@ -175,6 +195,9 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
         gl[i].mesh = lods[i].baked.mesh;
         gl[i].screen_coverage = lods[i].coverage;
         memcpy(gl[i].translation, r->p.info.origin, sizeof gl[i].translation);
+        gl[i].compress = r->spec.output_compress == SV_COMPRESS_MESHOPT    ? SV_GLTF_MESHOPT
+                         : r->spec.output_compress == SV_COMPRESS_QUANTIZE ? SV_GLTF_QUANTIZE
+                                                                           : SV_GLTF_FLOAT;
         const sv_lod_plan *lp = &si->lods[i];
         if (lp->ops && lp->ops->gltf) { /* the level's own attributes and extras */
             st = lp->ops->gltf(lp, &lods[i].baked, &gx[i], err);
@@ -185,12 +208,31 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
     }
     snprintf(path, sizeof path, "%s/model.glb", r->req->out_dir);
     if (st == SV_OK) st = sv_gltf_write_glb(path, gl, si->lod_count, err);
+    /* The other files are for engines that draw each level as it is: no
+     * extra vertex attributes (a stochastic level's fade attributes,
+     * docs/outputs.md "Sizes"); their extras keep the level's description
+     * without the members that name those attributes. */
+    cJSON **plain = sv_calloc(si->lod_count, sizeof *plain);
+    if (!plain && st == SV_OK) st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t i = 0; plain && i < si->lod_count && st == SV_OK; i++) {
+        if (!gl[i].attribute_count) continue;
+        if (!(plain[i] = cJSON_Duplicate(gl[i].extras, true))) {
+            st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+            break;
+        }
+        drop_attribute_names(plain[i], &gl[i]);
+        gl[i].attributes = NULL;
+        gl[i].attribute_count = 0;
+        gl[i].extras = plain[i];
+    }
     /* one standalone file per kept level, for importers that ignore MSFT_lod */
     for (uint32_t i = 0; i < si->lod_count && st == SV_OK; i++) {
         snprintf(path, sizeof path, "%s/%s", r->req->out_dir, lods[i].file);
         st = sv_gltf_write_level_glb(path, &gl[i], err);
     }
     if (st == SV_OK) st = write_lod_group(r, b, gl, asset, err);
+    for (uint32_t i = 0; plain && i < si->lod_count; i++) cJSON_Delete(plain[i]);
+    free(plain);
     for (uint32_t i = 0; i < si->lod_count; i++) sv_level_gltf_free(&gx[i]);
     free(gx);
     free(gl);

@@ -350,12 +350,17 @@ static sv_status parse_classify(const cJSON *cl, sv_spec *s, sv_error *err)
     return st;
 }
 
-/* "output": which files beyond the glTF ones a bake writes. */
+/* "output": which files beyond the glTF ones a bake writes, and how the glTF
+ * geometry is encoded. */
 static sv_status parse_output(const cJSON *o, sv_spec *s, sv_error *err)
 {
-    static const char *const keys[] = {"fbx", NULL};
+    static const char *const keys[] = {"fbx", "compress", NULL};
+    static const char *const compress[] = {"none", "quantize", "meshopt", NULL};
     sv_status st = sv_setting_only(o, "output", keys, err);
     if (!st) st = sv_setting_bool(o, "output", "fbx", &s->output_fbx, err);
+    int e = (int)s->output_compress;
+    if (!st) st = parse_enum(o, "output", "compress", compress, &e, err);
+    s->output_compress = (sv_compress)e;
     return st;
 }
 
@@ -494,9 +499,23 @@ void sv_spec_free(sv_spec *s)
     memcpy(s->method, method, sizeof method);
 }
 
+/* Bytes a copy of the chain's meshes may take per input byte, glTF and FBX:
+ * the largest measured on the shared trees, rounded up (docs/benchmarks.md
+ * "Output sizes": the decorative plant's lods.glb is about 6 × its input,
+ * its FBX files about 16 ×). */
+#define SV_EST_GLTF_CHAIN 6u
+#define SV_EST_FBX 18u
+
 uint64_t sv_spec_output_estimate(const sv_spec *spec, uint64_t input_bytes)
 {
     uint64_t a = spec && spec->max_atlas ? spec->max_atlas : 2048;
-    /* 3 copies × 4/3 of the levels × 8 bytes a texel */
-    return 3 * input_bytes + 32 * a * a;
+    bool fbx = !spec || spec->output_fbx;
+    /* meshes (and the input's textures they embed): model.glb, the
+     * lod<i>_<name>.glb files and lods.glb each hold the chain; the FBX files
+     * (lods.fbx, lod<i>_<name>.fbx, the textures beside them) */
+    uint64_t mesh = (3 * SV_EST_GLTF_CHAIN + (fbx ? SV_EST_FBX : 0)) * input_bytes;
+    /* atlases: 4/3 of the first level's a² texels of 8 bytes, four copies
+     * (the PNG or JPEG file, model.glb, the level's own file, lods.glb; the
+     * FBX files refer to the files beside them) */
+    return mesh + 4 * 8 * 4 * a * a / 3;
 }

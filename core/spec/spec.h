@@ -19,6 +19,14 @@
 
 #define SV_MAX_EVAL_SIZES 8
 
+/* output.compress (docs/spec.md "output"): how the glTF files' geometry is
+ * stored. */
+typedef enum sv_compress {
+    SV_COMPRESS_NONE = 0, /* float attributes */
+    SV_COMPRESS_QUANTIZE, /* KHR_mesh_quantization */
+    SV_COMPRESS_MESHOPT   /* quantized, then EXT_meshopt_compression */
+} sv_compress;
+
 typedef struct sv_spec {
     char method[32];
     cJSON *root;           /* the parsed document, owned */
@@ -69,6 +77,7 @@ typedef struct sv_spec {
                                      (default "crossed_quads"); docs/lod.md */
     /* output (docs/spec.md "output") */
     bool output_fbx; /* lods.fbx and lod<i>_<name>.fbx beside the glTF files (default true) */
+    sv_compress output_compress; /* the glTF files' geometry (default SV_COMPRESS_NONE) */
     /* target (docs/spec.md "target"): search the method's knobs, cheapest first */
     bool has_target;               /* a "target" object was given */
     double target_iou;             /* coverage IoU to reach, 0 = none */
@@ -86,11 +95,13 @@ sv_status sv_spec_parse(const char *json, size_t len, sv_spec *out, sv_error *er
 void sv_spec_free(sv_spec *spec);
 
 /* An upper estimate of the bytes a bake of input_bytes of uploads with this
- * spec writes: the full mesh kept in model.glb and its own level file (three
- * times the input), and every quad level's maps at most max_atlas² texels of
- * 8 bytes (RGBA albedo, normal, ao, depth), levels after the first a quarter
- * the size of the one before (4/3 in all), written as PNG files and embedded
- * in two GLBs (three copies). Used to hold disk room for a bake's outputs
+ * spec writes (docs/operations.md, disk_reserve_bytes): the chain's meshes,
+ * with the input's textures, in model.glb, the level files and lods.glb (6
+ * times the input each) and, with output.fbx, the FBX files (18 times the
+ * input); every quad level's maps at most max_atlas² texels of 8 bytes (RGBA
+ * albedo, normal, ao, depth), levels after the first a quarter the size of
+ * the one before (4/3 in all), in four copies (the image file, model.glb,
+ * the level's file, lods.glb). Used to hold disk room for a bake's outputs
  * when it is accepted. */
 uint64_t sv_spec_output_estimate(const sv_spec *spec, uint64_t input_bytes);
 

@@ -550,8 +550,13 @@ async function main() {
             const oct = impostorOf.get(lod.name);
             if (withFade && lod.source === 'stochastic' && lod.lambda !== 1) {
                 const full = report.lods.find((l) => l.source === 'stochastic' && l.lambda === 1);
-                if (full) {
-                    const obj = makeStochasticFade((await loadLevel(full, false)).obj, report);
+                if (full && report.lods.indexOf(full) === 0) {
+                    // the fade attributes are in model.glb only (docs/outputs.md),
+                    // whose scene is its finest level: the full one
+                    const gltf = await gltfLoader.loadAsync(art('model.glb'));
+                    gltf.scene.position.copy(localOffset(report));
+                    toUnlit(gltf.scene, false);
+                    const obj = makeStochasticFade(gltf.scene, report);
                     obj.userData.setMu(lod.leaf_fraction ?? lod.lambda);
                     return { kind: 'stochastic fade', obj };
                 }

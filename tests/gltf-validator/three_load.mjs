@@ -1,7 +1,8 @@
 #!/usr/bin/env node
 // three_load.mjs FILE... — loads each .glb with three.js's GLTFLoader (the
 // loader of the three.js editor and of most web viewers, which ignores
-// MSFT_lod) and prints one JSON line per file: the scene's node names (and,
+// MSFT_lod; with meshoptimizer's decoder for EXT_meshopt_compression) and
+// prints one JSON line per file: the scene's node names (and,
 // in `children`, each one's child nodes with their meshes and textured
 // materials: a LOD group's levels), the meshes and triangles it would draw, how many of their materials carry a
 // base-colour texture, alpha test cutoffs, and the drawn bounding box. Exit
@@ -12,6 +13,7 @@
 import fs from 'node:fs';
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/examples/jsm/libs/meshopt_decoder.module.js';
 
 globalThis.self = globalThis; // GLTFLoader reads self.URL (Node has URL.createObjectURL)
 THREE.TextureLoader.prototype.load = function (url, onLoad) {
@@ -59,7 +61,8 @@ for (const file of process.argv.slice(2)) {
     const b = fs.readFileSync(file);
     const ab = b.buffer.slice(b.byteOffset, b.byteOffset + b.byteLength);
     try {
-        const gltf = await new GLTFLoader().parseAsync(ab, '');
+        // output.compress "meshopt" files need the decoder (as a web page does)
+        const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(ab, '');
         console.log(JSON.stringify(summary(file, gltf)));
     } catch (e) {
         console.log(JSON.stringify({ file, error: String(e && e.message ? e.message : e) }));

@@ -225,9 +225,9 @@ static void only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_id
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10), *m2 = leaf_mesh(1, 10);
-    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"half", m1, 0.1, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"cards", m2, 0.01, NULL, 0, NULL, NULL, {0, 0, 0}}};
+    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"half", m1, 0.1, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"cards", m2, 0.01, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 3, &buf, &size);
@@ -375,9 +375,9 @@ static void identical_images_are_stored_once_across_lods(void **state)
 {
     (void)state;
     sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10), *c = leaf_mesh(1, 99);
-    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"b", b, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"c", c, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}}};
+    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"b", b, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"c", c, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -488,8 +488,8 @@ static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
-    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"b", m1, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}}};
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"b", m1, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
     char dir[] = "/tmp/sv_gltf_XXXXXX";
     assert_non_null(mkdtemp(dir));
     char p1[64], p2[64];
@@ -553,8 +553,8 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     (void)state;
     sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
     assert_non_null(e);
-    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}},
-                           {"culled", e, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}}};
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
+                           {"culled", e, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
