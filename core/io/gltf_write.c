@@ -266,9 +266,15 @@ static bool image_bytes(const sv_image *img, size_t *bytes)
            sv_mul_size(n, (size_t)img->channels * (img->bits / 8), bytes);
 }
 
+/* JPEG quality of the opaque colour textures the bake made (docs/outputs.md
+ * "Sizes" has the colour error it costs). */
+#define SV_GLTF_JPEG_QUALITY 90
+
 /* Returns the texture index for image `img` (adding image, texture and the
- * shared sampler on first use), or -1 with w->err set. */
-static int texture_for(writer *w, const sv_image *img)
+ * shared sampler on first use), or -1 with w->err set. A texture the bake
+ * made is PNG, or JPEG when it is a colour (base colour, occlusion; not a
+ * normal map, whose vectors JPEG's blocks would bend) that uses no alpha. */
+static int texture_for(writer *w, const sv_image *img, bool colour)
 {
     size_t bytes;
     if (!img->data || !img->width || !img->height || img->channels < 1 || img->channels > 4 ||
@@ -301,8 +307,17 @@ static int texture_for(writer *w, const sv_image *img)
     size_t src_size = 0, off;
     const char *mime = "image/png";
     sv_status st;
+    uint32_t cc;
     if (sv_image_source(img, &src, &src_size, &mime)) {
         st = bin_append(w, src, src_size, &off);
+    } else if (colour && sv_image_opaque_colour(img, &cc)) {
+        uint8_t *jpg = NULL;
+        mime = "image/jpeg";
+        if ((w->last = sv_image_encode_jpeg(img, SV_GLTF_JPEG_QUALITY, &jpg, &src_size, w->err)) !=
+            SV_OK)
+            return -1;
+        st = bin_append(w, jpg, src_size, &off);
+        free(jpg);
     } else {
         uint8_t *png = NULL;
         mime = "image/png";
@@ -361,7 +376,7 @@ static int material_for(writer *w, const sv_mesh *mesh, uint32_t mi)
                               (int)refs[k], mesh->image_count);
             return -1;
         }
-        tex[k] = texture_for(w, &mesh->images[refs[k]]);
+        tex[k] = texture_for(w, &mesh->images[refs[k]], k != 1);
         if (tex[k] < 0) return -1;
     }
     cJSON *j = cJSON_CreateObject();

@@ -62,6 +62,18 @@ sv_status sv_image_write_png(const sv_image *img, const char *path, sv_error *er
 /* Encodes img as PNG into a malloc'ed buffer (*out, *out_size; caller frees). */
 sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_size, sv_error *err);
 
+/* True when img is 8-bit and its alpha channel (if any) is 255 everywhere;
+ * *colour_channels is then 3, or 1 when every texel is grey. */
+bool sv_image_opaque_colour(const sv_image *img, uint32_t *colour_channels);
+
+/* Encodes an image sv_image_opaque_colour accepts as a baseline JPEG
+ * (image_jpeg.c: 4:2:0, the integer DCT, optimised Huffman tables; grey
+ * images as one channel) at quality in [1, 100] into a malloc'ed buffer
+ * (*out, *out_size; caller frees with free()). Deterministic. SV_ERR_INTERNAL
+ * for an image it does not accept, SV_ERR_NOMEM. */
+sv_status sv_image_encode_jpeg(const sv_image *img, int quality, uint8_t **out, size_t *out_size,
+                               sv_error *err);
+
 /* A memo of encoded PNGs (a bake encodes each atlas for its file,
  * model.glb and its level's glb). While a memo is in use on
  * the calling thread (sv_png_memo_use), sv_image_encode_png and

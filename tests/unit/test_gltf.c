@@ -1,7 +1,9 @@
 /* test_gltf.c — the GLB writer (gltf.h): container layout, the MSFT_lod chain,
  * accessors, materials, image sharing, extra attributes, determinism, errors;
  * merged vertices, input files kept as they are, the LOD group (lods.glb) and
- * its FBX (fbx.h, read back with assimp). */
+ * its FBX (fbx.h, read back with assimp); quantized and meshopt-compressed
+ * geometry (decoded again with meshoptimizer's decoders), opaque colour
+ * textures as JPEG. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -18,6 +20,8 @@
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/scene.h>
+
+#include <meshoptimizer.h>
 
 #include "fbx.h"
 #include "gltf.h"
@@ -630,6 +634,158 @@ static void standalone_level_is_one_named_node_with_embedded_images(void **state
     sv_mesh_destroy(m);
 }
 
+static bool has_string(const cJSON *a, const char *s)
+{
+    const cJSON *x;
+    cJSON_ArrayForEach(x, a) if (cJSON_IsString(x) && strcmp(x->valuestring, s) == 0) return true;
+    return false;
+}
+
+/* output.compress: quantized attributes (KHR_mesh_quantization) read back
+ * through the node's transform within half a step of the floats, and every
+ * EXT_meshopt_compression view decoded by meshoptimizer's decoders gives the
+ * quantized file's bytes for that view exactly. */
+static void quantized_and_meshopt_geometry_decode_to_the_mesh(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(300, 10); /* 1203 vertices: 16-bit indices */
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        m->positions[3 * v + 2] += 0.01f * (float)(v % 13); /* not flat */
+        m->normals[3 * v] = 0.3f * (float)(v % 5);
+    }
+    sv_gltf_lod lod = {.name = "q", .mesh = m, .translation = {100, 0, -3}};
+    uint8_t *bf, *bq, *bm, *bm2;
+    size_t sf, sq, sm, sm2;
+    glb gf = encode(&lod, 1, &bf, &sf);
+    lod.compress = SV_GLTF_QUANTIZE;
+    glb gq = encode(&lod, 1, &bq, &sq);
+    lod.compress = SV_GLTF_MESHOPT;
+    glb gm = encode(&lod, 1, &bm, &sm);
+    glb gm2 = encode(&lod, 1, &bm2, &sm2);
+    assert_int_equal(sm, sm2); /* deterministic */
+    assert_memory_equal(bm, bm2, sm);
+    assert_true(sm < sq && sq < sf);
+    assert_true(has_string(get(gq.json, "extensionsRequired"), "KHR_mesh_quantization"));
+    assert_null(get(gf.json, "extensionsRequired"));
+    assert_true(has_string(get(gm.json, "extensionsRequired"), "EXT_meshopt_compression"));
+    assert_true(has_string(get(gm.json, "extensionsUsed"), "KHR_mesh_quantization"));
+
+    /* quantized values, through the node's translation and scale */
+    cJSON *nq = at(get(gq.json, "nodes"), 0);
+    double t[3], sc = at(get(nq, "scale"), 0)->valuedouble;
+    for (int k = 0; k < 3; k++) t[k] = at(get(nq, "translation"), k)->valuedouble;
+    cJSON *af = get(at(get(at(get(gf.json, "meshes"), 0), "primitives"), 0), "attributes");
+    cJSON *aq = get(at(get(at(get(gq.json, "meshes"), 0), "primitives"), 0), "attributes");
+    int n = (int)num(at(get(gf.json, "accessors"), (int)num(af, "POSITION")), "count");
+    cJSON *pa = at(get(gq.json, "accessors"), (int)num(aq, "POSITION"));
+    assert_int_equal((int)num(pa, "componentType"), 5122);
+    assert_int_equal(
+        (int)num(at(get(gq.json, "bufferViews"), (int)num(pa, "bufferView")), "byteStride"), 8);
+    const float *pf = (const float *)accessor_data(&gf, (int)num(af, "POSITION"), 12);
+    const int16_t *pq = (const int16_t *)accessor_data(&gq, (int)num(aq, "POSITION"), 8);
+    const float *nf = (const float *)accessor_data(&gf, (int)num(af, "NORMAL"), 12);
+    const int8_t *nq8 = (const int8_t *)accessor_data(&gq, (int)num(aq, "NORMAL"), 4);
+    const float *uf = (const float *)accessor_data(&gf, (int)num(af, "TEXCOORD_0"), 8);
+    const uint16_t *uq = (const uint16_t *)accessor_data(&gq, (int)num(aq, "TEXCOORD_0"), 4);
+    /* (in double: cmocka's assert_float_equal compares floats) */
+    for (int v = 0; v < n; v++)
+        for (int k = 0; k < 3; k++) {
+            double p = t[k] + sc * pq[4 * v + k], want = 100.0 * (k == 0) - 3.0 * (k == 2);
+            assert_true(fabs(p - (want + pf[3 * v + k])) <= 0.5 * sc * (1 + 1e-9));
+            assert_true(fabs(nq8[4 * v + k] / 127.0 - nf[3 * v + k]) <= 0.5 / 127 + 1e-7);
+            if (k < 2) assert_true(fabs(uq[2 * v + k] / 65535.0 - uf[2 * v + k]) <= 0.5 / 65535);
+        }
+
+    /* every compressed view decodes to the quantized file's bytes */
+    cJSON *vm = get(gm.json, "bufferViews"), *vq = get(gq.json, "bufferViews");
+    assert_int_equal(cJSON_GetArraySize(vm), cJSON_GetArraySize(vq));
+    cJSON *fb = at(get(gm.json, "buffers"), 1);
+    assert_null(get(fb, "uri"));
+    assert_true(
+        cJSON_IsTrue(get(get(get(fb, "extensions"), "EXT_meshopt_compression"), "fallback")));
+    int compressed = 0;
+    for (int i = 0; i < cJSON_GetArraySize(vm); i++) {
+        cJSON *v = at(vm, i), *x = get(get(v, "extensions"), "EXT_meshopt_compression");
+        if (!x) continue;
+        compressed++;
+        size_t count = (size_t)num(x, "count"), stride = (size_t)num(x, "byteStride");
+        size_t len = (size_t)num(v, "byteLength");
+        assert_int_equal((int)num(v, "buffer"), 1);
+        assert_true(num(v, "byteOffset") + len <= num(fb, "byteLength"));
+        assert_int_equal(len, count * stride);
+        assert_int_equal((size_t)num(at(vq, i), "byteLength"), len);
+        const uint8_t *enc = gm.bin + (size_t)num(x, "byteOffset");
+        size_t enc_len = (size_t)num(x, "byteLength");
+        assert_true(num(x, "byteOffset") + enc_len <= gm.bin_len);
+        uint8_t *dec = malloc(len);
+        assert_non_null(dec);
+        int rc = strcmp(get(x, "mode")->valuestring, "ATTRIBUTES") == 0
+                     ? meshopt_decodeVertexBuffer(dec, count, stride, enc, enc_len)
+                     : meshopt_decodeIndexBuffer(dec, count, stride, enc, enc_len);
+        assert_int_equal(rc, 0);
+        assert_memory_equal(dec, gq.bin + (size_t)num(at(vq, i), "byteOffset"), len);
+        free(dec);
+    }
+    assert_int_equal(compressed, 5); /* position, normal, UV, two index lists */
+    cJSON_Delete(gf.json);
+    cJSON_Delete(gq.json);
+    cJSON_Delete(gm.json);
+    cJSON_Delete(gm2.json);
+    free(bf);
+    free(bq);
+    free(bm);
+    free(bm2);
+    sv_mesh_destroy(m);
+}
+
+/* A base-colour texture the bake made that uses no alpha is JPEG; one that
+ * uses alpha, and a normal map, stay PNG. */
+static void opaque_colour_textures_are_jpeg(void **state)
+{
+    (void)state;
+    sv_mesh *m = leaf_mesh(2, 10);
+    sv_mesh *o = sv_mesh_create(m->vertex_count, m->triangle_count, 2, 2);
+    assert_non_null(o);
+    memcpy(o->positions, m->positions, 12 * (size_t)m->vertex_count);
+    memcpy(o->normals, m->normals, 12 * (size_t)m->vertex_count);
+    memcpy(o->uvs, m->uvs, 8 * (size_t)m->vertex_count);
+    memcpy(o->indices, m->indices, 12 * (size_t)m->triangle_count);
+    memcpy(o->tri_material, m->tri_material, 4 * (size_t)m->triangle_count);
+    memcpy(o->materials, m->materials, 2 * sizeof *o->materials);
+    checker(&o->images[0], 16, 10);
+    checker(&o->images[1], 16, 90);
+    for (int k = 0; k < 2; k++)
+        for (size_t i = 0; i < 16 * 16; i++) ((uint8_t *)o->images[k].data)[4 * i + 3] = 255;
+    o->materials[0].normal_texture = 1;
+    sv_gltf_lod lods[2] = {{.name = "a", .mesh = o}, {.name = "b", .mesh = m}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    cJSON *mats = get(g.json, "materials"), *tex = get(g.json, "textures");
+    cJSON *images = get(g.json, "images");
+    const char *want[3] = {"image/jpeg", "image/png", "image/png"}; /* o's base, normal; m's */
+    int idx[3] = {
+        (int)num(get(get(at(mats, 0), "pbrMetallicRoughness"), "baseColorTexture"), "index"),
+        (int)num(get(at(mats, 0), "normalTexture"), "index"), -1};
+    for (int i = 0; i < cJSON_GetArraySize(mats); i++) {
+        cJSON *bt = get(get(at(mats, i), "pbrMetallicRoughness"), "baseColorTexture");
+        if (i > 0 && bt) idx[2] = (int)num(bt, "index");
+    }
+    assert_true(idx[2] >= 0);
+    for (int k = 0; k < 3; k++) {
+        cJSON *im = at(images, (int)num(at(tex, idx[k]), "source"));
+        assert_string_equal(get(im, "mimeType")->valuestring, want[k]);
+        const uint8_t *p = g.bin +
+                           (size_t)num(at(get(g.json, "bufferViews"), (int)num(im, "bufferView")),
+                                       "byteOffset");
+        assert_memory_equal(p, k == 0 ? "\xFF\xD8\xFF" : "\x89PN", 3);
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(o);
+    sv_mesh_destroy(m);
+}
+
 static void identical_vertices_are_written_once(void **state)
 {
     (void)state;
@@ -884,6 +1040,8 @@ int main(void)
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
         cmocka_unit_test(standalone_level_is_one_named_node_with_embedded_images),
         cmocka_unit_test(identical_vertices_are_written_once),
+        cmocka_unit_test(quantized_and_meshopt_geometry_decode_to_the_mesh),
+        cmocka_unit_test(opaque_colour_textures_are_jpeg),
         cmocka_unit_test(an_unchanged_texture_is_embedded_as_its_own_file),
         cmocka_unit_test(lod_group_is_one_root_with_every_level_as_a_named_child),
         cmocka_unit_test(lod_group_fbx_reimports_with_its_levels_and_textures),
