@@ -240,7 +240,8 @@ $(VIEWER_STAMP): $(VIEWER_SRC) $(BUILD)/viewer-npm/.stamp
 	cp $(THREE_NPM)/build/three.module.js $(THREE_NPM)/LICENSE $(VIEWER_DIR)/three/
 	cp -r $(THREE_NPM)/examples/jsm/loaders $(THREE_NPM)/examples/jsm/utils \
 	    $(THREE_NPM)/examples/jsm/curves $(THREE_NPM)/examples/jsm/controls $(VIEWER_DIR)/three/addons/
-	cp $(THREE_NPM)/examples/jsm/libs/fflate.module.js $(VIEWER_DIR)/three/addons/libs/
+	cp $(THREE_NPM)/examples/jsm/libs/fflate.module.js \
+	    $(THREE_NPM)/examples/jsm/libs/meshopt_decoder.module.js $(VIEWER_DIR)/three/addons/libs/
 	@touch $@
 
 # DEMO_OUT: where the outputs go (default out/demo; tests give a temporary folder)

@@ -1062,7 +1062,9 @@ static const char *find_bytes(const char *hay, size_t hl, const char *needle, si
  * scripts from this origin and the page's inline import maps only (each by
  * its SHA-256, so no other inline script runs), styles from this origin,
  * images and fetches from this origin or blob:/data: (GLTFLoader decodes
- * embedded textures through blob: URLs), nothing framed or posted. Written
+ * embedded textures through blob: URLs), WebAssembly compiled (three.js's
+ * meshopt decoder, for output.compress "meshopt" files; no JavaScript eval),
+ * nothing framed or posted. Written
  * into out (cap bytes); false if it does not fit. */
 static bool viewer_csp(const char *html, size_t n, char *out, size_t cap)
 {
@@ -1085,11 +1087,12 @@ static bool viewer_csp(const char *html, size_t n, char *out, size_t cap)
         if (k < 0 || (size_t)k >= sizeof hashes - hl) return false;
         p = c + sizeof close_tag - 1;
     }
-    int k = snprintf(out, cap,
-                     "default-src 'none'; script-src 'self'%s; style-src 'self'; "
-                     "img-src 'self' blob: data:; connect-src 'self' blob: data:; "
-                     "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
-                     hashes);
+    int k = snprintf(
+        out, cap,
+        "default-src 'none'; script-src 'self'%s 'wasm-unsafe-eval'; style-src 'self'; "
+        "img-src 'self' blob: data:; connect-src 'self' blob: data:; "
+        "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+        hashes);
     return k > 0 && (size_t)k < cap;
 }
 

@@ -22,6 +22,7 @@
 // alpha, a PNG and the mean linear luminance of the covered pixels.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { OBJLoader } from 'three/addons/loaders/OBJLoader.js';
 import { MTLLoader } from 'three/addons/loaders/MTLLoader.js';
 import { PLYLoader } from 'three/addons/loaders/PLYLoader.js';
@@ -190,7 +191,8 @@ function shaderTexture(tex, srgb) {
 
 // ---- levels -------------------------------------------------------------
 
-const gltfLoader = new GLTFLoader();
+// output.compress "meshopt" files (EXT_meshopt_compression) need the decoder
+const gltfLoader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
 const texLoader = new THREE.TextureLoader();
 
 // An octahedral level: one quad whose vertex shader turns it to the viewer.
@@ -404,7 +406,7 @@ async function loadOriginal(report) {
     const url = inputsBase + encodeURIComponent(mesh);
     let obj;
     if (ext === 'glb' || ext === 'gltf') {
-        obj = (await new GLTFLoader(manager).loadAsync(url)).scene;
+        obj = (await new GLTFLoader(manager).setMeshoptDecoder(MeshoptDecoder).loadAsync(url)).scene;
     } else if (ext === 'obj') {
         // without its line elements (`l`): OBJLoader turns an object with
         // any line into lines only, where sylva's import keeps its faces and

@@ -52,12 +52,15 @@ printf '%s\n' '{"method":"octahedral","lod":{"coarsest":"slicing"},"scene":{"vie
   "evaluate":{"views":4,"sizes":[64]}}' > "$T/spec.json"
 # The demo oak's GLB, whose leaf cards are alpha BLEND: its full level alone
 # (the source's materials). The Scopia bush (centimetres; its MTL tints the
-# leaf texture with Kd 0.069 0.237 0.024) with the default method and chain.
+# leaf texture with Kd 0.069 0.237 0.024) with the default method and chain,
+# its glTF files compressed (output.compress "meshopt": quantized,
+# EXT_meshopt_compression), which the page and GLTFLoader decode.
 OAK=$SYLVA_ROOT/examples/oak_large/oak_large.glb
 BUSH=${SYLVA_DATA:-$SYLVA_ROOT/../shared/data}/scopia_bush
 printf '%s\n' '{"method":"stochastic","stochastic":{"levels":[1]},"lod":{"chain":false},
   "import":{"units":0.2},"evaluate":{"views":4,"sizes":[64]}}' > "$T/oak_spec.json"
-printf '%s\n' '{"import":{"units":"cm"},"bake":{"max_atlas":512},"evaluate":{"views":4,"sizes":[128,64,32]}}' > "$T/bush_spec.json"
+printf '%s\n' '{"import":{"units":"cm"},"bake":{"max_atlas":512},"evaluate":{"views":4,"sizes":[128,64,32]},
+  "output":{"compress":"meshopt"}}' > "$T/bush_spec.json"
 t0=$(date +%s)
 key=$(bake_key out "$T/spec.json" "$D/aspen_small.obj" "$D/aspen_small.mtl" "$D/bark_birch_color_1k.jpg" \
     "$D/leaves_aspen_color.png") && [ -n "$key" ] || { bad "no key for the aspen"; finish; }

@@ -11,6 +11,9 @@
  *        OUT_DIR/culled.glb   2 LODs, the coarsest empty (node without a mesh)
  *        OUT_DIR/lod<i>_<name>.glb  each level of chain3 standalone
  *                             (sv_gltf_write_level_glb), as a bake writes them
+ *        OUT_DIR/chain3_quantize.glb, chain3_meshopt.glb, large_meshopt.glb
+ *                             the same with output.compress's encodings
+ *                             (KHR_mesh_quantization; then EXT_meshopt_compression)
  */
 #include <math.h>
 #include <stdio.h>
@@ -227,6 +230,13 @@ int main(int argc, char **argv)
                              {"culled", empty, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
     rc = write(argv[1], "chain3.glb", chain, 3) || write(argv[1], "large.glb", large, 1) ||
          write(argv[1], "culled.glb", culled, 2) || write_levels(argv[1], chain, 3);
+    for (int c = SV_GLTF_QUANTIZE; !rc && c <= SV_GLTF_MESHOPT; c++) {
+        for (int i = 0; i < 3; i++) chain[i].compress = (sv_gltf_compress)c;
+        large[0].compress = (sv_gltf_compress)c;
+        rc = write(argv[1], c == SV_GLTF_QUANTIZE ? "chain3_quantize.glb" : "chain3_meshopt.glb",
+                   chain, 3) ||
+             (c == SV_GLTF_MESHOPT && write(argv[1], "large_meshopt.glb", large, 1));
+    }
 out:
     if (rc && (!full || !half || !cards || !big || !empty || !order || !centre))
         fprintf(stderr, "write_test_glb: out of memory\n");

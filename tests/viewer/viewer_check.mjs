@@ -21,7 +21,7 @@
 //    8.9 % with its leaf cards drawn as opaque squares, 21.3 % drawn as
 //    three.js draws BLEND).
 // 4. --luminance KEY2 SIZE: every level file (report.json lods[].file) of
-//    bake KEY2 loaded by three.js's own GLTFLoader and drawn unlit as loaded
+//    bake KEY2 loaded by three.js's own GLTFLoader (with its meshopt decoder) and drawn unlit as loaded
 //    (MeshBasicMaterial with the loader's map, colour, alpha mode and sides;
 //    sRGB output) from four directions; the mean linear luminance
 //    (Rec. 709) over covered pixels, summed over the views, must be within
@@ -330,6 +330,7 @@ async function checkLuminance(key, size) {
 </script></head><body><script type="module">
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 window.measure = async (bake, size) => {
     const report = await (await fetch(bake + 'artifacts/report.json')).json();
     const renderer = new THREE.WebGLRenderer({ alpha: true, preserveDrawingBuffer: true });
@@ -342,7 +343,8 @@ window.measure = async (bake, size) => {
     let sphere = null;
     const out = [];
     for (const lod of report.lods) {
-        const gltf = await new GLTFLoader().loadAsync(bake + 'artifacts/' + encodeURIComponent(lod.file));
+        const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder)
+            .loadAsync(bake + 'artifacts/' + encodeURIComponent(lod.file));
         // plain unlit: the loader's material as MeshBasicMaterial
         gltf.scene.traverse((o) => {
             if (!o.isMesh) return;
