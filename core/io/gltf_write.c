@@ -115,10 +115,10 @@ static int add_view(writer *w, size_t offset, size_t length, int target)
 /* Appends count elements of stride bytes (vertex data: target
  * GL_ARRAY_BUFFER; or triangle indices of stride 2 or 4, vertex_count the
  * vertices they index) as a new buffer view; returns its index or -1 with
- * w->err set. With
- * SV_GLTF_MESHOPT the bytes in the binary chunk are meshoptimizer's encoding
- * (EXT_meshopt_compression "ATTRIBUTES" or "TRIANGLES", bitstream versions 0
- * and 1) and the view's own range is in the placeholder buffer 1. */
+ * w->err set. With SV_GLTF_MESHOPT the bytes in the binary chunk are
+ * meshoptimizer's encoding (EXT_meshopt_compression "ATTRIBUTES" or
+ * "TRIANGLES", bitstream versions 0 and 1) and the view's own range is in
+ * the placeholder buffer 1. */
 static int add_data_view(writer *w, const void *data, size_t count, size_t stride, int target,
                          size_t vertex_count)
 {
@@ -151,13 +151,15 @@ static int add_data_view(writer *w, const void *data, size_t count, size_t strid
             return -1;
         }
     }
-    sv_status st = enc ? bin_append(w, enc, enc_len, &off) : bin_append(w, data, bytes, &off);
+    bool compressed = enc != NULL;
+    sv_status st = compressed ? bin_append(w, enc, enc_len, &off)
+                              : bin_append(w, data, bytes, &off);
     free(enc);
     if (st != SV_OK) return -1;
     cJSON *v = cJSON_CreateObject();
     if (!v) return nomem(w), -1;
     bool ok;
-    if (enc) {
+    if (compressed) {
         cJSON *x = cJSON_CreateObject(), *m = NULL;
         ok = x && (m = cJSON_AddObjectToObject(x, "EXT_meshopt_compression")) &&
              add_int(m, "buffer", 0) && add_int(m, "byteOffset", (double)off) &&
