@@ -10,7 +10,8 @@
  *     "extensionsUsed": ["MSFT_lod"] when there is more than one LOD.
  *   - one primitive per material used by the LOD's triangles; all primitives of
  *     a LOD share its vertex accessors (POSITION with min/max, NORMAL
- *     renormalised, TEXCOORD_0, then the caller's extra attributes) and each has
+ *     renormalised, TEXCOORD_0 when one of the mesh's materials has a
+ *     texture, then the caller's extra attributes) and each has
  *     its own index accessor (uint16 when every index < 65535, else uint32).
  *     Vertices equal in every attribute written (bit for bit) are written
  *     once, in the order the triangles first use them; vertices no triangle

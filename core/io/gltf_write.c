@@ -637,8 +637,8 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
                               double qoff[3], double *qscale);
 
 /* Writes the mesh of LOD l with its identical vertices merged: vertices
- * equal in every attribute written (position, normal, UV, the extra
- * attributes; bit for bit) become one, in the order the triangles first use
+ * equal in every attribute written (position, normal, UV when a material
+ * samples a texture, the extra attributes; bit for bit) become one, in the order the triangles first use
  * them (meshopt_generateVertexRemapMulti), and vertices no triangle uses are
  * left out. Lossless: the same triangles, drawn the same, in fewer bytes
  * (a tree's triangle soup held each vertex once per triangle). */
@@ -652,8 +652,15 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     streams[ns++] = (struct meshopt_Stream){m->positions, 3 * sizeof(float), 3 * sizeof(float)};
     if (m->normals)
         streams[ns++] = (struct meshopt_Stream){m->normals, 3 * sizeof(float), 3 * sizeof(float)};
-    if (m->uvs)
-        streams[ns++] = (struct meshopt_Stream){m->uvs, 2 * sizeof(float), 2 * sizeof(float)};
+    /* UVs only when a material samples a texture: without one they draw
+     * nothing, and their seams keep vertices apart */
+    bool uvs = false;
+    for (uint32_t k = 0; m->uvs && k < m->material_count; k++) {
+        const sv_material *mt = &m->materials[k];
+        if (mt->base_texture >= 0 || mt->normal_texture >= 0 || mt->occlusion_texture >= 0)
+            uvs = true;
+    }
+    if (uvs) streams[ns++] = (struct meshopt_Stream){m->uvs, 2 * sizeof(float), 2 * sizeof(float)};
     if (l->attribute_count > 8)
         return w->last = sv_fail(w->err, SV_ERR_INVALID,
                                  "glTF writer: more than 8 extra attributes");
@@ -674,8 +681,8 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     meshopt_remapIndexBuffer(idx, m->indices, ni, remap);
     pos = malloc((unique ? unique : 1) * 3 * sizeof(float));
     if (m->normals) nrm = malloc((unique ? unique : 1) * 3 * sizeof(float));
-    if (m->uvs) uv = malloc((unique ? unique : 1) * 2 * sizeof(float));
-    if (!pos || (m->normals && !nrm) || (m->uvs && !uv)) {
+    if (uvs) uv = malloc((unique ? unique : 1) * 2 * sizeof(float));
+    if (!pos || (m->normals && !nrm) || (uvs && !uv)) {
         st = nomem(w);
         goto out;
     }

@@ -634,6 +634,44 @@ static void standalone_level_is_one_named_node_with_embedded_images(void **state
     sv_mesh_destroy(m);
 }
 
+/* A mesh none of whose materials samples a texture is written without
+ * TEXCOORD_0 (its UVs draw nothing), and the vertices its UV seams kept
+ * apart merge; with a texture the UVs are kept. */
+static void uvs_without_a_texture_are_left_out(void **state)
+{
+    (void)state;
+    /* a quad whose two triangles meet at a UV seam: 6 corners, 4 positions */
+    static const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    sv_mesh *m = sv_mesh_create(6, 2, 1, 1);
+    assert_non_null(m);
+    memcpy(m->positions, p, sizeof p);
+    for (int v = 0; v < 6; v++) {
+        m->indices[v] = (uint32_t)v;
+        m->normals[3 * v + 2] = 1.0f;
+        m->uvs[2 * v] = v < 3 ? 0.0f : 0.5f; /* the seam */
+    }
+    checker(&m->images[0], 8, 10);
+    sv_gltf_lod lod = {.mesh = m};
+    for (int textured = 0; textured < 2; textured++) {
+        m->materials[0].base_texture = textured ? 0 : -1;
+        uint8_t *buf;
+        size_t size;
+        glb g = encode(&lod, 1, &buf, &size);
+        cJSON *attrs = get(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "attributes");
+        int n = (int)num(at(get(g.json, "accessors"), (int)num(attrs, "POSITION")), "count");
+        if (textured) {
+            assert_non_null(get(attrs, "TEXCOORD_0"));
+            assert_int_equal(n, 6);
+        } else {
+            assert_null(get(attrs, "TEXCOORD_0"));
+            assert_int_equal(n, 4);
+        }
+        cJSON_Delete(g.json);
+        free(buf);
+    }
+    sv_mesh_destroy(m);
+}
+
 static bool has_string(const cJSON *a, const char *s)
 {
     const cJSON *x;
@@ -1040,6 +1078,7 @@ int main(void)
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
         cmocka_unit_test(standalone_level_is_one_named_node_with_embedded_images),
         cmocka_unit_test(identical_vertices_are_written_once),
+        cmocka_unit_test(uvs_without_a_texture_are_left_out),
         cmocka_unit_test(quantized_and_meshopt_geometry_decode_to_the_mesh),
         cmocka_unit_test(opaque_colour_textures_are_jpeg),
         cmocka_unit_test(an_unchanged_texture_is_embedded_as_its_own_file),
