@@ -500,9 +500,8 @@ void sv_spec_free(sv_spec *s)
 }
 
 /* Bytes a copy of the chain's meshes may take per input byte, glTF and FBX:
- * the largest measured on the shared trees, rounded up (docs/benchmarks.md
- * "Output sizes": the decorative plant's lods.glb is about 6 × its input,
- * its FBX files about 16 ×). */
+ * above the largest measured on the shared trees (docs/benchmarks.md
+ * "Output sizes": `lods.glb` and the FBX files against the input). */
 #define SV_EST_GLTF_CHAIN 6u
 #define SV_EST_FBX 18u
 
