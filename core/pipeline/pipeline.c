@@ -251,6 +251,7 @@ static void bake_options(const run *r, sv_bake_options *bo)
     bo->depth_map = spec->scene.shadows;
     memcpy(bo->light_dir, spec->scene.light_dir, sizeof bo->light_dir);
     bo->tri_part = r->p.cls.tri_part;
+    bo->viewer = spec->scene.viewer;
 }
 
 /* Bakes LOD i of b into b->lods[i].baked: through the level's own bake
@@ -681,6 +682,7 @@ sv_status sv_pipeline_run(const sv_bake_request *req, sv_error *err)
         goto out;
     }
     if ((st = prepare(req->files, req->file_count, &r.spec, &r.p, &r, err))) goto out;
+    if ((st = svp_dilate_textures(r.p.mesh, r.spec.dilate ? r.spec.dilate : 8, err))) goto out;
     st = r.spec.has_target ? svp_target_search(&r, err) : svp_bake_all(&r, err);
 out:
     cJSON_Delete(r.target_json);

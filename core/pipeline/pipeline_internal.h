@@ -36,6 +36,13 @@ enum {
     ST_WRITE,
     ST_COUNT
 };
+/* The source's base-colour textures used only with alpha (MASK, BLEND)
+ * get colour in their transparent texels (atlas.h, sv_texture_dilate, with
+ * `passes` rings) when that changes what a mipmapping engine draws; other
+ * textures are left as they are (textures.c). In: the imported mesh, before
+ * it is uploaded or baked. SV_ERR_NOMEM on allocation failure. */
+sv_status svp_dilate_textures(sv_mesh *m, uint32_t passes, sv_error *err);
+
 /* "import", "validate", ...: progress reports and report.json "times" */
 extern const char *const svp_stage_names[ST_COUNT];
 

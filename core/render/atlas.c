@@ -426,3 +426,83 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
     free(vals);
     return SV_OK;
 }
+
+sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out, bool *changed,
+                            sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    *changed = false;
+    if (!src || !src->data || src->channels != 4 || src->bits != 8 || passes == 0) return SV_OK;
+    uint32_t w = src->width, h = src->height;
+    size_t npx = (size_t)w * h, clear = 0;
+    const uint8_t *px = src->data;
+    for (size_t i = 0; i < npx; i++) clear += px[4 * i + 3] == 0;
+    if (clear == 0 || clear == npx) return SV_OK;
+    sv_image lin = {0};
+    uint8_t *mask = malloc(npx);
+    uint32_t *dist = malloc(npx * sizeof *dist);
+    sv_status st = SV_OK;
+    if (!mask || !dist) {
+        st = sv_fail(err, SV_ERR_NOMEM, "dilate: out of memory for a %ux%u texture", w, h);
+        goto done;
+    }
+    if ((st = sv_image_alloc(&lin, w, h, 4, 16, err)) != SV_OK) goto done;
+    uint16_t *l = lin.data;
+    for (size_t i = 0; i < npx; i++) {
+        mask[i] = px[4 * i + 3] != 0;
+        for (int k = 0; k < 3; k++)
+            l[4 * i + k] = (uint16_t)lround(sv_srgb_decode8(px[4 * i + k]) * 65535.0);
+        l[4 * i + 3] = (uint16_t)(px[4 * i + 3] * 257u);
+    }
+    if ((st = sv_dilate(&lin, mask, 3, passes, err)) != SV_OK) goto done;
+    /* Chebyshev distance to the nearest texel with alpha (two raster passes
+     * over the 8-neighbourhood): the texels the dilation rings reach */
+    for (size_t i = 0; i < npx; i++) dist[i] = mask[i] ? 0 : UINT32_MAX - 1;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            uint32_t *d = &dist[(size_t)y * w + x];
+            if (x > 0 && d[-1] + 1 < *d) *d = d[-1] + 1;
+            if (y > 0)
+                for (int dx = -1; dx <= 1; dx++) {
+                    if ((dx < 0 && x == 0) || (dx > 0 && x + 1 >= w)) continue;
+                    uint32_t v = dist[(size_t)(y - 1) * w + (size_t)((int64_t)x + dx)];
+                    if (v + 1 < *d) *d = v + 1;
+                }
+        }
+    for (uint32_t y = h; y-- > 0;)
+        for (uint32_t x = w; x-- > 0;) {
+            uint32_t *d = &dist[(size_t)y * w + x];
+            if (x + 1 < w && d[1] + 1 < *d) *d = d[1] + 1;
+            if (y + 1 < h)
+                for (int dx = -1; dx <= 1; dx++) {
+                    if ((dx < 0 && x == 0) || (dx > 0 && x + 1 >= w)) continue;
+                    uint32_t v = dist[(size_t)(y + 1) * w + (size_t)((int64_t)x + dx)];
+                    if (v + 1 < *d) *d = v + 1;
+                }
+        }
+    if ((st = sv_image_alloc(out, w, h, 4, 8, err)) != SV_OK) goto done;
+    const uint8_t *enc = sv_srgb_encode16_table();
+    uint8_t *o = out->data;
+    memcpy(o, px, npx * 4);
+    size_t reached = 0, moved = 0;
+    for (size_t i = 0; i < npx; i++) {
+        if (mask[i]) continue;
+        bool big = false;
+        for (int k = 0; k < 3; k++) {
+            uint8_t c = enc[l[4 * i + k]];
+            if (abs((int)c - (int)px[4 * i + k]) > 8) big = true;
+            o[4 * i + k] = c;
+        }
+        if (dist[i] <= passes) {
+            reached++;
+            moved += big;
+        }
+    }
+    *changed = moved > 0 && moved * 100 >= reached;
+    if (!*changed) sv_image_free(out);
+done:
+    free(mask);
+    free(dist);
+    sv_image_free(&lin);
+    return st;
+}

@@ -85,4 +85,22 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
 sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
                     sv_error *err);
 
+/* Colour for the transparent texels of a base-colour texture (RGBA8, sRGB
+ * colour, straight alpha; image.h), so an engine's bilinear filter and mip
+ * levels do not blend their colour into the texels it draws: a texture
+ * black where it is transparent (the Scopia bush's leaf) draws its leaves
+ * darker with each mip level. The texels with alpha 0 take sv_dilate's
+ * colour (`passes` rings of neighbour means weighted by alpha, then the mean
+ * of the texture), in linear light; every other byte, alpha included, is
+ * the input's. Sets *out to that image (a new one) and *changed to true
+ * only when it changes what an engine draws: at least one in 100 of the
+ * transparent texels within `passes` texels of a texel with alpha changes
+ * by more than 8 of 255 in a channel (an input dilated by its author keeps
+ * its bytes, and so its own file: docs/outputs.md "Textures"). Otherwise
+ * *out is left zeroed and *changed false: an image that is not RGBA8, has
+ * no transparent texel or no texel with alpha, or passes 0. SV_ERR_NOMEM
+ * on allocation failure. Deterministic. */
+sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out, bool *changed,
+                            sv_error *err);
+
 #endif

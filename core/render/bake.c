@@ -23,6 +23,11 @@
  *     atlas.h), the dilation works on a 16-bit linear atlas, and the atlas
  *     is encoded to 8-bit sRGB once at the end. Normals keep the median.
  *     The atlas material's factor is 1: the source's factors are in the texels.
+ *   - Two sides: the quad is drawn two-sided with one texture, so its colour
+ *     is also rendered from the other side (the same faces and slab; the
+ *     paper renders from one) and the two are blended per texel in linear
+ *     light by the share of the views each side gets (sv_bake_front_weight).
+ *     Alpha, normals, depth and AO stay the front's.
  *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
  *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
  *     from each; a texel's surface point is visible from a direction when it is
@@ -55,6 +60,36 @@ void sv_bake_options_init(sv_bake_options *opt)
     opt->light_dir[0] = 0.2;
     opt->light_dir[1] = 0.9;
     opt->light_dir[2] = 0.4;
+    opt->viewer = SV_VIEWER_SIDE;
+}
+
+double sv_bake_front_weight(sv_viewer viewer, const double normal[3])
+{
+    double n[3] = {normal[0], normal[1], normal[2]};
+    double len = sqrt(sv_dot3(n, n));
+    if (!(len > 0)) return 0.5;
+    for (int k = 0; k < 3; k++) n[k] /= len;
+    /* the bands of sv_eval_place_views (evaluate.h), as a product grid: the
+     * SIDE helix ties azimuth to elevation, which a weight must not */
+    double lo = -90, hi = 90;
+    bool by_angle = false;
+    if (viewer == SV_VIEWER_SIDE) lo = -10, hi = 40, by_angle = true;
+    else if (viewer == SV_VIEWER_GROUND) lo = 0, hi = 20;
+    else if (viewer == SV_VIEWER_AERIAL) lo = 40, hi = 90;
+    double slo = sin(lo * M_PI / 180), shi = sin(hi * M_PI / 180);
+    double front = 0, total = 0;
+    for (int e = 0; e < 32; e++) {
+        double t = (e + 0.5) / 32;
+        double y = by_angle ? sin((lo + (hi - lo) * t) * M_PI / 180) : slo + (shi - slo) * t;
+        double r = sqrt(fmax(0.0, 1 - y * y));
+        for (int a = 0; a < 64; a++) {
+            double phi = 2 * M_PI * (a + 0.5) / 64;
+            double c = r * cos(phi) * n[0] + y * n[1] + r * sin(phi) * n[2];
+            if (c > 0) front += c;
+            total += fabs(c);
+        }
+    }
+    return total > 0 ? front / total : 0.5;
 }
 
 void sv_baked_lod_free(sv_baked_lod *b)
@@ -304,6 +339,54 @@ typedef struct bake_ctx {
     uint32_t ao_res;
 } bake_ctx;
 
+/* The colour of the tile seen from the plane's other side, blended into
+ * tex16 (linear RGBA16, tw × th texels, as sv_downsample_colour16 gave it
+ * from the front camera `cam`, on the +normal side): a two-sided quad shows
+ * its one texture from both sides, where the source shows whatever faces
+ * that side (a leaf drawn as two cards a hair apart, upper side and
+ * underside, shows one from each side), so each texel takes, in linear
+ * light, `front` × the front's colour + (1 - front) × the back's, front the
+ * share of the views on the +normal side (sv_bake_front_weight). The back
+ * camera mirrors u (right = -axis_u), so its image is mirrored back column
+ * by column. Alpha (coverage) stays the front's: the
+ * covered samples are the same from both sides, and a texel the back leaves
+ * empty (an edge rasterised the other way) keeps the front's colour. back16
+ * is scratch of tex16's size. */
+static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera *cam,
+                              const sv_render_options *ro, double front, uint32_t tw, uint32_t th,
+                              uint16_t *tex16, uint16_t *back16, sv_error *err)
+{
+    if (!(front < 1)) return SV_OK; /* the back is never seen */
+    uint32_t s = b->s, sw = tw * s, sh = th * s;
+    sv_camera bc = *cam;
+    for (int k = 0; k < 3; k++) bc.right[k] = -cam->right[k];
+    bc.near_dist = -cam->far_dist;
+    bc.far_dist = -cam->near_dist;
+    sv_image img;
+    sv_status st = sv_render(b->r, b->g, job->tris, job->count, &bc, ro, sw, sh, &img, NULL, err);
+    if (st != SV_OK) return st;
+    uint16_t *px = img.data;
+    for (uint32_t y = 0; y < sh; y++) {
+        uint16_t *row = px + 4 * (size_t)y * sw;
+        for (uint32_t x = 0; x < sw / 2; x++)
+            for (int k = 0; k < 4; k++) {
+                uint16_t t = row[4 * (size_t)x + k];
+                row[4 * (size_t)x + k] = row[4 * (size_t)(sw - 1 - x) + k];
+                row[4 * (size_t)(sw - 1 - x) + k] = t;
+            }
+    }
+    sv_downsample_colour16(px, tw, th, s, b->thr, back16);
+    sv_image_free(&img);
+    for (size_t i = 0; i < (size_t)tw * th; i++) {
+        uint16_t *f = tex16 + 4 * i;
+        const uint16_t *k = back16 + 4 * i;
+        if (!f[3] || !k[3]) continue;
+        for (int c = 0; c < 3; c++)
+            f[c] = (uint16_t)lround(front * f[c] + (1 - front) * k[c]);
+    }
+    return SV_OK;
+}
+
 static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, const sv_chart *ch,
                            sv_error *err)
 {
@@ -314,9 +397,10 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
     sv_status st = SV_OK;
     uint8_t *tex = malloc((size_t)tile * tile * 4);
     uint16_t *tex16 = malloc((size_t)tile * tile * 4 * sizeof *tex16);
+    uint16_t *back16 = malloc((size_t)tile * tile * 4 * sizeof *back16);
     float *zs = malloc((size_t)tile * s * tile * s * sizeof(float));
     float *zt = malloc((size_t)tile * tile * sizeof(float));
-    if (!tex || !tex16 || !zs || !zt) {
+    if (!tex || !tex16 || !back16 || !zs || !zt) {
         st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s, tile * s);
         goto out;
     }
@@ -324,6 +408,11 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
     memcpy(ro.light_dir, b->opt->light_dir, sizeof ro.light_dir);
     sv_render_options rn = {.shade = SV_SHADE_NORMAL};
     double tu = 2 * q->half_u / w, tv = 2 * q->half_v / h;
+    /* the front camera looks along axis_v × axis_u (render.h): its side is
+     * axis_u × axis_v, the normal for the quads the methods make */
+    double side[3];
+    sv_cross3(q->axis_u, q->axis_v, side);
+    double front = sv_bake_front_weight(b->opt->viewer, side);
     for (uint32_t y0 = 0; y0 < h; y0 += tile)
         for (uint32_t x0 = 0; x0 < w; x0 += tile) {
             uint32_t x1 = x0 + tile < w ? x0 + tile : w, y1 = y0 + tile < h ? y0 + tile : h;
@@ -336,6 +425,8 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             sv_downsample_colour16(img.data, tw, th, s, b->thr, tex16);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
+            st = capture_back(b, job, &cam, &ro, front, tw, th, tex16, back16, err);
+            if (st != SV_OK) goto out;
             for (uint32_t y = 0; y < th; y++)
                 for (uint32_t x = 0; x < tw; x++) {
                     size_t ai = (size_t)(ch->y + y0 + y) * b->aw + ch->x + x0 + x;
@@ -377,6 +468,7 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
 out:
     free(tex);
     free(tex16);
+    free(back16);
     free(zs);
     free(zt);
     return st;

@@ -5,7 +5,10 @@
  * supersampled so the smallest leaf covers at least one sample (capped), then
  * downsample with an alpha threshold (binary alpha) — colour the per-channel
  * median of the covered samples scaled to their mean luminance in linear
- * light, normals the per-channel median — and
+ * light, normals the per-channel median — and render the colour from the
+ * other side as well, the two blended in linear light by how much each side
+ * is seen (sv_bake_front_weight: a leaf modelled as an upper-side and an
+ * underside card shows each from its side; the quad shows one texture), and
  * dilate colour into transparent texels so mipmaps do not bleed. The albedo
  * atlas is glTF base colour (sRGB-encoded, factor 1): the source's linear
  * factor × its decoded texels.
@@ -38,6 +41,9 @@ typedef struct sv_bake_options {
     double light_dir[3];      /* unit, towards the light (lit); zero = from above-front */
     const uint8_t *tri_part;  /* sv_part (classify.h) of each triangle of src, for quads
                                  that select faces by q->parts; NULL = every face is trunk */
+    sv_viewer viewer;         /* where the quads are seen from (scene.h): weighs the colour
+                                 each side of a quad shows (sv_bake_front_weight); zero is
+                                 ORBIT, sv_bake_options_init sets the scene's default, SIDE */
 } sv_bake_options;
 
 typedef struct sv_baked_lod {
@@ -69,6 +75,17 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                       sv_baked_lod *out, sv_error *err);
 
 void sv_baked_lod_free(sv_baked_lod *b);
+
+/* The share, in [0, 1], of a two-sided quad's view on its +normal side:
+ * over view directions d spread as `viewer` spreads them (scene.h: SIDE
+ * elevations uniform in angle over [-10°, 40°], GROUND, AERIAL and ORBIT
+ * uniform in sin(elevation) over their bands; 64 azimuths × 32 elevations),
+ * Σ max(0, d·n) / Σ |d·n|, the projected area seen from each side. A quad
+ * shows one texture from both sides, and the colour that is closest, in
+ * least squares over those views, to what the source shows from each side is
+ * this weight × the +normal side's capture + the rest × the other side's.
+ * 0.5 for a normal of zero length or no view. */
+double sv_bake_front_weight(sv_viewer viewer, const double normal[3]);
 
 /* Sets opt to the defaults above. Zero fields of an options struct also mean
  * "the default" (alpha_threshold 0 → 0.3, padding 0 → 4, dilate 0 → 8). */

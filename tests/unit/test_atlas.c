@@ -312,6 +312,74 @@ static void dilation_reaches_as_many_texels_as_passes(void **state)
     sv_image_free(&img);
 }
 
+/* A leaf texture black where it is transparent (the Scopia bush's): its
+ * transparent texels take the leaf's colour, in linear light, so an engine's
+ * mip levels do not blend black in; alpha and the opaque texels' bytes stay. */
+static void texture_dilation_colours_black_transparent_texels(void **state)
+{
+    (void)state;
+    sv_image img, out;
+    assert_int_equal(sv_image_alloc(&img, 16, 16, 4, 8, NULL), SV_OK);
+    uint8_t *p = img.data;
+    for (uint32_t y = 4; y < 12; y++)
+        for (uint32_t x = 4; x < 12; x++) {
+            uint8_t *t = p + 4 * (y * 16 + x);
+            t[0] = 40;
+            t[1] = 160;
+            t[2] = 20;
+            t[3] = (x == 4 || y == 4) ? 128 : 255;
+        }
+    bool changed = false;
+    assert_int_equal(sv_texture_dilate(&img, 2, &out, &changed, NULL), SV_OK);
+    assert_true(changed);
+    assert_non_null(out.data);
+    const uint8_t *o = out.data;
+    for (uint32_t i = 0; i < 256; i++) {
+        assert_int_equal(o[4 * i + 3], p[4 * i + 3]);
+        if (p[4 * i + 3]) assert_memory_equal(o + 4 * i, p + 4 * i, 4);
+        else { /* every transparent texel: the leaf's colour (near, then the mean) */
+            assert_in_range(o[4 * i], 39, 41);
+            assert_in_range(o[4 * i + 1], 159, 161);
+            assert_in_range(o[4 * i + 2], 19, 21);
+        }
+    }
+    sv_image_free(&out);
+    sv_image_free(&img);
+}
+
+/* An input whose author already dilated it (transparent texels hold their
+ * neighbours' colour) is left alone, so its own file is written; so are
+ * images with no transparent texel and images that are not RGBA8. */
+static void texture_dilation_leaves_dilated_and_opaque_textures_alone(void **state)
+{
+    (void)state;
+    sv_image img, out;
+    assert_int_equal(sv_image_alloc(&img, 16, 16, 4, 8, NULL), SV_OK);
+    uint8_t *p = img.data;
+    for (uint32_t i = 0; i < 256; i++) {
+        p[4 * i] = 40;
+        p[4 * i + 1] = 160;
+        p[4 * i + 2] = 20;
+        uint32_t x = i % 16, y = i / 16;
+        p[4 * i + 3] = (x >= 4 && x < 12 && y >= 4 && y < 12) ? 255 : 0;
+    }
+    p[0] = p[1] = p[2] = 0; /* one far corner texel black: 1 of 192 */
+    bool changed = true;
+    assert_int_equal(sv_texture_dilate(&img, 8, &out, &changed, NULL), SV_OK);
+    assert_false(changed);
+    assert_null(out.data);
+    for (uint32_t i = 0; i < 256; i++) p[4 * i + 3] = 255;
+    changed = true;
+    assert_int_equal(sv_texture_dilate(&img, 8, &out, &changed, NULL), SV_OK);
+    assert_false(changed);
+    sv_image_free(&img);
+    assert_int_equal(sv_image_alloc(&img, 4, 4, 3, 8, NULL), SV_OK);
+    changed = true;
+    assert_int_equal(sv_texture_dilate(&img, 8, &out, &changed, NULL), SV_OK);
+    assert_false(changed);
+    sv_image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -327,6 +395,8 @@ int main(void)
         cmocka_unit_test(float_downsampler_takes_the_median_of_covered_depths),
         cmocka_unit_test(dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha),
         cmocka_unit_test(dilation_reaches_as_many_texels_as_passes),
+        cmocka_unit_test(texture_dilation_colours_black_transparent_texels),
+        cmocka_unit_test(texture_dilation_leaves_dilated_and_opaque_textures_alone),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

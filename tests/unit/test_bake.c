@@ -211,6 +211,54 @@ static void transparent_texels_get_dilated_leaf_colour(void **state)
     scene_free(&s);
 }
 
+/* A leaf modelled as two cards a hair apart, the textured upper side facing
+ * +z and a flat cyan underside: the two-sided quad shows one texture from
+ * both sides, so each texel blends, in linear light, what the two sides
+ * show, each by how much it is seen (the front alone showed the upper side
+ * from below too). Seen from all around (ORBIT), half and half. */
+static void both_sides_of_a_two_layer_leaf_are_blended_in_linear_light(void **state)
+{
+    (void)state;
+    /* the weights: a plane is seen half from each side all around and on a
+     * side helix; facing up, mostly from above on the helix, only from above
+     * by an aerial viewer */
+    const double z[3] = {0, 0, 1}, up[3] = {0, 1, 0}, down[3] = {0, -1, 0};
+    assert_true(fabs(sv_bake_front_weight(SV_VIEWER_ORBIT, z) - 0.5) < 1e-9);
+    assert_true(fabs(sv_bake_front_weight(SV_VIEWER_SIDE, z) - 0.5) < 1e-9);
+    assert_true(fabs(sv_bake_front_weight(SV_VIEWER_ORBIT, up) - 0.5) < 1e-9);
+    double w = sv_bake_front_weight(SV_VIEWER_SIDE, up);
+    assert_true(w > 0.8 && w < 0.95); /* sin over [-10°, 40°]: 0.87 */
+    assert_true(fabs(sv_bake_front_weight(SV_VIEWER_SIDE, down) - (1 - w)) < 1e-9);
+    assert_true(sv_bake_front_weight(SV_VIEWER_AERIAL, up) == 1.0);
+    rect rs[2] = {{-1, 1, -1, 1, 0.001, 0}, {-1, 1, -1, 1, -0.001, 0}};
+    scene s = make_scene(rs, 2);
+    sv_quad q;
+    sv_lod_plan lod = one_quad(&q, 0.1);
+    sv_bake_options o;
+    bake_options(&o);
+    o.viewer = SV_VIEWER_ORBIT;
+    sv_baked_lod b;
+    assert_int_equal(sv_bake_lod(s.r, s.g, s.m, &lod, NULL, &o, &b, NULL), SV_OK);
+    const uint8_t cyan[3] = {0, 255, 255};
+    for (uint32_t y = 2; y < 64; y += 16)
+        for (uint32_t x = 6; x < 64; x += 16) { /* block interiors, away from u's mirror */
+            uint8_t up[4];
+            leaf_texel(x / 16, y / 16, up);
+            const uint8_t *got = chart_texel(&b, &b.albedo, 0, x, y);
+            assert_int_equal(got[3], 255);
+            for (int k = 0; k < 3; k++) {
+                /* the leaf's hole shows the underside from both sides */
+                double lin = up[3] ? 0.5 * (sv_srgb_decode8(up[k]) + sv_srgb_decode8(cyan[k]))
+                                   : sv_srgb_decode8(cyan[k]);
+                int want = sv_srgb_encode8(lin);
+                if (abs(got[k] - want) > 2)
+                    fail_msg("texel %u,%u channel %d: %d, want %d", x, y, k, got[k], want);
+            }
+        }
+    sv_baked_lod_free(&b);
+    scene_free(&s);
+}
+
 static void face_outside_the_slab_is_not_baked(void **state)
 {
     (void)state;
@@ -584,6 +632,7 @@ int main(void)
         cmocka_unit_test(baked_albedo_matches_the_source_texture_where_covered),
         cmocka_unit_test(baked_colour_is_the_linear_factor_times_the_decoded_texel),
         cmocka_unit_test(transparent_texels_get_dilated_leaf_colour),
+        cmocka_unit_test(both_sides_of_a_two_layer_leaf_are_blended_in_linear_light),
         cmocka_unit_test(face_outside_the_slab_is_not_baked),
         cmocka_unit_test(clip_mode_keeps_only_the_part_of_a_face_inside_the_slab),
         cmocka_unit_test(quads_bake_only_faces_of_their_parts),
