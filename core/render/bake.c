@@ -26,8 +26,9 @@
  *   - Two sides: the quad is drawn two-sided with one texture, so its colour
  *     is also rendered from the other side (the same faces and slab; the
  *     paper renders from one) and the two are blended per texel in linear
- *     light by the share of the views each side gets (sv_bake_front_weight).
- *     Alpha, normals, depth and AO stay the front's.
+ *     light by the share of the views from which the source shows the face
+ *     the front sees (sv_bake_front_weight of its shading normal). Alpha,
+ *     normals, depth and AO stay the front's.
  *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
  *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
  *     from each; a texel's surface point is visible from a direction when it is
@@ -47,6 +48,7 @@
 #define SV_BAKE_MAX_SS 16u
 #define SV_AO_DIRS 12
 #define SV_AO_RES 1024u
+#define SV_BAKE_SIDE_STEPS 64
 
 void sv_bake_options_init(sv_bake_options *opt)
 {
@@ -337,26 +339,32 @@ typedef struct bake_ctx {
     sv_baked_lod *out;
     const ao_views *ao;
     uint32_t ao_res;
+    /* sv_bake_front_weight of a unit normal of height y = -1 + 2 i / STEPS
+     * (the viewers are symmetric about +Y, so y is all it depends on) */
+    double side_w[SV_BAKE_SIDE_STEPS + 1];
 } bake_ctx;
 
 /* The colour of the tile seen from the plane's other side, blended into
  * tex16 (linear RGBA16, tw × th texels, as sv_downsample_colour16 gave it
- * from the front camera `cam`, on the +normal side): a two-sided quad shows
+ * from the front camera `cam`, whose side is `side`): a two-sided quad shows
  * its one texture from both sides, where the source shows whatever faces
  * that side (a leaf drawn as two cards a hair apart, upper side and
- * underside, shows one from each side), so each texel takes, in linear
- * light, `front` × the front's colour + (1 - front) × the back's, front the
- * share of the views on the +normal side (sv_bake_front_weight). The back
- * camera mirrors u (right = -axis_u), so its image is mirrored back column
- * by column. Alpha (coverage) stays the front's: the
- * covered samples are the same from both sides, and a texel the back leaves
- * empty (an edge rasterised the other way) keeps the front's colour. back16
- * is scratch of tex16's size. */
+ * underside, shows one from each side). A texel takes, in linear light,
+ * w × the front's colour + (1 - w) × the back's, where w is the share of
+ * the views (sv_bake_front_weight) from which the surface the front camera
+ * sees shows that face: its shading normal turned towards the front
+ * (`nrm`, the median of SV_SHADE_NORMAL samples in the front camera's
+ * frame, sv_downsample_median) looked up in b->side_w. The back camera
+ * mirrors u (right = -axis_u), so its image is mirrored back column by
+ * column. Alpha (coverage) stays the front's: the covered samples are the
+ * same from both sides, and a texel the back leaves empty (an edge
+ * rasterised the other way) keeps the front's colour. back16 is scratch of
+ * tex16's size. */
 static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera *cam,
-                              const sv_render_options *ro, double front, uint32_t tw, uint32_t th,
-                              uint16_t *tex16, uint16_t *back16, sv_error *err)
+                              const double side[3], const sv_render_options *ro,
+                              const uint8_t *nrm, uint32_t tw, uint32_t th, uint16_t *tex16,
+                              uint16_t *back16, sv_error *err)
 {
-    if (!(front < 1)) return SV_OK; /* the back is never seen */
     uint32_t s = b->s, sw = tw * s, sh = th * s;
     sv_camera bc = *cam;
     for (int k = 0; k < 3; k++) bc.right[k] = -cam->right[k];
@@ -381,8 +389,21 @@ static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera 
         uint16_t *f = tex16 + 4 * i;
         const uint16_t *k = back16 + 4 * i;
         if (!f[3] || !k[3]) continue;
-        for (int c = 0; c < 3; c++)
-            f[c] = (uint16_t)lround(front * f[c] + (1 - front) * k[c]);
+        /* the normal in world space: camera x = right, y = up, z = side */
+        const uint8_t *n = nrm + 4 * i;
+        double c[3] = {n[0] / 127.5 - 1, n[1] / 127.5 - 1, n[2] / 127.5 - 1}, y = 0;
+        for (int j = 0; j < 3; j++) {
+            double wn = c[0] * cam->right[j] + c[1] * cam->up[j] + c[2] * side[j];
+            if (j == 1) y = wn;
+        }
+        double len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        y = len > 0 ? y / len : 0;
+        double t = (y + 1) * 0.5 * SV_BAKE_SIDE_STEPS;
+        int lo = (int)floor(t);
+        if (lo < 0) lo = 0;
+        if (lo >= SV_BAKE_SIDE_STEPS) lo = SV_BAKE_SIDE_STEPS - 1;
+        double fr = t - lo, w = b->side_w[lo] + (b->side_w[lo + 1] - b->side_w[lo]) * fr;
+        for (int j = 0; j < 3; j++) f[j] = (uint16_t)lround(w * f[j] + (1 - w) * k[j]);
     }
     return SV_OK;
 }
@@ -412,7 +433,6 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
      * axis_u × axis_v, the normal for the quads the methods make */
     double side[3];
     sv_cross3(q->axis_u, q->axis_v, side);
-    double front = sv_bake_front_weight(b->opt->viewer, side);
     for (uint32_t y0 = 0; y0 < h; y0 += tile)
         for (uint32_t x0 = 0; x0 < w; x0 += tile) {
             uint32_t x1 = x0 + tile < w ? x0 + tile : w, y1 = y0 + tile < h ? y0 + tile : h;
@@ -425,7 +445,13 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             sv_downsample_colour16(img.data, tw, th, s, b->thr, tex16);
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
-            st = capture_back(b, job, &cam, &ro, front, tw, th, tex16, back16, err);
+            /* the front's normals: the blend's weights and the normal map */
+            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s, &img,
+                           NULL, err);
+            if (st != SV_OK) goto out;
+            sv_downsample_median(img.data, tw, th, s, b->thr, tex);
+            sv_image_free(&img);
+            st = capture_back(b, job, &cam, side, &ro, tex, tw, th, tex16, back16, err);
             if (st != SV_OK) goto out;
             for (uint32_t y = 0; y < th; y++)
                 for (uint32_t x = 0; x < tw; x++) {
@@ -452,11 +478,6 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
                     }
                 }
             if (b->out->normal.data) {
-                st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s, &img,
-                               NULL, err);
-                if (st != SV_OK) goto out;
-                sv_downsample_median(img.data, tw, th, s, b->thr, tex);
-                sv_image_free(&img);
                 uint8_t *nm = b->out->normal.data;
                 for (uint32_t y = 0; y < th; y++)
                     for (uint32_t x = 0; x < tw; x++) {
@@ -681,7 +702,13 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                       lin.data,
                       out,
                       have_ao ? &ao : NULL,
-                      SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r)};
+                      SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r),
+                      {0}};
+        for (int k = 0; k <= SV_BAKE_SIDE_STEPS; k++) {
+            double y = -1.0 + 2.0 * k / SV_BAKE_SIDE_STEPS;
+            double nv[3] = {sqrt(fmax(0.0, 1 - y * y)), y, 0};
+            b.side_w[k] = sv_bake_front_weight(opt.viewer, nv);
+        }
         for (uint32_t i = 0; i < n; i++)
             if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK) goto out;
         /* Dilation: colour (not alpha) grows into empty texels of every map. */
