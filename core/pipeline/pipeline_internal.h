@@ -1,5 +1,6 @@
 /* pipeline_internal.h — the state the pipeline's files share (private to
- * core/pipeline*.c, chain.c, calibrate.c, target.c, report.c, outputs.c;
+ * core/pipeline*.c, chain.c, calibrate.c, target.c, report.c, outputs.c,
+ * textures.c;
  * docs/design.md "The core pipeline" has the map).
  *
  * One bake is a sequence of stages over a `run` (what lives for the whole

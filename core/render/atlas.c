@@ -427,6 +427,72 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
     return SV_OK;
 }
 
+/* Pull-push (Gortler et al., "The Lumigraph", SIGGRAPH 1996, §3.3's
+ * pull-push fill): a pyramid of 2×2 sums of alpha-weighted linear colour
+ * and alpha, then each texel of alpha 0 takes the weighted mean of the
+ * smallest block of the pyramid above it that holds alpha. The blocks are
+ * the mip levels' own, so an engine's straight mip average of a block sees
+ * the colour a premultiplied one would. l: w × h linear RGBA16, written
+ * only where a[] (w × h alphas, 8-bit) is 0. SV_ERR_NOMEM on failure. */
+static sv_status pull_push(uint16_t *l, const uint8_t *a, uint32_t w, uint32_t h, sv_error *err)
+{
+    uint32_t lw[40], lh[40];
+    size_t off[40], total = 0;
+    int n = 0;
+    for (uint32_t cw = w, ch = h; (cw > 1 || ch > 1) && n < 40; n++) {
+        cw = (cw + 1) / 2;
+        ch = (ch + 1) / 2;
+        lw[n] = cw;
+        lh[n] = ch;
+        off[n] = total;
+        total += (size_t)cw * ch;
+    }
+    if (n == 0) return SV_OK;
+    float *p = sv_calloc(total, 4 * sizeof *p); /* r, g, b (premultiplied), weight */
+    if (!p) return sv_fail(err, SV_ERR_NOMEM, "dilate: out of memory for a %ux%u pyramid", w, h);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t i = (size_t)y * w + x;
+            float wt = a[i] / 255.0f;
+            if (!(wt > 0)) continue;
+            float *q = p + 4 * (off[0] + (size_t)(y / 2) * lw[0] + x / 2);
+            for (int k = 0; k < 3; k++) q[k] += wt * (l[4 * i + k] / 65535.0f);
+            q[3] += wt;
+        }
+    for (int v = 1; v < n; v++)
+        for (uint32_t y = 0; y < lh[v - 1]; y++)
+            for (uint32_t x = 0; x < lw[v - 1]; x++) {
+                const float *c = p + 4 * (off[v - 1] + (size_t)y * lw[v - 1] + x);
+                float *q = p + 4 * (off[v] + (size_t)(y / 2) * lw[v] + x / 2);
+                for (int k = 0; k < 4; k++) q[k] += c[k];
+            }
+    /* push: a block's mean colour, or its parent's where it holds no alpha */
+    for (int v = n - 1; v >= 0; v--)
+        for (uint32_t y = 0; y < lh[v]; y++)
+            for (uint32_t x = 0; x < lw[v]; x++) {
+                float *q = p + 4 * (off[v] + (size_t)y * lw[v] + x);
+                if (q[3] > 0) {
+                    for (int k = 0; k < 3; k++) q[k] /= q[3];
+                } else if (v + 1 < n) {
+                    const float *pa = p + 4 * (off[v + 1] + (size_t)(y / 2) * lw[v + 1] + x / 2);
+                    memcpy(q, pa, 3 * sizeof *q);
+                }
+                q[3] = 1;
+            }
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t i = (size_t)y * w + x;
+            if (a[i]) continue;
+            const float *q = p + 4 * (off[0] + (size_t)(y / 2) * lw[0] + x / 2);
+            for (int k = 0; k < 3; k++) {
+                double c = q[k] < 0 ? 0 : q[k] > 1 ? 1 : q[k];
+                l[4 * i + k] = (uint16_t)lround(c * 65535.0);
+            }
+        }
+    free(p);
+    return SV_OK;
+}
+
 sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out, bool *changed,
                             sv_error *err)
 {
@@ -449,14 +515,15 @@ sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out,
     if ((st = sv_image_alloc(&lin, w, h, 4, 16, err)) != SV_OK) goto done;
     uint16_t *l = lin.data;
     for (size_t i = 0; i < npx; i++) {
-        mask[i] = px[4 * i + 3] != 0;
+        mask[i] = px[4 * i + 3];
         for (int k = 0; k < 3; k++)
             l[4 * i + k] = (uint16_t)lround(sv_srgb_decode8(px[4 * i + k]) * 65535.0);
         l[4 * i + 3] = (uint16_t)(px[4 * i + 3] * 257u);
     }
-    if ((st = sv_dilate(&lin, mask, 3, passes, err)) != SV_OK) goto done;
+    if ((st = pull_push(l, mask, w, h, err)) != SV_OK) goto done;
     /* Chebyshev distance to the nearest texel with alpha (two raster passes
-     * over the 8-neighbourhood): the texels the dilation rings reach */
+     * over the 8-neighbourhood): the transparent texels an engine's first
+     * mip levels blend in, on which the change is judged */
     for (size_t i = 0; i < npx; i++) dist[i] = mask[i] ? 0 : UINT32_MAX - 1;
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++) {

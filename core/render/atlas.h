@@ -89,10 +89,14 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
  * colour, straight alpha; image.h), so an engine's bilinear filter and mip
  * levels do not blend their colour into the texels it draws: a texture
  * black where it is transparent (the Scopia bush's leaf) draws its leaves
- * darker with each mip level. The texels with alpha 0 take sv_dilate's
- * colour (`passes` rings of neighbour means weighted by alpha, then the mean
- * of the texture), in linear light; every other byte, alpha included, is
- * the input's. Sets *out to that image (a new one) and *changed to true
+ * darker with each mip level. The texels with alpha 0 take, in linear
+ * light, the alpha-weighted mean colour of the smallest block of the mip
+ * pyramid (2^k × 2^k, aligned) above them that holds alpha (pull-push), so
+ * a straight mip average sees about the colour a premultiplied one would;
+ * every other byte, alpha included, is the input's (the atlases' ring
+ * dilation, sv_dilate, carried a leaf's darker antialiased edge outward:
+ * the bush's mipmapped leaves stayed 7 % dark). Sets *out to that image (a
+ * new one) and *changed to true
  * only when it changes what an engine draws: at least one in 100 of the
  * transparent texels within `passes` texels of a texel with alpha changes
  * by more than 8 of 255 in a channel (an input dilated by its author keeps

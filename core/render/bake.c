@@ -391,12 +391,11 @@ static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera 
         if (!f[3] || !k[3]) continue;
         /* the normal in world space: camera x = right, y = up, z = side */
         const uint8_t *n = nrm + 4 * i;
-        double c[3] = {n[0] / 127.5 - 1, n[1] / 127.5 - 1, n[2] / 127.5 - 1}, y = 0;
-        for (int j = 0; j < 3; j++) {
-            double wn = c[0] * cam->right[j] + c[1] * cam->up[j] + c[2] * side[j];
-            if (j == 1) y = wn;
-        }
+        double c[3] = {n[0] / 127.5 - 1, n[1] / 127.5 - 1, n[2] / 127.5 - 1};
+        if (c[2] < 0) /* towards the front, whatever the source's normals say */
+            for (int j = 0; j < 3; j++) c[j] = -c[j];
         double len = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        double y = c[0] * cam->right[1] + c[1] * cam->up[1] + c[2] * side[1];
         y = len > 0 ? y / len : 0;
         double t = (y + 1) * 0.5 * SV_BAKE_SIDE_STEPS;
         int lo = (int)floor(t);
