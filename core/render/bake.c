@@ -361,9 +361,9 @@ typedef struct bake_ctx {
  * rasterised the other way) keeps the front's colour. back16 is scratch of
  * tex16's size. */
 static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera *cam,
-                              const double side[3], const sv_render_options *ro,
-                              const uint8_t *nrm, uint32_t tw, uint32_t th, uint16_t *tex16,
-                              uint16_t *back16, sv_error *err)
+                              const double side[3], const sv_render_options *ro, const uint8_t *nrm,
+                              uint32_t tw, uint32_t th, uint16_t *tex16, uint16_t *back16,
+                              sv_error *err)
 {
     uint32_t s = b->s, sw = tw * s, sh = th * s;
     sv_camera bc = *cam;
@@ -445,8 +445,8 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             sv_downsample_median_f32(zs, tw, th, s, b->thr, zt);
             sv_image_free(&img);
             /* the front's normals: the blend's weights and the normal map */
-            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s, &img,
-                           NULL, err);
+            st = sv_render(b->r, b->g, job->tris, job->count, &cam, &rn, tw * s, th * s, &img, NULL,
+                           err);
             if (st != SV_OK) goto out;
             sv_downsample_median(img.data, tw, th, s, b->thr, tex);
             sv_image_free(&img);
