@@ -42,6 +42,7 @@
 #include "atlas.h"
 #include "bake.h"
 #include "classify.h"
+#include "evaluate.h"
 #include "vec3.h"
 
 #define SV_BAKE_TILE_SAMPLES 2048u
@@ -327,6 +328,82 @@ static double ao_visibility(const ao_views *a, uint32_t res, const double p[3])
     return (double)vis / SV_AO_DIRS;
 }
 
+/* Depth maps of the whole source from the viewer's directions, for the
+ * two sides' blend: which of the views see a texel's front and back
+ * surfaces (the colour closest to what those views show). */
+#define SV_SIDE_ROWS 5
+#define SV_SIDE_COLS 8
+#define SV_SIDE_DIRS (SV_SIDE_ROWS * SV_SIDE_COLS)
+#define SV_SIDE_RES 512u
+typedef struct side_views {
+    double dir[SV_SIDE_DIRS][3]; /* unit, towards the viewer */
+    sv_camera cam[SV_SIDE_DIRS];
+    float *depth[SV_SIDE_DIRS];
+    uint32_t res;
+    double bias;
+} side_views;
+
+static void side_free(side_views *a)
+{
+    for (int i = 0; i < SV_SIDE_DIRS; i++) free(a->depth[i]);
+}
+
+/* The directions: SV_SIDE_ROWS elevations at the middles of equal slices of
+ * the viewer's band (scene.h; SIDE in angle, the others in sin(elevation)),
+ * SV_SIDE_COLS azimuths each, every row turned by half a step from the last. */
+static sv_status side_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mesh *src,
+                              sv_viewer viewer, side_views *a, sv_error *err)
+{
+    memset(a, 0, sizeof *a);
+    double c[3], rad;
+    sv_mesh_sphere(src, c, &rad);
+    if (!(rad > 0)) rad = 1;
+    a->res = SV_SIDE_RES < sv_renderer_max_size(r) ? SV_SIDE_RES : sv_renderer_max_size(r);
+    a->bias = 2.0 * (2.0 * rad * 1.01 / a->res); /* two depth-map texels */
+    double lo = -90, hi = 90;
+    bool by_angle = false;
+    if (viewer == SV_VIEWER_SIDE) lo = -10, hi = 40, by_angle = true;
+    else if (viewer == SV_VIEWER_GROUND) lo = 0, hi = 20;
+    else if (viewer == SV_VIEWER_AERIAL) lo = 40, hi = 90;
+    double slo = sin(lo * M_PI / 180), shi = sin(hi * M_PI / 180);
+    for (int i = 0; i < SV_SIDE_DIRS; i++) {
+        int row = i / SV_SIDE_COLS, col = i % SV_SIDE_COLS;
+        double t = (row + 0.5) / SV_SIDE_ROWS;
+        double y = by_angle ? sin((lo + (hi - lo) * t) * M_PI / 180) : slo + (shi - slo) * t;
+        double rr = sqrt(fmax(0.0, 1 - y * y)), phi = 2 * M_PI * (col + 0.5 * row) / SV_SIDE_COLS;
+        double *d = a->dir[i];
+        d[0] = rr * cos(phi);
+        d[1] = y;
+        d[2] = rr * sin(phi);
+        sv_eval_camera(c, rad * 1.01, d, &a->cam[i]);
+        a->depth[i] = sv_calloc((size_t)a->res * a->res, sizeof(float));
+        if (!a->depth[i]) {
+            side_free(a);
+            return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for side depth maps");
+        }
+        sv_status st = sv_render(r, g, NULL, 0, &a->cam[i], NULL, a->res, a->res, NULL, a->depth[i],
+                                 err);
+        if (st != SV_OK) {
+            side_free(a);
+            return st;
+        }
+    }
+    return SV_OK;
+}
+
+/* Whether world point p is the surface view i sees (within the bias). */
+static bool side_visible(const side_views *a, int i, const double p[3])
+{
+    const sv_camera *c = &a->cam[i];
+    double d[3] = {p[0] - c->origin[0], p[1] - c->origin[1], p[2] - c->origin[2]};
+    double fwd[3];
+    sv_camera_forward(c, fwd);
+    double x = (sv_dot3(d, c->right) / c->half_width * 0.5 + 0.5) * a->res;
+    double y = (0.5 - sv_dot3(d, c->up) / c->half_height * 0.5) * a->res;
+    if (x < 0 || y < 0 || x >= a->res || y >= a->res) return true;
+    return sv_dot3(d, fwd) <= (double)a->depth[i][(size_t)y * a->res + (size_t)x] + a->bias;
+}
+
 typedef struct bake_ctx {
     sv_renderer *r;
     const sv_gpu_mesh *g;
@@ -342,6 +419,7 @@ typedef struct bake_ctx {
     /* sv_bake_front_weight of a unit normal of height y = -1 + 2 i / STEPS
      * (the viewers are symmetric about +Y, so y is all it depends on) */
     double side_w[SV_BAKE_SIDE_STEPS + 1];
+    const side_views *sides; /* NULL: the weights come from side_w alone */
 } bake_ctx;
 
 /* The colour of the tile seen from the plane's other side, blended into
@@ -362,8 +440,8 @@ typedef struct bake_ctx {
  * tex16's size. */
 static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera *cam,
                               const double side[3], const sv_render_options *ro, const uint8_t *nrm,
-                              uint32_t tw, uint32_t th, uint16_t *tex16, uint16_t *back16,
-                              sv_error *err)
+                              const float *zt, float *zs, float *zb, uint32_t tw, uint32_t th,
+                              uint16_t *tex16, uint16_t *back16, sv_error *err)
 {
     uint32_t s = b->s, sw = tw * s, sh = th * s;
     sv_camera bc = *cam;
@@ -371,20 +449,32 @@ static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera 
     bc.near_dist = -cam->far_dist;
     bc.far_dist = -cam->near_dist;
     sv_image img;
-    sv_status st = sv_render(b->r, b->g, job->tris, job->count, &bc, ro, sw, sh, &img, NULL, err);
+    sv_status st = sv_render(b->r, b->g, job->tris, job->count, &bc, ro, sw, sh, &img,
+                             b->sides ? zs : NULL, err);
     if (st != SV_OK) return st;
     uint16_t *px = img.data;
     for (uint32_t y = 0; y < sh; y++) {
         uint16_t *row = px + 4 * (size_t)y * sw;
-        for (uint32_t x = 0; x < sw / 2; x++)
+        float *zrow = zs + (size_t)y * sw;
+        for (uint32_t x = 0; x < sw / 2; x++) {
             for (int k = 0; k < 4; k++) {
                 uint16_t t = row[4 * (size_t)x + k];
                 row[4 * (size_t)x + k] = row[4 * (size_t)(sw - 1 - x) + k];
                 row[4 * (size_t)(sw - 1 - x) + k] = t;
             }
+            if (b->sides) {
+                float t = zrow[x];
+                zrow[x] = zrow[sw - 1 - x];
+                zrow[sw - 1 - x] = t;
+            }
+        }
     }
     sv_downsample_colour16(px, tw, th, s, b->thr, back16);
+    if (b->sides) sv_downsample_median_f32(zs, tw, th, s, b->thr, zb);
     sv_image_free(&img);
+    double fwd[3];
+    sv_camera_forward(cam, fwd);
+    double tx = 2 * cam->half_width / tw, ty = 2 * cam->half_height / th;
     for (size_t i = 0; i < (size_t)tw * th; i++) {
         uint16_t *f = tex16 + 4 * i;
         const uint16_t *k = back16 + 4 * i;
@@ -402,6 +492,27 @@ static sv_status capture_back(bake_ctx *b, const quad_job *job, const sv_camera 
         if (lo < 0) lo = 0;
         if (lo >= SV_BAKE_SIDE_STEPS) lo = SV_BAKE_SIDE_STEPS - 1;
         double fr = t - lo, w = b->side_w[lo] + (b->side_w[lo + 1] - b->side_w[lo]) * fr;
+        if (b->sides && isfinite(zt[i]) && isfinite(zb[i])) {
+            /* the views that see the front's surface on its face, against
+             * those that see the back's on the other face */
+            double nw[3], pf[3], pb[3];
+            double u = -cam->half_width + ((double)(i % tw) + 0.5) * tx;
+            double v = cam->half_height - ((double)(i / tw) + 0.5) * ty;
+            for (int j = 0; j < 3; j++) {
+                nw[j] = (c[0] * cam->right[j] + c[1] * cam->up[j] + c[2] * side[j]) /
+                        (len > 0 ? len : 1);
+                double on = cam->origin[j] + u * cam->right[j] + v * cam->up[j];
+                pf[j] = on + (double)zt[i] * fwd[j];
+                pb[j] = on - (double)zb[i] * fwd[j];
+            }
+            double af = 0, ab = 0;
+            for (int d = 0; d < SV_SIDE_DIRS; d++) {
+                double cd = sv_dot3(b->sides->dir[d], nw);
+                if (cd > 0 && side_visible(b->sides, d, pf)) af += cd;
+                if (cd < 0 && side_visible(b->sides, d, pb)) ab -= cd;
+            }
+            if (af + ab > 0) w = af / (af + ab);
+        }
         for (int j = 0; j < 3; j++) f[j] = (uint16_t)lround(w * f[j] + (1 - w) * k[j]);
     }
     return SV_OK;
@@ -420,7 +531,8 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
     uint16_t *back16 = malloc((size_t)tile * tile * 4 * sizeof *back16);
     float *zs = malloc((size_t)tile * s * tile * s * sizeof(float));
     float *zt = malloc((size_t)tile * tile * sizeof(float));
-    if (!tex || !tex16 || !back16 || !zs || !zt) {
+    float *zb = malloc((size_t)tile * tile * sizeof(float));
+    if (!tex || !tex16 || !back16 || !zs || !zt || !zb) {
         st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s, tile * s);
         goto out;
     }
@@ -450,7 +562,7 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             if (st != SV_OK) goto out;
             sv_downsample_median(img.data, tw, th, s, b->thr, tex);
             sv_image_free(&img);
-            st = capture_back(b, job, &cam, side, &ro, tex, tw, th, tex16, back16, err);
+            st = capture_back(b, job, &cam, side, &ro, tex, zt, zs, zb, tw, th, tex16, back16, err);
             if (st != SV_OK) goto out;
             for (uint32_t y = 0; y < th; y++)
                 for (uint32_t x = 0; x < tw; x++) {
@@ -491,6 +603,7 @@ out:
     free(back16);
     free(zs);
     free(zt);
+    free(zb);
     return st;
 }
 
@@ -608,7 +721,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     uint8_t *mask = NULL;
     sv_image lin = {0};
     ao_views ao;
-    bool have_ao = false;
+    side_views sides;
+    bool have_ao = false, have_sides = false;
     if (!jobs || !charts || !half || !out->uv_rects) {
         st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for %u quads", n);
         goto out;
@@ -690,6 +804,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
             if ((st = ao_prepare(r, gsrc, src, &ao, err)) != SV_OK) goto out;
             have_ao = true;
         }
+        if ((st = side_prepare(r, gsrc, src, opt.viewer, &sides, err)) != SV_OK) goto out;
+        have_sides = true;
         bake_ctx b = {r,
                       gsrc,
                       &opt,
@@ -702,7 +818,8 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                       out,
                       have_ao ? &ao : NULL,
                       SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r),
-                      {0}};
+                      {0},
+                      &sides};
         for (int k = 0; k <= SV_BAKE_SIDE_STEPS; k++) {
             double y = -1.0 + 2.0 * k / SV_BAKE_SIDE_STEPS;
             double nv[3] = {sqrt(fmax(0.0, 1 - y * y)), y, 0};
@@ -721,6 +838,7 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
     st = build_mesh(lod, keep, opt.lit, out, err);
 out:
     if (have_ao) ao_free(&ao);
+    if (have_sides) side_free(&sides);
     for (uint32_t i = 0; jobs && i < n; i++) free(jobs[i].tris);
     free(jobs);
     free(charts);
