@@ -26,8 +26,12 @@
  *   - Two sides: the quad is drawn two-sided with one texture, so its colour
  *     is also rendered from the other side (the same faces and slab; the
  *     paper renders from one) and the two are blended per texel in linear
- *     light by the share of the views from which the source shows the face
- *     the front sees (sv_bake_front_weight of its shading normal). Alpha,
+ *     light by the views from which the source shows each: 40 directions of
+ *     the scene's viewer, a depth map of the source from each; a view counts
+ *     for the front's surface when it faces the surface's shading normal
+ *     and sees it, weighted by the cosine, and for the back's when it faces
+ *     away from that normal and sees the back's surface. Without any such
+ *     view the weight is sv_bake_front_weight of the normal. Alpha,
  *     normals, depth and AO stay the front's.
  *   - AO (sky visibility): 12 fixed directions on the upper hemisphere (Fibonacci
  *     spiral, y >= 0.1); the whole source mesh is rendered to a 1024² depth map
@@ -428,11 +432,14 @@ typedef struct bake_ctx {
  * its one texture from both sides, where the source shows whatever faces
  * that side (a leaf drawn as two cards a hair apart, upper side and
  * underside, shows one from each side). A texel takes, in linear light,
- * w × the front's colour + (1 - w) × the back's, where w is the share of
- * the views (sv_bake_front_weight) from which the surface the front camera
- * sees shows that face: its shading normal turned towards the front
- * (`nrm`, the median of SV_SHADE_NORMAL samples in the front camera's
- * frame, sv_downsample_median) looked up in b->side_w. The back camera
+ * w × the front's colour + (1 - w) × the back's. n is the shading normal
+ * of the surface the front sees, turned towards the front (`nrm`, the
+ * median of SV_SHADE_NORMAL samples in the front camera's frame,
+ * sv_downsample_median); the front's surface point is at depth zt, the
+ * back's at the back render's depth (zs: scratch of the samples' size, zb:
+ * of the texels'). w = Σ over b->sides' views d with d·n > 0 that see the
+ * front's point of d·n, over that plus Σ over views with d·n < 0 that see
+ * the back's point of -d·n; without such views, b->side_w's weight of n. The back camera
  * mirrors u (right = -axis_u), so its image is mirrored back column by
  * column. Alpha (coverage) stays the front's: the covered samples are the
  * same from both sides, and a texel the back leaves empty (an edge

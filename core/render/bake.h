@@ -6,10 +6,10 @@
  * downsample with an alpha threshold (binary alpha) — colour the per-channel
  * median of the covered samples scaled to their mean luminance in linear
  * light, normals the per-channel median — and render the colour from the
- * other side as well, the two blended per texel in linear light by the share
- * of the views that see the face the front sees (sv_bake_front_weight of its
- * shading normal: a leaf modelled as an upper-side and an underside card
- * shows each from its side; the quad shows one texture), and
+ * other side as well, the two blended per texel in linear light by the
+ * views of the scene's viewer that see each side's surface on its face (a
+ * leaf modelled as an upper-side and an underside card shows each from its
+ * side; the quad shows one texture; docs/outputs.md "Two sides"), and
  * dilate colour into transparent texels so mipmaps do not bleed. The albedo
  * atlas is glTF base colour (sRGB-encoded, factor 1): the source's linear
  * factor × its decoded texels.
@@ -82,11 +82,11 @@ void sv_baked_lod_free(sv_baked_lod *b);
  * elevations uniform in angle over [-10°, 40°], GROUND, AERIAL and ORBIT
  * uniform in sin(elevation) over their bands; 64 azimuths × 32 elevations),
  * Σ max(0, d·n) / Σ |d·n|, the share of a surface's projected area seen on
- * its +n side. A quad shows one texture from both sides; a texel whose front
- * capture sees a surface of normal n (turned towards the front) takes this
- * weight × the front's colour + the rest × the back's: the colour closest,
- * in least squares over those views, to what the source shows there.
- * 0.5 for a normal of zero length. */
+ * its +n side: the weight of the front's colour for a texel whose front
+ * capture sees a surface of normal n (turned towards the front) when the
+ * bake's depth maps find no view that sees either side's surface (the
+ * colour closest, in least squares over those views, to what the source
+ * shows there, occlusion left out). 0.5 for a normal of zero length. */
 double sv_bake_front_weight(sv_viewer viewer, const double normal[3]);
 
 /* Sets opt to the defaults above. Zero fields of an options struct also mean
