@@ -26,7 +26,7 @@
  *   - Two sides: the quad is drawn two-sided with one texture, so its colour
  *     is also rendered from the other side (the same faces and slab; the
  *     paper renders from one) and the two are blended per texel in linear
- *     light by the views from which the source shows each: 40 directions of
+ *     light by the views from which the source shows each: 24 directions of
  *     the scene's viewer, a depth map of the source from each; a view counts
  *     for the front's surface when it faces the surface's shading normal
  *     and sees it, weighted by the cosine, and for the back's when it faces
@@ -335,13 +335,14 @@ static double ao_visibility(const ao_views *a, uint32_t res, const double p[3])
 /* Depth maps of the whole source from the viewer's directions, for the
  * two sides' blend: which of the views see a texel's front and back
  * surfaces (the colour closest to what those views show). */
-#define SV_SIDE_ROWS 5
-#define SV_SIDE_COLS 8
+#define SV_SIDE_ROWS 4
+#define SV_SIDE_COLS 6
 #define SV_SIDE_DIRS (SV_SIDE_ROWS * SV_SIDE_COLS)
-#define SV_SIDE_RES 512u
+#define SV_SIDE_RES 128u
 typedef struct side_views {
     double dir[SV_SIDE_DIRS][3]; /* unit, towards the viewer */
     sv_camera cam[SV_SIDE_DIRS];
+    double fwd[SV_SIDE_DIRS][3]; /* each camera's forward */
     float *depth[SV_SIDE_DIRS];
     uint32_t res;
     double bias;
@@ -380,6 +381,7 @@ static sv_status side_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mes
         d[1] = y;
         d[2] = rr * sin(phi);
         sv_eval_camera(c, rad * 1.01, d, &a->cam[i]);
+        sv_camera_forward(&a->cam[i], a->fwd[i]);
         a->depth[i] = sv_calloc((size_t)a->res * a->res, sizeof(float));
         if (!a->depth[i]) {
             side_free(a);
@@ -400,12 +402,10 @@ static bool side_visible(const side_views *a, int i, const double p[3])
 {
     const sv_camera *c = &a->cam[i];
     double d[3] = {p[0] - c->origin[0], p[1] - c->origin[1], p[2] - c->origin[2]};
-    double fwd[3];
-    sv_camera_forward(c, fwd);
     double x = (sv_dot3(d, c->right) / c->half_width * 0.5 + 0.5) * a->res;
     double y = (0.5 - sv_dot3(d, c->up) / c->half_height * 0.5) * a->res;
     if (x < 0 || y < 0 || x >= a->res || y >= a->res) return true;
-    return sv_dot3(d, fwd) <= (double)a->depth[i][(size_t)y * a->res + (size_t)x] + a->bias;
+    return sv_dot3(d, a->fwd[i]) <= (double)a->depth[i][(size_t)y * a->res + (size_t)x] + a->bias;
 }
 
 typedef struct bake_ctx {
