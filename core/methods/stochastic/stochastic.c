@@ -620,17 +620,21 @@ static void shape_copy(const sv_mesh *m, const sv_leaves *lv, uint32_t i, leaf_s
 /* Simplifies leaf i to `error` metres (meshopt_simplify on its own vertices,
  * welded by position and UV as gltfpack does, so seams and the outline are
  * kept; the error is relative to the leaf's extent there; then
- * meshopt_simplifySloppy towards two triangles within the same bound). A leaf of one or two
+ * meshopt_simplifySloppy towards two triangles within the same bound), or,
+ * when target > 0, towards `target` triangles whatever the error (the same
+ * two steps, unbounded; gain 1: a foliage mass keeps its outline, and one
+ * scaled to its lost surface area would swell). A leaf of one or two
  * triangles, of several materials, or that would vanish is kept as modelled. */
 static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, double error,
-                           shape_scratch *x, leaf_shapes *sh)
+                           uint32_t target, shape_scratch *x, leaf_shapes *sh)
 {
     const sv_leaf *l = &lv->leaves[i];
     uint32_t m0 = m->tri_material[lv->tris[l->first]];
     bool one_material = true;
     for (uint32_t k = 1; k < l->count && one_material; k++)
         one_material = m->tri_material[lv->tris[l->first + k]] == m0;
-    if (l->count <= 2 || !one_material || !(error > 0)) {
+    if (l->count <= 2 || !one_material || !(error > 0 || target > 0) ||
+        (target > 0 && target >= l->count)) {
         shape_copy(m, lv, i, sh);
         return;
     }
@@ -665,16 +669,18 @@ static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, do
     double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     /* a leaf smaller than the error collapses to nothing: it still covers
      * its pixels, so it keeps its coarsest outline that has triangles */
-    size_t got = 0;
-    for (double e = error / extent; extent > 0 && got == 0 && e > 1e-4; e *= 0.5)
-        got = meshopt_simplify(x->dst, x->src, ni, x->pos, unique, 3 * sizeof(float), 3,
+    size_t got = 0, want = target > 0 ? 3 * (size_t)target : 3;
+    double bound = target > 0 ? extent : error;
+    for (double e = bound / extent; extent > 0 && got == 0 && e > 1e-4; e *= 0.5)
+        got = meshopt_simplify(x->dst, x->src, ni, x->pos, unique, 3 * sizeof(float), want,
                                (float)fmin(e, 1.0), 0, NULL);
-    /* topology stops a leaf at about three triangles; vertex clustering
-     * within the same bound takes it to two where the outline allows */
-    if (got > 6) {
+    /* topology stops a leaf at about three triangles (a mass at its seams);
+     * vertex clustering within the same bound takes it further where the
+     * outline allows */
+    if (got > (target > 0 ? want : 6)) {
         size_t gs = meshopt_simplifySloppy(x->src + ni, x->src, ni, x->pos, unique,
-                                           3 * sizeof(float), 6, (float)fmin(error / extent, 1.0),
-                                           NULL);
+                                           3 * sizeof(float), target > 0 ? want : 6,
+                                           (float)fmin(bound / extent, 1.0), NULL);
         if (gs > 0 && gs < got) {
             memcpy(x->dst, x->src + ni, gs * sizeof(uint32_t));
             got = gs;
@@ -693,7 +699,7 @@ static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, do
     double a0 = 0, a1 = 0;
     for (uint32_t k = 0; k < l->count; k++) a0 += sv_tri_area(m, lv->tris[l->first + k]);
     for (size_t k = 0; k < got / 3; k++) a1 += tri_area_v(m, &sh->idx[3 * (sh->total + k)]);
-    sh->s_gain[i] = a1 > 0 ? (float)fmin(fmax(a0 / a1, 1.0), 4.0) : 1.0f;
+    sh->s_gain[i] = a1 > 0 && target == 0 ? (float)fmin(fmax(a0 / a1, 1.0), 4.0) : 1.0f;
     for (size_t k = 0; k < got / 3; k++) sh->mat[sh->total + k] = m0;
     sh->total += got / 3;
 }
@@ -879,9 +885,12 @@ static void leaf_shapes_select(const sv_leaves *lv, leaf_shapes *sh, double min_
 
 /* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
  * with its coverage ratio; drawn simplified where that ratio reaches
- * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). */
+ * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). With spread in
+ * (0, 1) instead, every leaf of k triangles is simplified towards
+ * max(1, ⌊spread·k⌋) whatever the error (shape_simplify's target), cover 1,
+ * all drawn simplified: the level's budget spread over every element. */
 static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const uint32_t *group,
-                                   double error, leaf_shapes *sh, sv_error *err)
+                                   double error, double spread, leaf_shapes *sh, sv_error *err)
 {
     memset(sh, 0, sizeof *sh);
     uint32_t N = lv->count, most = 1;
@@ -918,8 +927,13 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
         for (uint32_t i = 0; i < N; i++) {
+            uint32_t target = 0;
+            if (spread > 0 && spread < 1) {
+                double k = floor(spread * lv->leaves[i].count);
+                target = k < 1 ? 1 : (uint32_t)k;
+            }
             if (group && group[i] != i) shape_follow(m, lv, i, group[i], sh);
-            else shape_simplify(m, lv, i, error, &x, sh);
+            else shape_simplify(m, lv, i, error, target, &x, sh);
         }
         for (uint32_t i = 0; i < N; i++) {
             const sv_leaf *l = &lv->leaves[i];
@@ -931,11 +945,13 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
                 sh->mat[sh->total++] = m->tri_material[t];
             }
         }
-        for (uint32_t i = 0; i < N; i++) sh->cover[i] = (float)leaf_cover(m, lv, i, error, sh);
+        bool spreading = spread > 0 && spread < 1;
+        for (uint32_t i = 0; i < N; i++)
+            sh->cover[i] = spreading ? 1.0f : (float)leaf_cover(m, lv, i, error, sh);
         /* a leaf's layers are drawn simplified or whole together */
         for (uint32_t i = 0; group && i < N; i++)
             if (group[i] != i) sh->cover[i] = sh->cover[group[i]];
-        leaf_shapes_select(lv, sh, SV_STOCH_MIN_COVER);
+        leaf_shapes_select(lv, sh, spreading ? 0.0 : SV_STOCH_MIN_COVER);
     }
     free(x.stamp);
     free(x.local);
@@ -1023,6 +1039,7 @@ typedef struct build_ctx {
     int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
     int32_t *leaf_bin; /* per leaf position */
     double min_cover;  /* the shapes' selection (leaf_shapes_select) */
+    bool spread;       /* the shapes are the budget spread over every leaf */
 } build_ctx;
 
 /* The level's colour gains: a simplified leaf shows other texels than its
@@ -1069,6 +1086,7 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
 {
     L->area_gamma = gamma;
     L->min_cover = b->min_cover;
+    L->spread = b->spread;
     L->score = NAN;
     L->same_as = -1;
     const sv_mesh *src = b->mesh;
@@ -1395,6 +1413,22 @@ void sv_stoch_result_free(sv_stoch_result *res)
     memset(res, 0, sizeof *res);
 }
 
+/* The fraction of its triangles each leaf keeps when `budget` leaf
+ * triangles are spread over every leaf (leaf_shapes_build's spread): what
+ * the leaves of one or two triangles (kept as modelled) leave of the budget
+ * over the rest; 1 when everything fits, 0 when nothing is left. */
+static double spread_fraction(const sv_leaves *lv, double budget)
+{
+    double fixed = 0, rest = 0;
+    for (uint32_t i = 0; i < lv->count; i++) {
+        uint32_t k = lv->leaves[i].count;
+        if (k <= 2) fixed += k;
+        else rest += k;
+    }
+    if (!(rest > 0) || budget >= fixed + rest) return 1.0;
+    return budget > fixed ? (budget - fixed) / rest : 0.0;
+}
+
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s, double r,
                               const sv_stoch_scorer *scorer, sv_stoch_result *out, sv_error *err)
 {
@@ -1454,7 +1488,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
         sv_stoch_level *L = &out->levels[i];
         bool trunk_first = e > 0 && in->cls && in->cls->tri_part;
         leaf_shapes sh;
-        if ((st = leaf_shapes_build(mesh, lv, layer, e, &sh, err))) goto out;
+        if ((st = leaf_shapes_build(mesh, lv, layer, e, 0, &sh, err))) goto out;
         b.shapes = &sh;
         if (!trunk_first) {
             L->leaf_error = e;
@@ -1522,6 +1556,28 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
                            false, &best, &kept, L, err);
         }
         b.min_cover = SV_STOCH_MIN_COVER;
+        /* last every element kept and each simplified to its share of the
+         * budget, whatever the error: where the elements are few and large
+         * (foliage masses, not leaf cards), dropping one drops a part of
+         * the crown and the paper's rule leaves nearly nothing */
+        if (trunk_first && scored && !st) {
+            uint32_t tn = best_trunk ? best_trunk->triangle_count : 0;
+            double spread = spread_fraction(lv, fmax(1.0, all - tn));
+            leaf_shapes sp;
+            if (spread > 0 && spread < 1 &&
+                !(st = leaf_shapes_build(mesh, lv, layer, e, spread, &sp, err))) {
+                bool kept = false;
+                b.shapes = &sp;
+                b.min_cover = 0.0;
+                b.spread = true;
+                st = try_level(&b, in, s, r, i, e, best_et, all, 1.0, &best_trunk, scorer, false,
+                               &best, &kept, L, err);
+                b.spread = false;
+                b.min_cover = SV_STOCH_MIN_COVER;
+                b.shapes = &sh;
+                leaf_shapes_free(&sp);
+            }
+        }
         sv_mesh_destroy(best_trunk);
         b.shapes = NULL;
         leaf_shapes_free(&sh);
