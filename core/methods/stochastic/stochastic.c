@@ -622,7 +622,7 @@ static void shape_copy(const sv_mesh *m, const sv_leaves *lv, uint32_t i, leaf_s
  * kept; the error is relative to the leaf's extent there; then
  * meshopt_simplifySloppy towards two triangles within the same bound), or,
  * when target > 0, towards `target` triangles whatever the error (the same
- * two steps, unbounded; gain 1: a foliage mass keeps its outline, and one
+ * two steps, unbounded, welded by position only; gain 1: a foliage mass keeps its outline, and one
  * scaled to its lost surface area would swell). A leaf of one or two
  * triangles, of several materials, or that would vanish is kept as modelled. */
 static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, double error,
@@ -654,7 +654,15 @@ static void shape_simplify(const sv_mesh *m, const sv_leaves *lv, uint32_t i, do
             x->src[3 * k + (uint32_t)j] = x->local[v];
         }
     }
-    size_t unique = meshopt_generateVertexRemap(x->remap, x->src, ni, x->pu, nv, 5 * sizeof(float));
+    /* towards a target, welded by position only: a mass's UV seams would
+     * stop the collapses long before it (its texture may then slide a
+     * little across a seam, which a level drawn that small does not show) */
+    if (target > 0)
+        for (size_t v = 0; v < nv; v++) memcpy(&x->pos[3 * v], &x->pu[5 * v], 3 * sizeof(float));
+    size_t unique = target > 0 ? meshopt_generateVertexRemap(x->remap, x->src, ni, x->pos, nv,
+                                                             3 * sizeof(float))
+                               : meshopt_generateVertexRemap(x->remap, x->src, ni, x->pu, nv,
+                                                             5 * sizeof(float));
     meshopt_remapIndexBuffer(x->src, x->src, ni, x->remap);
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = nv; v-- > 0;) {
