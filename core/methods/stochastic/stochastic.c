@@ -891,11 +891,47 @@ static void leaf_shapes_select(const sv_leaves *lv, leaf_shapes *sh, double min_
     }
 }
 
+/* The spread of `budget` triangles over every leaf (leaf_shapes_build):
+ * target[i] in proportion to leaf i's area (an even density of triangles
+ * over the foliage's surface, so an even geometric error, as vertex
+ * clustering of the whole mesh gives), at least 1; a leaf whose share
+ * reaches its own count keeps it (target = count, as modelled) and the
+ * rest is shared again. Leaves of one or two triangles are kept. */
+static void spread_targets(const sv_leaves *lv, double budget, uint32_t *target)
+{
+    uint32_t N = lv->count;
+    for (uint32_t i = 0; i < N; i++) target[i] = 0;
+    for (uint32_t i = 0; i < N; i++)
+        if (lv->leaves[i].count <= 2 || !(lv->leaves[i].area > 0)) {
+            target[i] = lv->leaves[i].count;
+            budget -= lv->leaves[i].count;
+        }
+    for (bool again = true; again;) {
+        again = false;
+        double area = 0;
+        for (uint32_t i = 0; i < N; i++)
+            if (!target[i]) area += lv->leaves[i].area;
+        double rate = area > 0 && budget > 0 ? budget / area : 0;
+        for (uint32_t i = 0; i < N; i++)
+            if (!target[i] && rate * lv->leaves[i].area >= lv->leaves[i].count) {
+                target[i] = lv->leaves[i].count;
+                budget -= lv->leaves[i].count;
+                again = true;
+            }
+        if (again) continue;
+        for (uint32_t i = 0; i < N; i++)
+            if (!target[i]) {
+                double k = floor(rate * lv->leaves[i].area);
+                target[i] = k < 1 ? 1 : (uint32_t)k;
+            }
+    }
+}
+
 /* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
  * with its coverage ratio; drawn simplified where that ratio reaches
- * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). With spread in
- * (0, 1) instead, every leaf of k triangles is simplified towards
- * max(1, ⌊spread·k⌋) whatever the error (shape_simplify's target), cover 1,
+ * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). With spread > 0
+ * instead, `spread` leaf triangles are spread over every leaf
+ * (spread_targets) whatever the error (shape_simplify's target), cover 1,
  * all drawn simplified: the level's budget spread over every element. */
 static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const uint32_t *group,
                                    double error, double spread, leaf_shapes *sh, sv_error *err)
@@ -927,19 +963,18 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
     x.rep = sv_calloc(cap, sizeof(uint32_t));
     x.src = sv_calloc(2 * cap, sizeof(uint32_t)); /* the second half: the sloppy result */
     x.dst = sv_calloc(cap, sizeof(uint32_t));
+    uint32_t *targets = spread > 0 ? sv_calloc(N ? N : 1, sizeof(uint32_t)) : NULL;
     sv_status st = SV_OK;
     if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !sh->whole ||
         !sh->s_first || !sh->s_count || !sh->s_gain || !sh->w_first || !sh->cover || !x.stamp ||
-        !x.local || !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
+        !x.local || !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst ||
+        (spread > 0 && !targets)) {
         leaf_shapes_free(sh);
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
+        if (targets) spread_targets(lv, spread, targets);
         for (uint32_t i = 0; i < N; i++) {
-            uint32_t target = 0;
-            if (spread > 0 && spread < 1) {
-                double k = floor(spread * lv->leaves[i].count);
-                target = k < 1 ? 1 : (uint32_t)k;
-            }
+            uint32_t target = targets ? targets[i] : 0;
             if (group && group[i] != i) shape_follow(m, lv, i, group[i], sh);
             else shape_simplify(m, lv, i, error, target, &x, sh);
         }
@@ -953,7 +988,7 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
                 sh->mat[sh->total++] = m->tri_material[t];
             }
         }
-        bool spreading = spread > 0 && spread < 1;
+        bool spreading = spread > 0;
         for (uint32_t i = 0; i < N; i++)
             sh->cover[i] = spreading ? 1.0f : (float)leaf_cover(m, lv, i, error, sh);
         /* a leaf's layers are drawn simplified or whole together */
@@ -970,6 +1005,7 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
     free(x.rep);
     free(x.src);
     free(x.dst);
+    free(targets);
     return st;
 }
 
@@ -1421,22 +1457,6 @@ void sv_stoch_result_free(sv_stoch_result *res)
     memset(res, 0, sizeof *res);
 }
 
-/* The fraction of its triangles each leaf keeps when `budget` leaf
- * triangles are spread over every leaf (leaf_shapes_build's spread): what
- * the leaves of one or two triangles (kept as modelled) leave of the budget
- * over the rest; 1 when everything fits, 0 when nothing is left. */
-static double spread_fraction(const sv_leaves *lv, double budget)
-{
-    double fixed = 0, rest = 0;
-    for (uint32_t i = 0; i < lv->count; i++) {
-        uint32_t k = lv->leaves[i].count;
-        if (k <= 2) fixed += k;
-        else rest += k;
-    }
-    if (!(rest > 0) || budget >= fixed + rest) return 1.0;
-    return budget > fixed ? (budget - fixed) / rest : 0.0;
-}
-
 sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_settings *s, double r,
                               const sv_stoch_scorer *scorer, sv_stoch_result *out, sv_error *err)
 {
@@ -1570,9 +1590,9 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
          * the crown and the paper's rule leaves nearly nothing */
         if (trunk_first && scored && !st) {
             uint32_t tn = best_trunk ? best_trunk->triangle_count : 0;
-            double spread = spread_fraction(lv, fmax(1.0, all - tn));
+            double spread = fmax(1.0, all - tn);
             leaf_shapes sp;
-            if (spread > 0 && spread < 1 &&
+            if (spread < lv->tri_count &&
                 !(st = leaf_shapes_build(mesh, lv, layer, e, spread, &sp, err))) {
                 bool kept = false;
                 b.shapes = &sp;
