@@ -15,7 +15,10 @@
  * more of the leaves (the paper's leaves are two-triangle cards); a leaf
  * whose simplified silhouette at that pixel falls below SV_STOCH_MIN_COVER
  * of its modelled one is drawn whole instead (leaf_cover), and with a scorer
- * stricter rules up to the paper's (every leaf whole) compete.
+ * stricter rules up to the paper's (every leaf whole) compete, and last
+ * the foliage simplified as one mesh to the budget with every element kept
+ * (shapes_joint: foliage masses, where dropping an element drops part of
+ * the crown).
  * Pure C: no GL. The chain's levels (the scene's schedule, r measured and
  * candidates scored through the pipeline's callbacks, their outputs) are in
  * stochastic_chain.c.
@@ -962,9 +965,9 @@ static bool shapes_joint(const sv_mesh *m, const sv_leaves *lv, double budget, l
 /* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
  * with its coverage ratio; drawn simplified where that ratio reaches
  * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). With spread > 0
- * instead, `spread` leaf triangles are spread over every leaf
- * (spread_targets) whatever the error (shape_simplify's target), cover 1,
- * all drawn simplified: the level's budget spread over every element. */
+ * instead, the foliage simplified as one mesh towards `spread` triangles
+ * (shapes_joint) whatever the error, cover 1, all drawn simplified: the
+ * level's budget spread over every element. */
 static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const uint32_t *group,
                                    double error, double spread, leaf_shapes *sh, sv_error *err)
 {
@@ -1111,7 +1114,7 @@ typedef struct build_ctx {
     int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
     int32_t *leaf_bin; /* per leaf position */
     double min_cover;  /* the shapes' selection (leaf_shapes_select) */
-    bool spread;       /* the shapes are the budget spread over every leaf */
+    bool spread;       /* the shapes are the budget spread over every leaf (shapes_joint) */
 } build_ctx;
 
 /* The level's colour gains: a simplified leaf shows other texels than its
