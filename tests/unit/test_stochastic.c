@@ -825,8 +825,8 @@ static sv_status score_cover(void *user, const sv_mesh *g, double *score, sv_err
 /* A crown of six foliage masses at λ = 0.1: a leaf card dropped whole loses
  * one of thousands, a mass dropped whole loses a sixth of the crown, and a
  * mass cannot be simplified within the level's error. The spread candidate
- * keeps every mass, each simplified towards a tenth of its triangles, and
- * covers the crown where dropping masses left one or two of them. */
+ * keeps every mass, the foliage simplified as one mesh to the budget, and
+ * covers the crown where dropping masses left one of them. */
 static void foliage_masses_are_thinned_not_dropped(void **state)
 {
     (void)state;
@@ -850,7 +850,7 @@ static void foliage_masses_are_thinned_not_dropped(void **state)
     sv_error err = {0};
     assert_int_equal(sv_stochastic_build(&t.in, &s, 0.5, &sc, &res, &err), SV_OK);
     const sv_stoch_level *L = &res.levels[1];
-    /* dropping masses keeps one of six (0.42); every mass thinned: 0.86 */
+    /* dropping masses keeps one of six (0.42); all six thinned: 0.86 */
     assert_true(L->score >= 0.8);
     assert_int_equal(L->leaves, 6);
     assert_true(L->spread);
