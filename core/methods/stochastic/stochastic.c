@@ -1615,11 +1615,13 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
                            false, &best, &kept, L, err);
         }
         b.min_cover = SV_STOCH_MIN_COVER;
-        /* last every element kept and each simplified to its share of the
-         * budget, whatever the error: where the elements are few and large
-         * (foliage masses, not leaf cards), dropping one drops a part of
-         * the crown and the paper's rule leaves nearly nothing */
-        if (trunk_first && scored && !st) {
+        /* last every element kept and the foliage simplified as one mesh
+         * to the budget, whatever the error: where the elements are few and
+         * large (foliage masses, not leaf cards), dropping one drops a part
+         * of the crown and the paper's rule leaves nearly nothing. Not where
+         * leaves are layered: clustering would merge a leaf's upper side and
+         * underside into one surface of either colour */
+        if (trunk_first && scored && !st && out->layered_leaves == 0) {
             uint32_t tn = best_trunk ? best_trunk->triangle_count : 0;
             double spread = fmax(1.0, all - tn);
             leaf_shapes sp;
