@@ -725,6 +725,141 @@ static void a_scorer_chooses_the_area_scaling(void **state)
     toy_free(&t);
 }
 
+/* n foliage masses: closed UV spheres of radius 0.6 m (16 segments × 8
+ * rings, 224 triangles each), one connected element each, side by side
+ * 0.8 m apart so they overlap into one crown (a Scopia-style cypress, not
+ * leaf cards). Facets of a sphere that round cannot be merged within a
+ * level's pixel error, so the masses cannot be simplified by error alone. */
+#define MASS_SEG 16
+#define MASS_RING 8
+#define MASS_TRIS (2 * MASS_SEG * (MASS_RING - 1))
+static void toy_make_masses(toy *t, uint32_t n)
+{
+    const uint32_t nv = MASS_SEG * (MASS_RING + 1);
+    sv_mesh *m = toy_alloc(t, nv * n, n, MASS_TRIS, 1);
+    for (int c = 0; c < 3; c++) m->materials[0].base_color[c] = 0.3f;
+    for (uint32_t i = 0; i < n; i++) {
+        double c[3] = {0.8 * (i % 3), 0, 0.8 * (i / 3)};
+        sv_leaf *l = &t->leaves.leaves[i];
+        memcpy(l->centre, c, sizeof l->centre);
+        l->normal[2] = 1;
+        l->area = 4 * M_PI * 0.36;
+        l->radius = 0.6;
+        l->first = MASS_TRIS * i;
+        l->count = MASS_TRIS;
+        for (uint32_t r = 0; r <= MASS_RING; r++)
+            for (uint32_t k = 0; k < MASS_SEG; k++) {
+                double th = M_PI * r / MASS_RING, ph = 2 * M_PI * k / MASS_SEG;
+                double d[3] = {sin(th) * cos(ph), sin(th) * sin(ph), cos(th)};
+                if (r == 0 || r == MASS_RING) d[0] = d[1] = 0; /* one pole vertex */
+                uint32_t v = nv * i + r * MASS_SEG + k;
+                for (int a = 0; a < 3; a++) {
+                    m->positions[3 * v + a] = (float)(c[a] + 0.6 * d[a]);
+                    m->normals[3 * v + a] = (float)d[a];
+                }
+                m->uvs[2 * v] = (float)k / MASS_SEG;
+                m->uvs[2 * v + 1] = (float)r / MASS_RING;
+            }
+        uint32_t *ix = &m->indices[3 * MASS_TRIS * i], q = 0;
+        for (uint32_t r = 0; r < MASS_RING; r++)
+            for (uint32_t k = 0; k < MASS_SEG; k++) {
+                uint32_t a = nv * i + r * MASS_SEG + k,
+                         b = nv * i + r * MASS_SEG + (k + 1) % MASS_SEG;
+                if (r > 0) ix[q++] = a, ix[q++] = b, ix[q++] = a + MASS_SEG;
+                if (r + 1 < MASS_RING) ix[q++] = b, ix[q++] = b + MASS_SEG, ix[q++] = a + MASS_SEG;
+            }
+        assert_int_equal(q, 3 * MASS_TRIS);
+    }
+    toy_finish(t);
+}
+
+#define COVER_PX 64
+typedef struct cover_scorer {
+    const sv_mesh *original;
+    double lo[3], span;
+} cover_scorer;
+
+/* Marks the pixels of a COVER_PX² grid that g covers seen along axis `ax`
+ * (orthographic, over the original's bounding cube). */
+static void cover_raster(const cover_scorer *c, const sv_mesh *g, int ax, uint8_t *px)
+{
+    int ua = (ax + 1) % 3, va = (ax + 2) % 3;
+    memset(px, 0, COVER_PX * COVER_PX);
+    for (uint32_t t = 0; t < g->triangle_count; t++) {
+        double x[3], y[3];
+        for (int j = 0; j < 3; j++) {
+            const float *p = &g->positions[3 * g->indices[3 * t + j]];
+            x[j] = (p[ua] - c->lo[ua]) / c->span * COVER_PX;
+            y[j] = (p[va] - c->lo[va]) / c->span * COVER_PX;
+        }
+        double det = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
+        if (!(fabs(det) > 0)) continue;
+        for (int py = 0; py < COVER_PX; py++)
+            for (int pxx = 0; pxx < COVER_PX; pxx++) {
+                double X = pxx + 0.5, Y = py + 0.5;
+                double b1 = ((X - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (Y - y[0])) / det;
+                double b2 = ((x[1] - x[0]) * (Y - y[0]) - (X - x[0]) * (y[1] - y[0])) / det;
+                if (b1 >= 0 && b2 >= 0 && b1 + b2 <= 1) px[py * COVER_PX + pxx] = 1;
+            }
+    }
+}
+
+/* The mean coverage IoU of g against the original along the three axes. */
+static sv_status score_cover(void *user, const sv_mesh *g, double *score, sv_error *err)
+{
+    (void)err;
+    const cover_scorer *c = user;
+    static uint8_t a[COVER_PX * COVER_PX], b[COVER_PX * COVER_PX];
+    double sum = 0;
+    for (int ax = 0; ax < 3; ax++) {
+        cover_raster(c, c->original, ax, a);
+        cover_raster(c, g, ax, b);
+        uint32_t in = 0, un = 0;
+        for (int k = 0; k < COVER_PX * COVER_PX; k++) in += a[k] && b[k], un += a[k] || b[k];
+        sum += un ? (double)in / un : 1.0;
+    }
+    *score = sum / 3;
+    return SV_OK;
+}
+
+/* A crown of six foliage masses at λ = 0.1: a leaf card dropped whole loses
+ * one of thousands, a mass dropped whole loses a sixth of the crown, and a
+ * mass cannot be simplified within the level's error. The spread candidate
+ * keeps every mass, the foliage simplified as one mesh to the budget, and
+ * covers the crown where dropping masses left one of them. */
+static void foliage_masses_are_thinned_not_dropped(void **state)
+{
+    (void)state;
+    toy t;
+    toy_make_masses(&t, 6);
+    cover_scorer c = {.original = t.mesh};
+    double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int a = 0; a < 3; a++) c.lo[a] = INFINITY;
+    for (uint32_t v = 0; v < t.mesh->vertex_count; v++)
+        for (int a = 0; a < 3; a++) {
+            c.lo[a] = fmin(c.lo[a], t.mesh->positions[3 * v + a]);
+            hi[a] = fmax(hi[a], t.mesh->positions[3 * v + a]);
+        }
+    c.span = fmax(hi[0] - c.lo[0], fmax(hi[1] - c.lo[1], hi[2] - c.lo[2]));
+    sv_stochastic_settings s;
+    cJSON *j = cJSON_Parse("{\"levels\": [1, 0.1]}");
+    assert_int_equal(sv_stochastic_parse(j, &s, NULL), SV_OK);
+    cJSON_Delete(j);
+    sv_stoch_scorer sc = {score_cover, &c};
+    sv_stoch_result res;
+    sv_error err = {0};
+    assert_int_equal(sv_stochastic_build(&t.in, &s, 0.5, &sc, &res, &err), SV_OK);
+    const sv_stoch_level *L = &res.levels[1];
+    /* dropping masses keeps one of six (0.42); all six thinned: 0.86 */
+    assert_true(L->score >= 0.8);
+    assert_int_equal(L->leaves, 6);
+    assert_true(L->spread);
+    /* within the level's budget: a tenth of the tree's triangles */
+    assert_true(L->geometry->triangle_count <= 6 * MASS_TRIS / 10);
+    sv_stoch_result_free(&res);
+    toy_free(&t);
+}
+
 /* The level error: one pixel at the level's Cook distance, or one pixel of
  * a tree drawn 512 px tall at d0 and shrunk by d0/d, whichever is larger. */
 static void level_error_is_a_pixel_at_the_level_distance(void **state)
@@ -1138,6 +1273,7 @@ int main(void)
         cmocka_unit_test(level_error_is_a_pixel_at_the_level_distance),
         cmocka_unit_test(the_trunk_is_built_first_and_the_leaves_get_the_rest),
         cmocka_unit_test(a_scorer_chooses_the_area_scaling),
+        cmocka_unit_test(foliage_masses_are_thinned_not_dropped),
         cmocka_unit_test(contrast_bins_pull_leaf_luminance_towards_the_mean),
         cmocka_unit_test(a_factor_past_one_brightens_a_copy_of_the_texture),
         cmocka_unit_test(settings_are_strict_and_the_method_needs_r),

@@ -15,7 +15,10 @@
  * more of the leaves (the paper's leaves are two-triangle cards); a leaf
  * whose simplified silhouette at that pixel falls below SV_STOCH_MIN_COVER
  * of its modelled one is drawn whole instead (leaf_cover), and with a scorer
- * stricter rules up to the paper's (every leaf whole) compete.
+ * stricter rules up to the paper's (every leaf whole) compete, and last
+ * the foliage simplified as one mesh to the budget with every element kept
+ * (shapes_joint: foliage masses, where dropping an element drops part of
+ * the crown).
  * Pure C: no GL. The chain's levels (the scene's schedule, r measured and
  * candidates scored through the pipeline's callbacks, their outputs) are in
  * stochastic_chain.c.
@@ -877,11 +880,96 @@ static void leaf_shapes_select(const sv_leaves *lv, leaf_shapes *sh, double min_
     }
 }
 
+/* The spread of `budget` triangles over every leaf (leaf_shapes_build):
+ * the foliage simplified as one mesh, welded by position, by vertex
+ * clustering (meshopt_simplifySloppy, as the evaluator's own baseline
+ * does) towards `budget` triangles (its target raised up to three times
+ * where it lands under nine tenths of it, never kept above 1.02 × it), each
+ * triangle given to the leaf of its first corner. Simplified together,
+ * overlapping masses lose the surface they hide inside each other; one at a
+ * time each keeps it. Leaves of one or two triangles are kept as modelled
+ * (cards: nothing to simplify) and take their share of the budget first.
+ * Leaves left with no triangle are drawn empty; gain 1. false when out of
+ * memory (nothing written). */
+static bool shapes_joint(const sv_mesh *m, const sv_leaves *lv, double budget, leaf_shapes *sh)
+{
+    uint32_t N = lv->count, V = m->vertex_count;
+    size_t ni = (size_t)lv->tri_count * 3;
+    uint32_t *idx = sv_calloc(ni ? ni : 1, sizeof(uint32_t));
+    uint32_t *out = sv_calloc(2 * (ni ? ni : 1), sizeof(uint32_t));
+    uint32_t *remap = sv_calloc(V ? V : 1, sizeof(uint32_t));
+    uint32_t *rep = sv_calloc(V ? V : 1, sizeof(uint32_t));
+    uint32_t *leaf_of = sv_calloc(V ? V : 1, sizeof(uint32_t));
+    uint32_t *at = sv_calloc((size_t)N + 1, sizeof(uint32_t));
+    float *pos = sv_calloc(V ? V : 1, 3 * sizeof(float));
+    bool ok = idx && out && remap && rep && leaf_of && at && pos;
+    if (ok) {
+        size_t q = 0;
+        for (uint32_t i = 0; i < N; i++) {
+            const sv_leaf *l = &lv->leaves[i];
+            if (l->count <= 2) budget -= l->count;
+            for (uint32_t k = 0; k < l->count && l->count > 2; k++)
+                for (int j = 0; j < 3; j++) {
+                    uint32_t v = m->indices[3 * (size_t)lv->tris[l->first + k] + (size_t)j];
+                    leaf_of[v] = i;
+                    idx[q++] = v;
+                }
+        }
+        ni = q;
+        size_t unique = meshopt_generateVertexRemap(remap, idx, ni, m->positions, V,
+                                                    3 * sizeof(float));
+        meshopt_remapIndexBuffer(idx, idx, ni, remap);
+        meshopt_remapVertexBuffer(pos, m->positions, V, 3 * sizeof(float), remap);
+        for (uint32_t v = V; v-- > 0;)
+            if (remap[v] != UINT32_MAX) rep[remap[v]] = v;
+        size_t want = 3 * (size_t)fmax(1.0, floor(budget)), got = 0, ask = want;
+        uint32_t *best = out, *tryb = out + ni;
+        for (int k = 0; k < 4 && ask <= ni; k++) {
+            size_t g = meshopt_simplifySloppy(tryb, idx, ni, pos, unique, 3 * sizeof(float), ask,
+                                              1.0f, NULL);
+            if (g <= want + want / 50 && g > got) {
+                uint32_t *t = best;
+                best = tryb, tryb = t, got = g;
+            }
+            if (g >= want * 9 / 10 || g == 0) break;
+            ask = (size_t)((double)ask * (double)want / (double)g) / 3 * 3;
+        }
+        for (size_t k = 0; k < got / 3; k++) at[leaf_of[rep[best[3 * k]]] + 1]++;
+        for (uint32_t i = 0; i < N; i++) at[i + 1] += at[i];
+        for (uint32_t i = 0; i < N; i++) {
+            sh->s_first[i] = (uint32_t)sh->total + at[i];
+            sh->s_count[i] = at[i + 1] - at[i];
+            sh->s_gain[i] = 1.0f;
+            sh->w_first[i] = UINT32_MAX; /* the modelled copies follow */
+        }
+        for (size_t k = 0; k < got / 3; k++) {
+            uint32_t li = leaf_of[rep[best[3 * k]]];
+            size_t t = sh->total + at[li]++;
+            for (int j = 0; j < 3; j++) sh->idx[3 * t + (size_t)j] = rep[best[3 * k + (size_t)j]];
+            sh->mat[t] = m->tri_material[lv->tris[lv->leaves[li].first]];
+        }
+        sh->total += got / 3;
+        for (uint32_t i = 0; i < N; i++)
+            if (lv->leaves[i].count <= 2) shape_copy(m, lv, i, sh);
+    }
+    free(idx);
+    free(out);
+    free(remap);
+    free(rep);
+    free(leaf_of);
+    free(at);
+    free(pos);
+    return ok;
+}
+
 /* Every leaf's shape at `error` metres (0 = as modelled) and as modelled,
  * with its coverage ratio; drawn simplified where that ratio reaches
- * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). */
+ * SV_STOCH_MIN_COVER (leaf_shapes_select chooses again). With spread > 0
+ * instead, the foliage simplified as one mesh towards `spread` triangles
+ * (shapes_joint) whatever the error, cover 1, all drawn simplified: the
+ * level's budget spread over every element. */
 static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const uint32_t *group,
-                                   double error, leaf_shapes *sh, sv_error *err)
+                                   double error, double spread, leaf_shapes *sh, sv_error *err)
 {
     memset(sh, 0, sizeof *sh);
     uint32_t N = lv->count, most = 1;
@@ -913,11 +1001,12 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
     sv_status st = SV_OK;
     if (!sh->idx || !sh->mat || !sh->first || !sh->count || !sh->gain || !sh->whole ||
         !sh->s_first || !sh->s_count || !sh->s_gain || !sh->w_first || !sh->cover || !x.stamp ||
-        !x.local || !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst) {
+        !x.local || !x.verts || !x.pu || !x.pos || !x.remap || !x.rep || !x.src || !x.dst ||
+        (spread > 0 && !shapes_joint(m, lv, spread, sh))) {
         leaf_shapes_free(sh);
         st = sv_fail(err, SV_ERR_NOMEM, "stochastic: out of memory simplifying leaves");
     } else {
-        for (uint32_t i = 0; i < N; i++) {
+        for (uint32_t i = 0; i < N && !(spread > 0); i++) {
             if (group && group[i] != i) shape_follow(m, lv, i, group[i], sh);
             else shape_simplify(m, lv, i, error, &x, sh);
         }
@@ -931,11 +1020,13 @@ static sv_status leaf_shapes_build(const sv_mesh *m, const sv_leaves *lv, const 
                 sh->mat[sh->total++] = m->tri_material[t];
             }
         }
-        for (uint32_t i = 0; i < N; i++) sh->cover[i] = (float)leaf_cover(m, lv, i, error, sh);
+        bool spreading = spread > 0;
+        for (uint32_t i = 0; i < N; i++)
+            sh->cover[i] = spreading ? 1.0f : (float)leaf_cover(m, lv, i, error, sh);
         /* a leaf's layers are drawn simplified or whole together */
         for (uint32_t i = 0; group && i < N; i++)
             if (group[i] != i) sh->cover[i] = sh->cover[group[i]];
-        leaf_shapes_select(lv, sh, SV_STOCH_MIN_COVER);
+        leaf_shapes_select(lv, sh, spreading ? 0.0 : SV_STOCH_MIN_COVER);
     }
     free(x.stamp);
     free(x.local);
@@ -1023,6 +1114,7 @@ typedef struct build_ctx {
     int32_t *matmap;   /* material_count × (2·CONTRAST_BINS + 1) */
     int32_t *leaf_bin; /* per leaf position */
     double min_cover;  /* the shapes' selection (leaf_shapes_select) */
+    bool spread;       /* the shapes are the budget spread over every leaf (shapes_joint) */
 } build_ctx;
 
 /* The level's colour gains: a simplified leaf shows other texels than its
@@ -1069,6 +1161,7 @@ static sv_status build_level(build_ctx *b, const sv_stochastic_settings *s, doub
 {
     L->area_gamma = gamma;
     L->min_cover = b->min_cover;
+    L->spread = b->spread;
     L->score = NAN;
     L->same_as = -1;
     const sv_mesh *src = b->mesh;
@@ -1454,7 +1547,7 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
         sv_stoch_level *L = &out->levels[i];
         bool trunk_first = e > 0 && in->cls && in->cls->tri_part;
         leaf_shapes sh;
-        if ((st = leaf_shapes_build(mesh, lv, layer, e, &sh, err))) goto out;
+        if ((st = leaf_shapes_build(mesh, lv, layer, e, 0, &sh, err))) goto out;
         b.shapes = &sh;
         if (!trunk_first) {
             L->leaf_error = e;
@@ -1522,6 +1615,33 @@ sv_status sv_stochastic_build(const sv_method_input *in, const sv_stochastic_set
                            false, &best, &kept, L, err);
         }
         b.min_cover = SV_STOCH_MIN_COVER;
+        /* last every element kept and the foliage simplified as one mesh
+         * to the budget, whatever the error: where the elements are few and
+         * large (foliage masses, not leaf cards), dropping one drops a part
+         * of the crown and the paper's rule leaves nearly nothing. Not where
+         * leaves are layered: clustering would merge a leaf's upper side and
+         * underside into one surface of either colour */
+        if (trunk_first && scored && !st && out->layered_leaves == 0) {
+            uint32_t tn = best_trunk ? best_trunk->triangle_count : 0;
+            double spread = fmax(1.0, all - tn);
+            leaf_shapes sp;
+            uint32_t cards = 0;
+            for (uint32_t k = 0; k < lv->count; k++)
+                if (lv->leaves[k].count <= 2) cards += lv->leaves[k].count;
+            if (spread < lv->tri_count && cards < lv->tri_count &&
+                !(st = leaf_shapes_build(mesh, lv, layer, e, spread, &sp, err))) {
+                bool kept = false;
+                b.shapes = &sp;
+                b.min_cover = 0.0;
+                b.spread = true;
+                st = try_level(&b, in, s, r, i, e, best_et, all, 1.0, &best_trunk, scorer, false,
+                               &best, &kept, L, err);
+                b.spread = false;
+                b.min_cover = SV_STOCH_MIN_COVER;
+                b.shapes = &sh;
+                leaf_shapes_free(&sp);
+            }
+        }
         sv_mesh_destroy(best_trunk);
         b.shapes = NULL;
         leaf_shapes_free(&sh);

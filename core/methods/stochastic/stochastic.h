@@ -207,6 +207,9 @@ typedef struct sv_stoch_level {
                                     leaf whole, the paper's rule) */
     double leaf_cover_min;        /* the least coverage ratio among drawn simplified leaves
                                     (1 when none) */
+    bool spread;                  /* every leaf kept, the foliage simplified as one mesh
+                                    to the level's budget whatever the error (the
+                                    candidate for trees of few large elements) */
     double score;                 /* the scorer's figure of the kept candidate (NAN unscored) */
     int same_as;                  /* >= 0: a copy of that coarser level, which scored higher
                                     than every candidate of this one; -1 otherwise */
@@ -251,7 +254,11 @@ typedef struct sv_stoch_scorer {
  * original's coverage decides), then leaves drawn whole where their
  * simplified silhouette keeps less than 0.8 of the modelled one, then every
  * leaf whole (the paper's rule: the budget drops leaves), then every
- * simplified leaf however thin; without one, e and γ = 1. Every leaf is
+ * simplified leaf however thin, then every leaf kept with the foliage
+ * simplified as one mesh (vertex clustering, one- and two-triangle leaves
+ * as modelled) so that the leaves fill the budget whatever the error
+ * (spread: where the elements are few foliage masses, dropping any drops
+ * part of the crown); without one, e and γ = 1. Every leaf is
  * simplified (meshoptimizer, per leaf) to e(λ), and drawn so only while its
  * silhouette at the level's pixel e(λ) (the simplified shape scaled by its
  * area gain against the modelled leaf, soft IoU in the leaf's plane where

@@ -259,7 +259,8 @@ static void st_level_report(const sv_lod_plan *lod, cJSON *o)
     cJSON_AddNumberToObject(o, "brightened_textures", L->brightened_textures);
     cJSON_AddNumberToObject(o, "leaves_simplified", L->leaves_simplified);
     cJSON_AddNumberToObject(o, "leaves_whole", L->leaves_whole);
-    if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
+    if (L->spread) cJSON_AddStringToObject(o, "min_cover", "spread");
+    else if (L->min_cover < SV_STOCH_WHOLE) cJSON_AddNumberToObject(o, "min_cover", L->min_cover);
     else cJSON_AddStringToObject(o, "min_cover", "whole");
     cJSON_AddNumberToObject(o, "leaf_cover_min", L->leaf_cover_min);
     if (!isnan(L->score)) cJSON_AddNumberToObject(o, "candidate_iou", L->score);
