@@ -103,20 +103,24 @@ start_one() { # start_one NAME COMMAND...
         s=$(date +%s)
         "$@" > "$logs/$sn.log" 2>&1 < /dev/null
         rc=$?
-        echo "$rc $(( $(date +%s) - s ))" > "$tmps/$sn.rc.tmp"
+        # CPU seconds of the test and the children it waited for (user + sys)
+        times > "$tmps/$sn.times"
+        cpu=$(awk 'NR == 2 { t = 0; for (i = 1; i <= 2; i++) { split($i, a, "m"); t += a[1] * 60 + a[2] } printf "%d", t + 0.5 }' "$tmps/$sn.times")
+        rm -f "$tmps/$sn.times"
+        echo "$rc $(( $(date +%s) - s )) ${cpu:-0}" > "$tmps/$sn.rc.tmp"
         mv "$tmps/$sn.rc.tmp" "$tmps/$sn.rc"
     ) &
     running="$running $!:$sn"
 }
 finish_one() { # finish_one NAME: reads its status, prints its line
     fn=$1
-    read -r rc secs < "$tmps/$fn.rc" || { rc=1; secs=0; }
+    read -r rc secs cpu < "$tmps/$fn.rc" || { rc=1; secs=0; cpu=0; }
     rm -f "$tmps/$fn.rc"
     case "$rc" in
     0)
         passed="$passed $fn"
         rm -rf "${tmps:?}/$fn"
-        echo "PASS $fn (${secs}s)" ;;
+        echo "PASS $fn (${secs}s, cpu ${cpu}s)" ;;
     77)
         skipped="$skipped $fn"
         why=$(grep -m 1 -i 'skip' "$logs/$fn.log" | cut -c 1-160)

@@ -99,7 +99,13 @@ for l in rep['lods']:
 EOF
 }
 
-trees > "$tmp/trees"
+# under ASan one chain bake, the bonsai (an OBJ in cm, cut-out leaves, three
+# textures); the aspen's below; the GLB import paths run under ASan in
+# test_import and test_classify, and every tree's chain in the plain pass
+case "$build" in
+*asan*) trees | awk -F '\t' '$1 == "scopia_bonsai-tree"' > "$tmp/trees" ;;
+*) trees > "$tmp/trees" ;;
+esac
 while IFS="$(printf '\t')" read -r dir mesh units tris foliage _; do
     c=$(tree_cache "$dir" "$mesh" "$units") || fail "$mesh: no chain bake"
     # model.glb on every tree, and every standalone level (validator and

@@ -11,7 +11,7 @@
 #  4. sylvad warms one at start (shader_cache_ready), makes it read-only
 #     (files 0444, folders 0555), gives it to jobs, deletes each job's
 #     writable folder after the job and the warmed one at its stop.
-# sylva-test: cost=8
+# sylva-test: no-sanitize (llvmpipe's own cache and byte identity: Mesa's code, not ours; warm-shaders runs under ASan at every real-worker daemon start) cost=25
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 [ -x "$BAKE" ] || { echo "skipped: $BAKE not built"; exit 77; }

@@ -65,7 +65,7 @@ bake_one() {
 oak="$root/examples/oak_large"
 files="$oak/oak_large.obj $oak/oak_large.mtl $oak/leaves_oak_color.png $oak/bark_oak_color_1k.jpg"
 # shellcheck disable=SC2086
-bake_one oak '{"method": "slicing", "lod": {"chain": false}, "evaluate": {"views": 8, "sizes": [128, 32]}}' $files
+bake_one oak '{"method": "slicing", "lod": {"chain": false}, "evaluate": {"views": 8, "sizes": [128, 32]}'"$atlas"'}' $files
 check_planes "$tmp/oak" 6 5 0
 iou=$(json_get "$tmp/oak/report.json" "j['lods'][0]['accuracy'][0]['iou_mean']")
 python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) > 0.5 else 1)" "$iou" ||
@@ -76,17 +76,22 @@ echo "ok oak slicing 6x5: IoU@128 $iou"
 # shellcheck disable=SC2086
 bake_one oak_aerial '{"method": "slicing", "lod": {"chain": false}, "scene": {"viewer": "aerial"},
   "slicing": {"slicings": 4, "slices": 3, "spacing": "uniform"},
-  "evaluate": {"views": 4, "sizes": [64]}}' $files
+  "evaluate": {"views": 4, "sizes": [64]}'"$atlas"'}' $files
 check_planes "$tmp/oak_aerial" 4 3 1
 echo "ok oak slicing 4x3 + top (aerial)"
 
 # determinism: the same bake twice gives the same planes.json and model.glb
-# shellcheck disable=SC2086
-bake_one oak2 '{"method": "slicing", "lod": {"chain": false}, "evaluate": {"views": 8, "sizes": [128, 32]}}' $files
-for f in planes.json model.glb; do
-    cmp -s "$tmp/oak/$f" "$tmp/oak2/$f" || fail "$f differs between two identical bakes"
-done
-echo "ok deterministic"
+# (the plain pass; under ASan the second bake adds no C path)
+case "$build" in
+*asan*) echo "ok deterministic: checked in the plain pass" ;;
+*)
+    # shellcheck disable=SC2086
+    bake_one oak2 '{"method": "slicing", "lod": {"chain": false}, "evaluate": {"views": 8, "sizes": [128, 32]}}' $files
+    for f in planes.json model.glb; do
+        cmp -s "$tmp/oak/$f" "$tmp/oak2/$f" || fail "$f differs between two identical bakes"
+    done
+    echo "ok deterministic" ;;
+esac
 
 # every tree (slow: SLICING_ALL=1)
 if [ "${SLICING_ALL:-0}" = 1 ]; then

@@ -49,9 +49,23 @@ typedef struct sv_test_tree {
     char alpha[16];              /* and its alpha mode after import: opaque, mask, blend */
 } sv_test_tree;
 
+/* Nonzero under SYLVA_TREES=small (the sanitizer pass): the tree tables keep
+ * the trees tests/integration/lib.inc's trees() keeps, the OBJ trees of at most
+ * 10,000 triangles and the GLB trees of at most 25,000 (OBJ and GLB, metres and
+ * centimetres, every alpha mode: every import path, not every tree). */
+static inline int sv_test_trees_small(void)
+{
+    const char *set = getenv("SYLVA_TREES");
+    return set && !strcmp(set, "small");
+}
+
+/* The fewest rows sv_test_trees must return for the table to count as read:
+ * 10 of the whole set, 3 of the small one. */
+static inline size_t sv_test_trees_min(void) { return sv_test_trees_small() ? 3 : 10; }
+
 /* Reads tests/data/trees.tsv (from the repository root, where tests run) into
- * out (at most cap rows); returns the number of rows, 0 when it cannot be
- * read. */
+ * out (at most cap rows; under SYLVA_TREES=small only the small trees);
+ * returns the number of rows, 0 when it cannot be read. */
 static inline size_t sv_test_trees(sv_test_tree *out, size_t cap)
 {
     FILE *f = fopen("tests/data/trees.tsv", "r");
@@ -66,6 +80,9 @@ static inline size_t sv_test_trees(sv_test_tree *out, size_t cap)
             sscanf(line, "%95[^\t]\t%95[^\t]\t%15[^\t]\t%u\t%u\t%u\t%63[^\t]\t%u\t%15[^\t\n]",
                    t->dir, t->file, units, &tri, &fol, &tex, t->material, &mtri, t->alpha) != 9)
             continue;
+        const char *x = strrchr(t->file, '.');
+        int glb = x && !strcmp(x, ".glb");
+        if (sv_test_trees_small() && !(tri <= 10000 || (glb && tri <= 25000))) continue;
         t->unit_scale = units[0] == 'c' && units[1] == 'm' && !units[2] ? 0.01 : 0;
         t->triangles = tri;
         t->foliage = fol;

@@ -1201,7 +1201,7 @@ static void imports_every_tree_in_the_data_set_with_readme_counts(void **state)
     const char *data = sv_test_data("real-tree import");
     sv_test_tree trees[32];
     size_t count = sv_test_trees(trees, 32);
-    assert_true(count >= 10);
+    assert_true(count >= sv_test_trees_min());
     for (size_t i = 0; i < count; i++) {
         const sv_test_tree *tc = &trees[i];
         char dir[1024];
