@@ -18,15 +18,19 @@ grep -q "22566 triangles" "$tmp/info.txt" || fail "info text lacks the triangle 
 [ "$(json_get "$tmp/info.json" "j['classification']['foliage_triangles']")" = 10560 ] ||
     fail "info --json: foliage triangles"
 
-# bake twice: byte-identical outputs
+# bake twice: byte-identical outputs (the plain pass; under ASan the second
+# bake adds no C path)
 echo '{"method": "crossed_quads", "evaluate": {"views": 8}'"$atlas"'}' > "$tmp/spec.json"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/a" || fail "bake a failed"
-"$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/b" || fail "bake b failed"
+twice=1
+case "$build" in *asan*) twice=0 ;; esac
+[ $twice = 0 ] || "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/b" || fail "bake b failed"
 for f in model.glb planes.json report.json preview.png atlas_crossed_albedo.png; do
     [ -s "$tmp/a/$f" ] || fail "missing output $f"
 done
 ls "$tmp"/a/lod*_crossed.glb > /dev/null 2>&1 || fail "missing the standalone crossed-quads level"
 for f in "$tmp"/a/*; do
+    [ $twice = 1 ] || break
     n=$(basename "$f")
     [ "$n" = report.json ] && continue
     cmp -s "$f" "$tmp/b/$n" || fail "$n differs between two identical bakes"
@@ -56,7 +60,7 @@ in_bytes=$(cat $files | wc -c)
 full=$(wc -c < "$tmp/a/lod0_full.glb")
 [ "$full" -le "$in_bytes" ] || fail "lod0_full.glb is $full bytes, the input $in_bytes"
 strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.pop('times'); print(json.dumps(j, sort_keys=True))" "$1"; }
-[ "$(strip_times "$tmp/a/report.json")" = "$(strip_times "$tmp/b/report.json")" ] ||
+[ $twice = 0 ] || [ "$(strip_times "$tmp/a/report.json")" = "$(strip_times "$tmp/b/report.json")" ] ||
     fail "report.json differs (beyond times) between two identical bakes"
 # the report holds accuracy per size and per-stage times
 [ "$(json_get "$tmp/a/report.json" "len(j['lods'][0]['accuracy'])")" = 4 ] || fail "accuracy sizes"

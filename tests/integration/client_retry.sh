@@ -4,7 +4,7 @@
 # a bake; the command rides out the outage with its retries and still succeeds,
 # with artifacts that match their SHA-256 on disk.
 # Needs $BUILD/sylva, $BUILD/sylvad and $BUILD/sylva-bake (fails if missing).
-# sylva-test: serial (restarts the daemon on the port it had: another test could take it meanwhile) cost=15
+# sylva-test: serial (restarts the daemon on the port it had: another test could take it meanwhile) no-sanitize (a restart's timing, run alone: 33 s of one core under ASan) cost=15
 set -u
 ROOT=${SYLVA_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 BUILD=${BUILD:-build}

@@ -52,14 +52,20 @@ same_outputs() {
 oak="$root/examples/oak_large"
 files="$oak/oak_large.obj $oak/oak_large.mtl $oak/leaves_oak_color.png $oak/bark_oak_color_1k.jpg"
 echo '{"method": "crossed_quads", "evaluate": {"views": 8, "sizes": [64, 32]}'"$atlas"'}' > "$tmp/oak.json"
+# (under ASan the sandboxed bakes alone: byte identity is the plain pass's
+# check, and the unsandboxed bake adds no C path)
+asan=0
+case "$build" in *asan*) asan=1 ;; esac
 # shellcheck disable=SC2086
-"$bake" bake $files --spec "$tmp/oak.json" --out "$tmp/oak-plain" || fail "oak: bake failed"
+[ $asan = 1 ] || "$bake" bake $files --spec "$tmp/oak.json" --out "$tmp/oak-plain" || fail "oak: bake failed"
 # shellcheck disable=SC2086
 "$bake" bake $files --spec "$tmp/oak.json" --out "$tmp/oak-sandbox" --sandbox ||
     fail "oak: bake --sandbox failed (exit $?)"
 [ -s "$tmp/oak-sandbox/model.glb" ] || fail "oak: no model.glb with --sandbox"
-same_outputs "$tmp/oak-plain" "$tmp/oak-sandbox" oak
-echo "ok oak_large crossed_quads: identical with --sandbox"
+if [ $asan = 0 ]; then
+    same_outputs "$tmp/oak-plain" "$tmp/oak-sandbox" oak
+    echo "ok oak_large crossed_quads: identical with --sandbox"
+else echo "ok oak_large crossed_quads with --sandbox (identity: the plain pass)"; fi
 
 # 3. an OBJ tree of the shared data (centimetres), with a threaded method
 tree="$data/scopia_bonsai-tree"
@@ -67,11 +73,13 @@ if [ -f "$tree/bonsai-tree.obj" ]; then
     # shellcheck disable=SC2046
     set -- "$tree/bonsai-tree.obj" $(companions "$tree" bonsai-tree.obj)
     echo '{"import": {"units": "cm"}, "method": "billboard_cloud", "evaluate": {"views": 4, "sizes": [64, 32]}}' > "$tmp/bonsai.json"
-    "$bake" bake "$@" --spec "$tmp/bonsai.json" --out "$tmp/bonsai-plain" || fail "bonsai: bake failed"
+    [ $asan = 1 ] || "$bake" bake "$@" --spec "$tmp/bonsai.json" --out "$tmp/bonsai-plain" || fail "bonsai: bake failed"
     "$bake" bake "$@" --spec "$tmp/bonsai.json" --out "$tmp/bonsai-sandbox" --sandbox ||
         fail "bonsai: bake --sandbox failed (exit $?)"
-    same_outputs "$tmp/bonsai-plain" "$tmp/bonsai-sandbox" bonsai
-    echo "ok bonsai-tree.obj billboard_cloud: identical with --sandbox"
+    if [ $asan = 0 ]; then
+        same_outputs "$tmp/bonsai-plain" "$tmp/bonsai-sandbox" bonsai
+        echo "ok bonsai-tree.obj billboard_cloud: identical with --sandbox"
+    else echo "ok bonsai-tree.obj billboard_cloud with --sandbox (identity: the plain pass)"; fi
 else
     partial="no tree data at $data, the OBJ tree step did not run"
 fi
