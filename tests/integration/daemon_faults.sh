@@ -50,7 +50,14 @@ start_daemon --workers 1 --job-timeout 60
 c=$(mesh cancel.obj sleep)
 kc=$(post "$c" | json_str key)
 wait_state "$kc" running 10 && ok "sleeping job runs" || bad "sleeping job not running"
-wpid=$(sed -n 's/^cancel.obj \([0-9]*\)$/\1/p' "$FAKE_WORKER_LOG" | tail -n 1)
+# "running" comes when the daemon has spawned the worker, which logs its pid
+# a moment later (later still on a loaded machine): wait for that line
+wpid="" i=0
+while [ -z "$wpid" ] && [ $i -lt 100 ]; do
+    wpid=$(sed -n 's/^cancel.obj \([0-9]*\)$/\1/p' "$FAKE_WORKER_LOG" | tail -n 1)
+    [ -n "$wpid" ] || sleep 0.1
+    i=$((i + 1))
+done
 check "the worker runs at worker_nice (10, the default)" 10 "$(ps -o ni= -p "${wpid:-0}" | tr -d ' ')"
 check "DELETE of a running job is 202" 202 "$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$URL/v1/bakes/$kc")"
 wait_state "$kc" cancelled 10 && ok "job is cancelled" || bad "job not cancelled"
