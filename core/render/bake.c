@@ -424,7 +424,26 @@ typedef struct bake_ctx {
      * (the viewers are symmetric about +Y, so y is all it depends on) */
     double side_w[SV_BAKE_SIDE_STEPS + 1];
     const side_views *sides; /* NULL: the weights come from side_w alone */
+    /* bake_quad's tile buffers, made for the first quad and kept for the
+     * others (every tile of a bake has the same size bound): allocated per
+     * quad they were page-faulted in anew each time */
+    struct tile_scratch {
+        uint8_t *tex;
+        uint16_t *tex16, *back16;
+        float *zs, *zt, *zb;
+    } ts;
 } bake_ctx;
+
+static void tile_scratch_free(struct tile_scratch *t)
+{
+    free(t->tex);
+    free(t->tex16);
+    free(t->back16);
+    free(t->zs);
+    free(t->zt);
+    free(t->zb);
+    memset(t, 0, sizeof *t);
+}
 
 /* The colour of the tile seen from the plane's other side, blended into
  * tex16 (linear RGBA16, tw × th texels, as sv_downsample_colour16 gave it
@@ -533,16 +552,23 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
     if (tile == 0) tile = 1;
     uint32_t w = ch->w, h = ch->h;
     sv_status st = SV_OK;
-    uint8_t *tex = malloc((size_t)tile * tile * 4);
-    uint16_t *tex16 = malloc((size_t)tile * tile * 4 * sizeof *tex16);
-    uint16_t *back16 = malloc((size_t)tile * tile * 4 * sizeof *back16);
-    float *zs = malloc((size_t)tile * s * tile * s * sizeof(float));
-    float *zt = malloc((size_t)tile * tile * sizeof(float));
-    float *zb = malloc((size_t)tile * tile * sizeof(float));
-    if (!tex || !tex16 || !back16 || !zs || !zt || !zb) {
-        st = sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s, tile * s);
-        goto out;
+    struct tile_scratch *ts = &b->ts;
+    if (!ts->tex) {
+        ts->tex = malloc((size_t)tile * tile * 4);
+        ts->tex16 = malloc((size_t)tile * tile * 4 * sizeof *ts->tex16);
+        ts->back16 = malloc((size_t)tile * tile * 4 * sizeof *ts->back16);
+        ts->zs = malloc((size_t)tile * s * tile * s * sizeof(float));
+        ts->zt = malloc((size_t)tile * tile * sizeof(float));
+        ts->zb = malloc((size_t)tile * tile * sizeof(float));
+        if (!ts->tex || !ts->tex16 || !ts->back16 || !ts->zs || !ts->zt || !ts->zb) {
+            tile_scratch_free(ts);
+            return sv_fail(err, SV_ERR_NOMEM, "bake: out of memory for a %ux%u tile", tile * s,
+                           tile * s);
+        }
     }
+    uint8_t *tex = ts->tex;
+    uint16_t *tex16 = ts->tex16, *back16 = ts->back16;
+    float *zs = ts->zs, *zt = ts->zt, *zb = ts->zb;
     sv_render_options ro = {.shade = b->opt->lit ? SV_SHADE_LIT : SV_SHADE_ALBEDO, .linear = true};
     memcpy(ro.light_dir, b->opt->light_dir, sizeof ro.light_dir);
     sv_render_options rn = {.shade = SV_SHADE_NORMAL};
@@ -605,12 +631,6 @@ static sv_status bake_quad(bake_ctx *b, const sv_quad *q, const quad_job *job, c
             }
         }
 out:
-    free(tex);
-    free(tex16);
-    free(back16);
-    free(zs);
-    free(zt);
-    free(zb);
     return st;
 }
 
@@ -826,14 +846,17 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
                       have_ao ? &ao : NULL,
                       SV_AO_RES < sv_renderer_max_size(r) ? SV_AO_RES : sv_renderer_max_size(r),
                       {0},
-                      &sides};
+                      &sides,
+                      {0}};
         for (int k = 0; k <= SV_BAKE_SIDE_STEPS; k++) {
             double y = -1.0 + 2.0 * k / SV_BAKE_SIDE_STEPS;
             double nv[3] = {sqrt(fmax(0.0, 1 - y * y)), y, 0};
             b.side_w[k] = sv_bake_front_weight(opt.viewer, nv);
         }
-        for (uint32_t i = 0; i < n; i++)
-            if ((st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err)) != SV_OK) goto out;
+        for (uint32_t i = 0; i < n && st == SV_OK; i++)
+            st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err);
+        tile_scratch_free(&b.ts);
+        if (st != SV_OK) goto out;
         /* Dilation: colour (not alpha) grows into empty texels of every map. */
         if ((st = sv_dilate(&lin, mask, 3, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->normal, mask, 3, opt.dilate, err)) != SV_OK ||

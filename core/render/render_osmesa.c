@@ -72,7 +72,28 @@ struct sv_renderer {
         uint32_t users;
     } * tex_cache;
     uint32_t tex_count, tex_cap;
+    /* Scratch kept from one render to the next (grown, never shrunk): the
+     * index list and the RGBA16 read-back. Fresh buffers of these sizes
+     * each render were page-faulted in every time (glibc hands large blocks
+     * back to the kernel; ASan maps each one anew): up to a third of a
+     * texture bake's time. */
+    uint32_t *idx;
+    size_t idx_cap; /* entries */
+    uint16_t *rb16;
+    size_t rb16_cap; /* entries */
 };
+
+/* *buf with room for n entries of `size` bytes (contents not kept), or NULL. */
+static void *scratch(void **buf, size_t *cap, size_t n, size_t size)
+{
+    if (n <= *cap && *buf) return *buf;
+    size_t bytes;
+    if (!sv_mul_size(n ? n : 1, size, &bytes)) return NULL;
+    free(*buf);
+    *buf = malloc(bytes);
+    *cap = *buf ? n : 0;
+    return *buf;
+}
 
 struct sv_gpu_mesh {
     sv_renderer *r;
@@ -323,6 +344,8 @@ void sv_renderer_destroy(sv_renderer *r)
     }
     for (uint32_t i = 0; i < r->tex_count; i++) sv_image_free(&r->tex_cache[i].img);
     free(r->tex_cache);
+    free(r->idx);
+    free(r->rb16);
     OSMesaMakeCurrent(NULL, NULL, 0, 0, 0);
     OSMesaDestroyContext(r->ctx);
     free(r);
@@ -537,16 +560,13 @@ static sv_status read_color16(sv_renderer *r, uint32_t width, uint32_t height, b
                               sv_image *color, sv_error *err)
 {
     size_t npx = (size_t)width * height;
-    uint16_t *px = malloc(npx * 4 * sizeof *px);
+    uint16_t *px = scratch((void **)&r->rb16, &r->rb16_cap, npx * 4, sizeof *px);
     if (!px)
         return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for a %ux%u read-back", width,
                        height);
     glReadPixels(0, 0, (GLsizei)width, (GLsizei)height, GL_RGBA, GL_UNSIGNED_SHORT, px);
     sv_status st = sv_image_alloc(color, width, height, 4, linear ? 16 : 8, err);
-    if (st != SV_OK) {
-        free(px);
-        return st;
-    }
+    if (st != SV_OK) return st;
     size_t row = (size_t)width * 4;
     const uint8_t *enc = linear ? NULL : sv_srgb_encode16_table();
     for (uint32_t y = 0; y < height; y++) {
@@ -561,7 +581,6 @@ static sv_status read_color16(sv_renderer *r, uint32_t width, uint32_t height, b
             dst[i + 3] = (uint8_t)((src[i + 3] * 255u + 32767u) / 65535u);
         }
     }
-    free(px);
     return SV_OK;
 }
 
@@ -649,11 +668,10 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
         size_t idx_n = 0, idx_bytes = 0;
         uint32_t *idx = NULL, *start = NULL;
         if (sv_mul_size(tri_count, 3, &idx_n) && sv_mul_size(idx_n, 4, &idx_bytes)) {
-            idx = sv_calloc(idx_n, sizeof *idx);
+            idx = scratch((void **)&r->idx, &r->idx_cap, idx_n, sizeof *idx);
             start = sv_calloc(2 * (size_t)mc + 1, sizeof *start);
         }
         if (!idx || !start) {
-            free(idx);
             free(start);
             return sv_fail(err, SV_ERR_NOMEM, "render: out of memory for %u triangles", tri_count);
         }
@@ -675,7 +693,6 @@ sv_status sv_render(sv_renderer *r, const sv_gpu_mesh *g, const uint32_t *tris, 
         glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, 32, (const void *)24);
         glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, r->ibo);
         glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)idx_bytes, idx, GL_STREAM_DRAW);
-        free(idx);
         glUniformMatrix4fv(P->u_mvp, 1, GL_FALSE, mvp);
         glUniformMatrix3fv(P->u_ncam, 1, GL_FALSE, ncam);
         glUniform1i(P->u_shade, opt->shade == SV_SHADE_NORMAL ? 1
