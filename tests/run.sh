@@ -19,6 +19,8 @@
 #                               (timing-sensitive, or a port it reuses)
 #   # sylva-test: cost=SECONDS  a rough run time: the longest start first
 #   # sylva-test: no-sanitize   not in the sanitizer pass (says why)
+#   # sylva-test: sanitize-only only on the ASan build (make sanitize and
+#                               sanitize-full), not in make test (says why)
 # (in a unit test's .c file the same words inside a /* comment */).
 #
 # Each test gets its own TMPDIR ($BUILD/test-tmp/NAME, removed when it passes)
@@ -66,6 +68,7 @@ add() { # add NAME SOURCE COMMAND...
     grep -q " $name " "$list" && { echo "two tests named $name"; exit 2; }
     case "$only" in "  ") ;; *" $name "*) ;; *) return ;; esac
     if [ "$set_" = sanitize ] && [ -n "$(marker "$src" no-sanitize)" ]; then return; fi
+    case "$BUILD" in *asan*) ;; *) [ -n "$(marker "$src" sanitize-only)" ] && return ;; esac
     cost=$(cost_of "$src")
     kind=par
     [ -n "$(marker "$src" serial)" ] && kind=ser

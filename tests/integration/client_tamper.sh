@@ -5,6 +5,7 @@
 # model.glb (nor a temporary file) behind. Through an honest proxy the same
 # fetch succeeds, so the failure is the tampering and not the proxy.
 # Needs $BUILD/sylva, $BUILD/sylvad, $BUILD/sylva-bake and python3.
+# sylva-test: no-sanitize (the client's checksum refusal; under ASan its download and verify paths run in client_refetch and client_cli, the real worker through the daemon in client_cli) cost=15
 set -u
 ROOT=${SYLVA_ROOT:-$(cd "$(dirname "$0")/../.." && pwd)}
 BUILD=${BUILD:-build}

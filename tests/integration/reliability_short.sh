@@ -4,7 +4,7 @@
 #   poison.sh        alloc / spin / hang poisons and the real-worker absurd atlas
 #                    (GET p99 reported, not asserted)
 #   eviction.sh      a 4 MiB store filled to 120 %
-#   scale.sh         3,000 stored + 300 queued bakes dispatched by a no-op
+#   scale.sh         3,000 stored + 100 queued bakes dispatched by a no-op
 #                    worker, through the table API and through HTTP (speeds
 #                    reported; the 30,000 + 1,000 long form asserts them)
 # About 2 minutes on a 2-core machine; also runs with the ASan build
