@@ -25,6 +25,18 @@ void sv_scene_defaults(sv_scene *s)
     s->camera_speed = 0.0;
 }
 
+void sv_viewer_band(sv_viewer v, double *lo_deg, double *hi_deg, bool *by_angle)
+{
+    double lo = -90, hi = 90; /* ORBIT: the whole sphere */
+    bool angle = false;
+    if (v == SV_VIEWER_SIDE) lo = -10, hi = 40, angle = true;
+    else if (v == SV_VIEWER_GROUND) lo = 0, hi = 20;
+    else if (v == SV_VIEWER_AERIAL) lo = 40, hi = 90;
+    *lo_deg = lo;
+    *hi_deg = hi;
+    *by_angle = angle;
+}
+
 double sv_scene_pixels(const sv_scene *s, double h, double dist)
 {
     double t = tan(0.5 * s->fov_y_deg * M_PI / 180.0);

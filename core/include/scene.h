@@ -27,6 +27,10 @@ typedef enum sv_viewer {
     SV_VIEWER_SIDE
 } sv_viewer;
 
+/* The viewer's band of elevations above: [*lo_deg, *hi_deg] in degrees, and
+ * *by_angle true when its views are even in angle (SIDE), else in sin(e). */
+void sv_viewer_band(sv_viewer v, double *lo_deg, double *hi_deg, bool *by_angle);
+
 typedef struct sv_scene {
     sv_lighting lighting;
     double light_dir[3];    /* unit, towards the light (static lighting) */

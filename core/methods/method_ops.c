@@ -5,6 +5,8 @@
 #include "level.h"
 #include "method_ops.h"
 
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,4 +48,19 @@ void sv_chain_out_free(sv_chain_out *o)
     cJSON_Delete(o->skipped);
     cJSON_Delete(o->report);
     memset(o, 0, sizeof *o);
+}
+
+cJSON *sv_chain_skip_note(cJSON *skipped, const char *name, const char *stage, const char *fmt, ...)
+{
+    char why[400];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why, sizeof why, fmt, ap);
+    va_end(ap);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "name", name);
+    cJSON_AddStringToObject(o, "stage", stage);
+    cJSON_AddStringToObject(o, "reason", why);
+    cJSON_AddItemToArray(skipped, o);
+    return o;
 }

@@ -77,6 +77,12 @@ typedef struct sv_chain_out {
 /* Frees every part; leaves *o zeroed. */
 void sv_chain_out_free(sv_chain_out *o);
 
+/* Appends a note of a level not built, {name, stage, reason} with the
+ * reason printf'd from fmt (cut at 399 bytes), to the array skipped (the
+ * chain's and the method's, report.json "skipped"); returns the note. */
+cJSON *sv_chain_skip_note(cJSON *skipped, const char *name, const char *stage, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+
 typedef struct sv_method_ops {
     const sv_method *method; /* its schema half */
     /* Builds the stand-in. out is zero-initialised by the caller. */

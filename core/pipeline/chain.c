@@ -11,7 +11,6 @@
  * noted in report.json with why.
  */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,23 +26,6 @@ void svp_chain_free(chain *c)
     free(c->info);
     cJSON_Delete(c->skipped);
     memset(c, 0, sizeof *c);
-}
-
-static cJSON *skip_note(chain *c, const char *name, const char *stage, const char *fmt, ...)
-    __attribute__((format(printf, 4, 5)));
-static cJSON *skip_note(chain *c, const char *name, const char *stage, const char *fmt, ...)
-{
-    char why[400];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(why, sizeof why, fmt, ap);
-    va_end(ap);
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "name", name);
-    cJSON_AddStringToObject(o, "stage", stage);
-    cJSON_AddStringToObject(o, "reason", why);
-    cJSON_AddItemToArray(c->skipped, o);
-    return o;
 }
 
 /* World size of one pixel at distance d. */
@@ -343,37 +325,43 @@ static void plan_by_cost(const run *r, chain *c, lod_out *lods, const sv_stand_i
         cJSON *why = NULL;
         switch (out[i].why) {
         case SV_PLAN_FAILS:
-            why = skip_note(c, nm, "switch", "fails the tolerance (%g at %g px) at every size",
-                            s->lod_tolerance, s->lod_tolerance_pixels);
+            why = sv_chain_skip_note(c->skipped, nm, "switch",
+                                     "fails the tolerance (%g at %g px) at every size",
+                                     s->lod_tolerance, s->lod_tolerance_pixels);
             break;
         case SV_PLAN_CHEAPER:
-            why = skip_note(c, nm, "switch",
-                            "never drawn: wherever it meets the tolerance (%g at %g px; here up "
-                            "to %.4g px) a cheaper level does too",
-                            s->lod_tolerance, s->lod_tolerance_pixels, lods[i].own_pixels);
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn: wherever it meets the tolerance (%g at %g px; here up "
+                "to %.4g px) a cheaper level does too",
+                s->lod_tolerance, s->lod_tolerance_pixels, lods[i].own_pixels);
             break;
         case SV_PLAN_WORTH:
-            why = skip_note(c, nm, "switch",
-                            "never drawn: a level %g times cheaper is within %g of the tolerance "
-                            "where this one would be drawn",
-                            s->lod_cost_ratio, s->lod_slack);
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn: a level %g times cheaper is within %g of the tolerance "
+                "where this one would be drawn",
+                s->lod_cost_ratio, s->lod_slack);
             break;
         case SV_PLAN_DENSE:
-            why = skip_note(c, nm, "switch",
-                            "never drawn: where it meets the tolerance (up to %.4g px) it has more "
-                            "than %g triangles per pixel of the tree's square",
-                            lods[i].own_pixels, s->lod_triangles_per_pixel);
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn: where it meets the tolerance (up to %.4g px) it has more "
+                "than %g triangles per pixel of the tree's square",
+                lods[i].own_pixels, s->lod_triangles_per_pixel);
             break;
         case SV_PLAN_OUT_OF_SCENE:
-            why = skip_note(c, nm, "switch",
-                            "never drawn in the scene: chosen only above %.4g px, but at the "
-                            "nearest distance (%g m) the tree is %.4g px",
-                            ru.pixels_max, sc->distance_min, ru.pixels_max);
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn in the scene: chosen only above %.4g px, but at the "
+                "nearest distance (%g m) the tree is %.4g px",
+                ru.pixels_max, sc->distance_min, ru.pixels_max);
             break;
         default:
-            why = skip_note(c, nm, "switch",
-                            "never drawn: a later level of the chain is already drawn at larger "
-                            "sizes than where this one is good");
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn: a later level of the chain is already drawn at larger "
+                "sizes than where this one is good");
         }
         note_lod(why, &lods[i]);
     }

@@ -76,13 +76,11 @@ double sv_bake_front_weight(sv_viewer viewer, const double normal[3])
     double len = sqrt(sv_dot3(n, n));
     if (!(len > 0)) return 0.5;
     for (int k = 0; k < 3; k++) n[k] /= len;
-    /* the bands of sv_eval_place_views (evaluate.h), as a product grid: the
+    /* the viewer's band (sv_viewer_band, scene.h), as a product grid: the
      * SIDE helix ties azimuth to elevation, which a weight must not */
-    double lo = -90, hi = 90;
-    bool by_angle = false;
-    if (viewer == SV_VIEWER_SIDE) lo = -10, hi = 40, by_angle = true;
-    else if (viewer == SV_VIEWER_GROUND) lo = 0, hi = 20;
-    else if (viewer == SV_VIEWER_AERIAL) lo = 40, hi = 90;
+    double lo, hi;
+    bool by_angle;
+    sv_viewer_band(viewer, &lo, &hi, &by_angle);
     double slo = sin(lo * M_PI / 180), shi = sin(hi * M_PI / 180);
     double front = 0, total = 0;
     for (int e = 0; e < 32; e++) {
@@ -365,11 +363,9 @@ static sv_status side_prepare(sv_renderer *r, const sv_gpu_mesh *g, const sv_mes
     if (!(rad > 0)) rad = 1;
     a->res = SV_SIDE_RES < sv_renderer_max_size(r) ? SV_SIDE_RES : sv_renderer_max_size(r);
     a->bias = 2.0 * (2.0 * rad * 1.01 / a->res); /* two depth-map texels */
-    double lo = -90, hi = 90;
-    bool by_angle = false;
-    if (viewer == SV_VIEWER_SIDE) lo = -10, hi = 40, by_angle = true;
-    else if (viewer == SV_VIEWER_GROUND) lo = 0, hi = 20;
-    else if (viewer == SV_VIEWER_AERIAL) lo = 40, hi = 90;
+    double lo, hi;
+    bool by_angle;
+    sv_viewer_band(viewer, &lo, &hi, &by_angle);
     double slo = sin(lo * M_PI / 180), shi = sin(hi * M_PI / 180);
     for (int i = 0; i < SV_SIDE_DIRS; i++) {
         int row = i / SV_SIDE_COLS, col = i % SV_SIDE_COLS;

@@ -58,21 +58,22 @@ struct sv_evaluator {
 void sv_eval_place_views(sv_viewer viewer, uint32_t n, double *dirs)
 {
     const double golden = M_PI * (3.0 - sqrt(5.0));
-    double y_lo = -1.0, y_hi = 1.0;
+    double lo, hi;
+    bool by_angle;
+    sv_viewer_band(viewer, &lo, &hi, &by_angle);
     if (viewer == SV_VIEWER_SIDE) {
         /* ../shared/tools/sveval's helix: azimuth 360°·i/n, elevation from
-         * -10° to 40° with both ends included */
+         * -10° to 40° (the band) with both ends included */
         for (uint32_t i = 0; i < n; i++) {
             double a = 2.0 * M_PI * i / n;
-            double el = (n > 1 ? -10.0 + 50.0 * i / (n - 1) : 15.0) * M_PI / 180.0;
+            double el = (n > 1 ? lo + (hi - lo) * i / (n - 1) : (lo + hi) / 2) * M_PI / 180.0;
             dirs[3 * i] = cos(el) * sin(a);
             dirs[3 * i + 1] = sin(el);
             dirs[3 * i + 2] = cos(el) * cos(a);
         }
         return;
     }
-    if (viewer == SV_VIEWER_GROUND) y_lo = 0.0, y_hi = sin(20.0 * M_PI / 180.0);
-    else if (viewer == SV_VIEWER_AERIAL) y_lo = sin(40.0 * M_PI / 180.0), y_hi = 1.0;
+    double y_lo = sin(lo * M_PI / 180.0), y_hi = sin(hi * M_PI / 180.0);
     for (uint32_t i = 0; i < n; i++) {
         /* Orbit: top to bottom; bands: bottom to top. Both uniform in y = sin(e). */
         double t = (i + 0.5) / n;

@@ -11,7 +11,6 @@
  * its report.json entry carry.
  */
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,22 +18,6 @@
 #include "level.h"
 #include "stochastic.h"
 #include "trunk.h"
-
-static void skip_note(cJSON *notes, const char *name, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static void skip_note(cJSON *notes, const char *name, const char *fmt, ...)
-{
-    char why[400];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(why, sizeof why, fmt, ap);
-    va_end(ap);
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "name", name);
-    cJSON_AddStringToObject(o, "stage", "plan");
-    cJSON_AddStringToObject(o, "reason", why);
-    cJSON_AddItemToArray(notes, o);
-}
 
 /* The levels of ss the scene needs (by λ at its nearest and farthest
  * distance) into *keep; the others get a note in `notes`. The spec's own
@@ -57,15 +40,16 @@ static void keep_levels(const sv_stochastic_settings *ss, const sv_scene *sc, bo
         char name[32];
         sv_stochastic_level_name(ss->levels[i], name);
         if (i < fine && !own && ss->levels[i] < 1)
-            skip_note(notes, name,
-                      "finer than needed: at the nearest scene distance (%g m) lambda is "
-                      "%.3g, so level %g suffices",
-                      sc->distance_min, ln, ss->levels[fine]);
+            sv_chain_skip_note(notes, name, "plan",
+                               "finer than needed: at the nearest scene distance (%g m) lambda is "
+                               "%.3g, so level %g suffices",
+                               sc->distance_min, ln, ss->levels[fine]);
         else if (i > coarse && !own)
-            skip_note(notes, name,
-                      "never reached: at the farthest scene distance (%g m) lambda is still "
-                      "%.3g (level %g)",
-                      sc->distance_max, lf, ss->levels[coarse]);
+            sv_chain_skip_note(
+                notes, name, "plan",
+                "never reached: at the farthest scene distance (%g m) lambda is still "
+                "%.3g (level %g)",
+                sc->distance_max, lf, ss->levels[coarse]);
         else {
             keep->level_triangles[keep->level_count] = ss->level_triangles[i];
             keep->levels[keep->level_count++] = ss->levels[i];
