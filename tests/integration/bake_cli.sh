@@ -19,8 +19,10 @@ grep -q "22566 triangles" "$tmp/info.txt" || fail "info text lacks the triangle 
     fail "info --json: foliage triangles"
 
 # bake twice: byte-identical outputs (the plain pass; under ASan the second
-# bake adds no C path)
-echo '{"method": "crossed_quads", "evaluate": {"views": 8}'"$atlas"'}' > "$tmp/spec.json"
+# bake adds no C path, nor do more than 4 views)
+views=8
+case "$build" in *asan*) views=4 ;; esac
+echo '{"method": "crossed_quads", "evaluate": {"views": '$views'}'"$atlas"'}' > "$tmp/spec.json"
 "$bake" bake $files --spec "$tmp/spec.json" --out "$tmp/a" || fail "bake a failed"
 twice=1
 case "$build" in *asan*) twice=0 ;; esac

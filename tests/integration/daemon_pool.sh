@@ -13,7 +13,7 @@
 #     before ("worker killed by signal 11", a crash in the metrics); a
 #     zygote SIGKILLed mid-bake takes its child with it and the job counts
 #     as a crash.
-# sylva-test: cost=20
+# sylva-test: no-sanitize (zygote supervision; under ASan the zygote forks every real-worker bake of client_cli and sandbox_seccomp's, supervision of failing workers runs in daemon_faults; CI time, 49 s under ASan) cost=20
 . "$(dirname "$0")/daemon_lib.inc"
 BAKE=$B/sylva-bake
 OAK=$SYLVA_ROOT/examples/oak_large/oak_large.glb

@@ -4,7 +4,7 @@
 # model.glb passes the Khronos validator, planes.json groups the quads by
 # slicing with each slicing's direction (30° apart, horizontal) and the
 # blending rule, and the report carries the blended accuracy.
-# sylva-test: cost=11
+# sylva-test: no-sanitize (the method's C paths run under ASan in test_slicing; this adds the validator and planes.json on a real tree; CI time) cost=11
 set -eu
 . "$(dirname "$0")/lib.inc"
 tmp=$(mktemp -d)
