@@ -349,8 +349,9 @@ static sv_status keep_evaluator(run *r, const sv_eval_options *eo, sv_evaluator 
  * sizes at or below evaluate.small_render / 4 (64 px by default) are judged
  * from a render small_render tall of their own (r->ev_small: 4x4 samples a
  * pixel at 64 px, 8x8 at 32, as sveval judges), the larger ones from the
- * largest size × evaluate.supersample (r->ev). With small_render 0, or no
- * size on one side, one evaluator judges every size (r->ev). */
+ * largest size × evaluate.supersample (r->ev). With small_render 0, no
+ * size on one side, or both renders small_render tall, one evaluator judges
+ * every size (r->ev). */
 static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
 {
     const sv_spec *spec = &r->spec;
@@ -375,6 +376,13 @@ static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
     if (es.size_count) es.supersample = spec->eval_small_render / es.sizes[0];
     if (!eo.size_count) { /* every size is small: one evaluator */
         eo = es;
+        es.size_count = 0;
+    } else if (es.size_count && eo.sizes[0] * eo.supersample == spec->eval_small_render) {
+        /* both render small_render tall (e.g. 128, 64 and 32 px at
+         * supersample 2): one render per view serves every size, each a box
+         * of the render by an integer factor (box of box: the same figures
+         * up to float rounding), a render fewer per view and level */
+        for (uint32_t i = 0; i < es.size_count; i++) eo.sizes[eo.size_count++] = es.sizes[i];
         es.size_count = 0;
     }
     sv_status st = keep_evaluator(r, &eo, &r->ev, &r->ev_opt, err);
