@@ -52,6 +52,10 @@ else
     STEM=oak_large
 fi
 FAST="--method crossed_quads --set bake.max_atlas=256 --set evaluate.views=2 --set evaluate.sizes=[64]"
+# under ASan without the LOD chain (its C paths run under ASan in bake_cli and
+# lod_chain): the level table then starts with the crossed quads
+FIRST=full
+case "$BUILD" in *asan*) FAST="$FAST --set lod.chain=false" FIRST=crossed ;; esac
 
 json_get() { # json_get FILE PYTHON-EXPR (d = the document)
     python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"
@@ -196,7 +200,7 @@ check "  state done with a manifest" \
 "$SYLVA" status "$KEY" >"$T/status.txt"
 check "status prints the state" grep -q "done" "$T/status.txt"
 check "  and the table of levels with their triangles" \
-    sh -c "grep -q '^level  *triangles  *texels' '$T/status.txt' && grep -Eq '^full +[1-9][0-9]* ' '$T/status.txt'"
+    sh -c "grep -q '^level  *triangles  *texels' '$T/status.txt' && grep -Eq '^$FIRST +[1-9][0-9]* ' '$T/status.txt'"
 SHORT=$(echo "$KEY" | cut -c1-12)
 "$SYLVA" status "$SHORT" >"$T/status12.txt" 2>&1
 check "status by the 12-digit key the bake printed exits 0" test $? -eq 0

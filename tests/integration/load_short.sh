@@ -1,6 +1,6 @@
 #!/bin/sh
 # The short form of tests/reliability/load.sh for CI: the same script (real
-# sylvad, real worker, mhd_hello baseline, idle then 2 bakes) with 3 s per wrk
+# sylvad, real worker, mhd_hello baseline, idle then 2 bakes) with 1 s per wrk
 # run, 16 connections, and only the /v1/health and planes.json pairs; the
 # cached bake is a cheap one (crossed quads, 256-texel atlas, no evaluation,
 # no LOD chain) so the ASan build fits too. Checks sanity only: the script
@@ -20,7 +20,7 @@ ok() { echo "ok   - $1"; }
 bad() { echo "FAIL - $1"; fails=$((fails + 1)); }
 
 start=$(date +%s)
-BUILD=$BUILD LOAD_SECONDS=3 LOAD_CONNECTIONS=16 LOAD_THREADS=2 LOAD_OUT=$OUTD \
+BUILD=$BUILD LOAD_SECONDS=1 LOAD_CONNECTIONS=16 LOAD_THREADS=2 LOAD_OUT=$OUTD \
     LOAD_TARGETS="health planes.json" LOAD_BAKE_TIMEOUT=40 \
     LOAD_CACHE_SPEC='{"method":"crossed_quads","bake":{"max_atlas":256},"evaluate":{"enabled":false},"lod":{"chain":false,"coarsest":"none"}}' \
     sh "$SYLVA_ROOT/tests/reliability/load.sh" > "$OUTD/out.txt" 2>&1
