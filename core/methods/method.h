@@ -17,6 +17,9 @@
 
 #include "sv.h"
 
+/* What a ladder hook (sv_method.ladder) says of a step. */
+enum { SV_LADDER_END = 0, SV_LADDER_STEP = 1, SV_LADDER_OVER = 2 };
+
 typedef struct sv_method {
     const char *name;    /* spec "method" value and settings key */
     const char *summary; /* one line for `GET /v1/info` and --help */
@@ -26,11 +29,14 @@ typedef struct sv_method {
      * ladders), cheapest first: rewrites `settings` — a copy of the user's
      * settings object of this method, owned by the caller — to step `step`
      * (0 = cheapest), replacing the knob's keys and keeping the user's
-     * others. Returns false, settings untouched, past the last step. NULL:
+     * others. Returns SV_LADDER_END, settings untouched, past the last
+     * step, else SV_LADDER_STEP, or SV_LADDER_OVER for a step that cannot
+     * keep within max_triangles (its quads leave the trunk less than its
+     * floor: sv_ladder_trunk_share), which the search does not bake. NULL:
      * the method has nothing to search (a target then fails). Pure JSON.
      * max_triangles: the target's triangle budget (0 = none), for methods
      * whose kept trunk shares it with the quads (sv_ladder_trunk_share). */
-    bool (*ladder)(int step, uint32_t max_triangles, cJSON *settings);
+    int (*ladder)(int step, uint32_t max_triangles, cJSON *settings);
     /* True: this method's levels are the LOD chain's stochastic levels
      * (docs/lod.md), built by the chain itself (they need the renderer to
      * measure r and score candidates); its settings are the chain's
@@ -66,8 +72,9 @@ sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const c
  * settings, sets it to what the budget leaves after `quads` quads (2
  * triangles each), never above `trunk_default` and never below a quarter of
  * the budget (at least 1); a step whose quads leave less than that is over
- * the budget. Nothing otherwise. */
-void sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default);
+ * the budget. Nothing otherwise. Returns SV_LADDER_OVER for such a step,
+ * else SV_LADDER_STEP (the ladder hook's answer for it). */
+int sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default);
 /* Fails naming the first key of obj not in the NULL-terminated list `known`
  * (also fails when obj is not an object). NULL obj is fine. */
 sv_status sv_setting_only(const cJSON *obj, const char *method, const char *const *known,

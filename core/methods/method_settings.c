@@ -102,14 +102,16 @@ sv_status sv_setting_int_per_level(const cJSON *obj, const char *method, const c
     return SV_OK;
 }
 
-void sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default)
+int sv_ladder_trunk_share(cJSON *settings, uint32_t max_triangles, int quads, long trunk_default)
 {
     if (!max_triangles || !settings ||
         cJSON_GetObjectItemCaseSensitive(settings, "trunk_max_triangles"))
-        return;
+        return SV_LADDER_STEP;
     long floor = (long)max_triangles / 4, left = (long)max_triangles - 2L * quads;
     long trunk = left < trunk_default ? left : trunk_default;
+    bool over = left < floor;
     if (trunk < floor) trunk = floor;
     if (trunk < 1) trunk = 1;
     cJSON_AddNumberToObject(settings, "trunk_max_triangles", (double)trunk);
+    return over ? SV_LADDER_OVER : SV_LADDER_STEP;
 }

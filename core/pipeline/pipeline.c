@@ -345,6 +345,30 @@ static sv_status keep_evaluator(run *r, const sv_eval_options *eo, sv_evaluator 
     return SV_OK;
 }
 
+/* A target search's try judges one size, the goal's: o keeps only `px`,
+ * rendered as tall as before (supersample raised by the factor the size was
+ * boxed down from the largest), so the figure is the one the full
+ * evaluation gives, up to float rounding of a box of boxes; o without px
+ * keeps no size (has_size: whether o judges px so). A try renders a quarter or less
+ * of the pixels (the 512² renders of 256 and 128 px are not made). */
+static bool has_size(const sv_eval_options *o, uint32_t px)
+{
+    for (uint32_t i = 0; i < o->size_count; i++)
+        if (o->sizes[i] == px && (o->sizes[0] * o->supersample) % px == 0) return true;
+    return false;
+}
+
+static void trial_size(sv_eval_options *o, uint32_t px)
+{
+    if (has_size(o, px)) {
+        o->supersample = o->sizes[0] * o->supersample / px;
+        o->sizes[0] = px;
+        o->size_count = 1;
+    } else {
+        o->size_count = 0;
+    }
+}
+
 /* The accuracy evaluators for the spec's evaluate settings, kept in r. The
  * sizes at or below evaluate.small_render / 4 (64 px by default) are judged
  * from a render small_render tall of their own (r->ev_small: 4x4 samples a
@@ -384,6 +408,14 @@ static sv_status evaluator(run *r, const sv_bake_options *bo, sv_error *err)
          * up to float rounding), a render fewer per view and level */
         for (uint32_t i = 0; i < es.size_count; i++) eo.sizes[eo.size_count++] = es.sizes[i];
         es.size_count = 0;
+    }
+    if (r->trial && (has_size(&eo, spec->target_pixels) || has_size(&es, spec->target_pixels))) {
+        trial_size(&eo, spec->target_pixels);
+        trial_size(&es, spec->target_pixels);
+        if (!eo.size_count) {
+            eo = es;
+            es.size_count = 0;
+        }
     }
     sv_status st = keep_evaluator(r, &eo, &r->ev, &r->ev_opt, err);
     if (!st) st = keep_evaluator(r, &es, &r->ev_small, &r->ev_small_opt, err);

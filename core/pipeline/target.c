@@ -13,12 +13,13 @@
 
 /* ---- target search (docs/spec.md "target") ----
  * Step i of the method's ladder (its sv_method ladder hook) rewrites the
- * method's settings object. Returns false past the last step, and for a
- * method without a ladder. */
-static bool ladder_step(const char *method, int i, uint32_t max_triangles, cJSON *set)
+ * method's settings object. Returns the hook's SV_LADDER_STEP or
+ * SV_LADDER_OVER, SV_LADDER_END past the last step and for a method without
+ * a ladder. */
+static int ladder_step(const char *method, int i, uint32_t max_triangles, cJSON *set)
 {
     const sv_method *m = sv_method_find(method);
-    return m && m->ladder && m->ladder(i, max_triangles, set);
+    return m && m->ladder ? m->ladder(i, max_triangles, set) : SV_LADDER_END;
 }
 
 /* The user's spec document with the method's settings replaced by `set` (a
@@ -58,9 +59,11 @@ static sv_status bake_with(run *r, const char *json, sv_error *err)
 /* Why a target was not met, for people (report.json target.reason, printed by
  * sylva-bake and sylva): the goal, the try that was baked (1-based, its
  * settings and cost), what it reached, and whether the search stopped at the
- * budget. `tries` is the report's array, `chosen` an index into it. */
+ * budget (`stopped`: the step after it is over the budget, tried or called
+ * so by the ladder). `tries` is the report's array, `chosen` an index into
+ * it. */
 static void target_reason(const sv_spec *goal, const char *method, const cJSON *tries, int chosen,
-                          char *out, size_t cap)
+                          bool stopped, char *out, size_t cap)
 {
     char g[200] = "";
     size_t n = 0;
@@ -81,16 +84,6 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
     double quads = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(t, "quads"));
     const cJSON *iou = cJSON_GetObjectItemCaseSensitive(t, "iou");
     bool within = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(t, "within_budget"));
-    /* the step after the chosen one was tried and is over the budget */
-    double step = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(t, "step"));
-    bool stopped = false;
-    const cJSON *x;
-    cJSON_ArrayForEach(x, tries)
-    {
-        stopped = stopped ||
-                  (cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(x, "step")) == step + 1 &&
-                   cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(x, "within_budget")));
-    }
     char what[300];
     snprintf(what, sizeof what, "try %d of %d, %s %s (%.0f quads, %.0f triangles)", chosen + 1,
              count, method, set ? set : "{}", quads, tris);
@@ -109,6 +102,7 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
 /* One step of a target search: what a try found. */
 typedef struct step_try {
     bool tried, baked, within, reached;
+    bool told_over; /* the ladder calls it over the triangle budget: not baked */
     double iou; /* -1 when not measured */
     int index;  /* its place in the report's tries */
     cJSON *set; /* the method's settings, owned */
@@ -125,7 +119,7 @@ static sv_status try_step(run *r, const sv_spec *goal, const char *method, const
     o->tried = true;
     o->iou = -1;
     o->set = us ? cJSON_Duplicate(us, true) : cJSON_CreateObject();
-    if (!o->set || !ladder_step(method, i, goal->target_max_triangles, o->set))
+    if (!o->set || ladder_step(method, i, goal->target_max_triangles, o->set) == SV_LADDER_END)
         return SV_ERR_INTERNAL;
     char *json = spec_with(user_root, method, o->set, true);
     if (!json) {
@@ -207,10 +201,43 @@ static sv_status probe(search *s, int i, sv_error *err)
     return SV_OK;
 }
 
-/* *hi: the last step within the budget (-1: none), by bisection. */
+/* The last step the ladder does not call over the triangle budget
+ * (SV_LADDER_OVER: its quads leave the trunk less than its floor), -1 when
+ * it calls every step over; the last step when it calls none over (or there
+ * is no triangle budget): *told says whether it called any. */
+static int ladder_top(search *s, bool *told)
+{
+    int top = -1;
+    *told = false;
+    for (int i = 0; i < s->steps; i++) {
+        cJSON *set = s->us ? cJSON_Duplicate(s->us, true) : cJSON_CreateObject();
+        int k = set ? ladder_step(s->method, i, s->goal.target_max_triangles, set) : SV_LADDER_END;
+        cJSON_Delete(set);
+        s->sr[i].told_over = k == SV_LADDER_OVER;
+        if (k == SV_LADDER_OVER) *told = true;
+        else if (k == SV_LADDER_STEP) top = i;
+    }
+    return top;
+}
+
+/* *hi: the last step within the budget (-1: none). Steps the ladder calls
+ * over the budget are not baked; when it called any, the last step it does
+ * not is tried first (its quads and trunk are sized to fill the budget, so it
+ * is within it unless the trunk cannot be simplified that far: one try
+ * instead of log2 of the ladder), then bisection below it. */
 static sv_status bisect_budget(search *s, int *hi, sv_error *err)
 {
-    int lo = 0, h = s->steps - 1, ans = -1;
+    bool told;
+    int lo = 0, h = ladder_top(s, &told), ans = -1;
+    if (told && h >= 0) {
+        sv_status st = probe(s, h, err);
+        if (st) return st;
+        if (s->sr[h].baked && s->sr[h].within) {
+            *hi = h;
+            return SV_OK;
+        }
+        h--;
+    }
     while (lo <= h) {
         int mid = (lo + h) / 2;
         sv_status st = probe(s, mid, err);
@@ -272,7 +299,11 @@ static cJSON *target_json(search *s, bool met, int chosen)
     cJSON_AddNumberToObject(tj, "chosen", chosen);
     if (!met) {
         char why[700];
-        target_reason(goal, s->method, s->tries, chosen, why, sizeof why);
+        const cJSON *ct = cJSON_GetArrayItem(s->tries, chosen);
+        int k = (int)cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(ct, "step")) + 1;
+        bool stopped = k > 0 && k < s->steps &&
+                       (s->sr[k].told_over || (s->sr[k].baked && !s->sr[k].within));
+        target_reason(goal, s->method, s->tries, chosen, stopped, why, sizeof why);
         cJSON_AddStringToObject(tj, "reason", why);
     }
     cJSON_AddStringToObject(tj, "judged_lod", "the method's finest level, baked alone");
@@ -286,7 +317,8 @@ static cJSON *target_json(search *s, bool met, int chosen)
 static void count_steps(search *s)
 {
     cJSON *scratch = cJSON_CreateObject();
-    while (scratch && s->steps < 64 && ladder_step(s->method, s->steps, 0, scratch)) s->steps++;
+    while (scratch && s->steps < 64 && ladder_step(s->method, s->steps, 0, scratch) != SV_LADDER_END)
+        s->steps++;
     cJSON_Delete(scratch);
     int halvings = 0;
     while ((1 << halvings) <= s->steps) halvings++;
@@ -300,15 +332,17 @@ static void count_steps(search *s)
 /* A target, searched by bisection. The method's ladder
  * (ladder_step) orders settings from the cheapest; a budget is crossed once
  * along it and an IoU is taken to rise along it, so both are found by
- * bisection: first the last step within the budget, then the first step at
- * or below it that reaches the IoU. That is about log2 of the ladder's
- * length in tries (4 of 11 cluster counts where the linear search from the
- * cheapest tried all 11 on a tree that never reaches the goal: 4.3 times one
- * bake on the sapling maple). With a budget, the tried step within it with
- * the best IoU among those that reach the goal is baked, not the cheapest
- * that does. When the IoU is not reached, or with a budget alone, the tried
- * step within the budget with the best IoU (with no evaluation: the
- * richest) is baked. */
+ * bisection: with a budget, the last step within it; with an IoU alone, the
+ * first step that reaches it. That is about log2 of the ladder's length in
+ * tries (4 of 11 cluster counts where the linear search from the cheapest
+ * tried all 11 on a tree that never reaches the goal: 4.3 times one bake on
+ * the sapling maple). With a budget, the tried step within it with the best
+ * IoU among those that reach the goal is baked, not the cheapest that does,
+ * so the IoU is not bisected for (it would only find cheaper, worse steps:
+ * 6 tries → 4 for a 264-triangle billboard cloud on the bush). When the IoU
+ * is not reached, or with a budget alone, the tried step within the budget
+ * with the best IoU (with no evaluation: the richest) is baked. A try judges
+ * the goal's size alone (pipeline.c trial_size). */
 sv_status svp_target_search(run *r, sv_error *err)
 {
     search s;
@@ -340,15 +374,19 @@ sv_status svp_target_search(run *r, sv_error *err)
         (st = bisect_budget(&s, &hi, err)))
         goto out;
     if (goal->target_iou > 0 && hi >= 0) {
-        int ans;
-        if ((st = bisect_iou(&s, hi, &ans, err))) goto out;
-        if (ans >= 0 && (goal->target_max_planes || goal->target_max_triangles)) {
+        int ans = -1;
+        if (goal->target_max_planes || goal->target_max_triangles) {
             /* within a budget, the best of the tries that reach the goal
-             * (the budget is what the user pays; ties to the cheaper) */
+             * (the budget is what the user pays; ties to the cheaper). The
+             * IoU rises along the ladder, so no step cheaper than the last
+             * one within the budget does better: the budget's bisection has
+             * tried every step worth baking, none is searched for the IoU */
             for (int i = 0; i < s.steps; i++)
                 if (s.sr[i].baked && s.sr[i].within && s.sr[i].reached &&
-                    s.sr[i].iou > s.sr[ans].iou)
+                    (ans < 0 || s.sr[i].iou > s.sr[ans].iou))
                     ans = i;
+        } else if ((st = bisect_iou(&s, hi, &ans, err))) {
+            goto out;
         }
         if (ans >= 0) {
             met = true;

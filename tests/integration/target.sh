@@ -93,11 +93,19 @@ print(tr[c]["within_budget"] and all(x["within_budget"] == (x["step"] <= s) for 
       and (s == 10 or any(x["step"] == s + 1 for x in tr)))')"
 run tris '{"method":"billboard_cloud","bake":{"max_atlas":256},"evaluate":{"enabled":false},"target":{"max_triangles":20}}'
 check "a triangle budget without evaluation exits 0" 0 "$(cat "$T/tris.rc")"
+# the ladder's plane counts; a step whose quads leave the trunk less than a
+# quarter of the budget (20 - 2P < 5: P >= 8) is over by construction and
+# not baked, so the richest step it does not call over is tried first
+P='[4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128]'
 check "... is met with the richest setting within it" True "$(stmts tris '
+P = '"$P"'
 s = tr[c]["step"]
 print(t["met"] and tr[c]["triangles"] <= 20 and "iou" not in tr[c]
       and all(x["within_budget"] == (x["step"] <= s) for x in tr)
-      and (s == 10 or any(x["step"] == s + 1 for x in tr)))')"
+      and (s == 10 or any(x["step"] == s + 1 for x in tr) or 20 - 2 * P[s + 1] < 5))')"
+check "... in one try: the steps over the budget by construction are not baked" "1 1" "$(stmts tris '
+P = '"$P"'
+print(len(tr), tr[0]["step"]) if all(20 - 2 * P[x["step"]] >= 5 for x in tr) else print("baked", tr)')"
 check "... each try's kept trunk gets what its quads leave of the budget (a quarter at least)" True "$(stmts tris '
 print(all(x["settings"]["trunk_max_triangles"] ==
           max(min(200, 20 - 2 * x["settings"]["lods"][0]["max_planes"]), 5) for x in tr))')"

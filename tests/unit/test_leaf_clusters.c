@@ -492,16 +492,24 @@ static void real_tree_clusters_into_32_16_8_quads(void **state)
 }
 
 /* The trunk cap a ladder step sets (-1: none), for method m at step i under
- * a triangle budget, from the user's settings `user` (JSON). */
-static long ladder_trunk(const sv_method *m, int i, uint32_t budget, const char *user)
+ * a triangle budget, from the user's settings `user` (JSON); *said: the
+ * hook's answer (SV_LADDER_STEP or SV_LADDER_OVER). */
+static long ladder_said(const sv_method *m, int i, uint32_t budget, const char *user, int *said)
 {
     cJSON *set = cJSON_Parse(user);
     assert_non_null(set);
-    assert_true(m->ladder(i, budget, set));
+    *said = m->ladder(i, budget, set);
+    assert_int_not_equal(*said, SV_LADDER_END);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(set, "trunk_max_triangles");
     long v = t ? (long)t->valuedouble : -1;
     cJSON_Delete(set);
     return v;
+}
+
+static long ladder_trunk(const sv_method *m, int i, uint32_t budget, const char *user)
+{
+    int said;
+    return ladder_said(m, i, budget, user, &said);
 }
 
 /* Under a target's triangle budget the kept trunk yields to the quads
@@ -521,6 +529,21 @@ static void ladder_shares_a_triangle_budget_with_the_trunk(void **state)
     assert_int_equal(ladder_trunk(lc, 6, 0, "{}"), -1);
     assert_int_equal(ladder_trunk(bc, 6, 0, "{}"), -1);
     assert_int_equal(ladder_trunk(lc, 0, 2, "{}"), 1); /* at least one triangle */
+    /* a step whose quads leave the trunk less than its floor is called over
+     * the budget (the search does not bake it): 128 quads are 256 of 264
+     * triangles, under the floor of 66; 96 quads leave 72 */
+    int said;
+    ladder_said(lc, 10, 264, "{}", &said);
+    assert_int_equal(said, SV_LADDER_OVER);
+    ladder_said(bc, 10, 264, "{}", &said);
+    assert_int_equal(said, SV_LADDER_OVER);
+    ladder_said(bc, 9, 264, "{}", &said);
+    assert_int_equal(said, SV_LADDER_STEP);
+    ladder_said(bc, 10, 0, "{}", &said); /* no budget: nothing is over */
+    assert_int_equal(said, SV_LADDER_STEP);
+    ladder_said(lc, 10, 264, "{\"trunk_max_triangles\": 500}", &said); /* the user's cap */
+    assert_int_equal(said, SV_LADDER_STEP);
+    assert_int_equal(sv_method_find("crossed_quads")->ladder(4, 264, NULL), SV_LADDER_END);
 }
 
 int main(void)

@@ -170,10 +170,10 @@ static sv_status bc_check(const cJSON *settings, sv_error *err)
  * raised until at most P planes remain: the best P planes), P = 4 .. 128;
  * under a triangle budget the kept trunk yields to the quads
  * (sv_ladder_trunk_share). */
-static bool bc_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int bc_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
-    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
+    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return SV_LADDER_END;
     cJSON *l = cJSON_CreateObject();
     cJSON_AddNumberToObject(l, "epsilon", 0.01);
     cJSON_AddNumberToObject(l, "max_planes", counts[step]);
@@ -181,8 +181,7 @@ static bool bc_ladder(int step, uint32_t max_triangles, cJSON *set)
     cJSON_AddItemToArray(a, l);
     cJSON_DeleteItemFromObjectCaseSensitive(set, "lods");
     cJSON_AddItemToObject(set, "lods", a);
-    sv_ladder_trunk_share(set, max_triangles, counts[step], BC_TRUNK_MAX_DEFAULT);
-    return true;
+    return sv_ladder_trunk_share(set, max_triangles, counts[step], BC_TRUNK_MAX_DEFAULT);
 }
 
 const sv_method sv_method_billboard_cloud = {

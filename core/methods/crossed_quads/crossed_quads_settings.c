@@ -22,15 +22,15 @@ static sv_status cq_check(const cJSON *settings, sv_error *err)
 }
 
 /* method.h ladder: planes 2, 2 + horizontal, 3, 3 + horizontal. */
-static bool cq_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int cq_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     (void)max_triangles; /* its trunk is not a per-level budget of its own */
-    if (step < 0 || step >= 4) return false;
+    if (step < 0 || step >= 4) return SV_LADDER_END;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "planes");
     cJSON_DeleteItemFromObjectCaseSensitive(set, "horizontal");
     cJSON_AddNumberToObject(set, "planes", step < 2 ? 2 : 3);
     cJSON_AddBoolToObject(set, "horizontal", step % 2 == 1);
-    return true;
+    return SV_LADDER_STEP;
 }
 
 const sv_method sv_method_crossed_quads = {

@@ -99,17 +99,16 @@ static sv_status lc_check(const cJSON *settings, sv_error *err)
 /* method.h ladder: clusters [K], K = 4 .. 128 (a given trunk_ratio is
  * dropped: it is one per level); under a triangle budget the kept trunk
  * yields to the quads (sv_ladder_trunk_share). */
-static bool lc_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int lc_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     static const int counts[] = {4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128};
-    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return false;
+    if (step < 0 || step >= (int)(sizeof counts / sizeof counts[0])) return SV_LADDER_END;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "clusters");
     cJSON_DeleteItemFromObjectCaseSensitive(set, "trunk_ratio"); /* one per level */
     cJSON *a = cJSON_CreateArray();
     cJSON_AddItemToArray(a, cJSON_CreateNumber(counts[step]));
     cJSON_AddItemToObject(set, "clusters", a);
-    sv_ladder_trunk_share(set, max_triangles, counts[step], LC_TRUNK_MAX_DEFAULT);
-    return true;
+    return sv_ladder_trunk_share(set, max_triangles, counts[step], LC_TRUNK_MAX_DEFAULT);
 }
 
 const sv_method sv_method_leaf_clusters = {

@@ -44,14 +44,14 @@ static sv_status octa_check(const cJSON *settings, sv_error *err)
 
 /* method.h ladder: grid N = 4 .. 16 (frames keep their size, so
  * texels grow as N^2; every step has the same proxy of proxy_quads quads). */
-static bool octa_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int octa_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const int grids[] = {4, 6, 8, 12, 16};
-    if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return false;
+    if (step < 0 || step >= (int)(sizeof grids / sizeof grids[0])) return SV_LADDER_END;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "grid");
     cJSON_AddNumberToObject(set, "grid", grids[step]);
-    return true;
+    return SV_LADDER_STEP;
 }
 
 const sv_method sv_method_octahedral = {

@@ -54,17 +54,17 @@ static sv_status sl_check(const cJSON *settings, sv_error *err)
 }
 
 /* method.h ladder: slicings x slices, 2x2 .. 12x8. */
-static bool sl_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int sl_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const int steps[][2] = {{2, 2}, {3, 3}, {4, 3}, {4, 4},  {6, 4},
                                    {6, 5}, {8, 5}, {8, 6}, {12, 6}, {12, 8}};
-    if (step < 0 || step >= (int)(sizeof steps / sizeof steps[0])) return false;
+    if (step < 0 || step >= (int)(sizeof steps / sizeof steps[0])) return SV_LADDER_END;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "slicings");
     cJSON_DeleteItemFromObjectCaseSensitive(set, "slices");
     cJSON_AddNumberToObject(set, "slicings", steps[step][0]);
     cJSON_AddNumberToObject(set, "slices", steps[step][1]);
-    return true;
+    return SV_LADDER_STEP;
 }
 
 const sv_method sv_method_slicing = {

@@ -105,16 +105,16 @@ static sv_status st_check(const cJSON *settings, sv_error *err)
 }
 
 /* method.h ladder: levels [lambda], lambda = 0.02 .. 1. */
-static bool st_ladder(int step, uint32_t max_triangles, cJSON *set)
+static int st_ladder(int step, uint32_t max_triangles, cJSON *set)
 {
     (void)max_triangles; /* its trunk is not a per-level budget of its own */
     static const double lambdas[] = {0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0};
-    if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return false;
+    if (step < 0 || step >= (int)(sizeof lambdas / sizeof lambdas[0])) return SV_LADDER_END;
     cJSON_DeleteItemFromObjectCaseSensitive(set, "levels");
     cJSON *a = cJSON_CreateArray();
     cJSON_AddItemToArray(a, cJSON_CreateNumber(lambdas[step]));
     cJSON_AddItemToObject(set, "levels", a);
-    return true;
+    return SV_LADDER_STEP;
 }
 
 const sv_method sv_method_stochastic = {
