@@ -208,17 +208,20 @@ static void frame_sphere(const prepared *p, double fc[3], double *fr)
 
 /* Method stage. In: r->spec, r->p. Out: b->si, b->ch (the chain's plans);
  * r->spec.scene's distances resolved; r->ren and r->gsrc made once per run. */
+/* scene.distance "auto" (the default): the range follows the tree's size,
+ * the framing sphere's diameter that every screen size is measured on. */
+static void resolve_distance(run *r)
+{
+    double fc[3], fr;
+    frame_sphere(&r->p, fc, &fr);
+    sv_scene_resolve_distance(&r->spec.scene, 2.0 * (fr > 0 ? fr : r->p.radius));
+}
+
 static sv_status stage_compose(run *r, bake_state *b, sv_error *err)
 {
     const prepared *p = &r->p;
     sv_status st;
-    /* scene.distance "auto" (the default): the range follows the tree's size,
-     * the framing sphere's diameter that every screen size below is measured on */
-    {
-        double fc[3], fr;
-        frame_sphere(p, fc, &fr);
-        sv_scene_resolve_distance(&r->spec.scene, 2.0 * (fr > 0 ? fr : p->radius));
-    }
+    resolve_distance(r);
     if ((st = stage(r, ST_METHOD, 0, err))) return st;
     /* the renderer first: the chain's own levels measure and score by rendering */
     if (!r->ren) {
@@ -661,7 +664,7 @@ static sv_status stage_plan(run *r, bake_state *b, sv_error *err)
     return st;
 }
 
-static void bake_state_free(bake_state *b)
+void svp_bake_state_free(bake_state *b)
 {
     if (b->lods)
         for (uint32_t i = 0; i < b->si.lod_count; i++) {
@@ -675,18 +678,44 @@ static void bake_state_free(bake_state *b)
     svp_chain_free(&b->ch);
 }
 
+/* A target try's state in place of compose and bake (r->reuse, taken):
+ * what the try measured is measured again with the final bake's evaluators
+ * (a try judges one size). report.json's method and bake times stay 0. */
+static void stage_reuse(run *r, bake_state *b)
+{
+    *b = *r->reuse;
+    free(r->reuse);
+    r->reuse = NULL;
+    resolve_distance(r);
+    /* no method or bake stage is opened: their times stay 0 in the report */
+    for (uint32_t i = 0; i < b->si.lod_count; i++) {
+        lod_out *l = &b->lods[i];
+        sv_gpu_mesh_free(l->gpu);
+        l->gpu = NULL;
+        sv_eval_result_free(&l->eval);
+        sv_eval_result_free(&l->bound);
+        l->evaluated = l->bound_measured = false;
+    }
+}
+
 /* One bake: compose → bake → evaluate → (a try stops here) plan → write.
  * The renderer, the original on it and the evaluators belong to r. */
 sv_status svp_bake_all(run *r, sv_error *err)
 {
     bake_state b;
     memset(&b, 0, sizeof b);
-    sv_status st = stage_compose(r, &b, err);
-    if (!st) st = stage_bake(r, &b, err);
+    sv_status st = SV_OK;
+    if (r->reuse) {
+        stage_reuse(r, &b);
+    } else {
+        st = stage_compose(r, &b, err);
+        if (!st) st = stage_bake(r, &b, err);
+    }
     if (!st) st = stage_evaluate(r, &b, err);
     if (!st && r->trial) {
         trial_result(r, &b);
-        bake_state_free(&b);
+        if (r->keep) *r->keep = b; /* the target search keeps it */
+        else svp_bake_state_free(&b);
         return SV_OK;
     }
     if (!st) st = stage_plan(r, &b, err);
@@ -702,7 +731,7 @@ sv_status svp_bake_all(run *r, sv_error *err)
     if (!st) st = svp_write_preview(r, &b, r->spec.evaluate ? r->ev : NULL, err);
     if (!st) st = svp_write_planes(r, &b, err);
     if (!st) st = svp_write_report(r, &b, err);
-    bake_state_free(&b);
+    svp_bake_state_free(&b);
     return st;
 }
 
@@ -725,6 +754,10 @@ sv_status sv_pipeline_run(const sv_bake_request *req, sv_error *err)
     if ((st = svp_dilate_textures(r.p.mesh, r.spec.dilate ? r.spec.dilate : 8, err))) goto out;
     st = r.spec.has_target ? svp_target_search(&r, err) : svp_bake_all(&r, err);
 out:
+    if (r.reuse) {
+        svp_bake_state_free(r.reuse);
+        free(r.reuse);
+    }
     cJSON_Delete(r.target_json);
     cJSON_Delete(r.target_times);
     sv_evaluator_destroy(r.ev);

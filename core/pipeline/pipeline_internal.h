@@ -66,6 +66,8 @@ typedef struct trial_out {
     double iou; /* at spec.target_pixels (mean or worst), -1 = not measured */
 } trial_out;
 
+struct bake_state;
+
 typedef struct run {
     const sv_bake_request *req;
     sv_spec spec;
@@ -77,6 +79,14 @@ typedef struct run {
     int search_most; /* the target search's bound on tries (sv_search_fn) */
     bool trial;      /* stop after evaluation, write nothing, fill tout */
     trial_out tout;
+    /* A try's bake kept for the final bake of a target search (target.c):
+     * with `keep` set, a trial's state is moved into it instead of being
+     * freed; with `reuse` set, the next bake takes that state (owned) in
+     * place of its compose and texture bake, and measures and writes it.
+     * Only where the final spec bakes exactly what the try did (the user's
+     * chain off: the try's spec differs by the ignored lod.coarsest). */
+    struct bake_state *keep;
+    struct bake_state *reuse;
     cJSON *target_json;  /* report "target" (deterministic part), owned */
     cJSON *target_times; /* report times.target: seconds per try, owned */
     /* Kept across the bakes of one run (a target search bakes once per
@@ -161,6 +171,8 @@ sv_status svp_progress(run *r, int stage, double within);
 /* One bake of the chain with r->spec (r prepared): the outputs into
  * r->req->out_dir, or (r->trial) only r->tout. */
 sv_status svp_bake_all(run *r, sv_error *err);
+/* Frees what b holds (b itself is the caller's). */
+void svp_bake_state_free(struct bake_state *b);
 
 /* Adapts a LOD's view selector (stand_in.h) to the evaluator's per-view
  * triangle subsets (an sv_eval_subset_fn on a view_sets): quad q is

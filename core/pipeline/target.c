@@ -103,6 +103,7 @@ static void target_reason(const sv_spec *goal, const char *method, const cJSON *
 typedef struct step_try {
     bool tried, baked, within, reached;
     bool told_over; /* the ladder calls it over the triangle budget: not baked */
+    bake_state *kept; /* its bake, while it may be the one chosen (s->reuse) */
     double iou; /* -1 when not measured */
     int index;  /* its place in the report's tries */
     cJSON *set; /* the method's settings, owned */
@@ -181,7 +182,18 @@ typedef struct search {
     cJSON *tries, *secs; /* report target.tries and times.target_tries, owned */
     sv_status last;      /* the last try that could not be baked, and why */
     sv_error last_err;
+    bool reuse; /* the final bake is the chosen try's (the user's chain is off): tries are kept */
 } search;
+
+static void kept_free(step_try *t)
+{
+    if (!t->kept) return;
+    svp_bake_state_free(t->kept);
+    free(t->kept);
+    t->kept = NULL;
+}
+
+static void keep_candidates(search *s);
 
 /* Tries step i unless it was tried. Returns non-zero (err set) only for an
  * error that ends the search; a step that cannot be baked is remembered. */
@@ -190,9 +202,17 @@ static sv_status probe(search *s, int i, sv_error *err)
     if (s->sr[i].tried) return SV_OK;
     bool fatal = false;
     sv_error e = {0};
+    if (s->reuse && !(s->r->keep = sv_calloc(1, sizeof *s->r->keep)))
+        return sv_fail(err, SV_ERR_NOMEM, "out of memory");
     sv_status ts = try_step(s->r, &s->goal, s->method, s->user_root, s->us, i, s->n, &s->sr[i],
                             s->tries, s->secs, &fatal, &e);
+    if (s->r->keep) {
+        s->sr[i].kept = s->r->keep;
+        s->r->keep = NULL;
+        if (!s->sr[i].baked) kept_free(&s->sr[i]);
+    }
     s->n++;
+    keep_candidates(s);
     if (fatal) {
         *err = e;
         return ts;
@@ -280,6 +300,19 @@ static int best_tried(const search *s)
     return bi;
 }
 
+/* Frees the kept bakes of the tries that can no longer be chosen: what is
+ * chosen is the best tried step (best_tried) or, with an IoU goal and no
+ * budget, the cheapest tried step that reaches it (bisect_iou's answer), so
+ * at most two are kept. */
+static void keep_candidates(search *s)
+{
+    int best = best_tried(s), first = -1;
+    for (int i = 0; i < s->steps && first < 0; i++)
+        if (s->sr[i].baked && s->sr[i].reached) first = i;
+    for (int i = 0; i < s->steps; i++)
+        if (i != best && i != first) kept_free(&s->sr[i]);
+}
+
 /* report.json "target": the goal, met, the chosen try, why not met, and the
  * tries (taken from s). */
 static cJSON *target_json(search *s, bool met, int chosen)
@@ -352,6 +385,10 @@ sv_status svp_target_search(run *r, sv_error *err)
     snprintf(s.method, sizeof s.method, "%s", s.goal.method);
     s.user_root = cJSON_Duplicate(r->spec.root ? r->spec.root : NULL, true);
     s.us = s.user_root ? cJSON_GetObjectItemCaseSensitive(s.user_root, s.method) : NULL;
+    /* with the chain off, a try's spec (which also says lod.coarsest "none",
+     * ignored without a chain) bakes what the final spec bakes */
+    s.reuse = cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(s.user_root, "lod"), "chain"));
     s.tries = cJSON_CreateArray();
     s.secs = cJSON_CreateArray();
     const sv_spec *goal = &s.goal;
@@ -426,13 +463,21 @@ sv_status svp_target_search(run *r, sv_error *err)
         goto out;
     }
     memcpy(r->times, base, sizeof base);
+    for (int i = 0; i < s.steps; i++)
+        if (s.sr[i].baked && s.sr[i].index == best && s.sr[i].kept) {
+            r->reuse = s.sr[i].kept; /* the final bake measures and writes it */
+            s.sr[i].kept = NULL;
+        }
     if (r->req->search) r->req->search(r->req->user, 0, r->search_most);
     r->pa = 0.6;
     r->pb = 1.0;
     st = bake_with(r, json, err);
     free(json);
 out:
-    for (int i = 0; s.sr && i < s.steps; i++) cJSON_Delete(s.sr[i].set);
+    for (int i = 0; s.sr && i < s.steps; i++) {
+        cJSON_Delete(s.sr[i].set);
+        kept_free(&s.sr[i]);
+    }
     free(s.sr);
     cJSON_Delete(s.tries);
     cJSON_Delete(s.secs);

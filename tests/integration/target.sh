@@ -67,6 +67,26 @@ for f in model.glb planes.json; do
     cmp -s "$T/met/$f" "$T/direct/$f" || { same_all=0; echo "differs from the direct bake: $f"; }
 done
 check "... and its outputs are byte for byte a direct bake of that setting" 1 "$same_all"
+# with the chain off the final bake is the chosen try's own bake, measured
+# again at every size and written (pipeline.c stage_reuse): every output is
+# still a direct bake's, report.json but its target and times
+run offmet '{"method":"billboard_cloud","lod":{"chain":false},'"$COMMON"',"target":{"iou":0.6}}'
+check "a target with the chain off exits 0" 0 "$(cat "$T/offmet.rc")"
+chosen=$(json_get "$T/offmet/report.json" 'json.dumps(j["method"]["settings"])')
+run offdirect '{"method":"billboard_cloud","lod":{"chain":false},'"$COMMON"',"billboard_cloud":'"$chosen"'}'
+same_all=1
+for f in "$T"/offdirect/*; do
+    n=$(basename "$f")
+    [ "$n" = report.json ] && continue
+    cmp -s "$f" "$T/offmet/$n" || { same_all=0; echo "differs from the direct bake: $n"; }
+done
+strip2='import json,sys; j=json.load(open(sys.argv[1])); j.pop("times"); j.pop("target", None); print(json.dumps(j, sort_keys=True))'
+[ "$(python3 -c "$strip2" "$T/offmet/report.json")" = "$(python3 -c "$strip2" "$T/offdirect/report.json")" ] ||
+    { same_all=0; echo "report.json differs from the direct bake's"; }
+check "... its outputs are byte for byte the direct bake's (the chosen try reused)" 1 "$same_all"
+check "... the same file list" "$(ls "$T/offdirect" | tr '\n' ' ')" "$(ls "$T/offmet" | tr '\n' ' ')"
+check "... and the final bake made no plane selection or texture bake of its own" True \
+    "$(json_get "$T/offmet/report.json" 'j["times"]["method"] == 0 and j["times"]["bake"] == 0')"
 
 # 2. cannot be met: the best try is baked and flagged, with its own exit status
 run unmet '{"method":"crossed_quads",'"$COMMON"',"target":{"iou":0.999}}'
