@@ -64,3 +64,48 @@ cJSON *sv_chain_skip_note(cJSON *skipped, const char *name, const char *stage, c
     cJSON_AddItemToArray(skipped, o);
     return o;
 }
+
+/* ---- the request's memo (method_ops.h) ---- */
+
+typedef struct memo_slot {
+    char key[32];
+    void *data;
+    void (*free_fn)(void *);
+} memo_slot;
+
+struct sv_memo {
+    memo_slot *slots;
+    size_t n, cap;
+};
+
+sv_memo *sv_memo_create(void) { return calloc(1, sizeof(sv_memo)); }
+
+void sv_memo_free(sv_memo *m)
+{
+    if (!m) return;
+    for (size_t i = 0; i < m->n; i++)
+        if (m->slots[i].free_fn) m->slots[i].free_fn(m->slots[i].data);
+    free(m->slots);
+    free(m);
+}
+
+void *sv_memo_slot(sv_memo *m, const char *key, void *(*make)(void), void (*free_fn)(void *))
+{
+    if (!m || strlen(key) >= sizeof m->slots[0].key) return NULL;
+    for (size_t i = 0; i < m->n; i++)
+        if (!strcmp(m->slots[i].key, key)) return m->slots[i].data;
+    if (m->n == m->cap) {
+        size_t cap = m->cap ? 2 * m->cap : 4;
+        memo_slot *s = realloc(m->slots, cap * sizeof *s);
+        if (!s) return NULL;
+        m->slots = s;
+        m->cap = cap;
+    }
+    void *data = make();
+    if (!data) return NULL;
+    memo_slot *s = &m->slots[m->n++];
+    snprintf(s->key, sizeof s->key, "%s", key);
+    s->data = data;
+    s->free_fn = free_fn;
+    return data;
+}

@@ -20,6 +20,20 @@
 struct sv_baked_lod; /* bake.h */
 struct sv_level_ops; /* level.h */
 
+/* What methods keep across the bakes of one request (a target search bakes
+ * once per try): slots by key, each freed with the memo by its own
+ * function. Only for work whose outcome a method can tell is the same
+ * (billboard_cloud: ε runs known to exceed a plane budget, planes.h
+ * sv_bbc_memo), so outputs never depend on what was kept. */
+typedef struct sv_memo sv_memo;
+/* An empty memo, or NULL (out of memory). */
+sv_memo *sv_memo_create(void);
+/* Frees every slot (with its function) and the memo; NULL is fine. */
+void sv_memo_free(sv_memo *m);
+/* The slot `key`, made by make() (freed by free_fn) the first time; NULL
+ * when m is NULL or make() or the memo's growth failed. */
+void *sv_memo_slot(sv_memo *m, const char *key, void *(*make)(void), void (*free_fn)(void *));
+
 typedef struct sv_method_input {
     const sv_mesh *mesh;
     const sv_classification *cls;
@@ -28,6 +42,7 @@ typedef struct sv_method_input {
     double radius;
     const sv_scene *scene;
     uint64_t seed; /* spec "seed" (default 1): every random choice derives from it */
+    sv_memo *memo; /* the request's (NULL: nothing is kept) */
 } sv_method_input;
 
 /* ---- the chain's own levels (docs/lod.md) ----

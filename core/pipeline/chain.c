@@ -214,7 +214,7 @@ sv_status svp_chain_compose(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, s
     bool own = m == levels;
     sv_method_input in = {
         p->mesh,   &p->cls,      &p->leaves, {p->centre[0], p->centre[1], p->centre[2]},
-        p->radius, &spec->scene, spec->seed};
+        p->radius, &spec->scene, spec->seed, r->memo};
     snprintf(si->method, sizeof si->method, "%s", spec->method);
     if ((st = compose_levels(r, ren, gsrc, &in, lo, own, si, c, err))) return st;
     return compose_methods(r, &in, own, si, c, err);

@@ -750,10 +750,15 @@ sv_status sv_pipeline_run(const sv_bake_request *req, sv_error *err)
         st = sv_fail(err, SV_ERR_FORMAT, "no mesh file given");
         goto out;
     }
+    if (!(r.memo = sv_memo_create())) {
+        st = sv_fail(err, SV_ERR_NOMEM, "out of memory");
+        goto out;
+    }
     if ((st = prepare(req->files, req->file_count, &r.spec, &r.p, &r, err))) goto out;
     if ((st = svp_dilate_textures(r.p.mesh, r.spec.dilate ? r.spec.dilate : 8, err))) goto out;
     st = r.spec.has_target ? svp_target_search(&r, err) : svp_bake_all(&r, err);
 out:
+    sv_memo_free(r.memo);
     if (r.reuse) {
         svp_bake_state_free(r.reuse);
         free(r.reuse);

@@ -87,6 +87,7 @@ typedef struct run {
      * chain off: the try's spec differs by the ignored lod.coarsest). */
     struct bake_state *keep;
     struct bake_state *reuse;
+    sv_memo *memo; /* what methods keep across the bakes of this request (method_ops.h) */
     cJSON *target_json;  /* report "target" (deterministic part), owned */
     cJSON *target_times; /* report times.target: seconds per try, owned */
     /* Kept across the bakes of one run (a target search bakes once per

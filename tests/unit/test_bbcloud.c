@@ -655,6 +655,58 @@ static void planes_are_byte_identical_across_runs_and_thread_counts(void **state
     geo_free(&g);
 }
 
+/* A target search's ladder of plane budgets through one memo (planes.h
+ * sv_bbc_memo) gives the bytes each budget gives alone, with fewer greedy
+ * runs: the runs known to exceed a budget are not made again. A memo of
+ * another input (the crown moved) or with cardboard planes is not used. */
+static void eps_memo_keeps_results_and_skips_known_runs(void **state)
+{
+    (void)state;
+    geo g = {0};
+    geo_crown(&g, 7, 1200);
+    sv_bbc_input in;
+    geo_input(&g, &in);
+    sv_bbc_options o = opts(0.002 * in.radius);
+    sv_bbc_memo *memo = sv_bbc_memo_create();
+    assert_non_null(memo);
+    static const uint32_t ladder[] = {24, 8, 12, 16, 24};
+    uint32_t plain_runs = 0, memo_runs = 0;
+    for (size_t i = 0; i < sizeof ladder / sizeof ladder[0]; i++) {
+        sv_bbc_result a, b;
+        o.max_planes = ladder[i];
+        o.memo = NULL;
+        assert_int_equal(sv_bbc_select(&in, &o, &a, NULL), SV_OK);
+        o.memo = memo;
+        assert_int_equal(sv_bbc_select(&in, &o, &b, NULL), SV_OK);
+        assert_true(a.stats.runs > 1); /* the budget made ε rise */
+        assert_true(same_result(&a, &b));
+        assert_memory_equal(&a.stats.epsilon, &b.stats.epsilon, sizeof a.stats.epsilon);
+        plain_runs += a.stats.runs;
+        memo_runs += b.stats.runs;
+        if (i == 0) assert_int_equal(a.stats.runs, b.stats.runs); /* nothing known yet */
+        if (i == 1) assert_true(b.stats.runs < a.stats.runs); /* 24's exceeded runs exceed 8 */
+        if (i == 4) assert_int_equal(b.stats.runs, 1); /* only the run it keeps */
+        sv_bbc_result_free(&a);
+        sv_bbc_result_free(&b);
+    }
+    assert_true(memo_runs < plain_runs);
+    /* another input: nothing known of it */
+    for (uint32_t v = 0; v < g.nv; v++) g.pos[3 * v] += 1.0;
+    geo_input(&g, &in);
+    sv_bbc_result a, b;
+    o.max_planes = 8;
+    o.memo = NULL;
+    assert_int_equal(sv_bbc_select(&in, &o, &a, NULL), SV_OK);
+    o.memo = memo;
+    assert_int_equal(sv_bbc_select(&in, &o, &b, NULL), SV_OK);
+    assert_true(same_result(&a, &b));
+    assert_int_equal(a.stats.runs, b.stats.runs);
+    sv_bbc_result_free(&a);
+    sv_bbc_result_free(&b);
+    sv_bbc_memo_free(memo);
+    geo_free(&g);
+}
+
 /* k-planes (kplanes.c) on a crown large enough for its threaded
  * steps (assignment, moments, areas): the same bytes on every run, and every
  * triangle still in exactly one primary plane. */
@@ -957,6 +1009,7 @@ int main(void)
         cmocka_unit_test(welding_moves_shared_vertices_onto_the_first_plane),
         cmocka_unit_test(projection_puts_every_face_on_its_plane),
         cmocka_unit_test(bad_input_is_refused_with_a_message),
+        cmocka_unit_test(eps_memo_keeps_results_and_skips_known_runs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -44,7 +44,7 @@ static void octa_level(const sv_mesh *m, const char *json, sv_stand_in *out)
 {
     cJSON *set = cJSON_Parse(json);
     assert_non_null(set);
-    sv_method_input in = {m, NULL, NULL, {0, 0.5, 0}, 0.75, NULL, 1};
+    sv_method_input in = {m, NULL, NULL, {0, 0.5, 0}, 0.75, NULL, 1, NULL};
     memset(out, 0, sizeof *out);
     sv_error err = {0};
     assert_int_equal(sv_method_octahedral_ops.run(&in, set, out, &err), SV_OK);

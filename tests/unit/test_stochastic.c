@@ -1102,7 +1102,7 @@ static void area_preservation_keeps_the_visible_area_of_a_real_tree(void **state
     assert_int_equal(sv_gpu_mesh_upload(ren, m, &c.g, &err), SV_OK);
     sv_scene sc;
     sv_scene_defaults(&sc);
-    sv_method_input in = {m, &cls, &lv, {c.centre[0], c.centre[1], c.centre[2]}, c.radius, &sc, 1};
+    sv_method_input in = {m, &cls, &lv, {c.centre[0], c.centre[1], c.centre[2]}, c.radius, &sc, 1, NULL};
     sv_stochastic_settings s;
     /* the paper's method (leaves as modelled, a leaf count): what is measured
      * here is eq. 3 itself */

@@ -336,6 +336,8 @@ static sv_status bc_run(const sv_method_input *in, const cJSON *settings, sv_sta
     o.cardboard = s.cb_enabled;
     o.cardboard_coverage = s.cb_coverage;
     o.threads = (uint32_t)s.threads;
+    /* a target search's tries share what the ε searches learnt (planes.h) */
+    o.memo = sv_memo_slot(in->memo, BC_NAME ".eps", sv_bbc_memo_create, sv_bbc_memo_free);
 
     memset(out, 0, sizeof *out);
     snprintf(out->method, sizeof out->method, "%s", BC_NAME);

@@ -1294,6 +1294,106 @@ static sv_status run_eps(const base *b, double eps, uint32_t max_primary, runout
     return SV_OK;
 }
 
+/* ---------------------------------------------------------------- memo */
+
+typedef struct memo_entry {
+    uint64_t key;
+    double eps, angle;    /* the run's ε and angle limit (raised to 90° late in a search) */
+    uint32_t exceeded_at; /* the largest budget a run at them exceeded (0: none seen) */
+    uint32_t done_npl;    /* the planes a complete run drew (0: none seen) */
+} memo_entry;
+
+struct sv_bbc_memo {
+    memo_entry *e;
+    size_t n, cap;
+};
+
+void *sv_bbc_memo_create(void) { return calloc(1, sizeof(sv_bbc_memo)); }
+
+void sv_bbc_memo_free(void *memo)
+{
+    sv_bbc_memo *m = memo;
+    if (!m) return;
+    free(m->e);
+    free(m);
+}
+
+/* 64-bit FNV-1a over n bytes, continuing h. */
+static uint64_t fnv(uint64_t h, const void *p, size_t n)
+{
+    const unsigned char *c = p;
+    for (size_t i = 0; i < n; i++) h = (h ^ c[i]) * 1099511628211ull;
+    return h;
+}
+
+/* What a run depends on besides ε and the budget: the input and the
+ * options (field by field: no padding bytes). */
+static uint64_t memo_key(const sv_bbc_input *in, const sv_bbc_options *o)
+{
+    uint64_t h = 14695981039346656037ull;
+    h = fnv(h, in->positions, (size_t)in->vertex_count * 3 * sizeof *in->positions);
+    h = fnv(h, in->indices, (size_t)in->triangle_count * 3 * sizeof *in->indices);
+    h = fnv(h, &in->elem_count, sizeof in->elem_count);
+    if (in->elem_first) {
+        h = fnv(h, in->elem_first, ((size_t)in->elem_count + 1) * sizeof *in->elem_first);
+        h = fnv(h, in->elem_tris, (size_t)in->elem_first[in->elem_count] * sizeof *in->elem_tris);
+    }
+    if (in->elem_part) h = fnv(h, in->elem_part, in->elem_count);
+    h = fnv(h, in->centre, sizeof in->centre);
+    h = fnv(h, &in->radius, sizeof in->radius);
+    const uint32_t u[] = {o->grid_theta, o->grid_phi, o->grid_rho, o->refine_levels,
+                          o->horizontal_penalty, o->tweak, o->weld};
+    const double d[] = {o->miss_penalty, o->max_angle_deg, o->horizontal_value,
+                        o->horizontal_angle_deg};
+    h = fnv(h, u, sizeof u);
+    return fnv(h, d, sizeof d);
+}
+
+static memo_entry *memo_find(sv_bbc_memo *m, uint64_t key, double eps, double angle, bool add)
+{
+    for (size_t i = 0; i < m->n; i++)
+        if (m->e[i].key == key && m->e[i].eps == eps && m->e[i].angle == angle) return &m->e[i];
+    if (!add) return NULL;
+    if (m->n == m->cap) {
+        size_t cap = m->cap ? 2 * m->cap : 32;
+        memo_entry *e = realloc(m->e, cap * sizeof *e);
+        if (!e) return NULL; /* not remembered: only slower */
+        m->e = e;
+        m->cap = cap;
+    }
+    memo_entry *e = &m->e[m->n++];
+    memset(e, 0, sizeof *e);
+    e->key = key;
+    e->eps = eps;
+    e->angle = angle;
+    return e;
+}
+
+/* run_eps through the memo (m NULL: plainly). A run the memo knows exceeds
+ * max_primary is not made: r says exceeded with no planes, which is all the
+ * caller reads of an exceeded run. *ran: whether a run was made. */
+static sv_status run_eps_memo(const base *b, sv_bbc_memo *m, uint64_t key, double eps,
+                              uint32_t max_primary, runout *r, bool *ran, sv_error *err)
+{
+    *ran = false;
+    memo_entry *e = m ? memo_find(m, key, eps, b->opt.max_angle_deg, false) : NULL;
+    if (e && max_primary && (e->exceeded_at >= max_primary || e->done_npl > max_primary)) {
+        memset(r, 0, sizeof *r);
+        r->eps = eps;
+        r->exceeded = true;
+        return SV_OK;
+    }
+    sv_status st = run_eps(b, eps, max_primary, r, err);
+    *ran = true;
+    if (st || !m || !(e = memo_find(m, key, eps, b->opt.max_angle_deg, true))) return st;
+    if (r->exceeded) {
+        if (max_primary > e->exceeded_at) e->exceeded_at = max_primary;
+    } else {
+        e->done_npl = r->npl;
+    }
+    return SV_OK;
+}
+
 /* ---------------------------------------------------------------- public */
 
 void sv_bbc_options_init(sv_bbc_options *o)
@@ -1663,8 +1763,13 @@ sv_status sv_bbc_select(const sv_bbc_input *in, const sv_bbc_options *opt, sv_bb
     runout best, cur;
     memset(&best, 0, sizeof best);
     double eps = opt->epsilon;
-    st = run_eps(&b, eps, maxp, &best, err);
-    runs++;
+    /* cardboard planes fill what the budget leaves: a run's planes then
+     * depend on the budget beyond where it stops, so nothing is kept */
+    sv_bbc_memo *memo = opt->cardboard ? NULL : opt->memo;
+    uint64_t key = memo ? memo_key(in, opt) : 0;
+    bool ran;
+    st = run_eps_memo(&b, memo, key, eps, maxp, &best, &ran, err);
+    runs += ran;
     if (!st) add_times(&times, &best);
     if (!st && best.exceeded) {
         /* max_planes: raise ε geometrically until the planes fit, then bisect
@@ -1683,8 +1788,8 @@ sv_status sv_bbc_select(const sv_bbc_input *in, const sv_bbc_options *opt, sv_bb
                 hi = 2 * b.R;
                 if (b.opt.max_angle_deg < 90 && lo >= 2 * b.R) b.opt.max_angle_deg = 90;
             }
-            st = run_eps(&b, hi, maxp, &cur, err);
-            runs++;
+            st = run_eps_memo(&b, memo, key, hi, maxp, &cur, &ran, err);
+            runs += ran;
             if (st) break;
             add_times(&times, &cur);
             if (!cur.exceeded) {
@@ -1698,8 +1803,8 @@ sv_status sv_bbc_select(const sv_bbc_input *in, const sv_bbc_options *opt, sv_bb
         for (int k = 0; k < 2 && !st; k++) {
             double mid = lo > 0 ? sqrt(lo * hi) : 0.5 * hi;
             if (!(mid > lo && mid < hi)) break;
-            st = run_eps(&b, mid, maxp, &cur, err);
-            runs++;
+            st = run_eps_memo(&b, memo, key, mid, maxp, &cur, &ran, err);
+            runs += ran;
             if (st) break;
             add_times(&times, &cur);
             if (!cur.exceeded) {

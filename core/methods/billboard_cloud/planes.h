@@ -31,6 +31,19 @@
 
 #include "sv.h"
 
+/* What sv_bbc_select learns of its ε runs, kept by the caller across
+ * selections (a target search's tries, through method_ops.h sv_memo): per
+ * input (a hash of the elements and of every option but ε and max_planes)
+ * and ε, the largest plane budget a run was seen to exceed and the planes a
+ * complete run drew. A run known to exceed the budget asked for is not made
+ * again (it would stop at the same plane and be discarded), so a selection
+ * is byte for byte the one made without the memo, only sooner. */
+typedef struct sv_bbc_memo sv_bbc_memo;
+/* An empty memo (NULL: out of memory). */
+void *sv_bbc_memo_create(void);
+/* Frees a memo made by sv_bbc_memo_create (NULL is fine). */
+void sv_bbc_memo_free(void *memo);
+
 typedef struct sv_bbc_options {
     double epsilon;          /* validity distance in world units (>= 0) */
     uint32_t grid_theta;     /* dual grid: θ columns, even (default 32) */
@@ -55,6 +68,7 @@ typedef struct sv_bbc_options {
                                     planes fit, and cardboard planes only fill what is left */
     uint32_t threads;            /* worker threads for the dual grid, the refinement and
                                     the scans (default 2; same bytes for any) */
+    sv_bbc_memo *memo;           /* NULL (default): nothing kept; not used with cardboard */
 } sv_bbc_options;
 
 /* Sets every field to the defaults listed above (epsilon 0). */
