@@ -26,6 +26,8 @@ python3 "$here/unseen.py"
 python3 "$here/octahedral.py"
 # issue 19: a target search against one bake of its choice; the default chain
 python3 "$here/target_cost.py"
+# issue 40: the same on every shared and held-out tree, billboard clouds and leaf clusters (~30 min)
+python3 "$here/target_cost.py" --sets
 # issue 19: `{}` as it is on every shared tree (four levels or more each)
 python3 "$here/default_chains.py"
 # issue 24: every stochastic level against meshoptimizer at equal triangles (sveval)
