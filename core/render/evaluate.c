@@ -116,7 +116,8 @@ sv_status sv_eval_image_alloc(sv_eval_image *img, uint32_t w, uint32_t h, sv_err
     img->coverage = calloc(n, sizeof(float));
     img->color = calloc(3 * n, sizeof(float));
     img->depth = calloc(n, sizeof(float));
-    if (!img->coverage || !img->color || !img->depth) {
+    img->lum = calloc(n, sizeof(float));
+    if (!img->coverage || !img->color || !img->depth || !img->lum) {
         sv_eval_image_free(img);
         return sv_fail(err, SV_ERR_NOMEM, "evaluate: cannot allocate a %ux%u image", w, h);
     }
@@ -131,6 +132,7 @@ void sv_eval_image_free(sv_eval_image *img)
     free(img->coverage);
     free(img->color);
     free(img->depth);
+    free(img->lum);
     memset(img, 0, sizeof *img);
 }
 
@@ -140,6 +142,26 @@ static void image_zero(sv_eval_image *img)
     memset(img->coverage, 0, n * sizeof(float));
     memset(img->color, 0, 3 * n * sizeof(float));
     memset(img->depth, 0, n * sizeof(float));
+    memset(img->lum, 0, n * sizeof(float));
+}
+
+/* The linear Rec. 709 weights of each 8-bit sRGB code: lut[k][c] is weight
+ * k × sv_srgb_decode8(c), so a sample's luminance is three lookups (the
+ * table: the same floats every run). */
+typedef struct lum_lut {
+    float w[3][256];
+} lum_lut;
+
+static void lum_lut_init(lum_lut *t)
+{
+    static const double w[3] = {0.2126, 0.7152, 0.0722};
+    for (int k = 0; k < 3; k++)
+        for (int c = 0; c < 256; c++) t->w[k][c] = (float)(w[k] * sv_srgb_decode8((uint8_t)c));
+}
+
+static float sample_lum(const lum_lut *t, const uint8_t *p)
+{
+    return t->w[0][p[0]] + t->w[1][p[1]] + t->w[2][p[2]];
 }
 
 /* Fills `out` (already sized like rgba) from a render. */
@@ -152,10 +174,13 @@ static sv_status from_render_into(const sv_image *rgba, const float *depth, sv_e
                        out->height);
     size_t n = (size_t)out->width * out->height;
     const uint8_t *p = rgba->data;
+    lum_lut lt;
+    lum_lut_init(&lt);
     for (size_t i = 0; i < n; i++, p += 4) {
         bool on = p[3] >= 128;
         out->coverage[i] = on ? 1.0f : 0.0f;
         for (int k = 0; k < 3; k++) out->color[3 * i + k] = on ? p[k] / 255.0f : 0.0f;
+        out->lum[i] = on ? sample_lum(&lt, p) : 0.0f;
         float z = depth && on && isfinite(depth[i]) ? depth[i] : 0.0f;
         out->depth[i] = z;
     }
@@ -286,7 +311,9 @@ static void filter_plane(const float *src, uint32_t W, uint32_t H, float *dst, u
  * output rows [y0, y1) and columns [x0, x1) only. Every channel gets the same
  * values (a covered pixel's p/255.0f, its depth; 0 elsewhere) multiplied by
  * the same weights in the same order as the two steps did, so the result has
- * the same bits. tmp: out->width × H × 5, indexed as for the whole image. */
+ * the same bits. tmp: out->width × H × 6, indexed as for the whole image.
+ * The luminance plane is each covered sample's linear luminance, filtered
+ * alike: averaged in linear light, as sveval's lum_ratio counts it. */
 static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval_image *out,
                                double *tmp, uint32_t y0, uint32_t y1, uint32_t x0, uint32_t x1)
 {
@@ -295,12 +322,14 @@ static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval
     const double wx = 1.0 / ((double)W / w), wy = 1.0 / ((double)H / h); /* box1d's ov/s */
     float lut[256]; /* v / 255.0f: the same float division, done 256 times, not 3 per pixel */
     for (int v = 0; v < 256; v++) lut[v] = v / 255.0f;
+    lum_lut lt;
+    lum_lut_init(&lt);
     for (uint32_t y = y0 * fy; y < y1 * fy; y++) {
         const uint8_t *row = (const uint8_t *)rgba->data + (size_t)y * W * 4;
         const float *drow = depth ? depth + (size_t)y * W : NULL;
-        double *t = tmp + (size_t)y * w * 5;
+        double *t = tmp + (size_t)y * w * 6;
         for (uint32_t x = x0; x < x1; x++) {
-            double a = 0, r = 0, g = 0, b = 0, z = 0;
+            double a = 0, r = 0, g = 0, b = 0, z = 0, l = 0;
             /* no covered sample: each sum would add wx·0.0f = +0.0 to +0.0 */
             uint8_t any = 0;
             for (uint32_t k = 0; k < fx; k++) any |= row[4 * ((size_t)x * fx + k) + 3];
@@ -313,22 +342,25 @@ static void filter_render_rect(const sv_image *rgba, const float *depth, sv_eval
                 g += wx * (on ? lut[p[1]] : 0.0f);
                 b += wx * (on ? lut[p[2]] : 0.0f);
                 z += wx * (drow && on && isfinite(drow[i]) ? drow[i] : 0.0f);
+                l += wx * (on ? sample_lum(&lt, p) : 0.0f);
             }
-            t[5 * x] = a, t[5 * x + 1] = r, t[5 * x + 2] = g, t[5 * x + 3] = b, t[5 * x + 4] = z;
+            t[6 * x] = a, t[6 * x + 1] = r, t[6 * x + 2] = g, t[6 * x + 3] = b, t[6 * x + 4] = z;
+            t[6 * x + 5] = l;
         }
     }
     for (uint32_t y = y0; y < y1; y++) {
-        const double *t = tmp + (size_t)y * fy * w * 5;
+        const double *t = tmp + (size_t)y * fy * w * 6;
         for (uint32_t x = x0; x < x1; x++) {
-            double s[5] = {0, 0, 0, 0, 0};
+            double s[6] = {0, 0, 0, 0, 0, 0};
             for (uint32_t k = 0; k < fy; k++)
-                for (int c = 0; c < 5; c++) s[c] += wy * t[((size_t)k * w + x) * 5 + c];
+                for (int c = 0; c < 6; c++) s[c] += wy * t[((size_t)k * w + x) * 6 + c];
             size_t o = (size_t)y * w + x;
             out->coverage[o] = (float)s[0];
             out->color[3 * o] = (float)s[1];
             out->color[3 * o + 1] = (float)s[2];
             out->color[3 * o + 2] = (float)s[3];
             out->depth[o] = (float)s[4];
+            out->lum[o] = (float)s[5];
         }
     }
 }
@@ -349,7 +381,7 @@ sv_status sv_eval_image_from_render_filtered(const sv_image *rgba, const float *
                        rgba->height, w, h);
     size_t n;
     double *tmp = NULL;
-    if (!sv_mul_size((size_t)w * 5, rgba->height, &n) || !(tmp = sv_calloc(n, sizeof *tmp)))
+    if (!sv_mul_size((size_t)w * 6, rgba->height, &n) || !(tmp = sv_calloc(n, sizeof *tmp)))
         return sv_fail(err, SV_ERR_NOMEM, "evaluate: out of memory");
     sv_status st = sv_eval_image_alloc(out, w, h, err);
     if (st == SV_OK) filter_render(rgba, depth, out, tmp);
@@ -373,6 +405,7 @@ static sv_status downsample_into(const sv_eval_image *src, sv_eval_image *out, s
     filter_plane(src->coverage, W, H, out->coverage, w, h, 1, &bx, &by, tmp);
     filter_plane(src->color, W, H, out->color, w, h, 3, &bx, &by, tmp);
     filter_plane(src->depth, W, H, out->depth, w, h, 1, &bx, &by, tmp);
+    filter_plane(src->lum, W, H, out->lum, w, h, 1, &bx, &by, tmp);
 out:
     free(tmp);
     box1d_free(&bx);
@@ -397,6 +430,7 @@ static void accumulate_rect(sv_eval_image *dst, const sv_eval_image *src, float 
         for (size_t i = row + x0; i < row + x1; i++) {
             dst->coverage[i] += wf * src->coverage[i];
             dst->depth[i] += wf * src->depth[i];
+            dst->lum[i] += wf * src->lum[i];
         }
         for (size_t i = 3 * (row + x0); i < 3 * (row + x1); i++)
             dst->color[i] += wf * src->color[i];
@@ -410,6 +444,7 @@ void sv_eval_image_accumulate(sv_eval_image *dst, const sv_eval_image *src, doub
     for (size_t i = 0; i < n; i++) {
         dst->coverage[i] += wf * src->coverage[i];
         dst->depth[i] += wf * src->depth[i];
+        dst->lum[i] += wf * src->lum[i];
     }
     for (size_t i = 0; i < 3 * n; i++) dst->color[i] += wf * src->color[i];
 }
@@ -421,14 +456,11 @@ typedef struct compare_sums {
     size_t covered;
 } compare_sums;
 
-/* Rec. 709 luminance of pixel i's straight colour (premultiplied ÷ coverage),
- * decoded from sRGB. */
+/* Pixel i's mean linear luminance over its covered samples (the lum plane
+ * ÷ coverage). */
 static double luminance(const sv_eval_image *img, size_t i, double cov)
 {
-    static const double w[3] = {0.2126, 0.7152, 0.0722};
-    double y = 0;
-    for (int k = 0; k < 3; k++) y += w[k] * sv_srgb_to_linear(img->color[3 * i + k] / cov);
-    return y;
+    return img->lum[i] / cov;
 }
 
 /* Adds the pixels of rows [y0, y1), columns [x0, x1) to the sums, row by row. */
@@ -546,6 +578,7 @@ static void zero_rect(sv_eval_image *img, uint32_t y0, uint32_t y1, uint32_t x0,
         size_t row = (size_t)y * img->width;
         memset(img->coverage + row + x0, 0, (x1 - x0) * sizeof(float));
         memset(img->depth + row + x0, 0, (x1 - x0) * sizeof(float));
+        memset(img->lum + row + x0, 0, (x1 - x0) * sizeof(float));
         memset(img->color + 3 * (row + x0), 0, 3 * (size_t)(x1 - x0) * sizeof(float));
     }
 }
@@ -640,6 +673,7 @@ static void filter_cropped(sv_evaluator *e, const sv_image *color, const float *
                               x1);
             filter_plane_rect(src->depth, W, dst->depth, w, 1, f, f, wf, wf, e->ftmp, y0, y1, x0,
                               x1);
+            filter_plane_rect(src->lum, W, dst->lum, w, 1, f, f, wf, wf, e->ftmp, y0, y1, x0, x1);
         }
     }
 }
@@ -796,7 +830,7 @@ sv_status sv_evaluator_create(sv_renderer *r, const sv_mesh *original, const sv_
     }
     if (e->base % e->sizes[0] == 0) { /* the fused filter's rows; else the float image */
         size_t nt;
-        if (sv_mul_size((size_t)e->sizes[0] * 5, e->base, &nt))
+        if (sv_mul_size((size_t)e->sizes[0] * 6, e->base, &nt))
             e->ftmp = sv_calloc(nt, sizeof *e->ftmp);
     }
     e->need_full = !e->ftmp;
