@@ -37,6 +37,8 @@ python3 "$here/stochastic_sloppy.py" --twig --doc
 # issue 40: the held-out set (ez-tree, Sapling, sweethome3d-furniture; tests/bench/heldout.py)
 # beside the shared set: chains, chain rules, levels against sveval, cutoffs, stochastic vs sloppy
 python3 "$here/heldout_figures.py" --shared
+# issue 40 item 7: every shared tree moved by 10^7 units bakes to the same stand-ins (~15 min)
+python3 "$here/far_origin_sets.py"
 # issue 20 item 5: each method's default against the floor, the one-triangle bake, peak RSS
 python3 "$here/speed.py"
 # issue 20 item 1: daemon jobs per minute with and without the worker pool
