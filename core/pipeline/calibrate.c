@@ -248,3 +248,32 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, 
     sv_evaluator_destroy(ev);
     return st;
 }
+
+sv_status svp_scale_atlas(sv_baked_lod *b, double f, sv_error *err)
+{
+    sv_image *a = &b->albedo;
+    if (!a->data || a->channels != 4 || a->bits != 8) return SV_OK;
+    sv_image n;
+    sv_status st = sv_image_alloc(&n, a->width, a->height, 4, 8, err);
+    if (st) return st;
+    uint8_t lut[256];
+    for (int c = 0; c < 256; c++) lut[c] = sv_srgb_encode8(sv_srgb_decode8((uint8_t)c) * f);
+    const uint8_t *src = a->data;
+    uint8_t *dst = n.data;
+    for (size_t i = 0, len = (size_t)a->width * a->height * 4; i < len; i += 4) {
+        dst[i] = lut[src[i]];
+        dst[i + 1] = lut[src[i + 1]];
+        dst[i + 2] = lut[src[i + 2]];
+        dst[i + 3] = src[i + 3];
+    }
+    sv_mesh *m = b->mesh;
+    int32_t t = m && m->triangle_count ? m->materials[m->tri_material[0]].base_texture : -1;
+    if (t >= 0 && (uint32_t)t < m->image_count) {
+        sv_image_free(&m->images[t]);
+        st = sv_image_copy(&n, &m->images[t], err);
+    }
+    sv_image_free(a);
+    if (!st) st = sv_image_copy(&n, a, err);
+    sv_image_free(&n);
+    return st;
+}

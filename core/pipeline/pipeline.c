@@ -596,6 +596,49 @@ static sv_status measure_bound(run *r, bake_state *b, uint32_t i, sv_error *err)
     return st;
 }
 
+/* The lum_ratio of level i's evaluation at the size nearest 64 px (the
+ * sveval-equivalent render), or 0 when it has none. */
+static double level_lum(const lod_out *l)
+{
+    double best = 0;
+    uint32_t d = UINT32_MAX;
+    for (uint32_t k = 0; k < l->eval.size_count; k++) {
+        uint32_t px = l->eval.sizes[k].pixels, dk = px > 64 ? px - 64 : 64 - px;
+        if (dk < d) d = dk, best = l->eval.sizes[k].lum_ratio;
+    }
+    return best;
+}
+
+/* Brightness match (docs/accuracy.md "Brightness"): a quad level measured
+ * on its own whose light differs from the original's where both cover by
+ * more than SV_BRIGHTNESS_BAND (lum_ratio, sveval's figure, over the
+ * evaluation's views) has its atlas colour scaled by the inverse, then is
+ * measured again; twice at most (the level's kept trunk and texels clamped
+ * at white keep their light). A level's colour is the views' average of what
+ * its texels stand for, the cutoff's counterpart for light: no pop in
+ * brightness where the chain switches to it. */
+static sv_status match_brightness(run *r, bake_state *b, uint32_t i, sv_error *err)
+{
+    const sv_lod_plan *lp = &b->si.lods[i];
+    lod_out *l = &b->lods[i];
+    if (!lp->quad_count || svp_drawn_by_hook(lp) || lp->select || drawn_as_earlier(b, i) >= 0 ||
+        !l->evaluated || !l->baked.albedo.data)
+        return SV_OK;
+    for (int pass = 0; pass < 2; pass++) {
+        double q = level_lum(l);
+        if (!(q > 0) || fabs(q - 1.0) <= SV_BRIGHTNESS_BAND) break;
+        sv_status st = svp_scale_atlas(&l->baked, 1.0 / q, err);
+        if (st) return st;
+        l->colour_scale = (l->colour_scale > 0 ? l->colour_scale : 1.0) / q;
+        sv_gpu_mesh_free(l->gpu);
+        l->gpu = NULL;
+        sv_eval_result_free(&l->eval);
+        l->evaluated = false;
+        if ((st = evaluate_level(r, b, i, err))) return st;
+    }
+    return SV_OK;
+}
+
 /* Evaluate stage (when the spec asks). In: b->lods baked. Out: their eval. */
 static sv_status stage_evaluate(run *r, bake_state *b, sv_error *err)
 {
@@ -606,6 +649,8 @@ static sv_status stage_evaluate(run *r, bake_state *b, sv_error *err)
     for (uint32_t i = 0; i < b->si.lod_count; i++) {
         if ((st = stage(r, ST_EVALUATE, (double)i / b->si.lod_count, err))) return st;
         if ((st = evaluate_level(r, b, i, err))) return st;
+        /* a try judges coverage only: its colour is matched if it is baked */
+        if (!r->trial && (st = match_brightness(r, b, i, err))) return st;
         if (r->spec.eval_flattening_bound && !r->trial && (st = measure_bound(r, b, i, err)))
             return st;
     }
@@ -695,6 +740,7 @@ static void stage_reuse(run *r, bake_state *b)
         sv_eval_result_free(&l->eval);
         sv_eval_result_free(&l->bound);
         l->evaluated = l->bound_measured = false;
+        l->colour_scale = 0; /* a try's colour is never matched (stage_evaluate) */
     }
 }
 

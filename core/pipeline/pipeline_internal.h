@@ -148,6 +148,7 @@ typedef struct lod_out {
     double alpha_cutoff; /* calibrated atlas cutoff (0 = not calibrated) */
     double calib_iou;    /* mean IoU at SV_CALIB_PIXELS with that cutoff */
     bool reduced;        /* its atlas was reduced after it was measured (measure again) */
+    double colour_scale; /* its atlas colour × this in linear light (0: untouched; svp_scale_atlas) */
 } lod_out;
 
 /* One bake of the chain (svp_bake_all): filled stage by stage. */
@@ -244,6 +245,14 @@ sv_status svp_calibrate_cutoffs(run *r, sv_renderer *ren, const sv_gpu_mesh *gsr
  * calibrates their cutoff again there when `calibrate`). */
 sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, sv_stand_in *si,
                              lod_out *lods, double tree_h, bool calibrate, sv_error *err);
+
+/* Brightness match (docs/accuracy.md "Brightness"): a quad level whose
+ * lum_ratio at 64 px is off 1 by more than this gets its atlas scaled. */
+#define SV_BRIGHTNESS_BAND 0.02
+/* b's atlas colour × f in linear light: each texel decoded from sRGB,
+ * scaled, clamped to 1, encoded again, alpha kept; new pixels for the
+ * albedo and for the atlas material's texture (its copy in b->mesh). */
+sv_status svp_scale_atlas(sv_baked_lod *b, double f, sv_error *err);
 
 /* ---- target.c ---- */
 

@@ -385,6 +385,7 @@ static cJSON *report_lod_json(const run *r, const bake_state *b, uint32_t i)
     cJSON_AddNumberToObject(o, "texels", (double)bk->albedo.width * bk->albedo.height);
     cJSON_AddNumberToObject(o, "texel_size", bk->texel_size);
     cJSON_AddNumberToObject(o, "supersample", bk->supersample);
+    if (l->colour_scale > 0) cJSON_AddNumberToObject(o, "colour_scale", l->colour_scale);
     if (l->alpha_cutoff > 0) {
         cJSON_AddNumberToObject(o, "alpha_cutoff", l->alpha_cutoff);
         cJSON_AddNumberToObject(o, "alpha_calibration_iou", l->calib_iou);
