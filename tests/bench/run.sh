@@ -39,6 +39,9 @@ python3 "$here/stochastic_sloppy.py" --twig --doc
 python3 "$here/heldout_figures.py" --shared
 # issue 40 item 7: every shared tree moved by 10^7 units bakes to the same stand-ins (~15 min)
 python3 "$here/far_origin_sets.py"
+# issue 41: every level's brightness under sveval's colour, the shared and the held-out set (~20 min)
+python3 "$here/brightness.py"
+python3 "$here/brightness.py" --heldout
 # issue 20 item 5: each method's default against the floor, the one-triangle bake, peak RSS
 python3 "$here/speed.py"
 # issue 20 item 1: daemon jobs per minute with and without the worker pool
