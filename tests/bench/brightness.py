@@ -20,6 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from docsection import write_section  # noqa: E402
 from fidelity import trees as shared_trees, companions, root, data, bake, sv_dir, sveval  # noqa: E402
 import heldout  # noqa: E402
+from far_origin_sets import bake_to  # noqa: E402
 
 SCALE = {"m": 1.0, "cm": 0.01}
 
@@ -33,20 +34,9 @@ def sv(ref, cand, scale):
     return g("lum_ratio"), g("soft64_rgb_err"), g("mean_rgb_err")
 
 
-def run(binary, files, units, out):
-    spec = out + ".json"
-    with open(spec, "w") as f:
-        json.dump({"import": {"units": units}}, f)
-    p = subprocess.run([binary, "bake"] + files + ["--spec", spec, "--out", out, "--progress", "none"],
-                       capture_output=True, text=True)
-    if p.returncode not in (0, 3):
-        raise RuntimeError("bake failed (%d): %s" % (p.returncode, p.stderr[-300:]))
-    return json.load(open(os.path.join(out, "report.json")))
-
-
 def levels(binary, d, files, units, tmp, tag):
     out = os.path.join(tmp, d + "-" + tag)
-    rep = run(binary, files, units, out)
+    rep = bake_to(files, units, out, binary)
     scale = SCALE[units] if isinstance(units, str) else float(units)
     rows = {}
     for l in rep["lods"]:

@@ -23,6 +23,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from docsection import write_section  # noqa: E402
 from fidelity import trees as shared_trees, companions, root, data, bake, sv_dir, sveval  # noqa: E402
 import heldout  # noqa: E402
+from heldout_figures import sv as heldout_sv  # noqa: E402
 
 OFFSET = 1e7
 SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -74,22 +75,23 @@ def strip_translation(src, dst):
 
 
 def sv(ref, cand, scale):
-    cmd = [sveval, ref, cand, "--views", "24", "--byte-color"]
-    if scale != 1.0:
-        cmd += ["--ref-scale", repr(scale)]
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-    g = lambda k: float(re.search(k + r"=([0-9.]+)", out).group(1))  # noqa: E731
-    return g("soft64_iou"), g("soft32_iou")
+    """sveval's soft IoU at 64 and 32 px (heldout_figures.sv)."""
+    return heldout_sv(ref, cand, scale)[:2]
 
 
-def bake_to(files, units, out):
+def bake_to(files, units, out, binary=None):
+    """`{}` with the tree's units into out (binary: another sylva-bake);
+    report.json's document."""
     spec = out + ".json"
     with open(spec, "w") as f:
         json.dump({"import": {"units": units}}, f)
-    p = subprocess.run([bake, "bake"] + files + ["--spec", spec, "--out", out, "--progress", "none"],
+    p = subprocess.run([binary or bake, "bake"] + files +
+                       ["--spec", spec, "--out", out, "--progress", "none"],
                        capture_output=True, text=True)
     if p.returncode not in (0, 3):
         raise RuntimeError("bake failed (%d): %s" % (p.returncode, p.stderr[-300:]))
+    with open(os.path.join(out, "report.json")) as f:
+        return json.load(f)
 
 
 def one(name, files, units, tmp):

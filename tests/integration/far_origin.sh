@@ -27,17 +27,11 @@ for f in aspen_small.obj aspen_small.mtl bark_birch_color_1k.jpg leaves_aspen_co
     cp "$D/$f" "$tmp/u/"
     [ "$f" = aspen_small.obj ] || cp "$D/$f" "$tmp/m/"
 done
-python3 - "$D/aspen_small.obj" "$tmp/m/aspen_small.obj" 1e7 << 'PY'
-import sys
-off = float(sys.argv[3])
-with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as o:
-    for line in f:
-        if line.startswith('v '):
-            p = line.split()
-            dec = [len(t.split('.')[1]) if '.' in t else 0 for t in p[1:4]]
-            line = 'v %s\n' % ' '.join('%.*f' % (d, float(t) + off) for d, t in zip(dec, p[1:4]))
-        o.write(line)
-PY
+# the bench's mover (tests/bench/far_origin_sets.py: every shared tree; -B: no
+# __pycache__ in the checkout)
+python3 -B -c 'import sys; sys.path.insert(0, sys.argv[1])
+from far_origin_sets import move_obj
+move_obj(sys.argv[2], sys.argv[3], 1e7)' "$root/tests/bench" "$D/aspen_small.obj" "$tmp/m/aspen_small.obj"
 # the default chain and an octahedral level (impostor.json), kept cheap
 printf '%s\n' '{"import":{"units":0.2},"bake":{"max_atlas":256},"evaluate":{"views":4,"sizes":[64]}}' \
     > "$tmp/chain.json"

@@ -34,6 +34,21 @@ run() {
     echo $? > "$T/$1.rc"
 }
 target() { json_get "$T/$1/report.json" "$2"; }
+# same_bakes A B [KEY]: 1 when every output of bake A is B's byte for byte and
+# their report.json documents are equal without "times" (and KEY), else 0
+# (each difference named on stderr)
+same_bakes() {
+    s=1
+    for f in "$T/$1"/*; do
+        n=$(basename "$f")
+        [ "$n" = report.json ] && continue
+        cmp -s "$f" "$T/$2/$n" || { s=0; echo "$2 differs from $1: $n" >&2; }
+    done
+    strip='import json,sys; j=json.load(open(sys.argv[1])); j.pop("times"); j.pop(sys.argv[2], None); print(json.dumps(j, sort_keys=True))'
+    [ "$(python3 -c "$strip" "$T/$1/report.json" "${3:-}")" = "$(python3 -c "$strip" "$T/$2/report.json" "${3:-}")" ] ||
+        { s=0; echo "$2's report.json differs from $1's" >&2; }
+    echo "$s"
+}
 # stmts NAME CODE: runs python statements on j (the report) with t = j["target"], tr = its tries
 stmts() { python3 -c 'import json,sys
 j = json.load(open(sys.argv[1])); t = j["target"]; tr = t["tries"]; c = t["chosen"]
@@ -74,16 +89,8 @@ run offmet '{"method":"billboard_cloud","lod":{"chain":false},'"$COMMON"',"targe
 check "a target with the chain off exits 0" 0 "$(cat "$T/offmet.rc")"
 chosen=$(json_get "$T/offmet/report.json" 'json.dumps(j["method"]["settings"])')
 run offdirect '{"method":"billboard_cloud","lod":{"chain":false},'"$COMMON"',"billboard_cloud":'"$chosen"'}'
-same_all=1
-for f in "$T"/offdirect/*; do
-    n=$(basename "$f")
-    [ "$n" = report.json ] && continue
-    cmp -s "$f" "$T/offmet/$n" || { same_all=0; echo "differs from the direct bake: $n"; }
-done
-strip2='import json,sys; j=json.load(open(sys.argv[1])); j.pop("times"); j.pop("target", None); print(json.dumps(j, sort_keys=True))'
-[ "$(python3 -c "$strip2" "$T/offmet/report.json")" = "$(python3 -c "$strip2" "$T/offdirect/report.json")" ] ||
-    { same_all=0; echo "report.json differs from the direct bake's"; }
-check "... its outputs are byte for byte the direct bake's (the chosen try reused)" 1 "$same_all"
+check "... its outputs are byte for byte the direct bake's (the chosen try reused)" 1 \
+    "$(same_bakes offdirect offmet target)"
 check "... the same file list" "$(ls "$T/offdirect" | tr '\n' ' ')" "$(ls "$T/offmet" | tr '\n' ' ')"
 check "... and the final bake made no plane selection or texture bake of its own" True \
     "$(json_get "$T/offmet/report.json" 'j["times"]["method"] == 0 and j["times"]["bake"] == 0')"
@@ -139,15 +146,8 @@ done
 run noeval '{"evaluate":{"enabled":false},"target":{"iou":0.9}}'
 check "an IoU target without evaluation is refused" 1 "$(cat "$T/noeval.rc")"
 run planes2 '{"method":"billboard_cloud",'"$COMMON"',"target":{"max_planes":10}}'
-same=1
-for f in "$T"/planes/*; do
-    n=$(basename "$f")
-    [ "$n" = report.json ] && continue
-    cmp -s "$f" "$T/planes2/$n" || { same=0; echo "differs: $n"; }
-done
-strip='import json,sys; j=json.load(open(sys.argv[1])); j.pop("times"); print(json.dumps(j, sort_keys=True))'
-[ "$(python3 -c "$strip" "$T/planes/report.json")" = "$(python3 -c "$strip" "$T/planes2/report.json")" ] || same=0
-check "the same target twice gives byte-identical outputs (report.json but its times)" 1 "$same"
+check "the same target twice gives byte-identical outputs (report.json but its times)" 1 \
+    "$(same_bakes planes planes2)"
 
 SYLVAD=$build/sylvad SYLVA=$build/sylva
 if [ -x "$SYLVAD" ] && [ -x "$SYLVA" ]; then
