@@ -83,14 +83,10 @@ sv_status sv_image_copy(const sv_image *src, sv_image *dst, sv_error *err)
 
 uint64_t sv_image_pixel_hash(const sv_image *img)
 {
-    uint64_t h = 1469598103934665603ull;
     uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
-    const uint8_t *p = (const uint8_t *)head;
-    for (size_t i = 0; i < sizeof head; i++) h = (h ^ p[i]) * 1099511628211ull;
-    p = img->data;
-    size_t n = sv_image_stride(img) * img->height;
-    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211ull;
-    return h;
+    /* its own start, not SV_FNV1A_BASIS: texture file names stay as they were */
+    uint64_t h = sv_fnv1a(1469598103934665603ull, head, sizeof head);
+    return sv_fnv1a(h, img->data, sv_image_stride(img) * img->height);
 }
 
 sv_status sv_image_set_source(sv_image *img, const void *data, size_t size, sv_error *err)

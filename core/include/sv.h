@@ -88,4 +88,15 @@ double sv_now(void);
  * sees a partial file. SV_ERR_IO naming the path and the system's reason. */
 sv_status sv_write_file(const char *path, const void *data, size_t size, sv_error *err);
 
+/* 64-bit FNV-1a over n bytes at p, continuing h (start from
+ * SV_FNV1A_BASIS): a dedup or memo key, never a checksum (the image memo,
+ * texture names, the billboard cloud's ε memo). */
+#define SV_FNV1A_BASIS 14695981039346656037ull
+static inline uint64_t sv_fnv1a(uint64_t h, const void *p, size_t n)
+{
+    const unsigned char *c = (const unsigned char *)p;
+    for (size_t i = 0; i < n; i++) h = (h ^ c[i]) * 1099511628211ull;
+    return h;
+}
+
 #endif

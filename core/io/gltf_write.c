@@ -252,13 +252,8 @@ static double short_float(float f)
  * resolved by comparing bytes). */
 static uint64_t image_hash(const sv_image *img, size_t bytes)
 {
-    uint64_t h = 1469598103934665603ull;
     uint32_t head[4] = {img->width, img->height, img->channels, img->bits};
-    const uint8_t *p = (const uint8_t *)head;
-    for (size_t i = 0; i < sizeof head; i++) h = (h ^ p[i]) * 1099511628211ull;
-    p = img->data;
-    for (size_t i = 0; i < bytes; i++) h = (h ^ p[i]) * 1099511628211ull;
-    return h;
+    return sv_fnv1a(sv_fnv1a(1469598103934665603ull, head, sizeof head), img->data, bytes);
 }
 
 static bool image_bytes(const sv_image *img, size_t *bytes)

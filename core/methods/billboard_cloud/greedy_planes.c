@@ -1318,35 +1318,27 @@ void sv_bbc_memo_free(void *memo)
     free(m);
 }
 
-/* 64-bit FNV-1a over n bytes, continuing h. */
-static uint64_t fnv(uint64_t h, const void *p, size_t n)
-{
-    const unsigned char *c = p;
-    for (size_t i = 0; i < n; i++) h = (h ^ c[i]) * 1099511628211ull;
-    return h;
-}
-
 /* What a run depends on besides ε and the budget: the input and the
  * options (field by field: no padding bytes). */
 static uint64_t memo_key(const sv_bbc_input *in, const sv_bbc_options *o)
 {
-    uint64_t h = 14695981039346656037ull;
-    h = fnv(h, in->positions, (size_t)in->vertex_count * 3 * sizeof *in->positions);
-    h = fnv(h, in->indices, (size_t)in->triangle_count * 3 * sizeof *in->indices);
-    h = fnv(h, &in->elem_count, sizeof in->elem_count);
+    uint64_t h = SV_FNV1A_BASIS;
+    h = sv_fnv1a(h, in->positions, (size_t)in->vertex_count * 3 * sizeof *in->positions);
+    h = sv_fnv1a(h, in->indices, (size_t)in->triangle_count * 3 * sizeof *in->indices);
+    h = sv_fnv1a(h, &in->elem_count, sizeof in->elem_count);
     if (in->elem_first) {
-        h = fnv(h, in->elem_first, ((size_t)in->elem_count + 1) * sizeof *in->elem_first);
-        h = fnv(h, in->elem_tris, (size_t)in->elem_first[in->elem_count] * sizeof *in->elem_tris);
+        h = sv_fnv1a(h, in->elem_first, ((size_t)in->elem_count + 1) * sizeof *in->elem_first);
+        h = sv_fnv1a(h, in->elem_tris, (size_t)in->elem_first[in->elem_count] * sizeof *in->elem_tris);
     }
-    if (in->elem_part) h = fnv(h, in->elem_part, in->elem_count);
-    h = fnv(h, in->centre, sizeof in->centre);
-    h = fnv(h, &in->radius, sizeof in->radius);
+    if (in->elem_part) h = sv_fnv1a(h, in->elem_part, in->elem_count);
+    h = sv_fnv1a(h, in->centre, sizeof in->centre);
+    h = sv_fnv1a(h, &in->radius, sizeof in->radius);
     const uint32_t u[] = {o->grid_theta, o->grid_phi, o->grid_rho, o->refine_levels,
                           o->horizontal_penalty, o->tweak, o->weld};
     const double d[] = {o->miss_penalty, o->max_angle_deg, o->horizontal_value,
                         o->horizontal_angle_deg};
-    h = fnv(h, u, sizeof u);
-    return fnv(h, d, sizeof d);
+    h = sv_fnv1a(h, u, sizeof u);
+    return sv_fnv1a(h, d, sizeof d);
 }
 
 static memo_entry *memo_find(sv_bbc_memo *m, uint64_t key, double eps, double angle, bool add)
