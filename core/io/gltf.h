@@ -69,6 +69,9 @@ typedef struct sv_gltf_lod {
                               digit of the double (JSON numbers), so a tree far
                               from the origin keeps local float vertices */
     sv_gltf_compress compress; /* how the geometry is stored (default: floats) */
+    bool no_normals;           /* leave NORMAL out (the source had none: glTF readers compute
+                                  them, flat by the spec, as they would for the source), so
+                                  vertices merge on position and UV alone */
 } sv_gltf_lod;
 
 /* Encodes lods[0..lod_count) (finest first, lod_count >= 1) as GLB into a

@@ -632,8 +632,9 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
                               double qoff[3], double *qscale);
 
 /* Writes the mesh of LOD l with its identical vertices merged: vertices
- * equal in every attribute written (position, normal, UV when a material
- * samples a texture, the extra attributes; bit for bit) become one, in the order the triangles first use
+ * equal in every attribute written (position, normal unless l->no_normals,
+ * UV when a material samples a texture, the extra attributes; bit for bit)
+ * become one, in the order the triangles first use
  * them (meshopt_generateVertexRemapMulti), and vertices no triangle uses are
  * left out. Lossless: the same triangles, drawn the same, in fewer bytes
  * (a tree's triangle soup held each vertex once per triangle). */
@@ -644,9 +645,11 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     size_t nv = m->vertex_count, ni = (size_t)m->triangle_count * 3;
     struct meshopt_Stream streams[3 + 8];
     size_t ns = 0;
+    /* normals the source never had are left to the reader (l->no_normals) */
+    const float *normals = l->no_normals ? NULL : m->normals;
     streams[ns++] = (struct meshopt_Stream){m->positions, 3 * sizeof(float), 3 * sizeof(float)};
-    if (m->normals)
-        streams[ns++] = (struct meshopt_Stream){m->normals, 3 * sizeof(float), 3 * sizeof(float)};
+    if (normals)
+        streams[ns++] = (struct meshopt_Stream){normals, 3 * sizeof(float), 3 * sizeof(float)};
     /* UVs only when a material samples a texture: without one they draw
      * nothing, and their seams keep vertices apart */
     bool uvs = false;
@@ -672,17 +675,28 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
         st = nomem(w);
         goto out;
     }
-    size_t unique = meshopt_generateVertexRemapMulti(remap, m->indices, ni, nv, streams, ns);
+    /* number the vertices in the order the primitives (ascending material)
+     * first use them, so a primitive of few vertices ahead of a large one
+     * (a trunk before its leaves) has 16-bit indices (write_welded); idx
+     * holds the triangles grouped so for the moment */
+    {
+        size_t k = 0;
+        for (uint32_t mi = 0; mi < m->material_count; mi++)
+            for (uint32_t t = 0; t < m->triangle_count; t++)
+                if (m->tri_material[t] == mi)
+                    for (int c = 0; c < 3; c++) idx[k++] = m->indices[3 * (size_t)t + c];
+    }
+    size_t unique = meshopt_generateVertexRemapMulti(remap, idx, ni, nv, streams, ns);
     meshopt_remapIndexBuffer(idx, m->indices, ni, remap);
     pos = malloc((unique ? unique : 1) * 3 * sizeof(float));
-    if (m->normals) nrm = malloc((unique ? unique : 1) * 3 * sizeof(float));
+    if (normals) nrm = malloc((unique ? unique : 1) * 3 * sizeof(float));
     if (uvs) uv = malloc((unique ? unique : 1) * 2 * sizeof(float));
-    if (!pos || (m->normals && !nrm) || (uvs && !uv)) {
+    if (!pos || (normals && !nrm) || (uvs && !uv)) {
         st = nomem(w);
         goto out;
     }
     meshopt_remapVertexBuffer(pos, m->positions, nv, 3 * sizeof(float), remap);
-    if (nrm) meshopt_remapVertexBuffer(nrm, m->normals, nv, 3 * sizeof(float), remap);
+    if (nrm) meshopt_remapVertexBuffer(nrm, normals, nv, 3 * sizeof(float), remap);
     if (uv) meshopt_remapVertexBuffer(uv, m->uvs, nv, 2 * sizeof(float), remap);
     for (uint32_t a = 0; a < l->attribute_count; a++) {
         size_t sz = l->attributes[a].components * sizeof(float);
@@ -729,10 +743,17 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
     }
     if ((st = write_vertices(w, l, attrs, qoff, qscale)) != SV_OK) goto out;
     for (uint32_t t = 0; t < m->triangle_count; t++) per_mat[m->tri_material[t]]++;
-    bool small = m->vertex_count <= 65535; /* index 65535 is primitive restart: never used */
-    size_t isz = small ? 2 : 4;
     for (uint32_t mi = 0; mi < m->material_count; mi++) {
         if (!per_mat[mi]) continue;
+        /* 16-bit indices when this primitive's all fit (65535 is primitive
+         * restart: never used) */
+        uint32_t top = 0;
+        for (uint32_t t = 0; t < m->triangle_count; t++)
+            if (m->tri_material[t] == mi)
+                for (int c = 0; c < 3; c++)
+                    if (m->indices[3 * (size_t)t + c] > top) top = m->indices[3 * (size_t)t + c];
+        bool small = top < 65535;
+        size_t isz = small ? 2 : 4;
         size_t count = (size_t)per_mat[mi] * 3, bytes;
         if (!sv_mul_size(count, isz, &bytes) || !(idx = malloc(bytes))) {
             st = nomem(w);

@@ -821,6 +821,17 @@ static void local_origin(const struct aiScene *scene, const double shift[3], cha
     for (int k = 0; k < 3; k++) origin[k] = round(at[k] / q) * q + 0.0; /* no -0 */
 }
 
+/* Whether am is a glTF primitive without normals, which glTF draws with flat
+ * normals ("client implementations MUST calculate flat normals"): merge_scene
+ * then gives each of its triangles corners of its own, so the normals
+ * computed for them are the face's. (Other formats without normals: assimp's
+ * OBJ reader already gives each face its own corners; elsewhere the shared
+ * corners get area-weighted normals.) */
+static bool drawn_flat(const importer *im, const struct aiMesh *am)
+{
+    return is_gltf(im->format) && !am->mNormals;
+}
+
 /* Merges every triangle mesh of the scene into one sv_mesh, its positions
  * relative to the local origin (local_origin, into im->info->origin). */
 static sv_status merge_scene(importer *im, const struct aiScene *scene, double scale, char up,
@@ -828,14 +839,19 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
 {
     uint64_t nv = 0, nt = 0;
     uint32_t used = 0;
+    bool any_normals = false;
     for (unsigned i = 0; i < scene->mNumMeshes; i++) {
         const struct aiMesh *am = scene->mMeshes[i];
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
-        for (unsigned f = 0; f < am->mNumFaces; f++) nt += am->mFaces[f].mNumIndices == 3;
-        nv += am->mNumVertices;
+        uint64_t tris = 0;
+        for (unsigned f = 0; f < am->mNumFaces; f++) tris += am->mFaces[f].mNumIndices == 3;
+        nt += tris;
+        nv += drawn_flat(im, am) ? 3 * tris : am->mNumVertices;
         used++;
+        if (am->mNormals) any_normals = true;
     }
     im->info->source_meshes = used;
+    im->info->no_normals = used && !any_normals;
     if (nt > im->lim.max_triangles)
         return sv_fail(im->err, SV_ERR_LIMIT, "mesh has %llu triangles (limit %llu)",
                        (unsigned long long)nt, (unsigned long long)im->lim.max_triangles);
@@ -853,6 +869,7 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
     sv_material *mats = sv_calloc(nmat, sizeof *mats);
     sv_status st = SV_OK;
     sv_mesh *mesh = NULL;
+    unsigned *corner = NULL; /* see below */
     if (!im->images || !im->slots || !mats) {
         st = sv_fail(im->err, SV_ERR_NOMEM, "out of memory for %u materials", nmat);
         goto out;
@@ -890,10 +907,37 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
         const struct aiMesh *am = scene->mMeshes[i];
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
         uint32_t mat = am->mMaterialIndex < nmat ? am->mMaterialIndex : 0;
-        for (unsigned v = 0; v < am->mNumVertices; v++) {
+        /* corner[j]: the source vertex of output vertex j (drawn_flat: one
+         * per triangle corner) */
+        unsigned count = am->mNumVertices;
+        free(corner);
+        corner = NULL;
+        if (drawn_flat(im, am)) {
+            count = 0;
+            corner = malloc(3 * (size_t)am->mNumFaces * sizeof *corner + 1);
+            if (!corner) {
+                st = sv_fail(im->err, SV_ERR_NOMEM, "out of memory");
+                goto out;
+            }
+            for (unsigned f = 0; f < am->mNumFaces; f++) {
+                const struct aiFace *face = &am->mFaces[f];
+                if (face->mNumIndices != 3) continue;
+                for (int k = 0; k < 3; k++) {
+                    if (face->mIndices[k] >= am->mNumVertices) {
+                        st = sv_fail(im->err, SV_ERR_INVALID,
+                                     "triangle %u refers to vertex %u of %u", t0 + count / 3,
+                                     v0 + face->mIndices[k], v0 + am->mNumVertices);
+                        goto out;
+                    }
+                    corner[count++] = face->mIndices[k];
+                }
+            }
+        }
+        for (unsigned j = 0; j < count; j++) {
+            unsigned v = corner ? corner[j] : j;
             double w[3];
             source_position(am, v, to_local, up, w);
-            float *o = &mesh->positions[3 * ((size_t)v0 + v)];
+            float *o = &mesh->positions[3 * ((size_t)v0 + j)];
             for (int k = 0; k < 3; k++) o[k] = (float)(w[k] * scale);
             for (int k = 0; k < 3; k++)
                 if (!isfinite(o[k])) {
@@ -903,7 +947,7 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
                 }
             if (am->mNormals) {
                 const struct aiVector3D *n = &am->mNormals[v];
-                float *q = &mesh->normals[3 * ((size_t)v0 + v)];
+                float *q = &mesh->normals[3 * ((size_t)v0 + j)];
                 q[0] = n->x;
                 q[1] = up == 'Z' ? n->z : n->y;
                 q[2] = up == 'Z' ? -n->y : n->z;
@@ -914,8 +958,8 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
                     u = w = 0;
                     bad_uv = true;
                 }
-                mesh->uvs[2 * ((size_t)v0 + v)] = u;
-                mesh->uvs[2 * ((size_t)v0 + v) + 1] = w;
+                mesh->uvs[2 * ((size_t)v0 + j)] = u;
+                mesh->uvs[2 * ((size_t)v0 + j) + 1] = w;
             }
         }
         uint32_t tstart = t0;
@@ -928,21 +972,23 @@ static sv_status merge_scene(importer *im, const struct aiScene *scene, double s
                                  t0, v0 + face->mIndices[k], v0 + am->mNumVertices);
                     goto out;
                 }
-                mesh->indices[3 * (size_t)t0 + k] = v0 + face->mIndices[k];
+                mesh->indices[3 * (size_t)t0 + k] =
+                    v0 + (corner ? 3 * (t0 - tstart) + (uint32_t)k : face->mIndices[k]);
             }
             mesh->tri_material[t0] = mat;
             t0++;
         }
         if (!am->mNormals) {
-            st = normals_for_range(mesh, tstart, t0, v0, v0 + am->mNumVertices, im->err);
+            st = normals_for_range(mesh, tstart, t0, v0, v0 + count, im->err);
             if (st != SV_OK) goto out;
         }
-        v0 += am->mNumVertices;
+        v0 += count;
     }
     if (bad_uv) add_warning(im->info, "non-finite texture coordinates were set to (0,0)");
 out:
     if (im->images)
         for (uint32_t i = 0; i < im->image_count; i++) sv_image_free(&im->images[i]);
+    free(corner);
     free(im->images);
     free(im->slots);
     free(mats);

@@ -76,6 +76,9 @@ typedef struct sv_import_info {
     double origin[3];           /* where the mesh's local origin is in the file (metres, sylva's
                          frame): positions are file positions minus origin, taken in
                          double; zero for a tree modelled near the origin */
+    bool no_normals;            /* the file gave no normals: every one was computed from the
+                                   faces (docs/outputs.md "Sizes": the mesh levels' files leave
+                                   them out too, and readers compute their own, as for the file) */
 } sv_import_info;
 
 /* Imports files[0] (with files[1..count-1] as its companions) into a new mesh

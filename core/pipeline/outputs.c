@@ -199,6 +199,10 @@ sv_status svp_write_gltf(const run *r, bake_state *b, sv_error *err)
                          : r->spec.output_compress == SV_COMPRESS_QUANTIZE ? SV_GLTF_QUANTIZE
                                                                            : SV_GLTF_FLOAT;
         const sv_lod_plan *lp = &si->lods[i];
+        /* a mesh level (full, stochastic, trunk) of a source without
+         * normals: no normals in its files either (docs/outputs.md "Sizes") */
+        gl[i].no_normals = r->p.info.no_normals && lp->quad_count == 0 && !lp->select &&
+                           !svp_drawn_by_hook(lp);
         if (lp->ops && lp->ops->gltf) { /* the level's own attributes and extras */
             st = lp->ops->gltf(lp, &lods[i].baked, &gx[i], err);
             gl[i].attributes = gx[i].attr;

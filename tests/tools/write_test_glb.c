@@ -222,12 +222,12 @@ int main(int argc, char **argv)
     }
     sv_gltf_attribute attrs[2] = {{"_ORDER", order, 1}, {"_LEAF_CENTRE", centre, 3}};
     sv_gltf_lod chain[3] = {
-        {"tree_LOD0", full, 0.5, attrs, 2, NULL, "full", {0, 0, 0}, SV_GLTF_FLOAT},
-        {"half", half, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-        {"crossed_quads", cards, 0.02, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
-    sv_gltf_lod large[1] = {{"large", big, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
-    sv_gltf_lod culled[2] = {{"cards", cards, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                             {"culled", empty, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
+        {"tree_LOD0", full, 0.5, attrs, 2, NULL, "full", {0, 0, 0}, SV_GLTF_FLOAT, false},
+        {"half", half, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+        {"crossed_quads", cards, 0.02, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
+    sv_gltf_lod large[1] = {{"large", big, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
+    sv_gltf_lod culled[2] = {{"cards", cards, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                             {"culled", empty, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
     rc = write(argv[1], "chain3.glb", chain, 3) || write(argv[1], "large.glb", large, 1) ||
          write(argv[1], "culled.glb", culled, 2) || write_levels(argv[1], chain, 3);
     for (int c = SV_GLTF_QUANTIZE; !rc && c <= SV_GLTF_MESHOPT; c++) {

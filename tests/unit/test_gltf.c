@@ -229,9 +229,9 @@ static void only_the_finest_lod_is_in_the_scene_and_coarser_ones_are_msft_lod_id
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(4, 10), *m1 = leaf_mesh(2, 10), *m2 = leaf_mesh(1, 10);
-    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"half", m1, 0.1, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"cards", m2, 0.01, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
+    sv_gltf_lod lods[3] = {{"full", m0, 0.4, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"half", m1, 0.1, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"cards", m2, 0.01, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 3, &buf, &size);
@@ -379,9 +379,9 @@ static void identical_images_are_stored_once_across_lods(void **state)
 {
     (void)state;
     sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10), *c = leaf_mesh(1, 99);
-    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"b", b, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"c", c, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
+    sv_gltf_lod lods[3] = {{"a", a, 0.5, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"b", b, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"c", c, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -492,8 +492,8 @@ static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
     sv_mesh *m0 = leaf_mesh(5, 10), *m1 = leaf_mesh(1, 20);
-    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"b", m1, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
+    sv_gltf_lod lods[2] = {{"a", m0, 0.3, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"b", m1, 0.05, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
     char dir[] = "/tmp/sv_gltf_XXXXXX";
     assert_non_null(mkdtemp(dir));
     char p1[64], p2[64];
@@ -557,8 +557,8 @@ static void empty_lod_becomes_a_node_without_a_mesh(void **state)
     (void)state;
     sv_mesh *m = leaf_mesh(1, 10), *e = sv_mesh_create(0, 0, 0, 0);
     assert_non_null(e);
-    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT},
-                           {"culled", e, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT}};
+    sv_gltf_lod lods[2] = {{"leaves", m, 0.2, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false},
+                           {"culled", e, 0.0, NULL, 0, NULL, NULL, {0, 0, 0}, SV_GLTF_FLOAT, false}};
     uint8_t *buf;
     size_t size;
     glb g = encode(lods, 2, &buf, &size);
@@ -861,6 +861,40 @@ static void identical_vertices_are_written_once(void **state)
     sv_mesh_destroy(m);
 }
 
+/* A source without normals (an OBJ with no "vn"): each face has its own
+ * corners with the face's normal, so corners of two faces meeting at an
+ * edge differ only there. With no_normals the file has no NORMAL (readers
+ * compute flat normals, as for the source) and those corners become one;
+ * without it the normals are written and keep them apart. */
+static void a_level_without_source_normals_merges_on_position(void **state)
+{
+    (void)state;
+    /* two triangles folded along the edge (0,0,0)-(1,0,0), face normals
+     * +Z and +Y, as a soup */
+    static const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0},
+                                  {1, 0, 0}, {0, 0, 0}, {0, 0, -1}};
+    sv_mesh *m = sv_mesh_create(6, 2, 1, 0);
+    assert_non_null(m);
+    for (uint32_t v = 0; v < 6; v++) {
+        memcpy(&m->positions[3 * v], p[v], sizeof p[v]);
+        m->normals[3 * v + (v < 3 ? 2 : 1)] = 1;
+        m->indices[v] = v;
+    }
+    for (int drop = 0; drop < 2; drop++) {
+        sv_gltf_lod lod = {.name = "folded", .mesh = m, .no_normals = drop};
+        uint8_t *buf;
+        size_t size;
+        glb g = encode(&lod, 1, &buf, &size);
+        cJSON *attrs = get(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "attributes");
+        int pa = (int)num(attrs, "POSITION");
+        assert_int_equal(cJSON_HasObjectItem(attrs, "NORMAL"), !drop);
+        assert_int_equal((int)num(at(get(g.json, "accessors"), pa), "count"), drop ? 4 : 6);
+        cJSON_Delete(g.json);
+        free(buf);
+    }
+    sv_mesh_destroy(m);
+}
+
 /* The image the glTF of lod embeds (the first), with its mimeType. */
 static const uint8_t *first_image(const glb *g, const char **mime, size_t *len)
 {
@@ -1078,6 +1112,7 @@ int main(void)
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
         cmocka_unit_test(standalone_level_is_one_named_node_with_embedded_images),
         cmocka_unit_test(identical_vertices_are_written_once),
+        cmocka_unit_test(a_level_without_source_normals_merges_on_position),
         cmocka_unit_test(uvs_without_a_texture_are_left_out),
         cmocka_unit_test(quantized_and_meshopt_geometry_decode_to_the_mesh),
         cmocka_unit_test(opaque_colour_textures_are_jpeg),

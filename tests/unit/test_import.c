@@ -9,6 +9,7 @@
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
+#include "gltf.h"
 #include "test_data.h"
 #include "test_skip.h"
 
@@ -1123,6 +1124,64 @@ static void far_glb_root_translation_is_kept_in_double(void **state)
     for (int i = 0; i < 3; i++) sv_mesh_destroy(m[i]);
 }
 
+/* A glTF primitive without normals is drawn flat (glTF 2.0, "Meshes"): its
+ * triangles get corners of their own and each corner its face's normal,
+ * where shared corners would have smoothed across the fold. A file with no
+ * normals at all says so (info.no_normals, the writer's cue), an OBJ too;
+ * one with normals does not. */
+static void gltf_without_normals_imports_flat_and_says_so(void **state)
+{
+    (void)state;
+    /* two triangles folded along a shared edge: faces +Z and +Y */
+    sv_mesh *f = sv_mesh_create(4, 2, 1, 0);
+    assert_non_null(f);
+    static const float p[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, -1}};
+    static const uint32_t ix[6] = {0, 1, 2, 1, 0, 3};
+    memcpy(f->positions, p, sizeof p);
+    memcpy(f->indices, ix, sizeof ix);
+    sv_gltf_lod lod = {.name = "folded", .mesh = f, .no_normals = true};
+    uint8_t *glb;
+    size_t n;
+    sv_error err = {0};
+    assert_int_equal(sv_gltf_encode_glb(&lod, 1, &glb, &n, &err), SV_OK);
+    upload u = {0};
+    upload_add(&u, "folded.glb", glb, n);
+    sv_mesh *m;
+    sv_import_info info;
+    assert_int_equal(import_upload(&u, NULL, &m, &info, &err), SV_OK);
+    assert_true(info.no_normals);
+    assert_int_equal(m->triangle_count, 2);
+    assert_int_equal(m->vertex_count, 6);
+    for (uint32_t t = 0; t < 2; t++) {
+        const uint32_t *c = &m->indices[3 * t];
+        const float *a = &m->positions[3 * c[0]], *b = &m->positions[3 * c[1]],
+                    *d = &m->positions[3 * c[2]];
+        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+               e2[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+        double fn[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                        e1[0] * e2[1] - e1[1] * e2[0]};
+        double l = sqrt(fn[0] * fn[0] + fn[1] * fn[1] + fn[2] * fn[2]);
+        for (int k = 0; k < 3; k++)
+            for (int j = 0; j < 3; j++)
+                assert_float_equal(m->normals[3 * c[k] + j], fn[j] / l, 1e-6);
+    }
+    sv_mesh_destroy(m);
+    upload_free(&u);
+    free(glb);
+    sv_mesh_destroy(f);
+    /* an OBJ without "vn" lines has no normals either; one with them has */
+    const char *objs[2] = {"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                           "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"};
+    for (int i = 0; i < 2; i++) {
+        upload o = {0};
+        upload_add_str(&o, "t.obj", objs[i]);
+        assert_int_equal(import_upload(&o, NULL, &m, &info, &err), SV_OK);
+        assert_int_equal(info.no_normals, i == 0);
+        sv_mesh_destroy(m);
+        upload_free(&o);
+    }
+}
+
 static void glb_materials_and_transforms_come_through(void **state)
 {
     (void)state;
@@ -1349,6 +1408,7 @@ int main(void)
         cmocka_unit_test(units_and_z_up_are_converted_to_metres_y_up),
         cmocka_unit_test(far_obj_is_read_in_double_into_a_local_frame),
         cmocka_unit_test(far_glb_root_translation_is_kept_in_double),
+        cmocka_unit_test(gltf_without_normals_imports_flat_and_says_so),
         cmocka_unit_test(glb_materials_and_transforms_come_through),
         cmocka_unit_test(imports_every_tree_in_the_data_set_with_readme_counts),
         cmocka_unit_test(scopia_trees_are_in_centimetres_unless_scaled),
