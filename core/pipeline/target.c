@@ -269,17 +269,44 @@ static sv_status bisect_budget(search *s, int *hi, sv_error *err)
     return SV_OK;
 }
 
-/* *ans: the first step at or below hi that reaches the IoU (-1: none). */
+/* Whether two measured steps a < b below the goal, extended in a straight
+ * line to step h, still fall short of it by more than SV_TARGET_REACH_MARGIN.
+ * A tree's IoU rises ever more slowly along a ladder (each step adds detail
+ * the coarser ones lacked least), so the line overestimates what h gives:
+ * when even the line falls short, the goal is out of reach below h. */
+#define SV_TARGET_REACH_MARGIN 0.005
+static bool line_falls_short(const search *s, int a, int b, int h)
+{
+    const step_try *x = &s->sr[a], *y = &s->sr[b];
+    if (a < 0 || b <= a || h <= b || !x->baked || !y->baked || x->iou < 0 || y->iou < 0)
+        return false;
+    double at_h = y->iou + (y->iou - x->iou) * (double)(h - b) / (double)(b - a);
+    return at_h < s->goal.target_iou - SV_TARGET_REACH_MARGIN;
+}
+
+/* *ans: the first step at or below hi that reaches the IoU (-1: none).
+ * Bisection; after two tries below the goal whose trend cannot reach it by
+ * the top of the range (line_falls_short), the top is tried next: if it
+ * falls short too the goal is out of reach and the search ends there (the
+ * steps between are not baked: the richest, the best tried, is what is
+ * returned), else bisection goes on below it. An unreachable goal costs
+ * three tries, not log2 of the ladder's richest steps. */
 static sv_status bisect_iou(search *s, int hi, int *ans, sv_error *err)
 {
-    int lo = 0, h = hi;
+    int lo = 0, h = hi, fa = -1, fb = -1; /* the last two steps below the goal */
+    bool jumped = false;                   /* once: a top that reaches disproves the line */
     *ans = -1;
     while (lo <= h) {
         int mid = (lo + h) / 2;
+        if (!jumped && !s->sr[h].tried && line_falls_short(s, fa, fb, h)) mid = h, jumped = true;
         sv_status st = probe(s, mid, err);
         if (st) return st;
-        if (s->sr[mid].baked && s->sr[mid].reached) *ans = mid, h = mid - 1;
-        else lo = mid + 1;
+        if (s->sr[mid].baked && s->sr[mid].reached) {
+            *ans = mid, h = mid - 1;
+        } else {
+            lo = mid + 1;
+            if (s->sr[mid].baked && s->sr[mid].iou >= 0) fa = fb, fb = mid;
+        }
     }
     return SV_OK;
 }

@@ -107,6 +107,19 @@ check "... after bisecting the method's 4 settings up to the richest (3 tries)" 
 check "... and bakes the best of them" True "$(stmts unmet '
 print(tr[c]["iou"] == max(x["iou"] for x in tr) and j["method"]["settings"] == tr[c]["settings"])')"
 
+# ... and on a tree of 200 leaves, whose billboard cloud rises too slowly to
+# reach it: after two tries below the goal whose straight line (an
+# overestimate: the IoU rises ever more slowly) falls short at the richest
+# step, that step is tried next and, short too, ends the search: 3 tries of
+# the 11 plane counts, not the 4 of plain bisection
+python3 "$root/tests/tools/synth_tree.py" "$T/t200.obj" 200 4242
+printf '%s\n' '{"method":"billboard_cloud",'"$COMMON"',"target":{"iou":0.999}}' > "$T/far.json"
+"$bake" bake "$T/t200.obj" "$T/t200.mtl" --spec "$T/far.json" --out "$T/far" > "$T/far.log" 2>&1
+echo $? > "$T/far.rc"
+check "... an out-of-reach goal on a larger tree exits 3" 3 "$(cat "$T/far.rc")"
+check "... after trying steps 5 and 8, then the richest (10) only" "[5, 8, 10] True" "$(stmts far '
+print(sorted(x["step"] for x in tr), tr[c]["step"] == 10 and tr[c]["iou"] == max(x["iou"] for x in tr))')"
+
 # 3. budgets
 run planes '{"method":"billboard_cloud",'"$COMMON"',"target":{"max_planes":10}}'
 check "a plane budget exits 0" 0 "$(cat "$T/planes.rc")"
