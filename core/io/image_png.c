@@ -6,10 +6,11 @@
  * of the processes that never decode a texture: OIIO is the decoding plugin
  * (image_plugin.c), loaded on first use.
  *
- * The stream is deterministic: IHDR, IDAT, IEND only (no time, text or
- * physical-size chunks), zlib level 1 (encoding speed over size: several
- * times faster than the default 6 for slightly larger files;
- * docs/benchmarks.md), libpng's default adaptive filters. 16-bit
+ * The stream is deterministic: IHDR, PLTE and tRNS when indexed, IDAT, IEND
+ * only (no time, text or physical-size chunks), zlib level 6 (level 9 was
+ * 1 % smaller on an atlas for 4.8 times the time; docs/outputs.md "Sizes"),
+ * libpng's default adaptive filters, no channel the pixels do not need
+ * (alpha, colour), and an image of at most 256 colours indexed. 16-bit
  * samples are written big-endian as PNG requires. A memo (sv_png_memo) lets
  * the write stage encode each atlas once for its three files.
  */
@@ -74,9 +75,83 @@ static void png_warning_fn(png_structp png, png_const_charp msg)
     (void)msg;
 }
 
+/* An indexed image: at most 256 RGBA colours (entries with alpha below 255
+ * first, so tRNS is short; then ascending), one byte a texel. */
+typedef struct indexed {
+    png_color rgb[256];
+    png_byte alpha[256];
+    int count, translucent; /* entries; those with alpha < 255 */
+    uint8_t *index;         /* width × height */
+} indexed;
+
+/* Fills ix when img (8-bit, 2 to 4 channels after needed_channels) has at
+ * most 256 distinct colours: an indexed PNG (colour type 3) holds it in a
+ * byte a texel, where RGBA takes four (the ez-tree leaf textures are
+ * indexed PNGs, and keep their size through a bake that colours their
+ * transparent texels, sv_texture_dilate). False when it has more, is 16-bit
+ * or grey (a grey PNG is a byte a texel already), or memory runs out (the
+ * caller then writes it as it is). Decoders give back the same RGBA. */
+static bool to_indexed(const sv_image *img, indexed *ix)
+{
+    memset(ix, 0, sizeof *ix);
+    uint32_t c = img->channels;
+    if (img->bits != 8 || c < 2) return false;
+    enum { SLOTS = 1024 };
+    uint32_t key[SLOTS], pal[256];
+    uint8_t slot_entry[SLOTS];
+    bool used[SLOTS] = {false};
+    size_t n = (size_t)img->width * img->height;
+    const uint8_t *px = img->data;
+    uint32_t count = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t *p = px + i * c;
+        uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
+                 a = (c == 2 || c == 4) ? p[c - 1] : 255;
+        /* alpha in the top byte, inverted, so that translucent entries sort first */
+        uint32_t k = (255 - a) << 24 | r << 16 | g << 8 | b;
+        uint32_t h = (k * 2654435761u) >> 22;
+        while (used[h] && key[h] != k) h = (h + 1) & (SLOTS - 1);
+        if (used[h]) continue;
+        if (count == 256) return false;
+        used[h] = true;
+        key[h] = k;
+        pal[count++] = k;
+    }
+    /* sorted: translucent (inverted alpha > 0) first, most transparent first */
+    for (uint32_t i = 1; i < count; i++)
+        for (uint32_t j = i; j > 0 && pal[j - 1] < pal[j]; j--) {
+            uint32_t t = pal[j];
+            pal[j] = pal[j - 1];
+            pal[j - 1] = t;
+        }
+    for (uint32_t h = 0; h < SLOTS; h++)
+        if (used[h])
+            for (uint32_t e = 0; e < count; e++)
+                if (pal[e] == key[h]) slot_entry[h] = (uint8_t)e;
+    if (!(ix->index = malloc(n ? n : 1))) return false;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t *p = px + i * c;
+        uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
+                 a = (c == 2 || c == 4) ? p[c - 1] : 255;
+        uint32_t k = (255 - a) << 24 | r << 16 | g << 8 | b;
+        uint32_t h = (k * 2654435761u) >> 22;
+        while (key[h] != k) h = (h + 1) & (SLOTS - 1);
+        ix->index[i] = slot_entry[h];
+    }
+    for (uint32_t e = 0; e < count; e++) {
+        ix->rgb[e] = (png_color){(png_byte)(pal[e] >> 16), (png_byte)(pal[e] >> 8),
+                                 (png_byte)pal[e]};
+        ix->alpha[e] = (png_byte)(255 - (pal[e] >> 24));
+        if (ix->alpha[e] < 255) ix->translucent = (int)e + 1;
+    }
+    ix->count = (int)count;
+    return true;
+}
+
 /* The encoder proper; rows is allocated by the caller so that nothing leaks
- * across the longjmp. */
-static sv_status encode(const sv_image *img, png_sink *sink, png_bytep *rows, sv_error *err)
+ * across the longjmp. ix: write img as that indexed image (NULL: as it is). */
+static sv_status encode(const sv_image *img, const indexed *ix, png_sink *sink, png_bytep *rows,
+                        sv_error *err)
 {
     static const int color_type[5] = {0, PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA,
                                       PNG_COLOR_TYPE_RGB, PNG_COLOR_TYPE_RGB_ALPHA};
@@ -94,6 +169,23 @@ static sv_status encode(const sv_image *img, png_sink *sink, png_bytep *rows, sv
     }
     png_set_write_fn(png, sink, sink_write, sink_flush);
     png_set_compression_level(png, SV_PNG_ZLIB_LEVEL);
+    if (ix) {
+        /* the fewest bits a texel that hold every index, packed by libpng */
+        int depth = ix->count <= 2 ? 1 : ix->count <= 4 ? 2 : ix->count <= 16 ? 4 : 8;
+        png_set_IHDR(png, info, img->width, img->height, depth, PNG_COLOR_TYPE_PALETTE,
+                     PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        png_set_PLTE(png, info, ix->rgb, ix->count);
+        if (ix->translucent) png_set_tRNS(png, info, ix->alpha, ix->translucent, NULL);
+        png_write_info(png, info);
+        if (depth < 8) png_set_packing(png);
+        for (uint32_t y = 0; y < img->height; y++)
+            rows[y] = ix->index + (size_t)y * img->width;
+        png_write_image(png, rows);
+        png_write_end(png, NULL);
+        png_destroy_write_struct(&png, &info);
+        if (sink->oom) return sv_fail(err, SV_ERR_NOMEM, "PNG encoding: out of memory");
+        return SV_OK;
+    }
     png_set_IHDR(png, info, img->width, img->height, (int)img->bits, color_type[img->channels],
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
@@ -270,7 +362,10 @@ sv_status sv_image_encode_png(const sv_image *img, uint8_t **out, size_t *out_si
         return sv_fail(err, SV_ERR_NOMEM, "PNG encoding: out of memory");
     }
     png_sink sink = {0};
-    sv_status st = encode(src, &sink, rows, err);
+    indexed ix;
+    bool pal = channels >= 2 && to_indexed(src, &ix);
+    sv_status st = encode(src, pal ? &ix : NULL, &sink, rows, err);
+    if (pal) free(ix.index);
     free(rows);
     sv_image_free(&packed);
     if (st != SV_OK) {

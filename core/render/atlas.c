@@ -493,6 +493,132 @@ static sv_status pull_push(uint16_t *l, const uint8_t *a, uint32_t w, uint32_t h
     return SV_OK;
 }
 
+/* The distinct RGBA colours of px (npx RGBA8 texels), packed r | g << 8 |
+ * b << 16 | a << 24, into pal in ascending order: their count, or 257 as
+ * soon as there are more than 256. */
+static uint32_t distinct_colours(const uint8_t *px, size_t npx, uint32_t pal[256])
+{
+    enum { SLOTS = 1024 };
+    uint32_t key[SLOTS];
+    bool used[SLOTS] = {false};
+    uint32_t n = 0;
+    for (size_t i = 0; i < npx; i++) {
+        uint32_t c = (uint32_t)px[4 * i] | (uint32_t)px[4 * i + 1] << 8 |
+                     (uint32_t)px[4 * i + 2] << 16 | (uint32_t)px[4 * i + 3] << 24;
+        uint32_t h = (c * 2654435761u) >> 22; /* 10 bits */
+        while (used[h] && key[h] != c) h = (h + 1) & (SLOTS - 1);
+        if (used[h]) continue;
+        if (n == 256) return 257;
+        used[h] = true;
+        key[h] = c;
+        pal[n++] = c;
+    }
+    for (uint32_t i = 1; i < n; i++) /* insertion sort: at most 256 */
+        for (uint32_t j = i; j > 0 && pal[j - 1] > pal[j]; j--) {
+            uint32_t t = pal[j];
+            pal[j] = pal[j - 1];
+            pal[j - 1] = t;
+        }
+    return n;
+}
+
+static uint32_t rgb_dist2(uint32_t a, uint32_t b)
+{
+    uint32_t d = 0;
+    for (int k = 0; k < 3; k++) {
+        int x = (int)((a >> (8 * k)) & 255) - (int)((b >> (8 * k)) & 255);
+        d += (uint32_t)(x * x);
+    }
+    return d;
+}
+
+/* The index in cand (n colours, ok[i] says which may be chosen) nearest to c
+ * in sRGB bytes; ties to the lower index. */
+static uint32_t nearest_colour(uint32_t c, const uint32_t *cand, const bool *ok, uint32_t n)
+{
+    uint32_t best = 0, bd = UINT32_MAX;
+    for (uint32_t j = 0; j < n; j++)
+        if (ok[j] && rgb_dist2(c, cand[j]) < bd) bd = rgb_dist2(c, cand[j]), best = j;
+    return best;
+}
+
+/* A texture of at most 256 colours (an indexed PNG: the ez-tree leaves) stays
+ * one, so that its file stays an indexed PNG (docs/outputs.md "Sizes"; as
+ * RGBA the aspen's leaves were 461 KB against the input's 142 KB): each
+ * filled texel (px's alpha 0) of o takes, of the colours of the visible
+ * texels, the one nearest its fill (sRGB bytes); when the fills would
+ * need more transparent entries than the palette has room for (256 less the
+ * visible colours), the most used are kept and the others go to the
+ * nearest kept. The fill's purpose, a mip average that sees the leaf's
+ * colours and not black, is kept; the leaf colours are dense enough that
+ * the nearest is a few levels away. Nothing is done (o keeps the full
+ * fill) when px has more than 256 colours or 256 visible ones. */
+static sv_status snap_fill_to_palette(const uint8_t *px, uint8_t *o, size_t npx, sv_error *err)
+{
+    uint32_t pal[256], vis[256];
+    uint32_t np = distinct_colours(px, npx, pal), nv = 0;
+    if (np > 256) return SV_OK;
+    for (uint32_t i = 0; i < np; i++)
+        if (pal[i] >> 24) {
+            uint32_t rgb = pal[i] & 0xFFFFFFu;
+            bool dup = false;
+            for (uint32_t j = 0; j < nv && !dup; j++) dup = vis[j] == rgb;
+            if (!dup) vis[nv++] = rgb;
+        }
+    uint32_t visible = 0; /* palette entries with alpha: they stay */
+    for (uint32_t i = 0; i < np; i++) visible += (pal[i] >> 24) != 0;
+    if (nv == 0 || visible >= 256) return SV_OK;
+    uint32_t room = 256 - visible;
+    uint8_t *pick = malloc(npx);
+    uint32_t *cache = malloc((size_t)4096 * 2 * sizeof *cache); /* fill rgb, index + 1 */
+    if (!pick || !cache) {
+        free(pick);
+        free(cache);
+        return sv_fail(err, SV_ERR_NOMEM, "dilate: out of memory");
+    }
+    memset(cache, 0, (size_t)4096 * 2 * sizeof *cache);
+    bool ok[256];
+    for (uint32_t j = 0; j < nv; j++) ok[j] = true;
+    size_t count[256] = {0};
+    for (size_t i = 0; i < npx; i++) {
+        if (px[4 * i + 3]) continue;
+        uint32_t c = (uint32_t)o[4 * i] | (uint32_t)o[4 * i + 1] << 8 | (uint32_t)o[4 * i + 2] << 16;
+        uint32_t h = ((c * 2654435761u) >> 20) & 4095u;
+        uint32_t j;
+        if (cache[2 * h + 1] && cache[2 * h] == c) {
+            j = cache[2 * h + 1] - 1;
+        } else {
+            j = nearest_colour(c, vis, ok, nv);
+            cache[2 * h] = c;
+            cache[2 * h + 1] = j + 1;
+        }
+        pick[i] = (uint8_t)j;
+        count[j]++;
+    }
+    uint32_t need = 0;
+    for (uint32_t j = 0; j < nv; j++) need += count[j] > 0;
+    if (need > room) { /* keep the `room` most used; the rest to the nearest kept */
+        bool keep[256] = {false};
+        for (uint32_t r = 0; r < room; r++) {
+            uint32_t b = nv;
+            for (uint32_t j = 0; j < nv; j++)
+                if (!keep[j] && count[j] > 0 && (b == nv || count[j] > count[b])) b = j;
+            if (b < nv) keep[b] = true;
+        }
+        uint8_t to[256];
+        for (uint32_t j = 0; j < nv; j++)
+            to[j] = (uint8_t)(keep[j] ? j : nearest_colour(vis[j], vis, keep, nv));
+        for (size_t i = 0; i < npx; i++)
+            if (!px[4 * i + 3]) pick[i] = to[pick[i]];
+    }
+    for (size_t i = 0; i < npx; i++)
+        if (!px[4 * i + 3])
+            for (int k = 0; k < 3; k++) o[4 * i + k] = (uint8_t)(vis[pick[i]] >> (8 * k));
+    free(pick);
+    free(cache);
+    return SV_OK;
+}
+
 sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out, bool *changed,
                             sv_error *err)
 {
@@ -551,15 +677,19 @@ sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out,
     const uint8_t *enc = sv_srgb_encode16_table();
     uint8_t *o = out->data;
     memcpy(o, px, npx * 4);
+    for (size_t i = 0; i < npx; i++)
+        if (!mask[i])
+            for (int k = 0; k < 3; k++) o[4 * i + k] = enc[l[4 * i + k]];
+    if ((st = snap_fill_to_palette(px, o, npx, err)) != SV_OK) {
+        sv_image_free(out);
+        goto done;
+    }
     size_t reached = 0, moved = 0;
     for (size_t i = 0; i < npx; i++) {
         if (mask[i]) continue;
         bool big = false;
-        for (int k = 0; k < 3; k++) {
-            uint8_t c = enc[l[4 * i + k]];
-            if (abs((int)c - (int)px[4 * i + k]) > 8) big = true;
-            o[4 * i + k] = c;
-        }
+        for (int k = 0; k < 3; k++)
+            if (abs((int)o[4 * i + k] - (int)px[4 * i + k]) > 8) big = true;
         if (dist[i] <= passes) {
             reached++;
             moved += big;

@@ -102,8 +102,10 @@ sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, 
  * by more than 8 of 255 in a channel (an input dilated by its author keeps
  * its bytes, and so its own file: docs/outputs.md "Textures"). Otherwise
  * *out is left zeroed and *changed false: an image that is not RGBA8, has
- * no transparent texel or no texel with alpha, or passes 0. SV_ERR_NOMEM
- * on allocation failure. Deterministic. */
+ * no transparent texel or no texel with alpha, or passes 0. A texture of at
+ * most 256 colours stays within 256: each filled texel takes the visible
+ * colour nearest its fill (an indexed PNG stays indexed, docs/outputs.md
+ * "Textures"). SV_ERR_NOMEM on allocation failure. Deterministic. */
 sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out, bool *changed,
                             sv_error *err);
 

@@ -347,6 +347,81 @@ static void texture_dilation_colours_black_transparent_texels(void **state)
     sv_image_free(&img);
 }
 
+/* The distinct RGBA colours of an RGBA8 image (at most 4096 counted). */
+static uint32_t colours(const sv_image *img)
+{
+    static uint32_t seen[4096];
+    uint32_t n = 0;
+    const uint8_t *p = img->data;
+    for (size_t i = 0; i < (size_t)img->width * img->height; i++) {
+        uint32_t c = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
+                     (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
+        uint32_t j = 0;
+        while (j < n && seen[j] != c) j++;
+        if (j == n && n < 4096) seen[n++] = c;
+    }
+    return n;
+}
+
+/* A texture of at most 256 colours (an indexed PNG's: the ez-tree leaves)
+ * stays within 256 (its file stays indexed, docs/outputs.md "Sizes"): each
+ * coloured transparent texel takes a visible texel's colour, the one nearest
+ * its fill; with 250 visible colours at most 6 are added. One of more
+ * colours gets the fill as it is. */
+static void texture_dilation_keeps_an_indexed_texture_indexed(void **state)
+{
+    (void)state;
+    for (int visible = 2; visible <= 300; visible += 248) { /* 2, 250 */
+        sv_image img, out;
+        assert_int_equal(sv_image_alloc(&img, 64, 64, 4, 8, NULL), SV_OK);
+        uint8_t *p = img.data;
+        for (uint32_t y = 8; y < 56; y++) /* a leaf: its colours in bands */
+            for (uint32_t x = 8; x < 56; x++) {
+                uint8_t *t = p + 4 * (y * 64 + x);
+                int k = (int)((y - 8) * 48 + (x - 8)) * visible / (48 * 48);
+                t[0] = (uint8_t)(20 + k / 4);
+                t[1] = (uint8_t)(100 + k / 2);
+                t[2] = (uint8_t)(10 + k % 4);
+                t[3] = 255;
+            }
+        uint32_t before = colours(&img);
+        assert_int_equal(before, (uint32_t)visible + 1); /* and transparent black */
+        bool changed = false;
+        assert_int_equal(sv_texture_dilate(&img, 8, &out, &changed, NULL), SV_OK);
+        assert_true(changed);
+        assert_true(colours(&out) <= 256);
+        const uint8_t *o = out.data;
+        for (uint32_t i = 0; i < 64 * 64; i++) {
+            assert_int_equal(o[4 * i + 3], p[4 * i + 3]);
+            if (p[4 * i + 3]) continue;
+            bool found = false; /* a visible texel's colour */
+            for (uint32_t j = 0; j < 64 * 64 && !found; j++)
+                found = p[4 * j + 3] && memcmp(o + 4 * i, p + 4 * j, 3) == 0;
+            assert_true(found);
+        }
+        /* two bands: near the first band's corner, the first band's colour */
+        if (visible == 2) assert_memory_equal(o + 4 * (6 * 64 + 6), p + 4 * (8 * 64 + 8), 3);
+        sv_image_free(&out);
+        sv_image_free(&img);
+    }
+    /* 320 visible colours: the fill as it is, beyond the visible ones */
+    sv_image img, out;
+    assert_int_equal(sv_image_alloc(&img, 64, 64, 4, 8, NULL), SV_OK);
+    uint8_t *p = img.data;
+    for (uint32_t i = 0; i < 64 * 64; i++)
+        if (i % 64 >= 16 && i % 64 < 48 && i / 64 >= 16 && i / 64 < 48) {
+            p[4 * i] = (uint8_t)(i % 64 * 4), p[4 * i + 1] = (uint8_t)(i / 64 * 4);
+            p[4 * i + 2] = (uint8_t)(i % 5), p[4 * i + 3] = 255;
+        }
+    assert_true(colours(&img) > 257);
+    bool changed = false;
+    assert_int_equal(sv_texture_dilate(&img, 8, &out, &changed, NULL), SV_OK);
+    assert_true(changed);
+    assert_true(colours(&out) > colours(&img));
+    sv_image_free(&out);
+    sv_image_free(&img);
+}
+
 /* An input whose author already dilated it (transparent texels hold their
  * neighbours' colour) is left alone, so its own file is written; so are
  * images with no transparent texel and images that are not RGBA8. */
@@ -396,6 +471,7 @@ int main(void)
         cmocka_unit_test(dilation_fills_transparent_texels_with_neighbour_colour_and_keeps_alpha),
         cmocka_unit_test(dilation_reaches_as_many_texels_as_passes),
         cmocka_unit_test(texture_dilation_colours_black_transparent_texels),
+        cmocka_unit_test(texture_dilation_keeps_an_indexed_texture_indexed),
         cmocka_unit_test(texture_dilation_leaves_dilated_and_opaque_textures_alone),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

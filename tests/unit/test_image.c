@@ -164,27 +164,71 @@ static int png_colour_type(const uint8_t *png)
 static void png_leaves_out_an_opaque_alpha_and_grey_colour(void **state)
 {
     (void)state;
+    /* 288 texels, every one its own colour: more than an indexed PNG holds */
     static const struct {
         bool opaque, grey;
         int type;
     } cases[] = {{false, false, 6}, {true, false, 2}, {false, true, 4}, {true, true, 0}};
     for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
         sv_image img, back;
-        assert_int_equal(sv_image_alloc(&img, 9, 4, 4, 8, NULL), SV_OK);
+        assert_int_equal(sv_image_alloc(&img, 24, 12, 4, 8, NULL), SV_OK);
         uint8_t *p = img.data;
-        for (int i = 0; i < 36; i++) {
-            uint8_t v = (uint8_t)(7 * i);
+        for (int i = 0; i < 288; i++) {
+            uint8_t v = (uint8_t)(i & 255);
             p[4 * i] = v;
-            p[4 * i + 1] = cases[c].grey ? v : (uint8_t)(v + 3);
-            p[4 * i + 2] = v;
-            p[4 * i + 3] = cases[c].opaque ? 255 : (uint8_t)(255 - i);
+            p[4 * i + 1] = cases[c].grey ? v : (uint8_t)(7 * i + 3 + (i >> 8));
+            p[4 * i + 2] = cases[c].grey ? v : (uint8_t)(i >> 8);
+            p[4 * i + 3] = cases[c].opaque ? 255 : (uint8_t)(255 - (i >> 3));
         }
         size_t n;
         uint8_t *png = encode(&img, &n);
         assert_int_equal(png_colour_type(png), cases[c].type);
         sv_error err = {0};
         assert_int_equal(sv_image_decode_rgba8(png, n, "x.png", 0, &back, &err), SV_OK);
-        assert_memory_equal(back.data, img.data, 36 * 4); /* the same RGBA back */
+        assert_memory_equal(back.data, img.data, 288 * 4); /* the same RGBA back */
+        sv_image_free(&img);
+        sv_image_free(&back);
+        free(png);
+    }
+}
+
+/* An image of at most 256 colours (with alpha, or in colour) is an indexed
+ * PNG (colour type 3: a byte a texel, or fewer bits), which decodes to the
+ * same RGBA and is smaller than its RGBA PNG; a grey opaque one stays grey. */
+static void png_of_few_colours_is_indexed(void **state)
+{
+    (void)state;
+    static const struct {
+        bool opaque, grey;
+        int colours, type;
+    } cases[] = {{false, false, 256, 3}, {true, false, 200, 3}, {false, true, 16, 3},
+                 {true, true, 100, 0}, {false, false, 2, 3}};
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        sv_image img, back;
+        assert_int_equal(sv_image_alloc(&img, 64, 64, 4, 8, NULL), SV_OK);
+        uint8_t *p = img.data;
+        uint32_t seed = 12345;
+        for (int i = 0; i < 64 * 64; i++) {
+            seed = seed * 1103515245u + 12345u;
+            int k = (int)((seed >> 16) % (uint32_t)cases[c].colours);
+            p[4 * i] = (uint8_t)(k * 5);
+            p[4 * i + 1] = cases[c].grey ? (uint8_t)(k * 5) : (uint8_t)(k * 3 + 1);
+            p[4 * i + 2] = cases[c].grey ? (uint8_t)(k * 5) : (uint8_t)(200 - k / 2);
+            p[4 * i + 3] = cases[c].opaque ? 255 : (uint8_t)(k % 3 == 0 ? 0 : 255 - k / 4);
+        }
+        size_t n;
+        uint8_t *png = encode(&img, &n);
+        assert_int_equal(png_colour_type(png), cases[c].type);
+        sv_error err = {0};
+        assert_int_equal(sv_image_decode_rgba8(png, n, "x.png", 0, &back, &err), SV_OK);
+        assert_memory_equal(back.data, img.data, 64 * 64 * 4);
+        if (cases[c].type == 3) { /* smaller than the same texels one colour short of indexed */
+            p[0] ^= 1, p[1] ^= 1; /* a new colour: the 257th where there were 256 */
+            size_t m;
+            uint8_t *full = encode(&img, &m);
+            if (png_colour_type(full) != 3) assert_true(n < m);
+            free(full);
+        }
         sv_image_free(&img);
         sv_image_free(&back);
         free(png);
@@ -686,6 +730,7 @@ int main(void)
         cmocka_unit_test(png_round_trip_keeps_rgba8_exactly_with_straight_alpha),
         cmocka_unit_test(png_encoding_is_deterministic_and_write_matches_encode),
         cmocka_unit_test(png_leaves_out_an_opaque_alpha_and_grey_colour),
+        cmocka_unit_test(png_of_few_colours_is_indexed),
         cmocka_unit_test(png_16_bit_round_trips_to_the_nearest_8_bit_value),
         cmocka_unit_test(gray_and_rgb_images_expand_to_opaque_rgba),
         cmocka_unit_test(tga_without_magic_decodes_by_its_name),
