@@ -84,6 +84,24 @@ typedef struct indexed {
     uint8_t *index;         /* width × height */
 } indexed;
 
+/* A texel's colour (c channels: GA, RGB or RGBA) as one key: alpha in the
+ * top byte, inverted, so that translucent entries sort first, then R, G, B. */
+static uint32_t texel_key(const uint8_t *p, uint32_t c)
+{
+    uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
+             a = (c == 2 || c == 4) ? p[c - 1] : 255;
+    return (255 - a) << 24 | r << 16 | g << 8 | b;
+}
+
+/* k's slot in an open-addressed table of `slots` (a power of two): where it
+ * is, or the free slot where it goes. */
+static uint32_t key_slot(const uint32_t *key, const bool *used, uint32_t slots, uint32_t k)
+{
+    uint32_t h = (k * 2654435761u) >> 22 & (slots - 1);
+    while (used[h] && key[h] != k) h = (h + 1) & (slots - 1);
+    return h;
+}
+
 /* Fills ix when img (8-bit, 2 to 4 channels after needed_channels) has at
  * most 256 distinct colours: an indexed PNG (colour type 3) holds it in a
  * byte a texel, where RGBA takes four (the ez-tree leaf textures are
@@ -104,13 +122,7 @@ static bool to_indexed(const sv_image *img, indexed *ix)
     const uint8_t *px = img->data;
     uint32_t count = 0;
     for (size_t i = 0; i < n; i++) {
-        const uint8_t *p = px + i * c;
-        uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
-                 a = (c == 2 || c == 4) ? p[c - 1] : 255;
-        /* alpha in the top byte, inverted, so that translucent entries sort first */
-        uint32_t k = (255 - a) << 24 | r << 16 | g << 8 | b;
-        uint32_t h = (k * 2654435761u) >> 22;
-        while (used[h] && key[h] != k) h = (h + 1) & (SLOTS - 1);
+        uint32_t k = texel_key(px + i * c, c), h = key_slot(key, used, SLOTS, k);
         if (used[h]) continue;
         if (count == 256) return false;
         used[h] = true;
@@ -129,15 +141,8 @@ static bool to_indexed(const sv_image *img, indexed *ix)
             for (uint32_t e = 0; e < count; e++)
                 if (pal[e] == key[h]) slot_entry[h] = (uint8_t)e;
     if (!(ix->index = malloc(n ? n : 1))) return false;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t *p = px + i * c;
-        uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
-                 a = (c == 2 || c == 4) ? p[c - 1] : 255;
-        uint32_t k = (255 - a) << 24 | r << 16 | g << 8 | b;
-        uint32_t h = (k * 2654435761u) >> 22;
-        while (key[h] != k) h = (h + 1) & (SLOTS - 1);
-        ix->index[i] = slot_entry[h];
-    }
+    for (size_t i = 0; i < n; i++)
+        ix->index[i] = slot_entry[key_slot(key, used, SLOTS, texel_key(px + i * c, c))];
     for (uint32_t e = 0; e < count; e++) {
         ix->rgb[e] = (png_color){(png_byte)(pal[e] >> 16), (png_byte)(pal[e] >> 8),
                                  (png_byte)pal[e]};
