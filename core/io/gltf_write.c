@@ -629,7 +629,7 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs, d
 /* Writes one glTF mesh for LOD l: shared vertex accessors, one primitive per
  * material used (ascending material index), triangles in input order. */
 static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
-                              double qoff[3], double *qscale);
+                              double qoff[3], double *qscale, cJSON *into);
 
 /* Writes the mesh of LOD l with its identical vertices merged: vertices
  * equal in every attribute written (position, normal unless l->no_normals,
@@ -638,8 +638,8 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
  * them (meshopt_generateVertexRemapMulti), and vertices no triangle uses are
  * left out. Lossless: the same triangles, drawn the same, in fewer bytes
  * (a tree's triangle soup held each vertex once per triangle). */
-static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
-                            double qoff[3], double *qscale)
+static sv_status weld_and_write(writer *w, const sv_gltf_lod *l, const char *name,
+                                int *mesh_index, double qoff[3], double *qscale, cJSON *into)
 {
     const sv_mesh *m = l->mesh;
     size_t nv = m->vertex_count, ni = (size_t)m->triangle_count * 3;
@@ -717,7 +717,7 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     sv_gltf_lod wl = *l;
     wl.mesh = &wm;
     wl.attributes = l->attribute_count ? at : NULL;
-    st = write_welded(w, &wl, name, mesh_index, qoff, qscale);
+    st = write_welded(w, &wl, name, mesh_index, qoff, qscale, into);
 out:
     for (int a = 0; a < 8; a++) free(ad[a]);
     free(uv);
@@ -728,16 +728,80 @@ out:
     return st;
 }
 
+/* Writes the mesh of LOD l (weld_and_write). A level of more than 65,535
+ * vertices and several materials is written a primitive at a time, each
+ * with vertices of its own, so that each primitive whose own vertices fit
+ * has 16-bit indices: one vertex array for all would give every primitive
+ * but the first 32-bit indices (the oak GLB's leaves: 63 KB more, its
+ * lod0_full.glb over its input). A vertex two materials share is then
+ * written twice. Float geometry only (quantized positions share one node
+ * transform, computed over the whole level). */
+static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
+                            double qoff[3], double *qscale)
+{
+    const sv_mesh *m = l->mesh;
+    uint32_t used = 0, *per = sv_calloc(m->material_count ? m->material_count : 1, sizeof *per);
+    if (!per) return nomem(w);
+    for (uint32_t t = 0; t < m->triangle_count; t++)
+        if (per[m->tri_material[t]]++ == 0) used++;
+    if (w->compress != SV_GLTF_FLOAT || m->vertex_count <= 65535 || used < 2) {
+        free(per);
+        return weld_and_write(w, l, name, mesh_index, qoff, qscale, NULL);
+    }
+    sv_status st = SV_OK;
+    cJSON *jm = cJSON_CreateObject();
+    uint32_t *ix = malloc((size_t)m->triangle_count * 3 * sizeof *ix);
+    uint32_t *tm = malloc((size_t)m->triangle_count * sizeof *tm);
+    if (!jm || !ix || !tm || !cJSON_AddStringToObject(jm, "name", name) ||
+        !cJSON_AddArrayToObject(jm, "primitives")) {
+        st = nomem(w);
+        goto out;
+    }
+    for (uint32_t mi = 0; mi < m->material_count && !st; mi++) {
+        if (!per[mi]) continue;
+        uint32_t n = 0;
+        for (uint32_t t = 0; t < m->triangle_count; t++)
+            if (m->tri_material[t] == mi) {
+                memcpy(&ix[3 * (size_t)n], &m->indices[3 * (size_t)t], 3 * sizeof *ix);
+                tm[n++] = mi;
+            }
+        sv_mesh sub = *m;
+        sub.indices = ix;
+        sub.tri_material = tm;
+        sub.triangle_count = n;
+        sv_gltf_lod sl = *l;
+        sl.mesh = &sub;
+        st = weld_and_write(w, &sl, name, mesh_index, qoff, qscale, jm);
+    }
+    if (!st) {
+        cJSON_AddItemToArray(w->meshes, jm);
+        jm = NULL;
+        *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
+    }
+out:
+    cJSON_Delete(jm);
+    free(ix);
+    free(tm);
+    free(per);
+    return st;
+}
+
+/* Writes l's vertices (already welded) and one primitive per material used
+ * into a new mesh (into NULL: *mesh_index is its index) or into the mesh
+ * `into` (its primitives appended; *mesh_index untouched). */
 static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
-                              double qoff[3], double *qscale)
+                              double qoff[3], double *qscale, cJSON *into)
 {
     const sv_mesh *m = l->mesh;
     sv_status st = SV_OK;
     uint32_t *per_mat = sv_calloc(m->material_count, sizeof *per_mat);
     void *idx = NULL;
-    cJSON *jm = cJSON_CreateObject(), *attrs = cJSON_CreateObject();
-    cJSON *prims = jm ? cJSON_AddArrayToObject(jm, "primitives") : NULL;
-    if (!per_mat || !jm || !attrs || !prims || !cJSON_AddStringToObject(jm, "name", name)) {
+    cJSON *jm = into ? NULL : cJSON_CreateObject(), *attrs = cJSON_CreateObject();
+    cJSON *prims = into ? cJSON_GetObjectItemCaseSensitive(into, "primitives")
+                 : jm   ? cJSON_AddArrayToObject(jm, "primitives")
+                        : NULL;
+    if (!per_mat || (!into && !jm) || !attrs || !prims ||
+        (jm && !cJSON_AddStringToObject(jm, "name", name))) {
         st = nomem(w);
         goto out;
     }
@@ -797,9 +861,11 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
         }
         cJSON_AddItemToArray(prims, p);
     }
-    cJSON_AddItemToArray(w->meshes, jm);
-    jm = NULL;
-    *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
+    if (jm) {
+        cJSON_AddItemToArray(w->meshes, jm);
+        jm = NULL;
+        *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
+    }
 out:
     free(idx);
     free(per_mat);

@@ -249,23 +249,69 @@ sv_status svp_shrink_atlases(run *r, sv_renderer *ren, const sv_gpu_mesh *gsrc, 
     return st;
 }
 
+/* img's colour × f in linear light into a new image (alpha kept); RGBA8 or
+ * RGB8 only (else *out is left zeroed). */
+static sv_status scaled_image(const sv_image *img, double f, sv_image *out, sv_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!img->data || img->bits != 8 || img->channels < 3) return SV_OK;
+    sv_status st = sv_image_alloc(out, img->width, img->height, img->channels, 8, err);
+    if (st) return st;
+    uint8_t lut[256];
+    for (int c = 0; c < 256; c++) lut[c] = sv_srgb_encode8(sv_srgb_decode8((uint8_t)c) * f);
+    const uint8_t *src = img->data;
+    uint8_t *dst = out->data;
+    uint32_t ch = img->channels;
+    for (size_t i = 0, len = (size_t)img->width * img->height * ch; i < len; i += ch) {
+        for (uint32_t k = 0; k < 3; k++) dst[i + k] = lut[src[i + k]];
+        if (ch == 4) dst[i + 3] = src[i + 3];
+    }
+    return SV_OK;
+}
+
+sv_status svp_scale_mesh_colour(sv_mesh *m, double f, sv_error *err)
+{
+    if (!m || !m->material_count) return SV_OK;
+    /* an image is scaled when a material sampling it cannot take f in its
+     * factor (glTF clamps the factor to 1) */
+    bool *scale = sv_calloc(m->image_count ? m->image_count : 1, sizeof *scale);
+    if (!scale) return sv_fail(err, SV_ERR_NOMEM, "out of memory");
+    for (uint32_t i = 0; i < m->material_count; i++) {
+        const sv_material *mt = &m->materials[i];
+        int32_t t = mt->base_texture;
+        if (t < 0 || (uint32_t)t >= m->image_count) continue;
+        for (int k = 0; k < 3; k++)
+            if (mt->base_color[k] * f > 1.0) scale[t] = true;
+    }
+    sv_status st = SV_OK;
+    for (uint32_t t = 0; t < m->image_count && !st; t++) {
+        if (!scale[t]) continue;
+        sv_image n;
+        if ((st = scaled_image(&m->images[t], f, &n, err)) || !n.data) {
+            scale[t] = false; /* not 8-bit colour: its materials take f in the factor */
+            continue;
+        }
+        sv_image_free(&m->images[t]);
+        st = sv_image_copy(&n, &m->images[t], err);
+        sv_image_free(&n);
+    }
+    for (uint32_t i = 0; i < m->material_count && !st; i++) {
+        sv_material *mt = &m->materials[i];
+        int32_t t = mt->base_texture;
+        if (t >= 0 && (uint32_t)t < m->image_count && scale[t]) continue;
+        for (int k = 0; k < 3; k++) mt->base_color[k] = (float)fmin(1.0, mt->base_color[k] * f);
+    }
+    free(scale);
+    return st;
+}
+
 sv_status svp_scale_atlas(sv_baked_lod *b, double f, sv_error *err)
 {
     sv_image *a = &b->albedo;
     if (!a->data || a->channels != 4 || a->bits != 8) return SV_OK;
     sv_image n;
-    sv_status st = sv_image_alloc(&n, a->width, a->height, 4, 8, err);
+    sv_status st = scaled_image(a, f, &n, err);
     if (st) return st;
-    uint8_t lut[256];
-    for (int c = 0; c < 256; c++) lut[c] = sv_srgb_encode8(sv_srgb_decode8((uint8_t)c) * f);
-    const uint8_t *src = a->data;
-    uint8_t *dst = n.data;
-    for (size_t i = 0, len = (size_t)a->width * a->height * 4; i < len; i += 4) {
-        dst[i] = lut[src[i]];
-        dst[i + 1] = lut[src[i + 1]];
-        dst[i + 2] = lut[src[i + 2]];
-        dst[i + 3] = src[i + 3];
-    }
     sv_mesh *m = b->mesh;
     int32_t t = m && m->triangle_count ? m->materials[m->tri_material[0]].base_texture : -1;
     if (t >= 0 && (uint32_t)t < m->image_count) {

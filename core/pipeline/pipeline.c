@@ -609,24 +609,28 @@ static double level_lum(const lod_out *l)
     return best;
 }
 
-/* Brightness match (docs/accuracy.md "Brightness"): a quad level measured
- * on its own whose light differs from the original's where both cover by
- * more than SV_BRIGHTNESS_BAND (lum_ratio, sveval's figure, over the
- * evaluation's views) has its atlas colour scaled by the inverse, then is
- * measured again; twice at most (the level's kept trunk and texels clamped
- * at white keep their light). A level's colour is the views' average of what
+/* Brightness match (docs/accuracy.md "Brightness"): a level measured on
+ * its own whose light differs from the original's where both cover by more
+ * than SV_BRIGHTNESS_BAND (lum_ratio, sveval's figure, over the
+ * evaluation's views; SV_BRIGHTNESS_BAND_MESH for a mesh level) has its
+ * colour scaled by the inverse (a quad level's atlas; a mesh level's
+ * materials: svp_scale_mesh_colour), then is
+ * measured again; twice at most (a quad level's kept trunk and texels
+ * clamped at white keep their light). A level's colour is the views' average of what
  * its texels stand for, the cutoff's counterpart for light: no pop in
  * brightness where the chain switches to it. */
 static sv_status match_brightness(run *r, bake_state *b, uint32_t i, sv_error *err)
 {
     const sv_lod_plan *lp = &b->si.lods[i];
     lod_out *l = &b->lods[i];
-    if (!lp->quad_count || svp_drawn_by_hook(lp) || lp->select || drawn_as_earlier(b, i) >= 0 ||
-        !l->evaluated || !l->baked.albedo.data)
+    if (svp_drawn_by_hook(lp) || lp->select || drawn_as_earlier(b, i) >= 0 || !l->evaluated ||
+        (lp->quad_count && !l->baked.albedo.data))
         return SV_OK;
     for (int pass = 0; pass < 2; pass++) {
         double q = level_lum(l);
-        if (!(q > 0) || fabs(q - 1.0) <= SV_BRIGHTNESS_BAND) break;
+        if (!(q > 0) ||
+            fabs(q - 1.0) <= (lp->quad_count ? SV_BRIGHTNESS_BAND : SV_BRIGHTNESS_BAND_MESH))
+            break;
         /* a pass moves the light by a quarter at most: a level several times
          * too dark or bright is a fault to see (the 8-bit colour-space error
          * that made the bush's atlases 2-4x darker), not a mean to match; the
@@ -634,7 +638,8 @@ static sv_status match_brightness(run *r, bake_state *b, uint32_t i, sv_error *e
          * crossed quads, over four passes) */
         double f = 1.0 / q;
         f = f < 0.8 ? 0.8 : f > 1.25 ? 1.25 : f;
-        sv_status st = svp_scale_atlas(&l->baked, f, err);
+        sv_status st = lp->quad_count ? svp_scale_atlas(&l->baked, f, err)
+                                      : svp_scale_mesh_colour(l->baked.mesh, f, err);
         if (st) return st;
         l->colour_scale = (l->colour_scale > 0 ? l->colour_scale : 1.0) * f;
         sv_gpu_mesh_free(l->gpu);

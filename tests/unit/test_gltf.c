@@ -488,6 +488,44 @@ static void large_meshes_use_uint32_indices(void **state)
     sv_mesh_destroy(m);
 }
 
+/* A level of more than 65,535 vertices over two materials whose own
+ * vertices fit (a trunk and its leaves): each primitive has vertices of its
+ * own and 16-bit indices, and draws the same triangles. */
+static void primitives_whose_vertices_fit_get_16_bit_indices(void **state)
+{
+    (void)state;
+    sv_mesh *m = sv_mesh_create(70002, 23334, 2, 0);
+    assert_non_null(m);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        m->positions[3 * v] = (float)v * 1e-3f;
+        m->positions[3 * v + 1] = (float)(v % 7);
+        m->indices[v] = v;
+    }
+    for (uint32_t t = 0; t < m->triangle_count; t++) m->tri_material[t] = t % 2;
+    sv_gltf_lod lod = {.mesh = m};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(&lod, 1, &buf, &size);
+    cJSON *prims = get(at(get(g.json, "meshes"), 0), "primitives"), *acc = get(g.json, "accessors");
+    assert_int_equal(cJSON_GetArraySize(prims), 2);
+    for (int p = 0; p < 2; p++) {
+        cJSON *pr = at(prims, p);
+        int ii = (int)num(pr, "indices"), pa = (int)num(get(pr, "attributes"), "POSITION");
+        assert_int_equal((int)num(at(acc, ii), "componentType"), 5123);
+        assert_int_equal((int)num(at(acc, pa), "count"), 35001);
+        const uint16_t *ix = (const uint16_t *)accessor_data(&g, ii, 2);
+        const float *pos = (const float *)accessor_data(&g, pa, 12);
+        for (uint32_t k = 0; k < 35001; k++) { /* triangle k of this material, corner by corner */
+            uint32_t t = 2 * (k / 3) + (uint32_t)p, v = m->indices[3 * t + k % 3];
+            assert_float_equal(pos[3 * ix[k]], m->positions[3 * v], 0);
+            assert_float_equal(pos[3 * ix[k] + 1], m->positions[3 * v + 1], 0);
+        }
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(m);
+}
+
 static void two_writes_of_the_same_lods_are_byte_identical(void **state)
 {
     (void)state;
@@ -1107,6 +1145,7 @@ int main(void)
         cmocka_unit_test(normals_are_written_unit_length),
         cmocka_unit_test(extra_vertex_attributes_are_written_under_their_names),
         cmocka_unit_test(large_meshes_use_uint32_indices),
+        cmocka_unit_test(primitives_whose_vertices_fit_get_16_bit_indices),
         cmocka_unit_test(two_writes_of_the_same_lods_are_byte_identical),
         cmocka_unit_test(out_of_range_index_is_refused_with_a_message),
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
