@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "bake.h"
+#include "pipeline_internal.h"
 #include "classify.h"
 
 /* Texture of the synthetic leaf: 4×4 blocks of distinct colours; the top-right
@@ -626,6 +627,51 @@ static void oak_bakes_twenty_quads_into_binary_alpha_atlases(void **state)
     sv_mesh_destroy(m);
 }
 
+/* A mesh level's brightness match (svp_scale_mesh_colour): a material
+ * takes the scale in its factor while that stays within 1; a texture one
+ * of its materials cannot take it in the factor is scaled in linear light
+ * instead (alpha kept, new pixels: a copy held elsewhere keeps its own),
+ * and the materials sampling it keep their factors. */
+static void mesh_level_colour_is_scaled_in_factors_or_textures(void **state)
+{
+    (void)state;
+    sv_mesh *m = sv_mesh_create(3, 1, 3, 1);
+    assert_non_null(m);
+    assert_int_equal(sv_image_alloc(&m->images[0], 2, 1, 4, 8, NULL), SV_OK);
+    uint8_t *px = m->images[0].data;
+    const uint8_t src[8] = {40, 120, 250, 255, 200, 10, 90, 0};
+    memcpy(px, src, sizeof src);
+    const float factor[3] = {0.5f, 1.0f, 0.6f};
+    for (int i = 0; i < 3; i++) {
+        for (int k = 0; k < 3; k++) m->materials[i].base_color[k] = factor[i];
+        m->materials[i].base_texture = i < 2 ? 0 : -1;
+    }
+    sv_image held;
+    assert_int_equal(sv_image_copy(&m->images[0], &held, NULL), SV_OK);
+    /* 0.5: every factor takes it, the texture is the same pixels */
+    assert_int_equal(svp_scale_mesh_colour(m, 0.5, NULL), SV_OK);
+    assert_ptr_equal(m->images[0].data, held.data);
+    for (int i = 0; i < 3; i++) assert_float_equal(m->materials[i].base_color[0], factor[i] * 0.5, 1e-6);
+    /* back, then 1.5: material 1 (factor 1) cannot, so texture 0 is scaled
+     * and materials 0 and 1 keep their factors; material 2 takes 0.9 */
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) m->materials[i].base_color[k] = factor[i];
+    assert_int_equal(svp_scale_mesh_colour(m, 1.5, NULL), SV_OK);
+    assert_float_equal(m->materials[0].base_color[1], 0.5, 1e-6);
+    assert_float_equal(m->materials[1].base_color[1], 1.0, 1e-6);
+    assert_float_equal(m->materials[2].base_color[1], 0.9, 1e-6);
+    assert_ptr_not_equal(m->images[0].data, held.data);
+    assert_memory_equal(held.data, src, sizeof src); /* the held copy keeps its pixels */
+    const uint8_t *o = m->images[0].data;
+    for (int t = 0; t < 2; t++) {
+        for (int k = 0; k < 3; k++)
+            assert_int_equal(o[4 * t + k], sv_srgb_encode8(fmin(1.0, sv_srgb_decode8(src[4 * t + k]) * 1.5)));
+        assert_int_equal(o[4 * t + 3], src[4 * t + 3]);
+    }
+    sv_image_free(&held);
+    sv_mesh_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -641,6 +687,7 @@ int main(void)
         cmocka_unit_test(result_mesh_has_two_triangles_per_quad_then_the_kept_mesh),
         cmocka_unit_test(supersampling_follows_the_smallest_faces_within_the_cap),
         cmocka_unit_test(bake_is_byte_identical_across_runs),
+        cmocka_unit_test(mesh_level_colour_is_scaled_in_factors_or_textures),
         cmocka_unit_test(oak_bakes_twenty_quads_into_binary_alpha_atlases),
     };
     return sv_test_exit(cmocka_run_group_tests(tests, NULL, NULL));
