@@ -5,7 +5,8 @@
 # leaf-clusters level (not lods[0], the full mesh, whose IoU against itself is
 # 1 by construction) has fewer triangles than the mesh, an IoU that is not 1
 # (it is a stand-in, not a copy) and at least TREES_MIN_IOU (0.5) at every
-# evaluated size, and is no worse than the coarsest leaf-clusters level.
+# evaluated size, and is no worse than the coarsest leaf-clusters level;
+# the full level's file is no larger than the input.
 # The info and the bake come from the per-pass cache (lib.inc, tree_cache),
 # shared with lod_chain.sh. Exit 77 (skip) without the data.
 # sylva-test: no-sanitize (CI time, 37 s under ASan: the same cached chain bakes run under ASan in lod_chain, `info` in bake_cli) cost=60
@@ -55,7 +56,17 @@ print('%s (%d quads, %d tris) IoU@%s' % (fine['name'], fine['quads'], fine['tria
       '/'.join('%d %.3f' % (a['pixels'], a['iou_mean']) for a in fine['accuracy'])))
 EOF
 ) || fail "$mesh: stand-in level"
-    echo "ok $mesh: $got_t triangles, $got_f foliage; $judged"
+    # the full level's file is no larger than its input (issue 41; the two
+    # GLB inputs are the tightest: docs/benchmarks.md "Third pass")
+    # (a GLB holds its textures: its companions are not its input)
+    in_files="$data/$dir/$mesh"
+    case $mesh in *.glb) ;; *) in_files="$in_files $(companions "$data/$dir" "$mesh" | tr '\n' ' ')" ;; esac
+    # shellcheck disable=SC2086
+    in_bytes=$(cat $in_files | wc -c)
+    full_bytes=$(wc -c < "$c/bake/lod0_full.glb")
+    [ "$full_bytes" -le "$in_bytes" ] ||
+        fail "$mesh: lod0_full.glb is $full_bytes bytes, its input $in_bytes (docs/outputs.md \"Sizes\")"
+    echo "ok $mesh: $got_t triangles, $got_f foliage; $judged; lod0_full.glb $full_bytes of $in_bytes bytes"
     n=$((n + 1))
 done < "${TMPDIR:-/tmp}/trees_all.$$"
 rm -f "${TMPDIR:-/tmp}/trees_all.$$"
