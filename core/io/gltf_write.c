@@ -728,6 +728,15 @@ out:
     return st;
 }
 
+/* Appends *jm to the document's meshes (which then own it; *jm = NULL) and
+ * sets *mesh_index to its index. */
+static void add_mesh(writer *w, cJSON **jm, int *mesh_index)
+{
+    cJSON_AddItemToArray(w->meshes, *jm);
+    *jm = NULL;
+    *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
+}
+
 /* Writes the mesh of LOD l (weld_and_write). A level of more than 65,535
  * vertices and several materials is written a primitive at a time, each
  * with vertices of its own, so that each primitive whose own vertices fit
@@ -773,11 +782,7 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
         sl.mesh = &sub;
         st = weld_and_write(w, &sl, name, mesh_index, qoff, qscale, jm);
     }
-    if (!st) {
-        cJSON_AddItemToArray(w->meshes, jm);
-        jm = NULL;
-        *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
-    }
+    if (!st) add_mesh(w, &jm, mesh_index);
 out:
     cJSON_Delete(jm);
     free(ix);
@@ -861,11 +866,7 @@ static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name,
         }
         cJSON_AddItemToArray(prims, p);
     }
-    if (jm) {
-        cJSON_AddItemToArray(w->meshes, jm);
-        jm = NULL;
-        *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
-    }
+    if (jm) add_mesh(w, &jm, mesh_index);
 out:
     free(idx);
     free(per_mat);

@@ -64,8 +64,12 @@ full=$(wc -c < "$tmp/a/lod0_full.glb")
 [ "$full" -le "$in_bytes" ] || fail "lod0_full.glb is $full bytes, the input $in_bytes"
 # a file without normals (the oak with its "vn" taken out, as the Scopia OBJs
 # come): the mesh levels' files leave NORMAL out too (readers compute flat
-# normals, as for the file) and are smaller for it; the quad level keeps its
-# own (a bake without measuring: every level is written)
+# normals, as for the file) and are smaller for it than bake a's, whose file
+# had them; the quad level keeps its own (a bake without measuring: every
+# level is written). Not under ASan: test_gltf and test_import run those
+# C paths there (CI time)
+nn=""
+case "$build" in *asan*) ;; *)
 mkdir "$tmp/nn"
 python3 -B - "$oak/oak_large.obj" "$tmp/nn/oak_large.obj" <<'EOF'
 import sys
@@ -75,29 +79,26 @@ with open(sys.argv[1]) as f, open(sys.argv[2], 'w') as o:
         if l.startswith('f '): l = ' '.join('/'.join(c.split('/')[:2]) for c in l.split()) + '\n'
         o.write(l)
 EOF
-echo '{"import": {"units": 0.2}, "method": "crossed_quads", "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/nn.json"
-for d in with without; do
-    src="$oak/oak_large.obj"
-    [ $d = with ] || src="$tmp/nn/oak_large.obj"
-    "$bake" bake "$src" "$oak/oak_large.mtl" "$oak/leaves_oak_color.png" "$oak/bark_oak_color_1k.jpg" \
-        --spec "$tmp/nn.json" --out "$tmp/nn/$d" > /dev/null 2>&1 || fail "bake of the oak $d normals failed"
-done
-python3 -B - "$tmp/nn" <<'EOF' || fail "the levels of a file without normals"
+echo '{"method": "crossed_quads", "evaluate": {"enabled": false}, "bake": {"max_atlas": 64}}' > "$tmp/nn.json"
+"$bake" bake "$tmp/nn/oak_large.obj" "$oak/oak_large.mtl" "$oak/leaves_oak_color.png" "$oak/bark_oak_color_1k.jpg" \
+    --spec "$tmp/nn.json" --out "$tmp/nn/out" > /dev/null 2>&1 || fail "bake of the oak without normals failed"
+python3 -B - "$tmp/a" "$tmp/nn/out" <<'EOF' || fail "the levels of a file without normals"
 import json, struct, sys, glob, os
 def attrs(path):
     d = open(path, 'rb').read()
     j = json.loads(d[20:20 + struct.unpack('<I', d[12:16])[0]])
     a = j['meshes'][0]['primitives'][0]['attributes']
     return a, j['accessors'][a['POSITION']]['count']
-d = sys.argv[1]
-w, nw = attrs(d + '/with/lod0_full.glb')
-o, no = attrs(d + '/without/lod0_full.glb')
+w, nw = attrs(sys.argv[1] + '/lod0_full.glb')
+o, no = attrs(sys.argv[2] + '/lod0_full.glb')
 assert 'NORMAL' in w and 'NORMAL' not in o, (w, o)
 assert no <= nw, (no, nw)
-q, _ = attrs(glob.glob(d + '/without/lod*_crossed.glb')[0])
+q, _ = attrs(glob.glob(sys.argv[2] + '/lod*_crossed.glb')[0])
 assert 'NORMAL' in q, q
-assert os.path.getsize(d + '/without/lod0_full.glb') < os.path.getsize(d + '/with/lod0_full.glb')
+assert os.path.getsize(sys.argv[2] + '/lod0_full.glb') < os.path.getsize(sys.argv[1] + '/lod0_full.glb')
 EOF
+nn="$tmp/nn/out/lod0_full.glb" ;;
+esac
 strip_times() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j.pop('times'); print(json.dumps(j, sort_keys=True))" "$1"; }
 [ $twice = 0 ] || [ "$(strip_times "$tmp/a/report.json")" = "$(strip_times "$tmp/b/report.json")" ] ||
     fail "report.json differs (beyond times) between two identical bakes"
@@ -113,7 +114,8 @@ w=$(python3 -c "import struct,sys; print(struct.unpack('>I', open(sys.argv[1],'r
 # the glTF passes the Khronos validator
 if command -v npm > /dev/null 2>&1; then
     v=$(ensure_validator) || fail "cannot install gltf-validator"
-    node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb "$tmp/a/lods.glb" "$tmp/nn/without/lod0_full.glb" ||
+    # shellcheck disable=SC2086
+    node "$v" "$tmp/a/model.glb" "$tmp"/a/lod*_*.glb "$tmp/a/lods.glb" $nn ||
         fail "model.glb, lods.glb or a standalone level does not validate"
     # three.js builds the LOD group: one root, a visible textured child per level
     node "$(dirname "$v")/three_load.mjs" "$tmp/a/lods.glb" > "$tmp/three.json" ||

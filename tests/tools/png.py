@@ -2,7 +2,9 @@
 
 read(path) -> (width, height, channels, bits, rows): rows[y][x*channels + c]
 as ints (0..255 or 0..65535). Handles what sylva writes: non-interlaced,
-8- or 16-bit grey, grey+alpha, RGB, RGBA. Keep the images small (a 2048²
+8- or 16-bit grey, grey+alpha, RGB, RGBA, and indexed (1, 2, 4 or 8 bits;
+given back as RGBA when it has tRNS, else RGB: what the same texels would
+have been written as unindexed). Keep the images small (a 2048²
 RGBA atlas takes many seconds here): the tests bake with a small max_atlas.
 """
 import struct
@@ -15,7 +17,7 @@ def read(path):
     data = open(path, 'rb').read()
     if data[:8] != b'\x89PNG\r\n\x1a\n':
         raise ValueError('%s: not a PNG' % path)
-    pos, idat, hdr = 8, [], None
+    pos, idat, hdr, plte, trns = 8, [], None, b'', b''
     while pos < len(data):
         n, kind = struct.unpack_from('>I4s', data, pos)
         body = data[pos + 8:pos + 8 + n]
@@ -24,15 +26,20 @@ def read(path):
             hdr = struct.unpack('>IIBBBBB', body)
         elif kind == b'IDAT':
             idat.append(body)
+        elif kind == b'PLTE':
+            plte = body
+        elif kind == b'tRNS':
+            trns = body
         elif kind == b'IEND':
             break
     w, h, bits, ctype, _, _, interlace = hdr
-    if ctype not in _CHANNELS or bits not in (8, 16) or interlace:
+    indexed = ctype == 3 and bits in (1, 2, 4, 8) and len(plte) >= 3
+    if not (indexed or (ctype in _CHANNELS and bits in (8, 16))) or interlace:
         raise ValueError('%s: colour type %d, %d bits, interlace %d not handled'
                          % (path, ctype, bits, interlace))
-    ch = _CHANNELS[ctype]
-    bpp = ch * bits // 8
-    stride = w * bpp
+    ch = 1 if indexed else _CHANNELS[ctype]
+    bpp = max(1, ch * bits // 8)
+    stride = (w * ch * bits + 7) // 8
     raw = zlib.decompress(b''.join(idat))
     prev = bytearray(stride)
     rows = []
@@ -61,8 +68,20 @@ def read(path):
         elif f != 0:
             raise ValueError('%s: bad filter %d in row %d' % (path, f, y))
         prev = line
-        if bits == 16:
+        if indexed:
+            per = 8 // bits
+            idx = [(line[x // per] >> (8 - bits * (x % per + 1))) & ((1 << bits) - 1)
+                   for x in range(w)]
+            out = []
+            for i in idx:
+                out += list(plte[3 * i:3 * i + 3])
+                if trns:
+                    out.append(trns[i] if i < len(trns) else 255)
+            rows.append(out)
+        elif bits == 16:
             rows.append(list(struct.unpack('>%dH' % (w * ch), bytes(line))))
         else:
             rows.append(list(line))
+    if indexed:
+        return w, h, 4 if trns else 3, 8, rows
     return w, h, ch, bits, rows
