@@ -249,3 +249,37 @@ sv_status sv_png_check_chunks(const uint8_t *d, size_t n, const char *name, sv_e
         if (iend) return SV_OK;
     }
 }
+
+uint32_t sv_texel_key(const uint8_t *p, uint32_t c)
+{
+    uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
+             a = (c == 2 || c == 4) ? p[c - 1] : 255;
+    return (255 - a) << 24 | r << 16 | g << 8 | b;
+}
+
+uint32_t sv_image_colours(const sv_image *img, uint32_t keys[256])
+{
+    uint32_t c = img->channels;
+    if (img->bits != 8 || c < 2 || c > 4 || !img->data) return 257;
+    enum { SLOTS = 1024 }; /* open addressing, at most a quarter full */
+    uint32_t key[SLOTS];
+    bool used[SLOTS] = {false};
+    uint32_t n = 0;
+    const uint8_t *px = img->data;
+    for (size_t i = 0, len = (size_t)img->width * img->height; i < len; i++) {
+        uint32_t k = sv_texel_key(px + i * c, c), h = (k * 2654435761u) >> 22;
+        while (used[h] && key[h] != k) h = (h + 1) & (SLOTS - 1);
+        if (used[h]) continue;
+        if (n == 256) return 257;
+        used[h] = true;
+        key[h] = k;
+        keys[n++] = k;
+    }
+    for (uint32_t i = 1; i < n; i++) /* insertion sort, descending: at most 256 */
+        for (uint32_t j = i; j > 0 && keys[j - 1] < keys[j]; j--) {
+            uint32_t t = keys[j];
+            keys[j] = keys[j - 1];
+            keys[j - 1] = t;
+        }
+    return n;
+}

@@ -78,6 +78,17 @@ sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
  * ((c + 0.055)/1.055)^2.4, for c in [0, 1] (clamped). */
 double sv_srgb_to_linear(double c);
 
+/* A texel of an 8-bit image of c channels (GA, RGB or RGBA) as one colour
+ * key: (255 − alpha) << 24 | R << 16 | G << 8 | B (grey: R = G = B; no alpha
+ * channel: alpha 255), so that descending keys put translucent colours
+ * first, the most transparent first. */
+uint32_t sv_texel_key(const uint8_t *p, uint32_t c);
+
+/* The distinct colours of img (8-bit, 2 to 4 channels; else 257) as
+ * sv_texel_key keys, in descending order, into keys: their count, or 257 as
+ * soon as there are more than 256 (an indexed PNG's palette holds 256). */
+uint32_t sv_image_colours(const sv_image *img, uint32_t keys[256]);
+
 /* The exact inverse (OETF): 12.92 l up to 0.0031308, else
  * 1.055 l^(1/2.4) − 0.055, for l in [0, 1] (clamped; NaN gives 0). */
 double sv_linear_to_srgb(double l);

@@ -84,24 +84,6 @@ typedef struct indexed {
     uint8_t *index;         /* width × height */
 } indexed;
 
-/* A texel's colour (c channels: GA, RGB or RGBA) as one key: alpha in the
- * top byte, inverted, so that translucent entries sort first, then R, G, B. */
-static uint32_t texel_key(const uint8_t *p, uint32_t c)
-{
-    uint32_t r = p[0], g = c >= 3 ? p[1] : p[0], b = c >= 3 ? p[2] : p[0],
-             a = (c == 2 || c == 4) ? p[c - 1] : 255;
-    return (255 - a) << 24 | r << 16 | g << 8 | b;
-}
-
-/* k's slot in an open-addressed table of `slots` (a power of two): where it
- * is, or the free slot where it goes. */
-static uint32_t key_slot(const uint32_t *key, const bool *used, uint32_t slots, uint32_t k)
-{
-    uint32_t h = (k * 2654435761u) >> 22 & (slots - 1);
-    while (used[h] && key[h] != k) h = (h + 1) & (slots - 1);
-    return h;
-}
-
 /* Fills ix when img (8-bit, 2 to 4 channels after needed_channels) has at
  * most 256 distinct colours: an indexed PNG (colour type 3) holds it in a
  * byte a texel, where RGBA takes four (the ez-tree leaf textures are
@@ -112,37 +94,21 @@ static uint32_t key_slot(const uint32_t *key, const bool *used, uint32_t slots, 
 static bool to_indexed(const sv_image *img, indexed *ix)
 {
     memset(ix, 0, sizeof *ix);
-    uint32_t c = img->channels;
-    if (img->bits != 8 || c < 2) return false;
-    enum { SLOTS = 1024 };
-    uint32_t key[SLOTS], pal[256];
-    uint8_t slot_entry[SLOTS];
-    bool used[SLOTS] = {false};
+    uint32_t pal[256], c = img->channels;
+    uint32_t count = c >= 2 ? sv_image_colours(img, pal) : 257;
+    if (count > 256) return false;
     size_t n = (size_t)img->width * img->height;
-    const uint8_t *px = img->data;
-    uint32_t count = 0;
-    for (size_t i = 0; i < n; i++) {
-        uint32_t k = texel_key(px + i * c, c), h = key_slot(key, used, SLOTS, k);
-        if (used[h]) continue;
-        if (count == 256) return false;
-        used[h] = true;
-        key[h] = k;
-        pal[count++] = k;
-    }
-    /* sorted: translucent (inverted alpha > 0) first, most transparent first */
-    for (uint32_t i = 1; i < count; i++)
-        for (uint32_t j = i; j > 0 && pal[j - 1] < pal[j]; j--) {
-            uint32_t t = pal[j];
-            pal[j] = pal[j - 1];
-            pal[j - 1] = t;
-        }
-    for (uint32_t h = 0; h < SLOTS; h++)
-        if (used[h])
-            for (uint32_t e = 0; e < count; e++)
-                if (pal[e] == key[h]) slot_entry[h] = (uint8_t)e;
     if (!(ix->index = malloc(n ? n : 1))) return false;
-    for (size_t i = 0; i < n; i++)
-        ix->index[i] = slot_entry[key_slot(key, used, SLOTS, texel_key(px + i * c, c))];
+    const uint8_t *px = img->data;
+    for (size_t i = 0; i < n; i++) { /* its entry: a search of the descending keys */
+        uint32_t k = sv_texel_key(px + i * c, c), lo = 0, hi = count - 1;
+        while (lo < hi) {
+            uint32_t mid = (lo + hi) / 2;
+            if (pal[mid] > k) lo = mid + 1;
+            else hi = mid;
+        }
+        ix->index[i] = (uint8_t)lo;
+    }
     for (uint32_t e = 0; e < count; e++) {
         ix->rgb[e] = (png_color){(png_byte)(pal[e] >> 16), (png_byte)(pal[e] >> 8),
                                  (png_byte)pal[e]};

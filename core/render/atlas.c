@@ -493,35 +493,6 @@ static sv_status pull_push(uint16_t *l, const uint8_t *a, uint32_t w, uint32_t h
     return SV_OK;
 }
 
-/* The distinct RGBA colours of px (npx RGBA8 texels), packed r | g << 8 |
- * b << 16 | a << 24, into pal in ascending order: their count, or 257 as
- * soon as there are more than 256. */
-static uint32_t distinct_colours(const uint8_t *px, size_t npx, uint32_t pal[256])
-{
-    enum { SLOTS = 1024 };
-    uint32_t key[SLOTS];
-    bool used[SLOTS] = {false};
-    uint32_t n = 0;
-    for (size_t i = 0; i < npx; i++) {
-        uint32_t c = (uint32_t)px[4 * i] | (uint32_t)px[4 * i + 1] << 8 |
-                     (uint32_t)px[4 * i + 2] << 16 | (uint32_t)px[4 * i + 3] << 24;
-        uint32_t h = (c * 2654435761u) >> 22; /* 10 bits */
-        while (used[h] && key[h] != c) h = (h + 1) & (SLOTS - 1);
-        if (used[h]) continue;
-        if (n == 256) return 257;
-        used[h] = true;
-        key[h] = c;
-        pal[n++] = c;
-    }
-    for (uint32_t i = 1; i < n; i++) /* insertion sort: at most 256 */
-        for (uint32_t j = i; j > 0 && pal[j - 1] > pal[j]; j--) {
-            uint32_t t = pal[j];
-            pal[j] = pal[j - 1];
-            pal[j - 1] = t;
-        }
-    return n;
-}
-
 static uint32_t rgb_dist2(uint32_t a, uint32_t b)
 {
     uint32_t d = 0;
@@ -553,20 +524,22 @@ static uint32_t nearest_colour(uint32_t c, const uint32_t *cand, const bool *ok,
  * colours and not black, is kept; the leaf colours are dense enough that
  * the nearest is a few levels away. Nothing is done (o keeps the full
  * fill) when px has more than 256 colours or 256 visible ones. */
-static sv_status snap_fill_to_palette(const uint8_t *px, uint8_t *o, size_t npx, sv_error *err)
+static sv_status snap_fill_to_palette(const sv_image *src, uint8_t *o, sv_error *err)
 {
-    uint32_t pal[256], vis[256];
-    uint32_t np = distinct_colours(px, npx, pal), nv = 0;
+    const uint8_t *px = src->data;
+    size_t npx = (size_t)src->width * src->height;
+    uint32_t pal[256], vis[256]; /* keys (sv_texel_key); visible colours' R << 16 | G << 8 | B */
+    uint32_t np = sv_image_colours(src, pal), nv = 0;
     if (np > 256) return SV_OK;
     for (uint32_t i = 0; i < np; i++)
-        if (pal[i] >> 24) {
+        if ((pal[i] >> 24) != 255) {
             uint32_t rgb = pal[i] & 0xFFFFFFu;
             bool dup = false;
             for (uint32_t j = 0; j < nv && !dup; j++) dup = vis[j] == rgb;
             if (!dup) vis[nv++] = rgb;
         }
     uint32_t visible = 0; /* palette entries with alpha: they stay */
-    for (uint32_t i = 0; i < np; i++) visible += (pal[i] >> 24) != 0;
+    for (uint32_t i = 0; i < np; i++) visible += (pal[i] >> 24) != 255;
     if (nv == 0 || visible >= 256) return SV_OK;
     uint32_t room = 256 - visible;
     uint8_t *pick = malloc(npx);
@@ -582,7 +555,7 @@ static sv_status snap_fill_to_palette(const uint8_t *px, uint8_t *o, size_t npx,
     size_t count[256] = {0};
     for (size_t i = 0; i < npx; i++) {
         if (px[4 * i + 3]) continue;
-        uint32_t c = (uint32_t)o[4 * i] | (uint32_t)o[4 * i + 1] << 8 | (uint32_t)o[4 * i + 2] << 16;
+        uint32_t c = (uint32_t)o[4 * i] << 16 | (uint32_t)o[4 * i + 1] << 8 | (uint32_t)o[4 * i + 2];
         uint32_t h = ((c * 2654435761u) >> 20) & 4095u;
         uint32_t j;
         if (cache[2 * h + 1] && cache[2 * h] == c) {
@@ -613,7 +586,7 @@ static sv_status snap_fill_to_palette(const uint8_t *px, uint8_t *o, size_t npx,
     }
     for (size_t i = 0; i < npx; i++)
         if (!px[4 * i + 3])
-            for (int k = 0; k < 3; k++) o[4 * i + k] = (uint8_t)(vis[pick[i]] >> (8 * k));
+            for (int k = 0; k < 3; k++) o[4 * i + k] = (uint8_t)(vis[pick[i]] >> (16 - 8 * k));
     free(pick);
     free(cache);
     return SV_OK;
@@ -680,7 +653,7 @@ sv_status sv_texture_dilate(const sv_image *src, uint32_t passes, sv_image *out,
     for (size_t i = 0; i < npx; i++)
         if (!mask[i])
             for (int k = 0; k < 3; k++) o[4 * i + k] = enc[l[4 * i + k]];
-    if ((st = snap_fill_to_palette(px, o, npx, err)) != SV_OK) {
+    if ((st = snap_fill_to_palette(src, o, err)) != SV_OK) {
         sv_image_free(out);
         goto done;
     }
