@@ -493,6 +493,24 @@ static sv_status pull_push(uint16_t *l, const uint8_t *a, uint32_t w, uint32_t h
     return SV_OK;
 }
 
+sv_status sv_atlas_fill(sv_image *lin, sv_error *err)
+{
+    if (!lin || !lin->data || lin->channels != 4 || lin->bits != 16) return SV_OK;
+    uint32_t w = lin->width, h = lin->height;
+    size_t npx = (size_t)w * h;
+    uint8_t *a = malloc(npx ? npx : 1);
+    if (!a) return sv_fail(err, SV_ERR_NOMEM, "atlas fill: out of memory for %ux%u", w, h);
+    uint16_t *l = lin->data;
+    size_t clear = 0;
+    for (size_t i = 0; i < npx; i++) { /* the alpha the 8-bit atlas will hold */
+        a[i] = (uint8_t)((l[4 * i + 3] * 255u + 32767u) / 65535u);
+        clear += a[i] == 0;
+    }
+    sv_status st = clear && clear < npx ? pull_push(l, a, w, h, err) : SV_OK;
+    free(a);
+    return st;
+}
+
 static uint32_t rgb_dist2(uint32_t a, uint32_t b)
 {
     uint32_t d = 0;

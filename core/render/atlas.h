@@ -85,6 +85,18 @@ void sv_downsample_median_f32(const float *src, uint32_t w, uint32_t h, uint32_t
 sv_status sv_dilate(sv_image *img, const uint8_t *mask, uint32_t fill_channels, uint32_t passes,
                     sv_error *err);
 
+/* Colour for the transparent texels of a baked atlas. lin: RGBA16, linear
+ * colour, straight alpha. Every texel whose alpha rounds to 0 in 8 bits (as
+ * the written atlas will hold it) takes, in linear light, the alpha-weighted
+ * mean colour of the smallest block of the mip pyramid (2^k × 2^k, aligned)
+ * above it that holds alpha (pull-push, as sv_texture_dilate), so a straight
+ * mip average sees about the colour a premultiplied one would, and the fill
+ * is constant over blocks, which a PNG encoder packs well (docs/outputs.md
+ * "Sizes"). Other texels and every alpha are untouched; an image that is not
+ * RGBA16, or is all clear or all covered, is left as it is. SV_ERR_NOMEM on
+ * allocation failure. Deterministic. */
+sv_status sv_atlas_fill(sv_image *lin, sv_error *err);
+
 /* Colour for the transparent texels of a base-colour texture (RGBA8, sRGB
  * colour, straight alpha; image.h), so an engine's bilinear filter and mip
  * levels do not blend their colour into the texels it draws: a texture

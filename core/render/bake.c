@@ -853,8 +853,11 @@ sv_status sv_bake_lod(sv_renderer *r, const sv_gpu_mesh *gsrc, const sv_mesh *sr
             st = bake_quad(&b, &lod->quads[i], &jobs[i], &charts[i], err);
         tile_scratch_free(&b.ts);
         if (st != SV_OK) goto out;
-        /* Dilation: colour (not alpha) grows into empty texels of every map. */
-        if ((st = sv_dilate(&lin, mask, 3, opt.dilate, err)) != SV_OK ||
+        /* Colour (not alpha) for empty texels: pull-push for the albedo, so
+         * its mips see a premultiplied mean (a ring dilation carried leaves'
+         * darker antialiased edges outward, and its gradients cost PNG bytes);
+         * ring dilation for the other maps. */
+        if ((st = sv_atlas_fill(&lin, err)) != SV_OK ||
             (st = sv_dilate(&out->normal, mask, 3, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->ao, mask, 1, opt.dilate, err)) != SV_OK ||
             (st = sv_dilate(&out->depth, mask, 1, opt.dilate, err)) != SV_OK)

@@ -455,10 +455,55 @@ static void texture_dilation_leaves_dilated_and_opaque_textures_alone(void **sta
     sv_image_free(&img);
 }
 
+/* The atlas fill: each clear texel takes the alpha-weighted mean of the
+ * smallest aligned 2^k block above it that holds alpha, in linear light:
+ * constant over blocks, and what a premultiplied mip average would see.
+ * 8×8, RGBA16: a red texel (alpha 1) at (0,0) and a green one (alpha 1/3)
+ * at (1,0); a blue one (alpha 1) at (7,7). */
+static void atlas_fill_takes_the_weighted_mean_of_the_smallest_block_with_alpha(void **state)
+{
+    (void)state;
+    sv_image img;
+    assert_int_equal(sv_image_alloc(&img, 8, 8, 4, 16, NULL), SV_OK);
+    uint16_t *p = img.data;
+#define PX(x, y) (p + 4 * ((y)*8 + (x)))
+    PX(0, 0)[0] = 65535, PX(0, 0)[3] = 65535;
+    PX(1, 0)[1] = 65535, PX(1, 0)[3] = 21845;
+    PX(7, 7)[2] = 65535, PX(7, 7)[3] = 65535;
+    PX(5, 5)[3] = 100; /* alpha 0 in 8 bits: filled too */
+    assert_int_equal(sv_atlas_fill(&img, NULL), SV_OK);
+    /* (0,1) and (1,1): the 2×2 block of the red and the green, 3:1 */
+    for (int x = 0; x < 2; x++) {
+        assert_in_range(PX(x, 1)[0], 49151 - 2, 49151 + 2);
+        assert_in_range(PX(x, 1)[1], 16384 - 2, 16384 + 2);
+        assert_int_equal(PX(x, 1)[2], 0);
+        assert_int_equal(PX(x, 1)[3], 0);
+    }
+    /* (3,3): no alpha in its 2×2 block; the 4×4 one at the origin holds the red and the green */
+    assert_in_range(PX(3, 3)[0], 49151 - 2, 49151 + 2);
+    /* (6,6): the blue's 2×2 block */
+    assert_int_equal(PX(6, 6)[2], 65535);
+    assert_int_equal(PX(6, 6)[0], 0);
+    /* (5,5), alpha 100 of 65535: the blue's 4×4 block; its alpha is kept */
+    assert_int_equal(PX(5, 5)[2], 65535);
+    assert_int_equal(PX(5, 5)[3], 100);
+    /* (0,7): only the whole image holds alpha there: red 3, green 1, blue 3
+     * parts of 7 */
+    assert_in_range(PX(0, 7)[0], 28086 - 2, 28086 + 2);
+    assert_in_range(PX(0, 7)[2], 28086 - 2, 28086 + 2);
+    assert_in_range(PX(0, 7)[1], 9362 - 2, 9362 + 2);
+    /* covered texels are untouched */
+    assert_int_equal(PX(1, 0)[0], 0);
+    assert_int_equal(PX(1, 0)[1], 65535);
+#undef PX
+    sv_image_free(&img);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(atlas_packs_charts_without_overlap_with_padding),
+        cmocka_unit_test(atlas_fill_takes_the_weighted_mean_of_the_smallest_block_with_alpha),
         cmocka_unit_test(atlas_shrinks_to_the_smallest_power_of_two_that_fits),
         cmocka_unit_test(atlas_layout_is_deterministic_for_equal_charts),
         cmocka_unit_test(texel_choice_is_the_finest_density_that_fits),
