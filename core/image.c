@@ -20,6 +20,9 @@ typedef struct pixels_ref {
     size_t src_size;
     const char *mime;  /* "image/png" or "image/jpeg" */
     uint64_t src_hash; /* sv_image_pixel_hash of the pixels it decoded to */
+    bool reduced;      /* the pixels are a reduction (sv_image_reduce) ... */
+    uint64_t origin;   /* ... of pixels of this sv_image_pixel_hash */
+    uint64_t own_hash; /* ... and were these when reduced */
 } pixels_ref;
 
 sv_status sv_image_alloc(sv_image *img, uint32_t w, uint32_t h, uint32_t channels, uint32_t bits,
@@ -224,11 +227,29 @@ static sv_status halve(sv_image *img, sv_error *err)
 sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err)
 {
     if (!img || !img->data || max_side == 0) return SV_OK;
+    if (img->width <= max_side && img->height <= max_side) return SV_OK;
+    uint64_t origin;
+    if (!sv_image_reduced_from(img, &origin)) origin = sv_image_pixel_hash(img);
     while (img->width > max_side || img->height > max_side) {
         sv_status st = halve(img, err);
         if (st != SV_OK) return st;
     }
+    pixels_ref *refs = img->refs;
+    if (refs) {
+        refs->reduced = true;
+        refs->origin = origin;
+        refs->own_hash = sv_image_pixel_hash(img);
+    }
     return SV_OK;
+}
+
+bool sv_image_reduced_from(const sv_image *img, uint64_t *origin)
+{
+    const pixels_ref *refs = img ? img->refs : NULL;
+    if (!refs || !refs->reduced || !img->data || refs->own_hash != sv_image_pixel_hash(img))
+        return false;
+    *origin = refs->origin;
+    return true;
 }
 
 sv_status sv_png_check_chunks(const uint8_t *d, size_t n, const char *name, sv_error *err)

@@ -74,6 +74,13 @@ size_t sv_image_stride(const sv_image *img);
  * Deterministic. On failure img is left as it was. */
 sv_status sv_image_reduce(sv_image *img, uint32_t max_side, sv_error *err);
 
+/* True, with *origin the sv_image_pixel_hash of the image it was made from,
+ * when img's pixels are that image reduced by sv_image_reduce (through
+ * several calls: the first one's) and are still the pixels it made. A file
+ * holding that image can draw it instead, mipmapped (gltf_write.c, in a file
+ * of several levels). */
+bool sv_image_reduced_from(const sv_image *img, uint64_t *origin);
+
 /* The exact sRGB EOTF (IEC 61966-2-1): c/12.92 up to 0.04045, else
  * ((c + 0.055)/1.055)^2.4, for c in [0, 1] (clamped). */
 double sv_srgb_to_linear(double c);

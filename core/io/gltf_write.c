@@ -28,6 +28,13 @@
 #define GL_ARRAY_BUFFER 34962
 #define GL_ELEMENT_ARRAY_BUFFER 34963
 
+/* A buffer view of plain (not meshopt-encoded) geometry, for later
+ * accessors whose data is a prefix of its bytes (shared_view). */
+typedef struct data_view {
+    size_t offset, bytes, stride;
+    int target, view;
+} data_view;
+
 /* One distinct image stored in the file, with the texture that samples it. */
 typedef struct unique_image {
     const sv_image *img;
@@ -43,6 +50,8 @@ typedef struct writer {
     cJSON *samplers;
     unique_image *uniq;
     size_t uniq_count, uniq_cap;
+    data_view *dv;
+    size_t dv_count, dv_cap;
     sv_error *err;
     sv_status last; /* status of the last failure, for helpers that return an index */
     /* the level being written: how its geometry is stored */
@@ -50,6 +59,7 @@ typedef struct writer {
     bool quantized;      /* some accessor uses KHR_mesh_quantization's types */
     bool meshopt;        /* some view is EXT_meshopt_compression-encoded */
     size_t fallback_len; /* the placeholder buffer's length (buffer 1) */
+    bool several;        /* the file holds several levels (write_mesh) */
 } writer;
 
 static sv_status nomem(writer *w)
@@ -112,6 +122,33 @@ static int add_view(writer *w, size_t offset, size_t length, int target)
     return cJSON_GetArraySize(w->views) - 1;
 }
 
+/* A buffer view already written whose bytes begin with `bytes` bytes of
+ * `data`, of the same target and element stride, or -1. Levels of one file
+ * share data this way: a stochastic level's leaves are the first leaves of
+ * the level before it in the same order (docs/methods/stochastic.md), so
+ * their UVs, normals and indices are a prefix of that level's
+ * (docs/outputs.md "Sizes"). glTF requires byteStride on a vertex view two
+ * accessors use: it is added. -2 when out of memory. */
+static int shared_view(writer *w, const void *data, size_t bytes, size_t stride, int target)
+{
+    for (size_t i = 0; bytes && i < w->dv_count; i++) {
+        const data_view *d = &w->dv[i];
+        if (d->target != target || d->stride != stride || d->bytes < bytes ||
+            memcmp(w->bin + d->offset, data, bytes) != 0)
+            continue;
+        cJSON *v = cJSON_GetArrayItem(w->views, d->view);
+        if (target == GL_ARRAY_BUFFER && v && !cJSON_GetObjectItemCaseSensitive(v, "byteStride")) {
+            cJSON *n = cJSON_CreateNumber((double)stride);
+            if (!n) return nomem(w), -2;
+            cJSON *t = cJSON_DetachItemFromObjectCaseSensitive(v, "target");
+            cJSON_AddItemToObject(v, "byteStride", n);
+            if (t) cJSON_AddItemToObject(v, "target", t);
+        }
+        return d->view;
+    }
+    return -1;
+}
+
 /* Appends count elements of stride bytes (vertex data: target
  * GL_ARRAY_BUFFER; or triangle indices of stride 2 or 4, vertex_count the
  * vertices they index) as a new buffer view; returns its index or -1 with
@@ -126,6 +163,10 @@ static int add_data_view(writer *w, const void *data, size_t count, size_t strid
     bool vertex = target == GL_ARRAY_BUFFER;
     uint8_t *enc = NULL;
     size_t enc_len = 0;
+    if (w->compress != SV_GLTF_MESHOPT) {
+        int shared = shared_view(w, data, bytes, stride, target);
+        if (shared != -1) return shared < 0 ? -1 : shared;
+    }
     if (w->compress == SV_GLTF_MESHOPT && count) {
         size_t bound = vertex ? meshopt_encodeVertexBufferBound(count, stride)
                               : meshopt_encodeIndexBufferBound(count, vertex_count);
@@ -187,7 +228,18 @@ static int add_data_view(writer *w, const void *data, size_t count, size_t strid
         return nomem(w), -1;
     }
     cJSON_AddItemToArray(w->views, v);
-    return cJSON_GetArraySize(w->views) - 1;
+    int index = cJSON_GetArraySize(w->views) - 1;
+    if (!compressed && bytes) {
+        if (w->dv_count == w->dv_cap) {
+            size_t cap = w->dv_cap ? 2 * w->dv_cap : 16;
+            data_view *nd = realloc(w->dv, cap * sizeof *nd);
+            if (!nd) return nomem(w), -1;
+            w->dv = nd;
+            w->dv_cap = cap;
+        }
+        w->dv[w->dv_count++] = (data_view){off, bytes, stride, target, index};
+    }
+    return index;
 }
 
 /* Adds an accessor over buffer view `view`; returns its index or -1 (error
@@ -288,6 +340,18 @@ static int texture_for(writer *w, const sv_image *img, bool colour)
             memcmp(o->data, img->data, bytes) == 0)
             return w->uniq[i].texture;
     }
+    /* in a file of several levels, a texture a coarser level reduced (its
+     * trunk's bark) is the one it was reduced from when the file holds that
+     * one already: mipmapped, it draws the same texels at the sizes the
+     * level is drawn, and the file and the engine's memory hold one copy */
+    uint64_t origin;
+    if (w->several && sv_image_reduced_from(img, &origin))
+        for (size_t i = 0; i < w->uniq_count; i++) {
+            const sv_image *o = w->uniq[i].img;
+            if (w->uniq[i].hash == origin &&
+                (uint64_t)o->width * img->height == (uint64_t)o->height * img->width)
+                return w->uniq[i].texture;
+        }
     if (w->uniq_count == w->uniq_cap) {
         size_t cap = w->uniq_cap ? 2 * w->uniq_cap : 8;
         unique_image *nu = realloc(w->uniq, cap * sizeof *nu);
@@ -631,6 +695,99 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs, d
 static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
                               double qoff[3], double *qscale, cJSON *into);
 
+/* The most vertices a primitive of 16-bit indices can index (65535 is
+ * primitive restart: never used). */
+#define SV_GLTF_SHORT_VERTICES 65535u
+
+/* Writes the welded primitive l (one material; its vertices in the order its
+ * triangles first use them) into the mesh `into` as several primitives of
+ * at most SV_GLTF_SHORT_VERTICES vertices each, so every one has 16-bit
+ * indices: consecutive runs of its triangles, each with the vertices it
+ * uses (a vertex two runs use is written in both; few are, the vertices
+ * being numbered by first use). The acacia's full leaves, 122,892 vertices
+ * and 298,053 indices, saved 596 KB of 32-bit indices. */
+static sv_status write_chunks(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
+                              double qoff[3], double *qscale, cJSON *into)
+{
+    const sv_mesh *m = l->mesh;
+    size_t nv = m->vertex_count;
+    uint32_t na = l->attribute_count;
+    sv_status st = SV_OK;
+    uint32_t *local = malloc(nv * sizeof *local), *stamp = sv_calloc(nv, sizeof *stamp);
+    uint32_t *glob = malloc(SV_GLTF_SHORT_VERTICES * sizeof *glob);
+    uint32_t *ix = malloc((size_t)m->triangle_count * 3 * sizeof *ix);
+    float *pos = malloc(SV_GLTF_SHORT_VERTICES * 3 * sizeof *pos);
+    float *nrm = m->normals ? malloc(SV_GLTF_SHORT_VERTICES * 3 * sizeof *nrm) : NULL;
+    float *uv = m->uvs ? malloc(SV_GLTF_SHORT_VERTICES * 2 * sizeof *uv) : NULL;
+    float *ad[8] = {0};
+    sv_gltf_attribute at[8];
+    bool ok = local && stamp && glob && ix && pos && (!m->normals || nrm) && (!m->uvs || uv);
+    for (uint32_t a = 0; ok && a < na; a++) {
+        at[a] = l->attributes[a];
+        ok = (ad[a] = malloc((size_t)SV_GLTF_SHORT_VERTICES * at[a].components * sizeof(float)));
+        at[a].data = ad[a];
+    }
+    if (!ok) {
+        st = nomem(w);
+        goto out;
+    }
+    uint32_t gen = 0, count = 0, t0 = 0;
+    for (uint32_t t = 0; t <= m->triangle_count && !st; t++) {
+        const uint32_t *tri = t < m->triangle_count ? &m->indices[3 * (size_t)t] : NULL;
+        uint32_t fresh = 0;
+        for (int c = 0; tri && c < 3; c++)
+            fresh += stamp[tri[c]] != gen + 1 && (c < 1 || tri[c] != tri[0]) &&
+                     (c < 2 || tri[c] != tri[1]);
+        if (!tri || count + fresh > SV_GLTF_SHORT_VERTICES) {
+            /* the run [t0, t) */
+            for (uint32_t v = 0; v < count; v++) {
+                size_t g = glob[v];
+                memcpy(&pos[3 * (size_t)v], &m->positions[3 * g], 3 * sizeof *pos);
+                if (nrm) memcpy(&nrm[3 * (size_t)v], &m->normals[3 * g], 3 * sizeof *nrm);
+                if (uv) memcpy(&uv[2 * (size_t)v], &m->uvs[2 * g], 2 * sizeof *uv);
+                for (uint32_t a = 0; a < na; a++) {
+                    uint32_t k = at[a].components;
+                    memcpy(&ad[a][(size_t)k * v], &l->attributes[a].data[(size_t)k * g],
+                           k * sizeof(float));
+                }
+            }
+            for (size_t k = 3 * (size_t)t0; k < 3 * (size_t)t; k++)
+                ix[k - 3 * (size_t)t0] = local[m->indices[k]];
+            sv_mesh sub = *m;
+            sub.vertex_count = count;
+            sub.triangle_count = t - t0;
+            sub.positions = pos;
+            sub.normals = nrm;
+            sub.uvs = uv;
+            sub.indices = ix;
+            sub.tri_material = m->tri_material + t0;
+            sv_gltf_lod sl = *l;
+            sl.mesh = &sub;
+            sl.attributes = na ? at : NULL;
+            st = write_welded(w, &sl, name, mesh_index, qoff, qscale, into);
+            gen++;
+            count = 0;
+            t0 = t;
+        }
+        for (int c = 0; tri && c < 3; c++)
+            if (stamp[tri[c]] != gen + 1) {
+                stamp[tri[c]] = gen + 1;
+                local[tri[c]] = count;
+                glob[count++] = tri[c];
+            }
+    }
+out:
+    for (int a = 0; a < 8; a++) free(ad[a]);
+    free(uv);
+    free(nrm);
+    free(pos);
+    free(ix);
+    free(glob);
+    free(stamp);
+    free(local);
+    return st;
+}
+
 /* Writes the mesh of LOD l with its identical vertices merged: vertices
  * equal in every attribute written (position, normal unless l->no_normals,
  * UV when a material samples a texture, the extra attributes; bit for bit)
@@ -717,7 +874,9 @@ static sv_status weld_and_write(writer *w, const sv_gltf_lod *l, const char *nam
     sv_gltf_lod wl = *l;
     wl.mesh = &wm;
     wl.attributes = l->attribute_count ? at : NULL;
-    st = write_welded(w, &wl, name, mesh_index, qoff, qscale, into);
+    st = into && unique > SV_GLTF_SHORT_VERTICES
+             ? write_chunks(w, &wl, name, mesh_index, qoff, qscale, into)
+             : write_welded(w, &wl, name, mesh_index, qoff, qscale, into);
 out:
     for (int a = 0; a < 8; a++) free(ad[a]);
     free(uv);
@@ -737,14 +896,17 @@ static void add_mesh(writer *w, cJSON **jm, int *mesh_index)
     *mesh_index = cJSON_GetArraySize(w->meshes) - 1;
 }
 
-/* Writes the mesh of LOD l (weld_and_write). A level of more than 65,535
- * vertices and several materials is written a primitive at a time, each
- * with vertices of its own, so that each primitive whose own vertices fit
- * has 16-bit indices: one vertex array for all would give every primitive
- * but the first 32-bit indices (the oak GLB's leaves: 63 KB more, its
- * lod0_full.glb over its input). A vertex two materials share is then
- * written twice. Float geometry only (quantized positions share one node
- * transform, computed over the whole level). */
+/* Writes the mesh of LOD l (weld_and_write). A level of several materials
+ * is written a primitive at a time, each with vertices of its own, when it
+ * has more than 65,535 vertices, so that each primitive whose own vertices
+ * fit has 16-bit indices (one array for all gave every primitive but the
+ * first 32-bit ones: the oak GLB's leaves, 63 KB more, its lod0_full.glb
+ * over its input), and in a file of several levels, so that a primitive's
+ * arrays do not depend on the others and a stochastic level's leaves can
+ * share the level before it's (shared_view) whatever its trunk became. A
+ * vertex two materials share is then written twice. Float geometry only
+ * (quantized positions share one node transform, computed over the whole
+ * level). */
 static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
                             double qoff[3], double *qscale)
 {
@@ -753,7 +915,8 @@ static sv_status write_mesh(writer *w, const sv_gltf_lod *l, const char *name, i
     if (!per) return nomem(w);
     for (uint32_t t = 0; t < m->triangle_count; t++)
         if (per[m->tri_material[t]]++ == 0) used++;
-    if (w->compress != SV_GLTF_FLOAT || m->vertex_count <= 65535 || used < 2) {
+    if (w->compress != SV_GLTF_FLOAT ||
+        (m->vertex_count <= SV_GLTF_SHORT_VERTICES && (!w->several || used < 2))) {
         free(per);
         return weld_and_write(w, l, name, mesh_index, qoff, qscale, NULL);
     }
@@ -1126,6 +1289,7 @@ static sv_status encode(const sv_gltf_lod *lods, uint32_t lod_count, const sv_gl
         st = nomem(&w);
         goto out;
     }
+    w.several = lod_count > 1;
     if ((st = build(&w, lods, lod_count, group)) != SV_OK) goto out;
     if (!(json = cJSON_PrintUnformatted(w.root))) {
         st = nomem(&w);
@@ -1162,6 +1326,7 @@ out:
     cJSON_Delete(w.root);
     free(w.bin);
     free(w.uniq);
+    free(w.dv);
     return st;
 }
 

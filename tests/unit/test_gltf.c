@@ -463,7 +463,11 @@ static void extra_vertex_attributes_are_written_under_their_names(void **state)
     sv_mesh_destroy(m);
 }
 
-static void large_meshes_use_uint32_indices(void **state)
+/* A primitive of more than 65,535 vertices is written as consecutive runs
+ * of its triangles of at most 65,535 vertices each, every one with 16-bit
+ * indices, drawing the same triangles; quantized, it keeps one primitive of
+ * 32-bit indices. */
+static void large_primitives_are_split_into_runs_with_16_bit_indices(void **state)
 {
     (void)state;
     /* 70002 distinct vertices, each used once: nothing to merge */
@@ -478,7 +482,31 @@ static void large_meshes_use_uint32_indices(void **state)
     uint8_t *buf;
     size_t size;
     glb g = encode(&lod, 1, &buf, &size);
-    int ii = (int)num(at(get(at(get(g.json, "meshes"), 0), "primitives"), 0), "indices");
+    cJSON *prims = get(at(get(g.json, "meshes"), 0), "primitives"), *acc = get(g.json, "accessors");
+    assert_int_equal(cJSON_GetArraySize(prims), 2);
+    uint32_t t = 0; /* the source triangle the next index belongs to */
+    for (int p = 0; p < 2; p++) {
+        cJSON *pr = at(prims, p);
+        int ii = (int)num(pr, "indices"), pa = (int)num(get(pr, "attributes"), "POSITION");
+        assert_int_equal((int)num(at(acc, ii), "componentType"), 5123);
+        assert_int_equal((int)num(at(acc, pa), "count"), p == 0 ? 65535 : 70002 - 65535);
+        int count = (int)num(at(acc, ii), "count");
+        const uint16_t *ix = (const uint16_t *)accessor_data(&g, ii, 2);
+        const float *pos = (const float *)accessor_data(&g, pa, 12);
+        for (int k = 0; k < count; k++, t += k % 3 == 0) {
+            uint32_t v = m->indices[3 * t + (uint32_t)k % 3];
+            assert_float_equal(pos[3 * ix[k]], m->positions[3 * v], 0);
+            assert_float_equal(pos[3 * ix[k] + 1], m->positions[3 * v + 1], 0);
+        }
+    }
+    assert_int_equal(t, m->triangle_count);
+    cJSON_Delete(g.json);
+    free(buf);
+    lod.compress = SV_GLTF_QUANTIZE;
+    g = encode(&lod, 1, &buf, &size);
+    prims = get(at(get(g.json, "meshes"), 0), "primitives");
+    assert_int_equal(cJSON_GetArraySize(prims), 1);
+    int ii = (int)num(at(prims, 0), "indices");
     assert_int_equal((int)num(at(get(g.json, "accessors"), ii), "componentType"), 5125);
     const uint32_t *ix = (const uint32_t *)accessor_data(&g, ii, 4);
     assert_int_equal(ix[65535], 65535);
@@ -524,6 +552,97 @@ static void primitives_whose_vertices_fit_get_16_bit_indices(void **state)
     cJSON_Delete(g.json);
     free(buf);
     sv_mesh_destroy(m);
+}
+
+/* Levels of one file share geometry: B's leaves are A's first three in the
+ * same order, grown about their centres (a stochastic level), with a trunk
+ * of its own. B's UVs, normals and leaf indices are a prefix of A's and use
+ * A's buffer views (which then carry byteStride, as glTF requires of a
+ * vertex view two accessors use); its positions are its own. */
+static void levels_share_the_buffer_views_their_data_begins(void **state)
+{
+    (void)state;
+    sv_mesh *a = leaf_mesh(5, 10), *b = leaf_mesh(3, 10);
+    for (uint32_t q = 0; q < 3; q++)
+        for (int i = 0; i < 4; i++) {
+            float *p = &b->positions[3 * (4 * q + i)];
+            float cx = 0.5f + 1.5f * (float)q, cy = 0.75f;
+            p[0] = cx + 1.25f * (p[0] - cx);
+            p[1] = cy + 1.25f * (p[1] - cy);
+        }
+    b->positions[3 * 12 + 1] = 2.0f; /* the trunk changed too */
+    sv_gltf_lod lods[2] = {{.name = "a", .mesh = a, .screen_coverage = 0.3},
+                           {.name = "b", .mesh = b, .screen_coverage = 0.1}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    cJSON *acc = get(g.json, "accessors"), *views = get(g.json, "bufferViews");
+    cJSON *pa = at(get(at(get(g.json, "meshes"), 0), "primitives"), 0);
+    cJSON *pb = at(get(at(get(g.json, "meshes"), 1), "primitives"), 0);
+    assert_int_equal((int)num(pa, "material"), (int)num(pb, "material"));
+#define VIEW(p, k) (int)num(at(acc, (int)num(get(p, "attributes"), k)), "bufferView")
+    assert_int_equal(VIEW(pb, "TEXCOORD_0"), VIEW(pa, "TEXCOORD_0"));
+    assert_int_equal(VIEW(pb, "NORMAL"), VIEW(pa, "NORMAL"));
+    assert_int_not_equal(VIEW(pb, "POSITION"), VIEW(pa, "POSITION"));
+    assert_int_equal(num(at(views, VIEW(pa, "TEXCOORD_0")), "byteStride"), 8);
+    assert_int_equal(num(at(views, VIEW(pa, "NORMAL")), "byteStride"), 12);
+    assert_null(get(at(views, VIEW(pa, "POSITION")), "byteStride"));
+#undef VIEW
+    int ia = (int)num(pa, "indices"), ib = (int)num(pb, "indices");
+    assert_int_equal(num(at(acc, ib), "bufferView"), num(at(acc, ia), "bufferView"));
+    assert_int_equal((int)num(at(acc, ib), "count"), 18);
+    assert_int_equal((int)num(at(acc, (int)num(get(pb, "attributes"), "TEXCOORD_0")), "count"), 12);
+    /* what b's accessors read is b's leaves */
+    const uint16_t *ix = (const uint16_t *)accessor_data(&g, ib, 2);
+    const float *pos =
+        (const float *)accessor_data(&g, (int)num(get(pb, "attributes"), "POSITION"), 12);
+    const float *uv =
+        (const float *)accessor_data(&g, (int)num(get(pb, "attributes"), "TEXCOORD_0"), 8);
+    for (int k = 0; k < 18; k++) {
+        uint32_t v = b->indices[k];
+        assert_float_equal(pos[3 * ix[k]], b->positions[3 * v], 0);
+        assert_float_equal(pos[3 * ix[k] + 1], b->positions[3 * v + 1], 0);
+        assert_float_equal(uv[2 * ix[k] + 1], b->uvs[2 * v + 1], 0);
+    }
+    cJSON_Delete(g.json);
+    free(buf);
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
+}
+
+/* A texture a coarser level reduced (its trunk's bark) is, in a file that
+ * holds the texture it was reduced from, that one: one image. Alone, the
+ * level keeps its reduced copy. */
+static void a_reduced_texture_is_its_original_in_a_file_that_holds_it(void **state)
+{
+    (void)state;
+    sv_mesh *a = leaf_mesh(2, 10), *b = leaf_mesh(1, 10);
+    assert_int_equal(sv_image_reduce(&b->images[0], 4, NULL), SV_OK);
+    assert_int_equal(b->images[0].width, 4);
+    uint64_t origin = 0;
+    assert_true(sv_image_reduced_from(&b->images[0], &origin));
+    assert_true(origin == sv_image_pixel_hash(&a->images[0]));
+    sv_gltf_lod lods[2] = {{.name = "a", .mesh = a, .screen_coverage = 0.3},
+                           {.name = "b", .mesh = b, .screen_coverage = 0.1}};
+    uint8_t *buf;
+    size_t size;
+    glb g = encode(lods, 2, &buf, &size);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "images")), 1);
+    cJSON_Delete(g.json);
+    free(buf);
+    g = encode(&lods[1], 1, &buf, &size);
+    assert_int_equal(cJSON_GetArraySize(get(g.json, "images")), 1);
+    cJSON *v = at(get(g.json, "bufferViews"), (int)num(at(get(g.json, "images"), 0), "bufferView"));
+    const uint8_t *png = g.bin + (size_t)num(v, "byteOffset");
+    assert_int_equal((uint32_t)png[16] << 24 | (uint32_t)png[17] << 16 | (uint32_t)png[18] << 8 | png[19],
+                     4); /* the IHDR's width */
+    cJSON_Delete(g.json);
+    free(buf);
+    /* changed after the reduction: no longer the original's */
+    ((uint8_t *)b->images[0].data)[0] ^= 0xff;
+    assert_false(sv_image_reduced_from(&b->images[0], &origin));
+    sv_mesh_destroy(a);
+    sv_mesh_destroy(b);
 }
 
 static void two_writes_of_the_same_lods_are_byte_identical(void **state)
@@ -1144,8 +1263,10 @@ int main(void)
         cmocka_unit_test(identical_images_are_stored_once_across_lods),
         cmocka_unit_test(normals_are_written_unit_length),
         cmocka_unit_test(extra_vertex_attributes_are_written_under_their_names),
-        cmocka_unit_test(large_meshes_use_uint32_indices),
+        cmocka_unit_test(large_primitives_are_split_into_runs_with_16_bit_indices),
         cmocka_unit_test(primitives_whose_vertices_fit_get_16_bit_indices),
+        cmocka_unit_test(levels_share_the_buffer_views_their_data_begins),
+        cmocka_unit_test(a_reduced_texture_is_its_original_in_a_file_that_holds_it),
         cmocka_unit_test(two_writes_of_the_same_lods_are_byte_identical),
         cmocka_unit_test(out_of_range_index_is_refused_with_a_message),
         cmocka_unit_test(empty_lod_becomes_a_node_without_a_mesh),
