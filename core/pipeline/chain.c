@@ -313,7 +313,8 @@ static void plan_by_cost(const run *r, chain *c, lod_out *lods, const sv_stand_i
                         s->lod_cost_ratio,
                         s->lod_triangles_per_pixel,
                         sv_scene_pixels(sc, tree_h, sc->distance_max),
-                        sv_scene_pixels(sc, tree_h, sc->distance_min)};
+                        sv_scene_pixels(sc, tree_h, sc->distance_min),
+                        s->lod_min_saving};
     sv_lod_plan_choose(lv, n, &ru, out);
     for (uint32_t i = 0; i < n; i++) {
         drop[i] = !out[i].kept;
@@ -349,6 +350,13 @@ static void plan_by_cost(const run *r, chain *c, lod_out *lods, const sv_stand_i
                 "never drawn: where it meets the tolerance (up to %.4g px) it has more "
                 "than %g triangles per pixel of the tree's square",
                 lods[i].own_pixels, s->lod_triangles_per_pixel);
+            break;
+        case SV_PLAN_SAVES_LITTLE:
+            why = sv_chain_skip_note(
+                c->skipped, nm, "switch",
+                "never drawn: where it meets the tolerance, the level drawn before it does "
+                "too and this one saves less than %g of its triangles (lod.min_saving)",
+                s->lod_min_saving);
             break;
         case SV_PLAN_OUT_OF_SCENE:
             why = sv_chain_skip_note(

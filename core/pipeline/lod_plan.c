@@ -70,6 +70,19 @@ uint32_t sv_lod_plan_drawn_at(const sv_plan_level *lv, uint32_t n, const sv_plan
         }
     }
     if (a < 0) a = n - 1; /* cannot happen: the last is always allowed */
+    /* rule 2's switch saving: while `from` (the level drawn at the larger
+     * sizes) is within the tolerance and allowed, a level replaces it only
+     * with at most (1 - min_saving) of its triangles */
+    if ((uint32_t)a != from && ru->min_saving > 0 && S <= lv[from].own_pixels &&
+        allowed(lv, n, ru, from, S)) {
+        double most = (1 - ru->min_saving) * lv[from].triangles;
+        if (!(lv[a].triangles <= most)) {
+            for (uint32_t i = from + 1; i < n; i++)
+                if (S <= lv[i].own_pixels && allowed(lv, n, ru, i, S) && !(lv[i].triangles <= most))
+                    note(why_not, i, SV_PLAN_SAVES_LITTLE);
+            a = from;
+        }
+    }
     for (uint32_t i = from; i < n; i++)
         if (i != (uint32_t)a && S <= lv[i].own_pixels && allowed(lv, n, ru, i, S))
             note(why_not, i, SV_PLAN_CHEAPER);

@@ -15,6 +15,11 @@
  *      texels, then the later in the chain) whose error at S is within the
  *      tolerance T(S) = tolerance · tolerance_pixels / S (its own limit,
  *      `own_pixels`, is >= S); when none is, the most accurate allowed one.
+ *      A switch saves: while the level drawn at the sizes above S is within
+ *      the tolerance and allowed at S, another replaces it only when it has
+ *      at most (1 - min_saving) of its triangles (a switch is a visible pop
+ *      and one more asset to hold; a level a tenth cheaper is worth
+ *      neither).
  *   3. Worth its cost: while an allowed level at least `cost_ratio` times
  *      cheaper has an error at S within `slack` of max(T(S), the drawn
  *      level's error), that level is drawn instead.
@@ -50,6 +55,7 @@ typedef struct sv_plan_rules {
     double triangles_per_pixel; /* rule 1's k (default 2; 0: no cap) */
     double pixels_min;          /* the tree's size at the scene's farthest distance */
     double pixels_max;          /* ... and at its nearest */
+    double min_saving;          /* rule 2's switch saving (default 0.25; 0: off) */
 } sv_plan_rules;
 
 /* Why a level is not kept (sv_plan_out.why). */
@@ -60,7 +66,8 @@ enum {
     SV_PLAN_WORTH,       /* rule 3: a far cheaper level within the slack */
     SV_PLAN_DENSE,       /* rule 1: too many triangles where it would be drawn */
     SV_PLAN_ORDER,       /* a later level is already drawn at larger sizes */
-    SV_PLAN_OUT_OF_SCENE /* drawn only above the scene's nearest size */
+    SV_PLAN_OUT_OF_SCENE, /* drawn only above the scene's nearest size */
+    SV_PLAN_SAVES_LITTLE  /* rule 2: saves too little on the level drawn before it */
 };
 
 typedef struct sv_plan_out {

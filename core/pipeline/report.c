@@ -142,6 +142,7 @@ static cJSON *chain_json(const run *r, const chain *c)
     cJSON_AddNumberToObject(j, "tolerance_pixels", s->lod_tolerance_pixels);
     cJSON_AddNumberToObject(j, "slack", s->lod_slack);
     cJSON_AddNumberToObject(j, "cost_ratio", s->lod_cost_ratio);
+    cJSON_AddNumberToObject(j, "min_saving", s->lod_min_saving);
     cJSON_AddNumberToObject(j, "triangles_per_pixel", s->lod_triangles_per_pixel);
     if (c->levels_report) /* the chain hook's own part (its schedule's terms) */
         cJSON_AddItemToObject(j, c->levels_name, cJSON_Duplicate(c->levels_report, true));

@@ -277,6 +277,7 @@ static void spec_defaults(sv_spec *s)
     s->lod_slack = 0.02;
     s->lod_cost_ratio = 10;
     s->lod_triangles_per_pixel = 2;
+    s->lod_min_saving = 0.25;
     s->lod_chain = true;
     s->output_fbx = true;
     snprintf(s->lod_coarsest, sizeof s->lod_coarsest, "%s", "crossed_quads");
@@ -368,7 +369,7 @@ static sv_status parse_output(const cJSON *o, sv_spec *s, sv_error *err)
 static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
 {
     static const char *const keys[] = {
-        "tolerance", "tolerance_pixels", "slack", "cost_ratio", "triangles_per_pixel",
+        "tolerance", "tolerance_pixels", "slack", "cost_ratio", "min_saving", "triangles_per_pixel",
         "chain",     "coarsest",         NULL};
     sv_status st = sv_setting_only(lod, "lod", keys, err);
     if (!st) st = sv_setting_number(lod, "lod", "tolerance", 0.001, 1, &s->lod_tolerance, err);
@@ -377,6 +378,7 @@ static sv_status parse_lod(const cJSON *lod, sv_spec *s, sv_error *err)
                                err);
     if (!st) st = sv_setting_number(lod, "lod", "slack", 0, 1, &s->lod_slack, err);
     if (!st) st = sv_setting_number(lod, "lod", "cost_ratio", 0, 1e6, &s->lod_cost_ratio, err);
+    if (!st) st = sv_setting_number(lod, "lod", "min_saving", 0, 0.99, &s->lod_min_saving, err);
     if (!st)
         st = sv_setting_number(lod, "lod", "triangles_per_pixel", 0, 1e6,
                                &s->lod_triangles_per_pixel, err);

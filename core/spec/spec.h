@@ -71,6 +71,7 @@ typedef struct sv_spec {
     double lod_slack;         /* a level lod_cost_ratio times cheaper within this much error of the
                                tolerance (or of the dearer level) is drawn instead (default 0.02) */
     double lod_cost_ratio;    /* default 10; 0 = off (lod_plan.h rule 3) */
+    double lod_min_saving;    /* a switch saves at least this fraction of triangles (default 0.25; 0 = off) */
     double lod_triangles_per_pixel; /* at most k·S² triangles drawn at S px (default 2; 0 = no cap) */
     bool lod_chain; /* full mesh → stochastic levels → method → coarsest (default true) */
     char lod_coarsest[32]; /* method appended as the coarsest LOD, "" = none

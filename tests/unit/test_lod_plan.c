@@ -35,7 +35,7 @@ typedef struct fixture {
 static void setup_bush(fixture *f)
 {
     memset(f, 0, sizeof *f);
-    f->ru = (sv_plan_rules){0.1, 64, 0.02, 10, 2, 10, 1080};
+    f->ru = (sv_plan_rules){0.1, 64, 0.02, 10, 2, 10, 1080, 0}; /* min_saving off */
     for (int i = 0; i < N; i++) {
         sv_eval_result *e = &f->ev[i];
         e->size_count = 4;
@@ -135,6 +135,32 @@ static void a_far_cheaper_level_within_the_slack_is_drawn(void **state)
                 1e-6 * f.lv[LOD0].own_pixels);
 }
 
+/* A switch must save: lod1 (192 triangles) is within the tolerance below
+ * its own limit, but lod0 (216) is too and is drawn there already; 11 % fewer
+ * triangles is worth neither a pop nor a second atlas. s25 saves 28 % on s50
+ * and stays. Without the rule lod1 is drawn. */
+static void a_switch_saving_little_is_not_made(void **state)
+{
+    (void)state;
+    fixture f;
+    setup_bush(&f);
+    f.ru.min_saving = 0.25;
+    sv_lod_plan_choose(f.lv, N, &f.ru, f.out);
+    assert_true(f.out[LOD0].kept);
+    assert_false(f.out[LOD1].kept);
+    assert_int_equal(f.out[LOD1].why, SV_PLAN_SAVES_LITTLE);
+    assert_true(f.out[S25].kept);
+    assert_true(f.out[CROSSED].kept);
+    /* lod0 is drawn down to where the crossed quads take over */
+    assert_true(fabs(f.out[CROSSED].switch_pixels - f.out[LOD0].drawn_min) < 1e-9);
+    for (double S = f.out[LOD0].switch_pixels * 0.999; S > f.out[CROSSED].switch_pixels * 1.001;
+         S *= 0.97)
+        assert_int_equal(drawn(&f, S), LOD0);
+    f.ru.min_saving = 0;
+    sv_lod_plan_choose(f.lv, N, &f.ru, f.out);
+    assert_true(f.out[LOD1].kept);
+}
+
 static void the_original_is_always_lod0_and_switches_never_increase(void **state)
 {
     (void)state;
@@ -173,6 +199,7 @@ int main(void)
         cmocka_unit_test(every_size_draws_the_cheapest_level_within_the_tolerance),
         cmocka_unit_test(no_level_is_denser_than_the_cap),
         cmocka_unit_test(a_far_cheaper_level_within_the_slack_is_drawn),
+        cmocka_unit_test(a_switch_saving_little_is_not_made),
         cmocka_unit_test(the_original_is_always_lod0_and_switches_never_increase),
         cmocka_unit_test(same_input_gives_the_same_plan),
     };

@@ -33,6 +33,7 @@ static void empty_spec_gives_every_default(void **state)
     assert_int_equal(s.eval_sizes[0], 256);
     assert_int_equal(s.eval_small_render, 256); /* 64 and 32 px judged as sveval does */
     assert_true(s.lod_slack == 0.02 && s.lod_cost_ratio == 10 && s.lod_triangles_per_pixel == 2);
+    assert_true(s.lod_min_saving == 0.25);
     assert_int_equal(s.scene.viewer, SV_VIEWER_SIDE);
     assert_int_equal(s.scene.lighting, SV_LIGHTING_UNLIT);
     assert_true(s.scene.distance_auto); /* the range follows the tree's size */
@@ -255,6 +256,7 @@ static void bad_specs_are_refused_naming_the_key(void **state)
     expect_error("{\"lod\":{\"tolerance_pixels\":-1}}", "lod.tolerance_pixels");
     expect_error("{\"lod\":{\"slack\":2}}", "lod.slack");
     expect_error("{\"lod\":{\"cost_ratio\":-1}}", "lod.cost_ratio");
+    expect_error("{\"lod\":{\"min_saving\":1}}", "lod.min_saving");
     expect_error("{\"lod\":{\"triangles_per_pixel\":\"many\"}}", "lod.triangles_per_pixel");
     expect_error("{\"evaluate\":{\"small_render\":-4}}", "evaluate.small_render");
     expect_error("{\"seed\":-1}", "seed");
