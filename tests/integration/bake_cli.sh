@@ -62,6 +62,26 @@ done
 in_bytes=$(cat $files | wc -c)
 full=$(wc -c < "$tmp/a/lod0_full.glb")
 [ "$full" -le "$in_bytes" ] || fail "lod0_full.glb is $full bytes, the input $in_bytes"
+# and lods.glb, every level, at most 1.3 times it (issue 41), a stochastic
+# level's leaves reading the full level's UVs and indices where they begin
+# them (docs/outputs.md "Sizes")
+lods=$(wc -c < "$tmp/a/lods.glb")
+[ $((lods * 10)) -le $((in_bytes * 13)) ] || fail "lods.glb is $lods bytes, the input $in_bytes"
+python3 -B - "$tmp/a/lods.glb" <<'EOF' || fail "lods.glb: the stochastic level does not share the full level's leaf data"
+import json, struct, sys
+d = open(sys.argv[1], 'rb').read()
+j = json.loads(d[20:20 + struct.unpack('<I', d[12:16])[0]])
+acc, mats = j['accessors'], j['materials']
+def leaf(name):
+    m = [m for m in j['meshes'] if m['name'] == name]
+    if not m:
+        return None
+    p = [p for p in m[0]['primitives'] if 'leaves' in mats[p['material']].get('name', '')][0]
+    return acc[p['attributes']['TEXCOORD_0']]['bufferView'], acc[p['indices']]['bufferView']
+f, s = leaf('full'), leaf('stochastic50')
+assert f and s and f == s, (f, s)
+print("stochastic50's leaves share the full level's views", f)
+EOF
 # a file without normals (the oak with its "vn" taken out, as the Scopia OBJs
 # come): the mesh levels' files leave NORMAL out too (readers compute flat
 # normals, as for the file) and are smaller for it than bake a's, whose file
