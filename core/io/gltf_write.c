@@ -695,6 +695,64 @@ static sv_status write_vertices(writer *w, const sv_gltf_lod *l, cJSON *attrs, d
 static sv_status write_welded(writer *w, const sv_gltf_lod *l, const char *name, int *mesh_index,
                               double qoff[3], double *qscale, cJSON *into);
 
+/* A level's vertex arrays through a remap (meshopt_remapVertexBuffer:
+ * vertex i goes to remap[i], none where remap[i] is ~0u), into new arrays
+ * of `count` vertices; the mesh and the level that draw them are in o->m and
+ * o->l (indices and materials still m's and l's: the caller sets them). */
+typedef struct remapped {
+    float *pos, *nrm, *uv, *ad[8];
+    sv_gltf_attribute at[8];
+    sv_mesh m;
+    sv_gltf_lod l;
+} remapped;
+
+static void remapped_free(remapped *o)
+{
+    for (int a = 0; a < 8; a++) free(o->ad[a]);
+    free(o->uv);
+    free(o->nrm);
+    free(o->pos);
+    memset(o, 0, sizeof *o);
+}
+
+/* o gets l's positions, `normals` and `uvs` (either may be NULL: left out)
+ * and extra attributes through remap; SV_ERR_NOMEM (o freed) on failure. */
+static sv_status remap_vertices(writer *w, const sv_gltf_lod *l, const float *normals,
+                                const float *uvs, const uint32_t *remap, size_t count,
+                                remapped *o)
+{
+    const sv_mesh *m = l->mesh;
+    size_t nv = m->vertex_count, n = count ? count : 1;
+    memset(o, 0, sizeof *o);
+    o->pos = malloc(n * 3 * sizeof(float));
+    if (normals) o->nrm = malloc(n * 3 * sizeof(float));
+    if (uvs) o->uv = malloc(n * 2 * sizeof(float));
+    bool ok = o->pos && (!normals || o->nrm) && (!uvs || o->uv);
+    for (uint32_t a = 0; ok && a < l->attribute_count; a++) {
+        size_t sz = l->attributes[a].components * sizeof(float);
+        if (!(o->ad[a] = malloc(n * sz))) ok = false;
+        else meshopt_remapVertexBuffer(o->ad[a], l->attributes[a].data, nv, sz, remap);
+        o->at[a] = l->attributes[a];
+        o->at[a].data = o->ad[a];
+    }
+    if (!ok) {
+        remapped_free(o);
+        return nomem(w);
+    }
+    meshopt_remapVertexBuffer(o->pos, m->positions, nv, 3 * sizeof(float), remap);
+    if (o->nrm) meshopt_remapVertexBuffer(o->nrm, normals, nv, 3 * sizeof(float), remap);
+    if (o->uv) meshopt_remapVertexBuffer(o->uv, uvs, nv, 2 * sizeof(float), remap);
+    o->m = *m;
+    o->m.vertex_count = (uint32_t)count;
+    o->m.positions = o->pos;
+    o->m.normals = o->nrm;
+    o->m.uvs = o->uv;
+    o->l = *l;
+    o->l.mesh = &o->m;
+    o->l.attributes = l->attribute_count ? o->at : NULL;
+    return SV_OK;
+}
+
 /* The most vertices a primitive of 16-bit indices can index (65535 is
  * primitive restart: never used). */
 #define SV_GLTF_SHORT_VERTICES 65535u
@@ -711,80 +769,48 @@ static sv_status write_chunks(writer *w, const sv_gltf_lod *l, const char *name,
 {
     const sv_mesh *m = l->mesh;
     size_t nv = m->vertex_count;
-    uint32_t na = l->attribute_count;
     sv_status st = SV_OK;
-    uint32_t *local = malloc(nv * sizeof *local), *stamp = sv_calloc(nv, sizeof *stamp);
+    /* remap: a vertex's number in the run being gathered, ~0u if none */
+    uint32_t *remap = malloc((nv ? nv : 1) * sizeof *remap);
     uint32_t *glob = malloc(SV_GLTF_SHORT_VERTICES * sizeof *glob);
-    uint32_t *ix = malloc((size_t)m->triangle_count * 3 * sizeof *ix);
-    float *pos = malloc(SV_GLTF_SHORT_VERTICES * 3 * sizeof *pos);
-    float *nrm = m->normals ? malloc(SV_GLTF_SHORT_VERTICES * 3 * sizeof *nrm) : NULL;
-    float *uv = m->uvs ? malloc(SV_GLTF_SHORT_VERTICES * 2 * sizeof *uv) : NULL;
-    float *ad[8] = {0};
-    sv_gltf_attribute at[8];
-    bool ok = local && stamp && glob && ix && pos && (!m->normals || nrm) && (!m->uvs || uv);
-    for (uint32_t a = 0; ok && a < na; a++) {
-        at[a] = l->attributes[a];
-        ok = (ad[a] = malloc((size_t)SV_GLTF_SHORT_VERTICES * at[a].components * sizeof(float)));
-        at[a].data = ad[a];
-    }
-    if (!ok) {
+    uint32_t *ix = malloc(((size_t)m->triangle_count * 3 + 1) * sizeof *ix);
+    if (!remap || !glob || !ix) {
         st = nomem(w);
         goto out;
     }
-    uint32_t gen = 0, count = 0, t0 = 0;
+    memset(remap, 0xff, nv * sizeof *remap);
+    uint32_t count = 0, t0 = 0;
     for (uint32_t t = 0; t <= m->triangle_count && !st; t++) {
         const uint32_t *tri = t < m->triangle_count ? &m->indices[3 * (size_t)t] : NULL;
         uint32_t fresh = 0;
         for (int c = 0; tri && c < 3; c++)
-            fresh += stamp[tri[c]] != gen + 1 && (c < 1 || tri[c] != tri[0]) &&
+            fresh += remap[tri[c]] == ~0u && (c < 1 || tri[c] != tri[0]) &&
                      (c < 2 || tri[c] != tri[1]);
-        if (!tri || count + fresh > SV_GLTF_SHORT_VERTICES) {
-            /* the run [t0, t) */
-            for (uint32_t v = 0; v < count; v++) {
-                size_t g = glob[v];
-                memcpy(&pos[3 * (size_t)v], &m->positions[3 * g], 3 * sizeof *pos);
-                if (nrm) memcpy(&nrm[3 * (size_t)v], &m->normals[3 * g], 3 * sizeof *nrm);
-                if (uv) memcpy(&uv[2 * (size_t)v], &m->uvs[2 * g], 2 * sizeof *uv);
-                for (uint32_t a = 0; a < na; a++) {
-                    uint32_t k = at[a].components;
-                    memcpy(&ad[a][(size_t)k * v], &l->attributes[a].data[(size_t)k * g],
-                           k * sizeof(float));
-                }
-            }
+        if (!tri || count + fresh > SV_GLTF_SHORT_VERTICES) { /* the run [t0, t) */
             for (size_t k = 3 * (size_t)t0; k < 3 * (size_t)t; k++)
-                ix[k - 3 * (size_t)t0] = local[m->indices[k]];
-            sv_mesh sub = *m;
-            sub.vertex_count = count;
-            sub.triangle_count = t - t0;
-            sub.positions = pos;
-            sub.normals = nrm;
-            sub.uvs = uv;
-            sub.indices = ix;
-            sub.tri_material = m->tri_material + t0;
-            sv_gltf_lod sl = *l;
-            sl.mesh = &sub;
-            sl.attributes = na ? at : NULL;
-            st = write_welded(w, &sl, name, mesh_index, qoff, qscale, into);
-            gen++;
+                ix[k - 3 * (size_t)t0] = remap[m->indices[k]];
+            remapped r;
+            st = remap_vertices(w, l, m->normals, m->uvs, remap, count, &r);
+            if (st) break;
+            r.m.triangle_count = t - t0;
+            r.m.indices = ix;
+            r.m.tri_material = m->tri_material + t0;
+            st = write_welded(w, &r.l, name, mesh_index, qoff, qscale, into);
+            remapped_free(&r);
+            for (uint32_t v = 0; v < count; v++) remap[glob[v]] = ~0u;
             count = 0;
             t0 = t;
         }
         for (int c = 0; tri && c < 3; c++)
-            if (stamp[tri[c]] != gen + 1) {
-                stamp[tri[c]] = gen + 1;
-                local[tri[c]] = count;
+            if (remap[tri[c]] == ~0u) {
+                remap[tri[c]] = count;
                 glob[count++] = tri[c];
             }
     }
 out:
-    for (int a = 0; a < 8; a++) free(ad[a]);
-    free(uv);
-    free(nrm);
-    free(pos);
     free(ix);
     free(glob);
-    free(stamp);
-    free(local);
+    free(remap);
     return st;
 }
 
@@ -826,8 +852,6 @@ static sv_status weld_and_write(writer *w, const sv_gltf_lod *l, const char *nam
     sv_status st = SV_OK;
     uint32_t *remap = malloc((nv ? nv : 1) * sizeof *remap);
     uint32_t *idx = malloc((ni ? ni : 1) * sizeof *idx);
-    float *pos = NULL, *nrm = NULL, *uv = NULL, *ad[8] = {0};
-    sv_gltf_attribute at[8];
     if (!remap || !idx) {
         st = nomem(w);
         goto out;
@@ -845,43 +869,14 @@ static sv_status weld_and_write(writer *w, const sv_gltf_lod *l, const char *nam
     }
     size_t unique = meshopt_generateVertexRemapMulti(remap, idx, ni, nv, streams, ns);
     meshopt_remapIndexBuffer(idx, m->indices, ni, remap);
-    pos = malloc((unique ? unique : 1) * 3 * sizeof(float));
-    if (normals) nrm = malloc((unique ? unique : 1) * 3 * sizeof(float));
-    if (uvs) uv = malloc((unique ? unique : 1) * 2 * sizeof(float));
-    if (!pos || (normals && !nrm) || (uvs && !uv)) {
-        st = nomem(w);
-        goto out;
-    }
-    meshopt_remapVertexBuffer(pos, m->positions, nv, 3 * sizeof(float), remap);
-    if (nrm) meshopt_remapVertexBuffer(nrm, normals, nv, 3 * sizeof(float), remap);
-    if (uv) meshopt_remapVertexBuffer(uv, m->uvs, nv, 2 * sizeof(float), remap);
-    for (uint32_t a = 0; a < l->attribute_count; a++) {
-        size_t sz = l->attributes[a].components * sizeof(float);
-        if (!(ad[a] = malloc((unique ? unique : 1) * sz))) {
-            st = nomem(w);
-            goto out;
-        }
-        meshopt_remapVertexBuffer(ad[a], l->attributes[a].data, nv, sz, remap);
-        at[a] = l->attributes[a];
-        at[a].data = ad[a];
-    }
-    sv_mesh wm = *m;
-    wm.vertex_count = (uint32_t)unique;
-    wm.positions = pos;
-    wm.normals = nrm;
-    wm.uvs = uv;
-    wm.indices = idx;
-    sv_gltf_lod wl = *l;
-    wl.mesh = &wm;
-    wl.attributes = l->attribute_count ? at : NULL;
+    remapped r;
+    if ((st = remap_vertices(w, l, normals, uvs ? m->uvs : NULL, remap, unique, &r))) goto out;
+    r.m.indices = idx;
     st = into && unique > SV_GLTF_SHORT_VERTICES
-             ? write_chunks(w, &wl, name, mesh_index, qoff, qscale, into)
-             : write_welded(w, &wl, name, mesh_index, qoff, qscale, into);
+             ? write_chunks(w, &r.l, name, mesh_index, qoff, qscale, into)
+             : write_welded(w, &r.l, name, mesh_index, qoff, qscale, into);
+    remapped_free(&r);
 out:
-    for (int a = 0; a < 8; a++) free(ad[a]);
-    free(uv);
-    free(nrm);
-    free(pos);
     free(idx);
     free(remap);
     return st;
